@@ -1,0 +1,238 @@
+//! Subcommands of the `mfcbeam` binary.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, Parser, Subcommand};
+use serde::Serialize;
+
+use mfcbeam::compensator::{Compensator, CompensatorSettings};
+use mfcbeam::io::{read_model, write_json, Trace};
+use mfcbeam::operator::Operator;
+use mfcbeam::signal::{time_axis, Staircase};
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "mfcbeam",
+    version,
+    about = "Hysteresis and creep compensation of an MFC-actuated beam (Schröck, Meurer, Kugi 2011)"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Run the model W = H + C on column `u`; writes IN's columns plus `y = W[u]`.
+    Simulate(SimulateArgs),
+    /// Run the compensator W⁻¹ on column `y_d`; writes IN's columns plus `u` and `saturated`.
+    Compensate(CompensateArgs),
+    /// Print H⁻¹ (thresholds, weights, state) of a model as JSON, by the rules (22).
+    Invert(InvertArgs),
+    /// Write the nominal model of SPEC section 8 (virgin state) as a model file.
+    Nominal(NominalArgs),
+    /// Write a test signal (a smooth staircase) as a trace with columns `t` and the chosen name.
+    Signal(SignalArgs),
+}
+
+#[derive(Debug, Args)]
+struct SimulateArgs {
+    /// Model file (JSON).
+    #[arg(long)]
+    model: PathBuf,
+    /// Input trace (CSV) with column `u` (V).
+    #[arg(long)]
+    input: PathBuf,
+    /// Output trace (CSV).
+    #[arg(long)]
+    output: PathBuf,
+}
+
+#[derive(Debug, Args)]
+struct CompensateArgs {
+    /// Model file (JSON).
+    #[arg(long)]
+    model: PathBuf,
+    /// Input trace (CSV) with column `y_d` (V, the desired effective voltage).
+    #[arg(long)]
+    input: PathBuf,
+    /// Output trace (CSV).
+    #[arg(long)]
+    output: PathBuf,
+    /// Saturation limits `LO,HI` of the balanced voltage (default: -1000,1000).
+    #[arg(long, value_name = "LO,HI", allow_hyphen_values = true, value_parser = parse_limits, conflicts_with = "no_limits")]
+    limits: Option<(f64, f64)>,
+    /// Do not saturate the output.
+    #[arg(long)]
+    no_limits: bool,
+}
+
+#[derive(Debug, Args)]
+struct InvertArgs {
+    /// Model file (JSON).
+    #[arg(long)]
+    model: PathBuf,
+}
+
+#[derive(Debug, Args)]
+struct NominalArgs {
+    /// Output model file (JSON); stdout if absent.
+    #[arg(long)]
+    output: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+struct SignalArgs {
+    /// Output trace (CSV).
+    #[arg(long)]
+    output: PathBuf,
+    /// Name of the signal column.
+    #[arg(long, default_value = "u")]
+    column: String,
+    /// Peak value of the staircase 0 → +A → −A → 0.
+    #[arg(long, default_value_t = 900.0, allow_hyphen_values = true)]
+    amplitude: f64,
+    /// Steps per quarter of the loop.
+    #[arg(long, default_value_t = 3)]
+    steps: usize,
+    /// Duration of each smooth transition (s).
+    #[arg(long, default_value_t = 0.1)]
+    rise: f64,
+    /// Duration of each plateau (s).
+    #[arg(long, default_value_t = 1.5)]
+    plateau: f64,
+    /// Sample time (s).
+    #[arg(long, default_value_t = 2e-4)]
+    sample_time: f64,
+}
+
+fn parse_limits(s: &str) -> std::result::Result<(f64, f64), String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 2 {
+        return Err(format!("expected LO,HI, found '{s}'"));
+    }
+    let parse = |p: &str| {
+        p.parse::<f64>()
+            .ok()
+            .filter(|v| !v.is_nan())
+            .ok_or_else(|| format!("'{p}' is not a number"))
+    };
+    let (lo, hi) = (parse(parts[0])?, parse(parts[1])?);
+    if lo >= hi {
+        return Err(format!("LO = {lo} must be below HI = {hi}"));
+    }
+    Ok((lo, hi))
+}
+
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Simulate(a) => simulate(&a),
+        Command::Compensate(a) => compensate(&a),
+        Command::Invert(a) => invert(&a),
+        Command::Nominal(a) => nominal(&a),
+        Command::Signal(a) => signal(&a),
+    }
+}
+
+fn simulate(a: &SimulateArgs) -> Result<()> {
+    let mut model = read_model(&a.model)?;
+    let mut trace = Trace::read(&a.input)?;
+    trace.check_time_column(model.sample_time())?;
+    let u = trace.column("u")?;
+    let y = model.run(&u);
+    trace.push_column("y", &y)?;
+    trace.write(&a.output)?;
+    eprintln!(
+        "mfcbeam: simulated {} samples, wrote {}",
+        y.len(),
+        a.output.display()
+    );
+    Ok(())
+}
+
+fn compensate(a: &CompensateArgs) -> Result<()> {
+    let model = read_model(&a.model)?;
+    let settings = if a.no_limits {
+        CompensatorSettings::unlimited()
+    } else if let Some((lo, hi)) = a.limits {
+        CompensatorSettings::with_limits(lo, hi)
+    } else {
+        CompensatorSettings::default()
+    };
+    let mut comp = Compensator::new(&model, settings).context("--limits")?;
+    let mut trace = Trace::read(&a.input)?;
+    trace.check_time_column(model.sample_time())?;
+    let y_d = trace.column("y_d")?;
+    let mut u = vec![0.0; y_d.len()];
+    let mut sat = vec![false; y_d.len()];
+    let count = comp.compensate_into(&y_d, &mut u, &mut sat)?;
+    trace.push_column("u", &u)?;
+    trace.push_text_column(
+        "saturated",
+        sat.iter().map(|&s| if s { "1" } else { "0" }.to_string()),
+    )?;
+    trace.write(&a.output)?;
+    eprintln!(
+        "mfcbeam: compensated {} samples, {} saturated, wrote {}",
+        u.len(),
+        count,
+        a.output.display()
+    );
+    Ok(())
+}
+
+#[derive(Serialize)]
+struct InverseJson<'a> {
+    thresholds: &'a [f64],
+    weights: &'a [f64],
+    state: &'a [f64],
+}
+
+fn invert(a: &InvertArgs) -> Result<()> {
+    let model = read_model(&a.model)?;
+    let inv = model.hysteresis().inverse();
+    let json = serde_json::to_string_pretty(&InverseJson {
+        thresholds: inv.thresholds(),
+        weights: inv.weights(),
+        state: inv.play_states(),
+    })?;
+    println!("{json}");
+    Ok(())
+}
+
+fn nominal(a: &NominalArgs) -> Result<()> {
+    let file = mfcbeam::nominal::nominal_model_file();
+    match &a.output {
+        Some(path) => write_json(path, &file)?,
+        None => println!("{}", serde_json::to_string_pretty(&file)?),
+    }
+    Ok(())
+}
+
+fn signal(a: &SignalArgs) -> Result<()> {
+    for (name, v) in [
+        ("--rise", a.rise),
+        ("--plateau", a.plateau),
+        ("--sample-time", a.sample_time),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            bail!("{name}: must be a finite number > 0, found {v}");
+        }
+    }
+    if !a.amplitude.is_finite() {
+        bail!("--amplitude: must be finite, found {}", a.amplitude);
+    }
+    let s = Staircase::full_loop(a.amplitude, a.steps, a.rise, a.plateau);
+    let x = s.sample(a.sample_time);
+    let t = time_axis(x.len(), a.sample_time);
+    let trace = Trace::from_columns(Path::new(&a.output), &[("t", &t), (&a.column, &x)]);
+    trace.write(&a.output)?;
+    eprintln!(
+        "mfcbeam: wrote {} samples ({} s) to {}",
+        x.len(),
+        s.duration(),
+        a.output.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,246 @@
+//! The real-time hysteresis and creep compensator `W⁻¹`, equation (21).
+//!
+//! `v_k = H⁻¹[ς_k − C_k]`, where `C_k` is the creep output at step `k`. Because
+//! the time-discrete creep operator (20) has a one-sample delay, `C_k` depends
+//! only on `v_{k−1}` and the creep state, so (21) is explicit: no iteration.
+//! The compensator keeps its own copy of the creep state and of the inverse
+//! hysteresis state (from the transformation rules (22)), so that from matched
+//! states `W[W⁻¹[ς]] = ς` and `W⁻¹[W[v]] = v` hold to rounding.
+//!
+//! Saturation: the output is clipped to the configured limits (default: the
+//! balanced supply range `[−1000, 1000]` V of (1)) and every clipped sample is
+//! flagged. The compensator also advances the *forward* plays with the value
+//! it emits; after a clipped sample it rebuilds the inverse state from them by
+//! (22), so its state is exactly the one the plant has after receiving the
+//! clipped value and the identity resumes as soon as the target is reachable.
+
+use crate::creep::CreepOperator;
+use crate::error::ModelError;
+use crate::hysteresis::{check_admissible, check_finite, check_length, HysteresisOperator};
+use crate::inverse::inverse_state_into;
+use crate::model::HysteresisCreepModel;
+use crate::operator::Operator;
+use crate::play::play;
+
+/// Saturation limits of the compensator output (balanced voltage, V).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CompensatorSettings {
+    /// Lowest output; `-inf` for none.
+    pub lower_limit: f64,
+    /// Highest output; `+inf` for none.
+    pub upper_limit: f64,
+}
+
+impl Default for CompensatorSettings {
+    /// The balanced supply range of SPEC section 1: `[−1000, 1000]` V.
+    fn default() -> Self {
+        Self {
+            lower_limit: -1000.0,
+            upper_limit: 1000.0,
+        }
+    }
+}
+
+impl CompensatorSettings {
+    /// No saturation at all.
+    pub fn unlimited() -> Self {
+        Self {
+            lower_limit: f64::NEG_INFINITY,
+            upper_limit: f64::INFINITY,
+        }
+    }
+
+    /// Limits `[lower, upper]`.
+    pub fn with_limits(lower_limit: f64, upper_limit: f64) -> Self {
+        Self {
+            lower_limit,
+            upper_limit,
+        }
+    }
+
+    /// `lower < upper`, neither NaN.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        if self.lower_limit < self.upper_limit {
+            Ok(())
+        } else {
+            Err(ModelError::InvalidLimits {
+                lower: self.lower_limit,
+                upper: self.upper_limit,
+            })
+        }
+    }
+}
+
+/// One compensator output sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Compensated {
+    /// The (clipped) balanced voltage `u_k`.
+    pub u: f64,
+    /// Whether `u_k` was clipped to a limit.
+    pub saturated: bool,
+}
+
+/// Everything the compensator's next output depends on.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CompensatorState {
+    /// Forward play states (those of the plant model).
+    pub forward: Vec<f64>,
+    /// Play states of `H⁻¹`.
+    pub inverse: Vec<f64>,
+    /// Creep state, one row of `m` values per threshold.
+    pub creep: Option<Vec<Vec<f64>>>,
+}
+
+/// The compensator `W⁻¹` (21) of a [`HysteresisCreepModel`].
+#[derive(Debug, Clone)]
+pub struct Compensator {
+    settings: CompensatorSettings,
+    inverse: HysteresisOperator,
+    forward_thresholds: Vec<f64>,
+    forward_weights: Vec<f64>,
+    forward_sums: Vec<f64>,
+    /// Play states of the plant's `H`, advanced with the emitted (clipped) value.
+    forward_state: Vec<f64>,
+    creep: Option<CreepOperator>,
+}
+
+impl Compensator {
+    /// The compensator of `model`, starting from the model's current state
+    /// (matched states).
+    pub fn new(
+        model: &HysteresisCreepModel,
+        settings: CompensatorSettings,
+    ) -> Result<Self, ModelError> {
+        settings.validate()?;
+        let h = model.hysteresis();
+        Ok(Self {
+            settings,
+            inverse: h.inverse(),
+            forward_thresholds: h.thresholds().to_vec(),
+            forward_weights: h.weights().to_vec(),
+            forward_sums: h.partial_sums(),
+            forward_state: h.play_states().to_vec(),
+            creep: model.creep().cloned(),
+        })
+    }
+
+    /// The limits in force.
+    pub fn settings(&self) -> &CompensatorSettings {
+        &self.settings
+    }
+
+    /// The inverse hysteresis operator `H⁻¹` with its current state.
+    pub fn inverse_hysteresis(&self) -> &HysteresisOperator {
+        &self.inverse
+    }
+
+    /// One sample of (21): the voltage that makes `W` produce `target`, clipped
+    /// to the limits. Allocation-free, no I/O.
+    #[inline]
+    pub fn compensate(&mut self, target: f64) -> Compensated {
+        let c = match &self.creep {
+            Some(op) => op.output(),
+            None => 0.0,
+        };
+        let v = self.inverse.step(target - c);
+        let (u, saturated) = if v < self.settings.lower_limit {
+            (self.settings.lower_limit, true)
+        } else if v > self.settings.upper_limit {
+            (self.settings.upper_limit, true)
+        } else {
+            (v, false)
+        };
+        for (x, &r) in self.forward_state.iter_mut().zip(&self.forward_thresholds) {
+            *x = play(u, r, *x);
+        }
+        if saturated {
+            inverse_state_into(
+                &self.forward_weights,
+                &self.forward_sums,
+                &self.forward_state,
+                self.inverse.play_states_mut(),
+            );
+        }
+        if let Some(op) = &mut self.creep {
+            op.advance(u);
+        }
+        Compensated { u, saturated }
+    }
+
+    /// Compensate a whole signal into caller buffers; returns the number of
+    /// saturated samples.
+    pub fn compensate_into(
+        &mut self,
+        targets: &[f64],
+        u: &mut [f64],
+        saturated: &mut [bool],
+    ) -> Result<usize, crate::error::DimensionError> {
+        for (what, len) in [("output buffer", u.len()), ("saturation buffer", saturated.len())] {
+            if len != targets.len() {
+                return Err(crate::error::DimensionError {
+                    what,
+                    expected: targets.len(),
+                    found: len,
+                });
+            }
+        }
+        let mut count = 0;
+        for ((&t, u), s) in targets.iter().zip(u.iter_mut()).zip(saturated.iter_mut()) {
+            let out = self.compensate(t);
+            *u = out.u;
+            *s = out.saturated;
+            count += usize::from(out.saturated);
+        }
+        Ok(count)
+    }
+}
+
+impl Operator for Compensator {
+    type State = CompensatorState;
+
+    /// The compensated voltage; use [`Compensator::compensate`] for the flag.
+    #[inline]
+    fn step(&mut self, target: f64) -> f64 {
+        self.compensate(target).u
+    }
+
+    fn reset(&mut self) {
+        self.forward_state.fill(0.0);
+        self.inverse.reset();
+        if let Some(c) = &mut self.creep {
+            c.reset();
+        }
+    }
+
+    fn state(&self) -> CompensatorState {
+        CompensatorState {
+            forward: self.forward_state.clone(),
+            inverse: self.inverse.state(),
+            creep: self.creep.as_ref().map(|c| c.state()),
+        }
+    }
+
+    fn set_state(&mut self, state: &CompensatorState) -> Result<(), ModelError> {
+        let n = self.forward_thresholds.len();
+        check_length("compensator.forward", n, state.forward.len())?;
+        check_finite("compensator.forward", &state.forward)?;
+        check_admissible("compensator.forward", &self.forward_thresholds, &state.forward)?;
+        let mut creep = self.creep.clone();
+        match (&mut creep, &state.creep) {
+            (Some(c), Some(s)) => c.set_state(s)?,
+            (None, None) => {}
+            _ => {
+                return Err(ModelError::Inconsistent {
+                    field: "compensator.creep".into(),
+                    reason: "a creep state must be given exactly when the model has creep".into(),
+                })
+            }
+        }
+        let mut inverse = self.inverse.clone();
+        inverse.set_state(&state.inverse)?;
+        self.forward_state.copy_from_slice(&state.forward);
+        self.inverse = inverse;
+        self.creep = creep;
+        Ok(())
+    }
+}

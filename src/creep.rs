@@ -1,0 +1,395 @@
+//! Creep operators, equations (13)–(18) with the time-discrete form (20).
+//!
+//! * Elementary creep operator `K_{r,a}` (13)–(14): `dχ/dt = a · d_r(v − χ)`,
+//!   with the dead zone `d_r(z) = max(z − r, min(z + r, 0))`. For a
+//!   zero-order-hold input it is solved exactly over one sample:
+//!   `χ_k = χ_{k−1} + (1 − e^{−a T_s}) d_r(v_{k−1} − χ_{k−1})` (20). Within one
+//!   sample `v − χ` keeps its sign side of the dead zone, so the linear ODE
+//!   solution is exact. `1 − e^{−aT_s}` is computed as `−expm1(−aT_s)`: the
+//!   literal form loses five digits at `a = 0.05 s⁻¹`.
+//! * log(t)-creep operator (15): the unweighted mean of `m` elementary operators
+//!   with one threshold and eigenvalues spread over decades (24); its step
+//!   response grows linearly in `log t` between `1/a_1` and `1/a_m`.
+//! * PI creep operator (16): `C[v]_k = Σ_i w_i ς_{i,k}` over log(t)-creep
+//!   operators with thresholds `0 = r_0 < … < r_n` (18) and weights whose partial
+//!   sums are non-negative (17).
+//!
+//! All three have a one-sample delay: the output at step `k` is computed from
+//! the state `χ_k`, which depends on `v_{k−1}`; `step(v_k)` returns it and then
+//! advances the state with `v_k`. The state stored (and saved to a model file)
+//! is `χ` at the next sample.
+
+use crate::error::ModelError;
+use crate::hysteresis::{check_finite, check_length, check_thresholds, partial_sums, weighted_sum};
+use crate::operator::Operator;
+use crate::play::dead_zone;
+
+/// `1 − e^{−a T_s}` without cancellation.
+#[inline]
+pub fn creep_gain(eigenvalue: f64, sample_time: f64) -> f64 {
+    -(-eigenvalue * sample_time).exp_m1()
+}
+
+/// (24): eigenvalues `a_j = 1 / (10^j T_s)`, `j = 1..m`.
+pub fn log_spaced_eigenvalues(m: usize, sample_time: f64) -> Vec<f64> {
+    (1..=m)
+        .map(|j| 1.0 / (10f64.powi(j as i32) * sample_time))
+        .collect()
+}
+
+fn check_sample_time(ts: f64) -> Result<(), ModelError> {
+    if ts.is_finite() && ts > 0.0 {
+        Ok(())
+    } else {
+        Err(ModelError::NonPositiveSampleTime { value: ts })
+    }
+}
+
+fn check_eigenvalues(field: &str, a: &[f64]) -> Result<(), ModelError> {
+    if a.is_empty() {
+        return Err(ModelError::Empty {
+            field: field.into(),
+        });
+    }
+    for (index, &value) in a.iter().enumerate() {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(ModelError::NonPositiveEigenvalue {
+                field: field.into(),
+                index,
+                value,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The elementary creep operator `K_{r,a}` (13)–(14).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ElementaryCreepOperator {
+    threshold: f64,
+    eigenvalue: f64,
+    gain: f64,
+    chi: f64,
+}
+
+impl ElementaryCreepOperator {
+    /// A creep operator with threshold `r ≥ 0`, eigenvalue `a > 0` and sample
+    /// time `T_s > 0`, in the zero state.
+    pub fn new(threshold: f64, eigenvalue: f64, sample_time: f64) -> Result<Self, ModelError> {
+        if !(threshold.is_finite() && threshold >= 0.0) {
+            return Err(ModelError::InvalidThreshold {
+                field: "creep.threshold".into(),
+                value: threshold,
+            });
+        }
+        check_eigenvalues("creep.eigenvalue", &[eigenvalue])?;
+        check_sample_time(sample_time)?;
+        Ok(Self {
+            threshold,
+            eigenvalue,
+            gain: creep_gain(eigenvalue, sample_time),
+            chi: 0.0,
+        })
+    }
+
+    /// The eigenvalue `a` (s⁻¹).
+    pub fn eigenvalue(&self) -> f64 {
+        self.eigenvalue
+    }
+}
+
+impl Operator for ElementaryCreepOperator {
+    type State = f64;
+
+    #[inline]
+    fn step(&mut self, v: f64) -> f64 {
+        let out = self.chi;
+        self.chi += self.gain * dead_zone(v - self.chi, self.threshold);
+        out
+    }
+
+    fn reset(&mut self) {
+        self.chi = 0.0;
+    }
+
+    fn state(&self) -> f64 {
+        self.chi
+    }
+
+    fn set_state(&mut self, state: &f64) -> Result<(), ModelError> {
+        check_finite("creep.state", std::slice::from_ref(state))?;
+        self.chi = *state;
+        Ok(())
+    }
+}
+
+/// The elementary log(t)-creep operator (15): the mean of `m` elementary creep
+/// operators with one threshold.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LogCreepOperator {
+    threshold: f64,
+    gains: Vec<f64>,
+    chi: Vec<f64>,
+}
+
+impl LogCreepOperator {
+    /// A log(t)-creep operator with threshold `r ≥ 0` and eigenvalues `a_j > 0`.
+    pub fn new(threshold: f64, eigenvalues: &[f64], sample_time: f64) -> Result<Self, ModelError> {
+        if !(threshold.is_finite() && threshold >= 0.0) {
+            return Err(ModelError::InvalidThreshold {
+                field: "creep.threshold".into(),
+                value: threshold,
+            });
+        }
+        check_eigenvalues("creep.eigenvalues", eigenvalues)?;
+        check_sample_time(sample_time)?;
+        Ok(Self {
+            threshold,
+            gains: eigenvalues
+                .iter()
+                .map(|&a| creep_gain(a, sample_time))
+                .collect(),
+            chi: vec![0.0; eigenvalues.len()],
+        })
+    }
+}
+
+impl Operator for LogCreepOperator {
+    type State = Vec<f64>;
+
+    #[inline]
+    fn step(&mut self, v: f64) -> f64 {
+        let m = self.chi.len() as f64;
+        let mut sum = 0.0;
+        for (chi, &g) in self.chi.iter_mut().zip(&self.gains) {
+            sum += *chi;
+            *chi += g * dead_zone(v - *chi, self.threshold);
+        }
+        sum / m
+    }
+
+    fn reset(&mut self) {
+        self.chi.fill(0.0);
+    }
+
+    fn state(&self) -> Vec<f64> {
+        self.chi.clone()
+    }
+
+    fn set_state(&mut self, state: &Vec<f64>) -> Result<(), ModelError> {
+        check_length("creep.state", self.chi.len(), state.len())?;
+        check_finite("creep.state", state)?;
+        self.chi.copy_from_slice(state);
+        Ok(())
+    }
+}
+
+/// The Prandtl–Ishlinskii creep operator `C` (16).
+///
+/// Output `C_k = Σ_i (w_i / m) Σ_j χ_{i,j,k}`, with the inner sum over `j` in
+/// ascending order and the outer over `i`; `χ` is stored eigenvalue-major so the
+/// per-sample update runs over contiguous threshold rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CreepOperator {
+    thresholds: Vec<f64>,
+    weights: Vec<f64>,
+    eigenvalues: Vec<f64>,
+    sample_time: f64,
+    weights_over_m: Vec<f64>,
+    gains: Vec<f64>,
+    /// `χ[j * n + i]`: eigenvalue `j`, threshold `i`.
+    chi: Vec<f64>,
+    /// Scratch: `Σ_j χ_{i,j}` per threshold.
+    sums: Vec<f64>,
+    /// The output the current state produces, kept so `output()` is O(1).
+    output: f64,
+}
+
+impl CreepOperator {
+    /// A PI creep operator in the zero state. Checks (18) for the thresholds,
+    /// (17) for the weights, positive eigenvalues and sample time.
+    pub fn new(
+        thresholds: Vec<f64>,
+        weights: Vec<f64>,
+        eigenvalues: Vec<f64>,
+        sample_time: f64,
+    ) -> Result<Self, ModelError> {
+        check_thresholds("creep.thresholds", &thresholds)?;
+        check_finite("creep.weights", &weights)?;
+        check_length("creep.weights", thresholds.len(), weights.len())?;
+        for (index, sum) in partial_sums(&weights).into_iter().enumerate() {
+            if sum < 0.0 {
+                return Err(ModelError::PartialSumNegative {
+                    field: "creep.weights".into(),
+                    index,
+                    sum,
+                });
+            }
+        }
+        check_eigenvalues("creep.eigenvalues", &eigenvalues)?;
+        check_sample_time(sample_time)?;
+        let n = thresholds.len();
+        let m = eigenvalues.len();
+        Ok(Self {
+            weights_over_m: weights.iter().map(|&w| w / m as f64).collect(),
+            gains: eigenvalues
+                .iter()
+                .map(|&a| creep_gain(a, sample_time))
+                .collect(),
+            thresholds,
+            weights,
+            eigenvalues,
+            sample_time,
+            chi: vec![0.0; n * m],
+            sums: vec![0.0; n],
+            output: 0.0,
+        })
+    }
+
+    /// Thresholds `r_{C,i}`.
+    pub fn thresholds(&self) -> &[f64] {
+        &self.thresholds
+    }
+
+    /// Weights `w_{C,i}`.
+    pub fn weights(&self) -> &[f64] {
+        &self.weights
+    }
+
+    /// Eigenvalues `a_j` (s⁻¹).
+    pub fn eigenvalues(&self) -> &[f64] {
+        &self.eigenvalues
+    }
+
+    /// Sample time `T_s` (s).
+    pub fn sample_time(&self) -> f64 {
+        self.sample_time
+    }
+
+    /// The output `C_k` of the current state (before the next input acts).
+    #[inline]
+    pub fn output(&self) -> f64 {
+        self.output
+    }
+
+    /// Advance the state with input `v_k` (`χ_k → χ_{k+1}`) and return the
+    /// next output `C_{k+1}`. Allocation-free.
+    #[inline]
+    pub fn advance(&mut self, v: f64) -> f64 {
+        let n = self.thresholds.len();
+        for (j, (&g, row)) in self.gains.iter().zip(self.chi.chunks_exact_mut(n)).enumerate() {
+            for ((chi, &r), s) in row.iter_mut().zip(&self.thresholds).zip(&mut self.sums) {
+                let c = *chi + g * dead_zone(v - *chi, r);
+                *chi = c;
+                *s = if j == 0 { c } else { *s + c };
+            }
+        }
+        self.output = weighted_sum(&self.weights_over_m, &self.sums);
+        self.output
+    }
+
+    fn refresh_output(&mut self) {
+        let n = self.thresholds.len();
+        self.sums.fill(0.0);
+        for (j, row) in self.chi.chunks_exact(n).enumerate() {
+            for (s, &c) in self.sums.iter_mut().zip(row) {
+                *s = if j == 0 { c } else { *s + c };
+            }
+        }
+        self.output = weighted_sum(&self.weights_over_m, &self.sums);
+    }
+}
+
+impl Operator for CreepOperator {
+    /// One row of `m` values per threshold, as in the model file.
+    type State = Vec<Vec<f64>>;
+
+    #[inline]
+    fn step(&mut self, v: f64) -> f64 {
+        let out = self.output;
+        self.advance(v);
+        out
+    }
+
+    fn reset(&mut self) {
+        self.chi.fill(0.0);
+        self.refresh_output();
+    }
+
+    fn state(&self) -> Vec<Vec<f64>> {
+        let n = self.thresholds.len();
+        let m = self.eigenvalues.len();
+        (0..n)
+            .map(|i| (0..m).map(|j| self.chi[j * n + i]).collect())
+            .collect()
+    }
+
+    fn set_state(&mut self, state: &Vec<Vec<f64>>) -> Result<(), ModelError> {
+        let n = self.thresholds.len();
+        let m = self.eigenvalues.len();
+        check_length("creep.state", n, state.len())?;
+        for (i, row) in state.iter().enumerate() {
+            check_length(&format!("creep.state[{i}]"), m, row.len())?;
+            check_finite(&format!("creep.state[{i}]"), row)?;
+        }
+        for (i, row) in state.iter().enumerate() {
+            for (j, &c) in row.iter().enumerate() {
+                self.chi[j * n + i] = c;
+            }
+        }
+        self.refresh_output();
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn expm1_gain_keeps_digits_for_slow_eigenvalues() {
+        let g = creep_gain(0.05, 2e-4);
+        // 1 − e^{−x} = x − x²/2 + x³/6 for x = 1e-5, to 1e-21.
+        let x: f64 = 1e-5;
+        let series = x - x * x / 2.0 + x * x * x / 6.0;
+        assert!((g - series).abs() <= 4.0 * f64::EPSILON * series);
+    }
+
+    #[test]
+    fn eigenvalues_of_24_at_paper_sample_time() {
+        let a = log_spaced_eigenvalues(5, 2e-4);
+        let expected = [500.0, 50.0, 5.0, 0.5, 0.05];
+        for (a, e) in a.iter().zip(expected) {
+            assert!((a - e).abs() <= 4.0 * f64::EPSILON * e);
+        }
+    }
+
+    #[test]
+    fn output_has_one_sample_delay() {
+        let mut c = ElementaryCreepOperator::new(0.0, 500.0, 2e-4).unwrap();
+        assert_eq!(c.step(1.0), 0.0);
+        assert!(c.step(1.0) > 0.0);
+    }
+
+    #[test]
+    fn creep_weights_may_not_have_negative_partial_sums() {
+        let e = CreepOperator::new(vec![0.0, 1.0], vec![0.1, -0.2], vec![1.0], 1e-3).unwrap_err();
+        assert!(matches!(e, ModelError::PartialSumNegative { index: 1, .. }));
+        let e = CreepOperator::new(vec![0.0], vec![0.1], vec![-1.0], 1e-3).unwrap_err();
+        assert!(matches!(e, ModelError::NonPositiveEigenvalue { .. }));
+        let e = CreepOperator::new(vec![0.0], vec![0.1], vec![1.0], 0.0).unwrap_err();
+        assert!(matches!(e, ModelError::NonPositiveSampleTime { .. }));
+    }
+
+    #[test]
+    fn single_threshold_creep_operator_is_the_weighted_log_creep_operator() {
+        let a = [500.0, 5.0, 0.05];
+        let mut pi = CreepOperator::new(vec![0.0], vec![1.0], a.to_vec(), 2e-4).unwrap();
+        let mut log = LogCreepOperator::new(0.0, &a, 2e-4).unwrap();
+        for k in 0..1000 {
+            let v = (k as f64 * 0.01).sin();
+            let (p, l) = (pi.step(v), log.step(v));
+            assert!((p - l).abs() <= 4.0 * f64::EPSILON * l.abs().max(1e-300));
+        }
+    }
+}

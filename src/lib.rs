@@ -1,0 +1,82 @@
+//! # mfcbeam
+//!
+//! A reference implementation of the hysteresis and creep compensation of a
+//! flexible beam driven by a pair of piezoelectric macro-fiber composite (MFC)
+//! patches, after Schröck, Meurer and Kugi, *Control of a flexible beam actuated
+//! by macro-fiber composite patches: II. Hysteresis and creep compensation,
+//! experimental results*, Smart Mater. Struct. 20 (2011) 015016. Equation
+//! numbers `(n)` refer to that paper; `SPEC.md` restates them with every number
+//! resolved.
+//!
+//! ## The mathematics
+//!
+//! The patch pair is fed through the asymmetric supply (1): `u_fs = ū + u`,
+//! `u_bs = ū − u`. The balanced voltage `u` passes through the operator
+//! `W = H + C` (4), (6) to an effective voltage that drives the linear beam.
+//!
+//! * **Play** (7)–(9), time-discrete (20): `x_k = max(v_k − r, min(v_k + r, x_{k−1}))`
+//!   ([`play::PlayOperator`]).
+//! * **Prandtl–Ishlinskii hysteresis** (10)–(12): `H[v] = Σ_i w_i P_{r_i}[v]` with
+//!   `0 = r_0 < … < r_n` and partial sums `s_j = Σ_{i≤j} w_i > 0`
+//!   ([`hysteresis::HysteresisOperator`]). Its branches have the slopes `s_j`; it
+//!   obeys the Madelung rules, the Masing rule and the intersection property.
+//! * **Creep** (13)–(18): elementary operators `dχ/dt = a d_r(v − χ)` solved
+//!   exactly under zero-order hold, averaged over eigenvalues spread over
+//!   decades (24) into log(t)-creep operators (15), and weighted into a PI creep
+//!   operator (16) ([`creep`]).
+//! * **Inverse** (22): the Krejčí–Kuhnen transformation rules give `H⁻¹` as
+//!   another PI operator, with transformed thresholds, weights and states
+//!   ([`inverse`]).
+//! * **Compensator** (21): `v_k = H⁻¹[ς_k − C_k]`, explicit because the
+//!   discrete creep operator has a one-sample delay
+//!   ([`compensator::Compensator`]), with saturation to the supply limits.
+//!
+//! ## Two tiers
+//!
+//! Most users call [`io::read_model`], [`compensator::Compensator::new`] and
+//! [`operator::Operator::run`]. The real-time path is
+//! [`compensator::Compensator::compensate`] (and every operator's
+//! [`operator::Operator::step`]): one sample, no allocation, no I/O; state can
+//! be snapshotted and restored so that runs split and resume bit-identically.
+//!
+//! ## Example
+//!
+//! ```
+//! use mfcbeam::prelude::*;
+//!
+//! let model = nominal_model();
+//! let mut plant = model.clone();
+//! let mut comp = Compensator::new(&model, CompensatorSettings::default()).unwrap();
+//! for k in 0..1000 {
+//!     let target = 300.0 * (k as f64 * 1e-3).sin();
+//!     let u = comp.compensate(target);
+//!     let y = plant.step(u.u);
+//!     assert!((y - target).abs() < 1e-9);
+//! }
+//! ```
+
+pub mod compensator;
+pub mod creep;
+pub mod error;
+pub mod hysteresis;
+pub mod inverse;
+pub mod io;
+pub mod model;
+pub mod nominal;
+pub mod operator;
+pub mod play;
+pub mod signal;
+pub mod supply;
+
+/// The types most programs need.
+pub mod prelude {
+    pub use crate::compensator::{Compensated, Compensator, CompensatorSettings};
+    pub use crate::creep::{CreepOperator, ElementaryCreepOperator, LogCreepOperator};
+    pub use crate::error::{ModelError, SupplyError};
+    pub use crate::hysteresis::HysteresisOperator;
+    pub use crate::model::{HysteresisCreepModel, ModelFile};
+    pub use crate::nominal::nominal_model;
+    pub use crate::operator::Operator;
+    pub use crate::play::PlayOperator;
+    pub use crate::supply::Supply;
+}
