@@ -1,1 +1,98 @@
-fn main(){}
+//! Real-time budget checks: one step of H, C, W and the compensator at the
+//! paper's order (12 plays; 12 thresholds × 5 creep eigenvalues), and a whole
+//! 90 s trace at 5 kHz (450 000 samples). The board's budget is Ts = 0.2 ms.
+
+use std::hint::black_box;
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use mfcbeam::prelude::*;
+
+/// A seeded, band-limited test input in [-600, 600] V with frequent reversals,
+/// so that branch predictors see realistic play switching.
+fn test_input(len: usize) -> Vec<f64> {
+    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut v = 0.0f64;
+    (0..len)
+        .map(|_| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let step = ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 40.0;
+            v = (v + step).clamp(-600.0, 600.0);
+            v
+        })
+        .collect()
+}
+
+fn single_steps(c: &mut Criterion) {
+    const LEN: usize = 4096;
+    let input = test_input(LEN);
+    let model = nominal_model();
+    let mut g = c.benchmark_group("step");
+
+    let mut h = model.hysteresis().clone();
+    let mut k = 0usize;
+    g.bench_function("hysteresis_step", |b| {
+        b.iter(|| {
+            k = (k + 1) & (LEN - 1);
+            h.step(black_box(input[k]))
+        })
+    });
+
+    let mut cr = model.creep().unwrap().clone();
+    g.bench_function("creep_step", |b| {
+        b.iter(|| {
+            k = (k + 1) & (LEN - 1);
+            cr.step(black_box(input[k]))
+        })
+    });
+
+    let mut w = model.clone();
+    g.bench_function("model_w_step", |b| {
+        b.iter(|| {
+            k = (k + 1) & (LEN - 1);
+            w.step(black_box(input[k]))
+        })
+    });
+
+    // Targets the compensator can reach: W of the test input.
+    let targets = nominal_model().run(&input);
+    let mut comp = Compensator::new(&model, CompensatorSettings::default()).unwrap();
+    g.bench_function("compensator_step", |b| {
+        b.iter(|| {
+            k = (k + 1) & (LEN - 1);
+            comp.compensate(black_box(targets[k]))
+        })
+    });
+    g.finish();
+}
+
+fn whole_trace(c: &mut Criterion) {
+    const LEN: usize = 450_000; // 90 s at 5 kHz
+    let input = test_input(LEN);
+    let targets = nominal_model().run(&input);
+    let model = nominal_model();
+    let mut g = c.benchmark_group("trace_90s");
+    g.throughput(Throughput::Elements(LEN as u64));
+    g.sample_size(20);
+    let mut out = vec![0.0; LEN];
+    g.bench_function("model_w_trace", |b| {
+        b.iter(|| {
+            let mut w = model.clone();
+            w.run_into(black_box(&input), &mut out).unwrap();
+        })
+    });
+    let mut u = vec![0.0; LEN];
+    let mut sat = vec![false; LEN];
+    g.bench_function("compensator_trace", |b| {
+        b.iter(|| {
+            let mut comp = Compensator::new(&model, CompensatorSettings::default()).unwrap();
+            comp.compensate_into(black_box(&targets), &mut u, &mut sat)
+                .unwrap()
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, single_steps, whole_trace);
+criterion_main!(benches);

@@ -277,11 +277,18 @@ impl CreepOperator {
     #[inline]
     pub fn advance(&mut self, v: f64) -> f64 {
         let n = self.thresholds.len();
-        for (j, (&g, row)) in self.gains.iter().zip(self.chi.chunks_exact_mut(n)).enumerate() {
+        let (first, rest) = self.chi.split_at_mut(n);
+        let g = self.gains[0];
+        for ((chi, &r), s) in first.iter_mut().zip(&self.thresholds).zip(&mut self.sums) {
+            let c = *chi + g * dead_zone(v - *chi, r);
+            *chi = c;
+            *s = c;
+        }
+        for (&g, row) in self.gains[1..].iter().zip(rest.chunks_exact_mut(n)) {
             for ((chi, &r), s) in row.iter_mut().zip(&self.thresholds).zip(&mut self.sums) {
                 let c = *chi + g * dead_zone(v - *chi, r);
                 *chi = c;
-                *s = if j == 0 { c } else { *s + c };
+                *s += c;
             }
         }
         self.output = weighted_sum(&self.weights_over_m, &self.sums);

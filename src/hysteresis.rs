@@ -157,10 +157,25 @@ impl Operator for HysteresisOperator {
     }
 }
 
-/// `Σ w_i x_i`, summed in index order (the order every operator here uses).
+/// `Σ w_i x_i` in four interleaved partial sums, `(a_0 + a_1) + (a_2 + a_3)`
+/// with `a_l = Σ_{i ≡ l mod 4} w_i x_i`: the order every operator here uses.
+/// Four independent chains instead of one cut the latency of the dot product
+/// that ends every step.
 #[inline(always)]
 pub(crate) fn weighted_sum(w: &[f64], x: &[f64]) -> f64 {
-    w.iter().zip(x).map(|(&w, &x)| w * x).sum()
+    let mut a = [0.0f64; 4];
+    let wc = w.chunks_exact(4);
+    let xc = x.chunks_exact(4);
+    let (wr, xr) = (wc.remainder(), xc.remainder());
+    for (w4, x4) in wc.zip(xc) {
+        for l in 0..4 {
+            a[l] += w4[l] * x4[l];
+        }
+    }
+    for l in 0..wr.len() {
+        a[l] += wr[l] * xr[l];
+    }
+    (a[0] + a[1]) + (a[2] + a[3])
 }
 
 /// Partial sums `s_j = Σ_{i≤j} w_i`.
