@@ -175,7 +175,10 @@ impl Compensator {
         u: &mut [f64],
         saturated: &mut [bool],
     ) -> Result<usize, crate::error::DimensionError> {
-        for (what, len) in [("output buffer", u.len()), ("saturation buffer", saturated.len())] {
+        for (what, len) in [
+            ("output buffer", u.len()),
+            ("saturation buffer", saturated.len()),
+        ] {
             if len != targets.len() {
                 return Err(crate::error::DimensionError {
                     what,
@@ -224,7 +227,11 @@ impl Operator for Compensator {
         let n = self.forward_thresholds.len();
         check_length("compensator.forward", n, state.forward.len())?;
         check_finite("compensator.forward", &state.forward)?;
-        check_admissible("compensator.forward", &self.forward_thresholds, &state.forward)?;
+        check_admissible(
+            "compensator.forward",
+            &self.forward_thresholds,
+            &state.forward,
+        )?;
         let mut creep = self.creep.clone();
         match (&mut creep, &state.creep) {
             (Some(c), Some(s)) => c.set_state(s)?,

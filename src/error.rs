@@ -89,7 +89,9 @@ pub enum SupplyError {
     #[error("supply: u_min = {u_min} must be below u_max = {u_max}")]
     InvalidRange { u_min: f64, u_max: f64 },
     /// `u` lies outside the balanced range `[-(u_max - u_min)/2, (u_max - u_min)/2]`.
-    #[error("balanced voltage {u} V lies outside [{lower}, {upper}] V that the supply can produce")]
+    #[error(
+        "balanced voltage {u} V lies outside [{lower}, {upper}] V that the supply can produce"
+    )]
     OutOfRange { u: f64, lower: f64, upper: f64 },
 }
 

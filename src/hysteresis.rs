@@ -293,11 +293,17 @@ mod tests {
     #[test]
     fn refuses_broken_parameters_with_the_field_named() {
         let e = HysteresisOperator::new(vec![0.0, 1.0, 1.0], vec![1.0; 3]).unwrap_err();
-        assert!(matches!(e, ModelError::ThresholdsNotIncreasing { index: 2, .. }));
+        assert!(matches!(
+            e,
+            ModelError::ThresholdsNotIncreasing { index: 2, .. }
+        ));
         let e = HysteresisOperator::new(vec![0.5, 1.0], vec![1.0; 2]).unwrap_err();
         assert!(matches!(e, ModelError::FirstThresholdNotZero { .. }));
         let e = HysteresisOperator::new(vec![0.0, 1.0], vec![1.0, -1.0]).unwrap_err();
-        assert!(matches!(e, ModelError::PartialSumNotPositive { index: 1, .. }));
+        assert!(matches!(
+            e,
+            ModelError::PartialSumNotPositive { index: 1, .. }
+        ));
         assert!(e.to_string().contains("hysteresis.weights"));
         let e = HysteresisOperator::new(vec![0.0, 1.0], vec![1.0]).unwrap_err();
         assert!(matches!(e, ModelError::LengthMismatch { .. }));
@@ -318,8 +324,7 @@ mod tests {
 
     #[test]
     fn initial_loading_matches_stepping_from_virgin() {
-        let mut h =
-            HysteresisOperator::new(vec![0.0, 1.0, 2.5], vec![0.5, 0.25, -0.125]).unwrap();
+        let mut h = HysteresisOperator::new(vec![0.0, 1.0, 2.5], vec![0.5, 0.25, -0.125]).unwrap();
         let phi = h.initial_loading(-3.0);
         assert_eq!(h.step(-3.0), phi);
     }

@@ -92,8 +92,8 @@ mod tests {
 
     #[test]
     fn rules_are_an_involution() {
-        let h = HysteresisOperator::new(vec![0.0, 0.3, 1.1, 2.0], vec![0.7, 0.2, -0.3, 0.9])
-            .unwrap();
+        let h =
+            HysteresisOperator::new(vec![0.0, 0.3, 1.1, 2.0], vec![0.7, 0.2, -0.3, 0.9]).unwrap();
         let back = h.inverse().inverse();
         for (a, b) in back.thresholds().iter().zip(h.thresholds()) {
             assert!((a - b).abs() <= 8.0 * f64::EPSILON * 2.0);

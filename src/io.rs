@@ -20,20 +20,15 @@ use crate::model::{HysteresisCreepModel, ModelFile};
 #[derive(Debug, Error)]
 #[non_exhaustive]
 pub enum FileError {
-    #[error("{path}: {source}")]
+    #[error("{path}: {error}")]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
     #[error("{path}: malformed JSON: {message}")]
     Json { path: PathBuf, message: String },
-    #[error("{path}: {source}")]
-    Model {
-        path: PathBuf,
-        #[source]
-        source: ModelError,
-    },
+    #[error("{path}: {error}")]
+    Model { path: PathBuf, error: ModelError },
     #[error("{path}: malformed CSV: {message}")]
     Csv { path: PathBuf, message: String },
     #[error("{path}: has no data rows")]
@@ -65,17 +60,17 @@ pub fn format_f64(x: f64) -> String {
 /// Read and validate a model file.
 pub fn read_model(path: &Path) -> Result<HysteresisCreepModel, FileError> {
     let file = read_model_file(path)?;
-    HysteresisCreepModel::from_file(&file).map_err(|source| FileError::Model {
+    HysteresisCreepModel::from_file(&file).map_err(|error| FileError::Model {
         path: path.to_path_buf(),
-        source,
+        error,
     })
 }
 
 /// Read a model file without building the model.
 pub fn read_model_file(path: &Path) -> Result<ModelFile, FileError> {
-    let text = fs::read_to_string(path).map_err(|source| FileError::Io {
+    let text = fs::read_to_string(path).map_err(|error| FileError::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     })?;
     serde_json::from_str(&text).map_err(|e| FileError::Json {
         path: path.to_path_buf(),
@@ -104,9 +99,9 @@ pub struct Trace {
 impl Trace {
     /// Read a CSV trace with one header row and at least one data row.
     pub fn read(path: &Path) -> Result<Self, FileError> {
-        let bytes = fs::read(path).map_err(|source| FileError::Io {
+        let bytes = fs::read(path).map_err(|error| FileError::Io {
             path: path.to_path_buf(),
-            source,
+            error,
         })?;
         let csv_err = |e: csv::Error| FileError::Csv {
             path: path.to_path_buf(),
@@ -179,15 +174,15 @@ impl Trace {
 
     /// A numeric column; every value must parse and be finite.
     pub fn column(&self, name: &str) -> Result<Vec<f64>, FileError> {
-        let idx = self
-            .header
-            .iter()
-            .position(|h| h == name)
-            .ok_or_else(|| FileError::MissingColumn {
-                path: self.path.clone(),
-                column: name.to_string(),
-                header: self.header.join(","),
-            })?;
+        let idx =
+            self.header
+                .iter()
+                .position(|h| h == name)
+                .ok_or_else(|| FileError::MissingColumn {
+                    path: self.path.clone(),
+                    column: name.to_string(),
+                    header: self.header.join(","),
+                })?;
         self.rows
             .iter()
             .enumerate()
@@ -275,9 +270,9 @@ impl Trace {
         for row in &self.rows {
             w.write_record(row).map_err(csv_err)?;
         }
-        w.flush().map_err(|source| FileError::Io {
+        w.flush().map_err(|error| FileError::Io {
             path: path.to_path_buf(),
-            source,
+            error,
         })?;
         drop(w);
         write_atomic(path, &out)
@@ -286,9 +281,9 @@ impl Trace {
 
 /// Write into a temporary file next to `path`, then rename it into place.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FileError> {
-    let io = |source| FileError::Io {
+    let io = |error| FileError::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     };
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),

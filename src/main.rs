@@ -6,7 +6,21 @@ mod cli;
 use clap::Parser;
 
 fn main() {
-    let args = cli::Cli::parse();
+    let args = match cli::Cli::try_parse() {
+        Ok(args) => args,
+        Err(e) if !e.use_stderr() => {
+            // --help and --version
+            let _ = e.print();
+            return;
+        }
+        Err(e) => {
+            // Usage errors too end in one line and exit code 2.
+            let text = e.render().to_string();
+            let first = text.lines().next().unwrap_or("invalid arguments");
+            eprintln!("mfcbeam: {first}");
+            std::process::exit(2);
+        }
+    };
     if let Err(e) = cli::run(args) {
         // `{:#}` joins the context chain on one line; keep it one line.
         let msg = format!("{e:#}").replace(['\n', '\r'], " ");

@@ -103,7 +103,10 @@ mod tests {
     #[test]
     fn play_follows_input_outside_the_band_and_holds_inside() {
         let mut p = PlayOperator::new(1.0).unwrap();
-        let y: Vec<f64> = [0.5, 2.0, 1.5, 0.5, -1.0].iter().map(|&v| p.step(v)).collect();
+        let y: Vec<f64> = [0.5, 2.0, 1.5, 0.5, -1.0]
+            .iter()
+            .map(|&v| p.step(v))
+            .collect();
         assert_eq!(y, vec![0.0, 1.0, 1.0, 1.0, 0.0]);
     }
 

@@ -43,7 +43,11 @@ impl Staircase {
             return self.start;
         }
         let k = ((t / seg).floor() as usize).min(self.levels.len() - 1);
-        let from = if k == 0 { self.start } else { self.levels[k - 1] };
+        let from = if k == 0 {
+            self.start
+        } else {
+            self.levels[k - 1]
+        };
         let to = self.levels[k];
         let tau = t - k as f64 * seg;
         if tau >= self.rise {
@@ -74,10 +78,14 @@ mod tests {
     fn staircase_reaches_its_levels_and_is_continuous() {
         let s = Staircase::full_loop(900.0, 3, 0.1, 0.4);
         assert_eq!(s.levels.len(), 12);
-        assert_eq!(s.value(0.5 + 0.2), 300.0);
+        assert_eq!(s.value(0.2), 300.0);
+        assert_eq!(s.value(0.5 + 0.2), 600.0);
         assert_eq!(s.value(3.0 * 0.5 - 0.01), 900.0);
         let x = s.sample(1e-3);
-        let max_jump = x.windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0, f64::max);
+        let max_jump = x
+            .windows(2)
+            .map(|w| (w[1] - w[0]).abs())
+            .fold(0.0, f64::max);
         // raised cosine: max slope π/2 · 300 / 0.1 per second
         assert!(max_jump <= std::f64::consts::FRAC_PI_2 * 300.0 / 0.1 * 1e-3 * 1.0001);
         assert_eq!(*x.last().unwrap(), 0.0);

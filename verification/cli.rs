@@ -1,1 +1,398 @@
+//! The command-line contract of SPEC section 11: outputs, number format, and
+//! the error contract (exit 2, one line naming file and row or field, no
+//! panic, no partial output file).
 
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use mfcbeam::io::Trace;
+use mfcbeam::prelude::*;
+
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(name: &str) -> Self {
+        let p = std::env::temp_dir().join(format!("mfcbeam-cli-{}-{name}", std::process::id()));
+        let _ = fs::remove_dir_all(&p);
+        fs::create_dir_all(&p).unwrap();
+        TempDir(p)
+    }
+    fn path(&self, f: &str) -> PathBuf {
+        self.0.join(f)
+    }
+    fn write(&self, f: &str, text: &str) -> PathBuf {
+        let p = self.path(f);
+        fs::write(&p, text).unwrap();
+        p
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = fs::remove_dir_all(&self.0);
+    }
+}
+
+fn mfcbeam(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mfcbeam"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+const MODEL: &str = "golden/nominal_model.json";
+
+/// A failing command: exit 2, exactly one line on stderr containing every
+/// `needle`, no output file.
+fn assert_clean_failure(out: &Output, needles: &[&str], output: Option<&Path>) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "stderr: {err}");
+    assert_eq!(
+        err.trim_end().lines().count(),
+        1,
+        "one line expected: {err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "'{n}' missing from: {err}");
+    }
+    if let Some(p) = output {
+        assert!(!p.exists(), "partial output {} left behind", p.display());
+        let dir = p.parent().unwrap();
+        let leftovers: Vec<_> = fs::read_dir(dir)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+            .collect();
+        assert!(leftovers.is_empty(), "temporary files left behind");
+    }
+}
+
+#[test]
+fn simulate_appends_y_equal_to_the_library_bit_for_bit() {
+    let d = TempDir::new("simulate");
+    let input = d.write(
+        "in.csv",
+        "t,u,note\n0.0,0,a\n0.0002,250.5,b\n0.0004,-1e-7,c\n0.0006,900,d\n",
+    );
+    let output = d.path("out.csv");
+    let out = mfcbeam(&[
+        "simulate",
+        "--model",
+        MODEL,
+        "--input",
+        s(&input),
+        "--output",
+        s(&output),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let trace = Trace::read(&output).unwrap();
+    assert_eq!(trace.header(), &["t", "u", "note", "y"]);
+    let y = trace.column("y").unwrap();
+    let expected = nominal_model().run(&[0.0, 250.5, -1e-7, 900.0]);
+    assert_eq!(y, expected);
+    // input columns pass through unchanged
+    let text = fs::read_to_string(&output).unwrap();
+    assert!(text.lines().nth(3).unwrap().starts_with("0.0004,-1e-7,c,"));
+}
+
+#[test]
+fn compensate_writes_u_and_saturated_and_limits_parse_negative_numbers() {
+    let d = TempDir::new("compensate");
+    let input = d.write(
+        "in.csv",
+        "t,y_d\n0,0\n0.0002,300\n0.0004,5000\n0.0006,100\n",
+    );
+    for limits in [
+        vec!["--limits=-1000,1000"],
+        vec!["--limits", "-1000,1000"],
+        vec![],
+    ] {
+        let output = d.path("out.csv");
+        let mut args = vec![
+            "compensate",
+            "--model",
+            MODEL,
+            "--input",
+            s(&input),
+            "--output",
+            s(&output),
+        ];
+        args.extend(limits.iter().copied());
+        let out = mfcbeam(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let trace = Trace::read(&output).unwrap();
+        assert_eq!(trace.header(), &["t", "y_d", "u", "saturated"]);
+        assert_eq!(trace.column("saturated").unwrap(), vec![0.0, 0.0, 1.0, 0.0]);
+        let u = trace.column("u").unwrap();
+        assert_eq!(u[2], 1000.0);
+        let mut comp = Compensator::new(&nominal_model(), CompensatorSettings::default()).unwrap();
+        let expected: Vec<f64> = [0.0, 300.0, 5000.0, 100.0]
+            .iter()
+            .map(|&t| comp.compensate(t).u)
+            .collect();
+        assert_eq!(u, expected);
+    }
+    let output = d.path("free.csv");
+    let out = mfcbeam(&[
+        "compensate",
+        "--model",
+        MODEL,
+        "--input",
+        s(&input),
+        "--output",
+        s(&output),
+        "--no-limits",
+    ]);
+    assert!(out.status.success());
+    let trace = Trace::read(&output).unwrap();
+    assert!(trace.column("u").unwrap()[2] > 1000.0);
+    assert_eq!(trace.column("saturated").unwrap(), vec![0.0; 4]);
+}
+
+#[test]
+fn invert_prints_the_inverse_operator_as_json() {
+    let out = mfcbeam(&["invert", "--model", MODEL]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let inv = nominal_model().hysteresis().inverse();
+    let get = |k: &str| -> Vec<f64> {
+        v[k].as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    assert_eq!(get("thresholds"), inv.thresholds());
+    assert_eq!(get("weights"), inv.weights());
+    assert_eq!(get("state"), vec![0.0; 12]);
+}
+
+#[test]
+fn signal_then_compensate_then_simulate_round_trip() {
+    let d = TempDir::new("roundtrip");
+    let sig = d.path("sig.csv");
+    let comp = d.path("comp.csv");
+    let sim = d.path("sim.csv");
+    assert!(mfcbeam(&[
+        "signal",
+        "--column",
+        "y_d",
+        "--amplitude",
+        "400",
+        "--plateau",
+        "0.2",
+        "--output",
+        s(&sig)
+    ])
+    .status
+    .success());
+    assert!(mfcbeam(&[
+        "compensate",
+        "--model",
+        MODEL,
+        "--input",
+        s(&sig),
+        "--output",
+        s(&comp)
+    ])
+    .status
+    .success());
+    assert!(mfcbeam(&[
+        "simulate",
+        "--model",
+        MODEL,
+        "--input",
+        s(&comp),
+        "--output",
+        s(&sim)
+    ])
+    .status
+    .success());
+    let t = Trace::read(&sim).unwrap();
+    let (y, yd) = (t.column("y").unwrap(), t.column("y_d").unwrap());
+    let err = y
+        .iter()
+        .zip(&yd)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(err < 1e-9, "{err}");
+}
+
+#[test]
+fn error_contract_bad_inputs() {
+    let d = TempDir::new("errors");
+    let good_in = d.write("in.csv", "t,u\n0,0\n0.0002,1\n");
+    let output = d.path("out.csv");
+    let run = |model: &Path, input: &Path| {
+        mfcbeam(&[
+            "simulate",
+            "--model",
+            s(model),
+            "--input",
+            s(input),
+            "--output",
+            s(&output),
+        ])
+    };
+    let model = |name: &str, text: &str| d.write(name, text);
+    let h = |thr: &str, w: &str| {
+        format!(
+            r#"{{"sample_time": 0.0002, "hysteresis": {{"thresholds": {thr}, "weights": {w}}}}}"#
+        )
+    };
+
+    // missing model file
+    let out = run(&d.path("nope.json"), &good_in);
+    assert_clean_failure(&out, &["nope.json"], Some(&output));
+    // malformed JSON
+    let out = run(&model("bad.json", "{\"sample_time\": 0.0002,"), &good_in);
+    assert_clean_failure(&out, &["bad.json", "JSON"], Some(&output));
+    // non-increasing thresholds
+    let out = run(&model("thr.json", &h("[0, 2, 1]", "[1, 1, 1]")), &good_in);
+    assert_clean_failure(
+        &out,
+        &["thr.json", "hysteresis.thresholds[2]"],
+        Some(&output),
+    );
+    // weights breaking (11)
+    let out = run(&model("w.json", &h("[0, 1]", "[0.5, -0.6]")), &good_in);
+    assert_clean_failure(
+        &out,
+        &["w.json", "hysteresis.weights", "(11)"],
+        Some(&output),
+    );
+    // mismatched lengths
+    let out = run(&model("len.json", &h("[0, 1]", "[0.5]")), &good_in);
+    assert_clean_failure(
+        &out,
+        &["len.json", "hysteresis.weights", "expected 2"],
+        Some(&output),
+    );
+    // non-positive sample time
+    let out = run(
+        &model(
+            "ts.json",
+            r#"{"sample_time": 0, "hysteresis": {"thresholds": [0], "weights": [1]}}"#,
+        ),
+        &good_in,
+    );
+    assert_clean_failure(&out, &["ts.json", "sample_time"], Some(&output));
+    // creep weights breaking (17) and a bad eigenvalue
+    let out = run(
+        &model(
+            "cw.json",
+            r#"{"sample_time": 0.0002, "hysteresis": {"thresholds": [0], "weights": [1]}, "creep": {"thresholds": [0, 1], "weights": [0.1, -0.2], "eigenvalues": [5]}}"#,
+        ),
+        &good_in,
+    );
+    assert_clean_failure(&out, &["cw.json", "creep.weights", "(17)"], Some(&output));
+    let out = run(
+        &model(
+            "ce.json",
+            r#"{"sample_time": 0.0002, "hysteresis": {"thresholds": [0], "weights": [1]}, "creep": {"thresholds": [0], "weights": [0.1], "eigenvalues": [-5]}}"#,
+        ),
+        &good_in,
+    );
+    assert_clean_failure(&out, &["ce.json", "creep.eigenvalues[0]"], Some(&output));
+    // inadmissible state
+    let out = run(
+        &model(
+            "st.json",
+            r#"{"sample_time": 0.0002, "hysteresis": {"thresholds": [0, 1], "weights": [1, 1], "state": [0, 3]}}"#,
+        ),
+        &good_in,
+    );
+    assert_clean_failure(&out, &["st.json", "hysteresis.state[1]"], Some(&output));
+
+    // missing column
+    let m = Path::new(MODEL);
+    let out = run(m, &d.write("nocol.csv", "t,v\n0,1\n"));
+    assert_clean_failure(&out, &["nocol.csv", "missing column 'u'"], Some(&output));
+    // non-finite number, with its row
+    let out = run(m, &d.write("nan.csv", "u\n0\n1\nNaN\n"));
+    assert_clean_failure(&out, &["nan.csv", "row 3", "'u'"], Some(&output));
+    let out = run(m, &d.write("txt.csv", "u\n0\nabc\n"));
+    assert_clean_failure(&out, &["txt.csv", "row 2", "not a number"], Some(&output));
+    // ragged row
+    let out = run(m, &d.write("ragged.csv", "t,u\n0,1\n0.0002\n"));
+    assert_clean_failure(&out, &["ragged.csv"], Some(&output));
+    // empty trace
+    let out = run(m, &d.write("empty.csv", "u\n"));
+    assert_clean_failure(&out, &["empty.csv", "no data rows"], Some(&output));
+    // time column not at the model's sample time
+    let out = run(m, &d.write("time.csv", "t,u\n0,0\n0.0002,1\n0.0005,2\n"));
+    assert_clean_failure(
+        &out,
+        &["time.csv", "row 3", "'t'", "sample time"],
+        Some(&output),
+    );
+    // output column already present
+    let out = run(m, &d.write("dup.csv", "u,y\n0,0\n"));
+    assert_clean_failure(&out, &["dup.csv", "'y'"], Some(&output));
+    // compensate: bad limits and missing y_d
+    let out = mfcbeam(&[
+        "compensate",
+        "--model",
+        MODEL,
+        "--input",
+        s(&good_in),
+        "--output",
+        s(&output),
+        "--limits=5,1",
+    ]);
+    assert_clean_failure(&out, &["--limits", "must be below"], Some(&output));
+    let out = mfcbeam(&[
+        "compensate",
+        "--model",
+        MODEL,
+        "--input",
+        s(&good_in),
+        "--output",
+        s(&output),
+        "--limits=-1,1",
+        "--no-limits",
+    ]);
+    assert_clean_failure(&out, &["--no-limits"], Some(&output));
+    let out = mfcbeam(&[
+        "compensate",
+        "--model",
+        MODEL,
+        "--input",
+        s(&good_in),
+        "--output",
+        s(&output),
+    ]);
+    assert_clean_failure(&out, &["in.csv", "missing column 'y_d'"], Some(&output));
+}
+
+#[test]
+fn an_existing_output_file_survives_a_failed_run() {
+    let d = TempDir::new("keep");
+    let output = d.write("out.csv", "previous content\n");
+    let input = d.write("nan.csv", "u\n0\ninf\n");
+    let out = mfcbeam(&[
+        "simulate",
+        "--model",
+        MODEL,
+        "--input",
+        s(&input),
+        "--output",
+        s(&output),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(fs::read_to_string(&output).unwrap(), "previous content\n");
+}

@@ -1,0 +1,198 @@
+//! Properties of the creep operators (13)–(18), (20): the exact
+//! zero-order-hold step, convergence to the dead-zone equilibrium, the log(t)
+//! linearity of (15) between `1/a_1` and `1/a_m`, odd symmetry and the
+//! semigroup property.
+
+mod common;
+
+use common::*;
+use mfcbeam::creep::{creep_gain, log_spaced_eigenvalues};
+use mfcbeam::play::dead_zone;
+use mfcbeam::prelude::*;
+use proptest::prelude::*;
+
+/// The equilibrium the elementary operator approaches under constant `v`.
+fn equilibrium(v: f64, r: f64, chi0: f64) -> f64 {
+    if v - chi0 > r {
+        v - r
+    } else if v - chi0 < -r {
+        v + r
+    } else {
+        chi0
+    }
+}
+
+/// Classical RK4 for `dχ/dt = a d_r(v − χ)` over one sample in `n` substeps.
+fn rk4_sample(chi: f64, v: f64, r: f64, a: f64, ts: f64, n: usize) -> f64 {
+    let f = |x: f64| a * dead_zone(v - x, r);
+    let h = ts / n as f64;
+    let mut x = chi;
+    for _ in 0..n {
+        let k1 = f(x);
+        let k2 = f(x + 0.5 * h * k1);
+        let k3 = f(x + 0.5 * h * k2);
+        let k4 = f(x + h * k3);
+        x += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+    }
+    x
+}
+
+proptest! {
+    #![proptest_config(config(256, "proptest-regressions/creep_properties.txt"))]
+
+    /// Exact ZOH step (20): under a constant input the discrete operator
+    /// equals the closed-form ODE solution `e − (e − χ_0) exp(−a k T_s)` at
+    /// every sample (after the one-sample delay), to accumulated rounding.
+    #[test]
+    fn elementary_creep_is_the_exact_zoh_solution(
+        r in 0.0f64..2.0,
+        log_a in -2.0f64..3.0,
+        log_ts in -4.0f64..-2.0,
+        chi0 in -5.0f64..5.0,
+        v in -8.0f64..8.0,
+        k_max in 1usize..2000,
+    ) {
+        let (a, ts) = (10f64.powf(log_a), 10f64.powf(log_ts));
+        let mut op = ElementaryCreepOperator::new(r, a, ts).unwrap();
+        op.set_state(&chi0).unwrap();
+        let e = equilibrium(v, r, chi0);
+        let scale = e.abs() + chi0.abs() + r;
+        for k in 0..=k_max {
+            let out = op.step(v); // χ_k, from k updates
+            let exact = e - (e - chi0) * (-a * k as f64 * ts).exp();
+            let tol = (8.0 * (k as f64 + 1.0) + a * k as f64 * ts) * EPS * scale;
+            prop_assert!((out - exact).abs() <= tol, "k = {k}: {out} vs {exact}");
+        }
+    }
+
+    /// The ZOH step agrees with an independent fine RK4 integration of the ODE
+    /// for a random piecewise-constant input; RK4's error is `O((a h)^4)` per
+    /// unit of `|v − χ|`, `h = T_s / 64`.
+    #[test]
+    fn elementary_creep_matches_rk4_integration_of_the_ode(
+        r in 0.0f64..1.0,
+        a_ts in 1e-3f64..1.0,
+        v in signal(1..60, 3.0),
+    ) {
+        let ts = 1e-3;
+        let a = a_ts / ts;
+        let n = 64;
+        let mut op = ElementaryCreepOperator::new(r, a, ts).unwrap();
+        let mut chi = 0.0;
+        let tol = (a_ts / n as f64).powi(4) * 10.0 * v.len() as f64 + 64.0 * n as f64 * EPS * 4.0;
+        for &vk in &v {
+            let out = op.step(vk);
+            prop_assert!((out - chi).abs() <= tol, "{out} vs {chi}");
+            chi = rk4_sample(chi, vk, r, a, ts, n);
+        }
+    }
+
+    /// Convergence to the dead-zone equilibrium: under a constant input `χ`
+    /// approaches `v ∓ r` (or stays where it is inside the dead zone) as
+    /// `exp(−a t)`.
+    #[test]
+    fn creep_converges_to_the_dead_zone_equilibrium(
+        r in 0.0f64..2.0,
+        chi0 in -5.0f64..5.0,
+        v in -8.0f64..8.0,
+    ) {
+        let (a, ts) = (50.0, 2e-4);
+        let mut op = ElementaryCreepOperator::new(r, a, ts).unwrap();
+        op.set_state(&chi0).unwrap();
+        let e = equilibrium(v, r, chi0);
+        let k = 8000; // a k Ts = 80
+        for _ in 0..k {
+            op.step(v);
+        }
+        let chi = op.state();
+        prop_assert!((chi - e).abs() <= (-80.0f64).exp() * (e - chi0).abs() + 8.0 * k as f64 * EPS * 10.0);
+        // The iteration stops once g·d_r rounds below half an ulp of χ, which
+        // leaves |v − χ| − r of order ε |χ| / g with g = 1 − e^{−a T_s}.
+        let g = creep_gain(a, ts);
+        prop_assert!((v - chi).abs() <= r + 4.0 * EPS * (v.abs() + r) / g);
+        if (v - chi0).abs() <= r {
+            prop_assert_eq!(chi, chi0);
+        }
+    }
+
+    /// Odd symmetry of the PI creep operator from the zero state, exactly.
+    #[test]
+    fn creep_operator_is_odd(c in creep_operator(12), v in signal(1..100, 4.0)) {
+        let neg: Vec<f64> = v.iter().map(|x| -x).collect();
+        let (a, b) = (c.clone().run(&v), c.clone().run(&neg));
+        // exact equality as numbers (the dead zone returns +0.0 for both signs)
+        prop_assert!(a.iter().zip(&b).all(|(x, y)| *x == -*y));
+    }
+
+    /// Semigroup: split, save the state, resume on a fresh operator:
+    /// bit-identical.
+    #[test]
+    fn creep_split_and_resume_is_bit_identical(
+        c in creep_operator(12),
+        v in signal(2..100, 4.0),
+        split in any::<prop::sample::Index>(),
+    ) {
+        let k = split.index(v.len());
+        let whole = c.clone().run(&v);
+        let mut first = c.clone();
+        let mut y = first.run(&v[..k]);
+        let mut second = c.clone();
+        second.set_state(&first.state()).unwrap();
+        y.extend(second.run(&v[k..]));
+        prop_assert_eq!(whole, y);
+    }
+}
+
+/// log(t) linearity of (15): the step response of the log(t)-creep operator
+/// with eigenvalues (24) rises by `(v − r)/m` per decade of time between
+/// `1/a_1` and `1/a_m`. Telescoping the sum gives the exact per-decade
+/// increment `(v − r)/m · (e^{−a_m t} − e^{−10 a_1 t})`, so the deviation from
+/// linearity is at most `a_m t + e^{−10 a_1 t}` (relative).
+#[test]
+fn log_creep_step_response_is_linear_in_log_t() {
+    let ts = 2e-4;
+    let m = 5;
+    let a = log_spaced_eigenvalues(m, ts);
+    let (v, r) = (1.0, 0.25);
+    let mut op = LogCreepOperator::new(r, &a, ts).unwrap();
+    let k_end = (1.0 / (a[m - 1] * ts)).round() as usize; // t = 1/a_m = 20 s
+    let y: Vec<f64> = (0..=k_end).map(|_| op.step(v)).collect();
+    let per_decade = (v - r) / m as f64;
+    // every sample k from 1/a_1 up to a tenth of 1/a_m, compared with 10 k
+    let k_start = (1.0 / (a[0] * ts)).round() as usize;
+    let mut checked = 0;
+    for k in k_start..=k_end / 10 {
+        let t = k as f64 * ts;
+        let inc = y[10 * k] - y[k];
+        let exact = per_decade * ((-a[m - 1] * t).exp() - (-10.0 * a[0] * t).exp());
+        assert!(
+            (inc - exact).abs() <= 1e-9 * per_decade,
+            "t = {t}: {inc} vs {exact}"
+        );
+        let dev = (inc - per_decade).abs() / per_decade;
+        assert!(
+            dev <= a[m - 1] * t + (-10.0 * a[0] * t).exp() + 1e-9,
+            "t = {t}: {dev}"
+        );
+        checked += 1;
+    }
+    assert!(checked > 9000);
+    // and in the middle decades the response is linear to 1 %
+    let k_mid = (0.01 / (a[m - 1] * ts)).round() as usize;
+    for k in k_start..=k_mid {
+        assert!(((y[10 * k] - y[k]) / per_decade - 1.0).abs() <= 0.0101);
+    }
+}
+
+/// `1 − e^{−aT_s}` as `−expm1(−aT_s)` keeps every digit where the literal form
+/// loses five at `a = 0.05 s⁻¹`.
+#[test]
+fn creep_gain_is_computed_without_cancellation() {
+    let g = creep_gain(0.05, 2e-4);
+    let x: f64 = 1e-5;
+    let series = x - x * x / 2.0 + x * x * x / 6.0;
+    assert!((g - series).abs() <= 2.0 * EPS * series);
+    // the literal form's error is of order ε / x, thousands of times more
+    let literal = 1.0 - (-x).exp();
+    assert!((literal - series).abs() > 1000.0 * EPS * series);
+}
