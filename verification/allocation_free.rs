@@ -1,0 +1,84 @@
+//! The per-sample `step` of every operator and of the compensator allocates
+//! nothing: counted with a global allocator that records every allocation.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use mfcbeam::prelude::*;
+
+struct Counting;
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocations_during(f: impl FnOnce()) -> usize {
+    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    f();
+    ALLOCATIONS.load(Ordering::SeqCst) - before
+}
+
+/// One test so that no other test thread allocates while we count.
+#[test]
+fn steps_and_in_place_runs_allocate_nothing() {
+    let model = nominal_model();
+    let input: Vec<f64> = (0..20_000)
+        .map(|k| 1200.0 * (k as f64 * 7e-4).sin())
+        .collect();
+    let mut out = vec![0.0; input.len()];
+    let mut sat = vec![false; input.len()];
+
+    let mut play = PlayOperator::new(100.0).unwrap();
+    let mut h = model.hysteresis().clone();
+    let mut inv = h.inverse();
+    let mut c = model.creep().unwrap().clone();
+    let mut log = LogCreepOperator::new(50.0, &[500.0, 5.0, 0.05], 2e-4).unwrap();
+    let mut el = ElementaryCreepOperator::new(50.0, 5.0, 2e-4).unwrap();
+    let mut w = model.clone();
+    // limits well inside the input range, so the saturated path runs too
+    let mut comp =
+        Compensator::new(&model, CompensatorSettings::with_limits(-300.0, 300.0)).unwrap();
+
+    let n = allocations_during(|| {
+        for &v in &input {
+            std::hint::black_box(play.step(v));
+            std::hint::black_box(h.step(v));
+            std::hint::black_box(inv.step(v));
+            std::hint::black_box(c.step(v));
+            std::hint::black_box(log.step(v));
+            std::hint::black_box(el.step(v));
+            std::hint::black_box(w.step(v));
+            std::hint::black_box(comp.compensate(v));
+        }
+        w.run_into(&input, &mut out).unwrap();
+        let saturated = comp.compensate_into(&input, &mut out, &mut sat).unwrap();
+        assert!(saturated > 0);
+    });
+    assert_eq!(n, 0, "{n} allocations in the per-sample path");
+    // the counter does see allocations
+    assert!(
+        allocations_during(|| {
+            std::hint::black_box(vec![1.0f64; 3]);
+        }) >= 1
+    );
+    assert!(
+        allocations_during(|| {
+            std::hint::black_box(h.state());
+        }) >= 1
+    );
+}
