@@ -36,12 +36,13 @@ enum Command {
     Signal(SignalArgs),
 }
 
+/// A model applied to one trace, written to another.
 #[derive(Debug, Args)]
-struct SimulateArgs {
+struct ModelTraceArgs {
     /// Model file (JSON).
     #[arg(long)]
     model: PathBuf,
-    /// Input trace (CSV) with column `u` (V).
+    /// Input trace (CSV): column `u` (V) for simulate, `y_d` (V) for compensate.
     #[arg(long)]
     input: PathBuf,
     /// Output trace (CSV).
@@ -50,16 +51,15 @@ struct SimulateArgs {
 }
 
 #[derive(Debug, Args)]
+struct SimulateArgs {
+    #[command(flatten)]
+    files: ModelTraceArgs,
+}
+
+#[derive(Debug, Args)]
 struct CompensateArgs {
-    /// Model file (JSON).
-    #[arg(long)]
-    model: PathBuf,
-    /// Input trace (CSV) with column `y_d` (V, the desired effective voltage).
-    #[arg(long)]
-    input: PathBuf,
-    /// Output trace (CSV).
-    #[arg(long)]
-    output: PathBuf,
+    #[command(flatten)]
+    files: ModelTraceArgs,
     /// Saturation limits `LO,HI` of the balanced voltage (default: -1000,1000).
     #[arg(long, value_name = "LO,HI", allow_hyphen_values = true, value_parser = parse_limits, conflicts_with = "no_limits")]
     limits: Option<(f64, f64)>,
@@ -136,6 +136,7 @@ pub fn run(cli: Cli) -> Result<()> {
 }
 
 fn simulate(a: &SimulateArgs) -> Result<()> {
+    let a = &a.files;
     let mut model = read_model(&a.model)?;
     let mut trace = Trace::read(&a.input)?;
     trace.check_time_column(model.sample_time())?;
@@ -152,7 +153,7 @@ fn simulate(a: &SimulateArgs) -> Result<()> {
 }
 
 fn compensate(a: &CompensateArgs) -> Result<()> {
-    let model = read_model(&a.model)?;
+    let model = read_model(&a.files.model)?;
     let settings = if a.no_limits {
         CompensatorSettings::unlimited()
     } else if let Some((lo, hi)) = a.limits {
@@ -161,7 +162,7 @@ fn compensate(a: &CompensateArgs) -> Result<()> {
         CompensatorSettings::default()
     };
     let mut comp = Compensator::new(&model, settings).context("--limits")?;
-    let mut trace = Trace::read(&a.input)?;
+    let mut trace = Trace::read(&a.files.input)?;
     trace.check_time_column(model.sample_time())?;
     let y_d = trace.column("y_d")?;
     let mut u = vec![0.0; y_d.len()];
@@ -172,12 +173,12 @@ fn compensate(a: &CompensateArgs) -> Result<()> {
         "saturated",
         sat.iter().map(|&s| if s { "1" } else { "0" }.to_string()),
     )?;
-    trace.write(&a.output)?;
+    trace.write(&a.files.output)?;
     eprintln!(
         "mfcbeam: compensated {} samples, {} saturated, wrote {}",
         u.len(),
         count,
-        a.output.display()
+        a.files.output.display()
     );
     Ok(())
 }

@@ -74,21 +74,6 @@ impl HysteresisOperator {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::operator::Operator;
-
-    #[test]
-    fn hand_example_of_spec_2_1() {
-        // w = (1, 1), r = (0, 1): H has slope 1 then 2; H⁻¹ has r' = (0, 1),
-        // w' = (1, −1/2), slope 1 then 1/2.
-        let h = HysteresisOperator::new(vec![0.0, 1.0], vec![1.0, 1.0]).unwrap();
-        let inv = h.inverse();
-        assert_eq!(inv.thresholds(), &[0.0, 1.0]);
-        assert_eq!(inv.weights(), &[1.0, -0.5]);
-        assert_eq!(inv.partial_sums(), vec![1.0, 0.5]);
-        let mut inv = inv;
-        assert_eq!(inv.step(1.0), 1.0);
-        assert_eq!(inv.step(3.0), 2.0);
-    }
 
     #[test]
     fn rules_are_an_involution() {
