@@ -7,6 +7,7 @@ use clap::{Args, Parser, Subcommand};
 use serde::Serialize;
 
 use mfcbeam::compensator::{Compensator, CompensatorSettings};
+use mfcbeam::identification::{identify as identify_model, IdentificationSettings};
 use mfcbeam::io::{read_model, write_json, Trace};
 use mfcbeam::operator::Operator;
 use mfcbeam::signal::{time_axis, Staircase};
@@ -30,6 +31,9 @@ enum Command {
     Compensate(CompensateArgs),
     /// Print H⁻¹ (thresholds, weights, state) of a model as JSON, by the rules (22).
     Invert(InvertArgs),
+    /// Identify a model (weights by constrained least squares, (23)–(25)) from
+    /// columns `t`, `u`, `y`; prints the fit report on stderr.
+    Identify(IdentifyArgs),
     /// Write the nominal model of SPEC section 8 (virgin state) as a model file.
     Nominal(NominalArgs),
     /// Write a test signal (a smooth staircase) as a trace with columns `t` and the chosen name.
@@ -76,6 +80,40 @@ struct InvertArgs {
 }
 
 #[derive(Debug, Args)]
+struct IdentifyArgs {
+    /// Measurement (CSV) with columns `u` (V), `y` and, unless --sample-time is given, `t` (s).
+    #[arg(long)]
+    input: PathBuf,
+    /// Output model file (JSON, virgin state).
+    #[arg(long)]
+    output: PathBuf,
+    /// Number of plays n_H + 1.
+    #[arg(long, default_value_t = 12)]
+    hysteresis_operators: usize,
+    /// Number of log(t)-creep operators n_C + 1 (0: no creep).
+    #[arg(long, default_value_t = 12)]
+    creep_operators: usize,
+    /// Number of creep eigenvalues m, spread by (24).
+    #[arg(long, default_value_t = 5)]
+    creep_eigenvalues: usize,
+    /// Sample time (s); default: from the `t` column.
+    #[arg(long, allow_hyphen_values = true)]
+    sample_time: Option<f64>,
+    /// Margin ε_H > 0 of the hysteresis partial sums (default 1e-3 · range(y) / range(u)).
+    #[arg(long, allow_hyphen_values = true)]
+    epsilon_h: Option<f64>,
+    /// Explicit hysteresis thresholds `0,r1,r2,...` instead of (23).
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    hysteresis_thresholds: Option<Vec<f64>>,
+    /// Explicit creep thresholds `0,r1,r2,...` instead of (23).
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    creep_thresholds: Option<Vec<f64>>,
+    /// Explicit creep eigenvalues (1/s) instead of (24).
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    eigenvalues: Option<Vec<f64>>,
+}
+
+#[derive(Debug, Args)]
 struct NominalArgs {
     /// Output model file (JSON); stdout if absent.
     #[arg(long)]
@@ -93,17 +131,21 @@ struct SignalArgs {
     /// Peak value of the staircase 0 → +A → −A → 0.
     #[arg(long, default_value_t = 900.0, allow_hyphen_values = true)]
     amplitude: f64,
+    /// Number of loops; with more than one the amplitude shrinks each period
+    /// (the identification input of section 4.1).
+    #[arg(long, default_value_t = 1)]
+    periods: usize,
     /// Steps per quarter of the loop.
     #[arg(long, default_value_t = 3)]
     steps: usize,
     /// Duration of each smooth transition (s).
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, allow_hyphen_values = true)]
     rise: f64,
     /// Duration of each plateau (s).
-    #[arg(long, default_value_t = 1.5)]
+    #[arg(long, default_value_t = 1.5, allow_hyphen_values = true)]
     plateau: f64,
     /// Sample time (s).
-    #[arg(long, default_value_t = 2e-4)]
+    #[arg(long, default_value_t = 2e-4, allow_hyphen_values = true)]
     sample_time: f64,
 }
 
@@ -130,6 +172,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Simulate(a) => simulate(&a),
         Command::Compensate(a) => compensate(&a),
         Command::Invert(a) => invert(&a),
+        Command::Identify(a) => identify(&a),
         Command::Nominal(a) => nominal(&a),
         Command::Signal(a) => signal(&a),
     }
@@ -202,6 +245,42 @@ fn invert(a: &InvertArgs) -> Result<()> {
     Ok(())
 }
 
+fn identify(a: &IdentifyArgs) -> Result<()> {
+    let trace = Trace::read(&a.input)?;
+    let ts = match a.sample_time {
+        Some(ts) => {
+            if !(ts.is_finite() && ts > 0.0) {
+                bail!("--sample-time: must be a finite number > 0, found {ts}");
+            }
+            trace.check_time_column(ts)?;
+            ts
+        }
+        None => trace.sample_time_from_t()?,
+    };
+    let u = trace.column("u")?;
+    let y = trace.column("y")?;
+    let settings = IdentificationSettings {
+        hysteresis_operators: a.hysteresis_operators,
+        creep_operators: a.creep_operators,
+        creep_eigenvalues: a.creep_eigenvalues,
+        hysteresis_thresholds: a.hysteresis_thresholds.clone(),
+        creep_thresholds: a.creep_thresholds.clone(),
+        eigenvalues: a.eigenvalues.clone(),
+        epsilon_h: a.epsilon_h,
+    };
+    let id =
+        identify_model(&u, &y, ts, &settings).with_context(|| a.input.display().to_string())?;
+    let mut file = id.model.to_file();
+    file.hysteresis.state = None;
+    if let Some(c) = &mut file.creep {
+        c.state = None;
+    }
+    write_json(&a.output, &file)?;
+    eprint!("{}", id.report);
+    eprintln!("mfcbeam: wrote {}", a.output.display());
+    Ok(())
+}
+
 fn nominal(a: &NominalArgs) -> Result<()> {
     let file = mfcbeam::nominal::nominal_model_file();
     match &a.output {
@@ -224,7 +303,7 @@ fn signal(a: &SignalArgs) -> Result<()> {
     if !a.amplitude.is_finite() {
         bail!("--amplitude: must be finite, found {}", a.amplitude);
     }
-    let s = Staircase::full_loop(a.amplitude, a.steps, a.rise, a.plateau);
+    let s = Staircase::shrinking_loops(a.amplitude, a.periods, a.steps, a.rise, a.plateau);
     let x = s.sample(a.sample_time);
     let t = time_axis(x.len(), a.sample_time);
     let trace = Trace::from_columns(Path::new(&a.output), &[("t", &t), (&a.column, &x)]);

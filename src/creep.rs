@@ -275,6 +275,24 @@ impl CreepOperator {
         self.output
     }
 
+    /// The outputs `ς_{C,i} = (1/m) Σ_j χ_{i,j}` of the log(t)-creep operators
+    /// (15), one per threshold, for the current state: the creep columns of
+    /// the identification regressor (25).
+    #[inline]
+    pub fn log_creep_outputs_into(&self, out: &mut [f64]) {
+        let n = self.thresholds.len();
+        let m = self.eigenvalues.len() as f64;
+        out[..n].copy_from_slice(&self.chi[..n]);
+        for row in self.chi.chunks_exact(n).skip(1) {
+            for (o, &c) in out.iter_mut().zip(row) {
+                *o += c;
+            }
+        }
+        for o in &mut out[..n] {
+            *o /= m;
+        }
+    }
+
     /// Advance the state with input `v_k` (`χ_k → χ_{k+1}`) and return the
     /// next output `C_{k+1}`. Allocation-free.
     #[inline]

@@ -222,13 +222,39 @@ impl Trace {
                     row: k + 1,
                     line: k + 2,
                     column: "t".into(),
-                    message: format!(
-                        "time step {dt:?} s differs from the model's sample time {ts:?} s"
-                    ),
+                    message: format!("time step {dt:?} s differs from the sample time {ts:?} s"),
                 });
             }
         }
         Ok(())
+    }
+
+    /// The sample time from the `t` column: `(t_last − t_first)/(N − 1)`,
+    /// which must be positive and every step equal to it to 1e-6 relative.
+    pub fn sample_time_from_t(&self) -> Result<f64, FileError> {
+        let t = self.column("t")?;
+        let bad = |k: usize, message: String| FileError::BadValue {
+            path: self.path.clone(),
+            row: k + 1,
+            line: k + 2,
+            column: "t".into(),
+            message,
+        };
+        if t.len() < 2 {
+            return Err(bad(
+                0,
+                "at least two samples are needed for a sample time".into(),
+            ));
+        }
+        let ts = (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64;
+        if ts.is_nan() || ts <= 0.0 {
+            return Err(bad(
+                t.len() - 1,
+                format!("time does not increase (sample time {ts:?} s)"),
+            ));
+        }
+        self.check_time_column(ts)?;
+        Ok(ts)
     }
 
     /// Append a numeric column; refuses a name already present.

@@ -59,6 +59,7 @@ pub mod compensator;
 pub mod creep;
 pub mod error;
 pub mod hysteresis;
+pub mod identification;
 pub mod inverse;
 pub mod io;
 pub mod model;

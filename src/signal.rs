@@ -31,6 +31,31 @@ impl Staircase {
         }
     }
 
+    /// The identification input of the paper's section 4.1: `periods` full
+    /// loops `0 → +A_p → −A_p → 0` of `steps` steps per quarter, the amplitude
+    /// shrinking each period, `A_p = A (periods − p) / periods`, so that every
+    /// play sees reversals at many levels.
+    pub fn shrinking_loops(
+        amplitude: f64,
+        periods: usize,
+        steps: usize,
+        rise: f64,
+        plateau: f64,
+    ) -> Self {
+        let periods = periods.max(1);
+        let mut levels = Vec::new();
+        for p in 0..periods {
+            let a = amplitude * (periods - p) as f64 / periods as f64;
+            levels.extend(Self::full_loop(a, steps, rise, plateau).levels);
+        }
+        Self {
+            start: 0.0,
+            levels,
+            rise,
+            plateau,
+        }
+    }
+
     /// Total duration (s).
     pub fn duration(&self) -> f64 {
         self.levels.len() as f64 * (self.rise + self.plateau)
@@ -73,6 +98,22 @@ pub fn time_axis(len: usize, sample_time: f64) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn shrinking_loops_shrink_each_period() {
+        let s = Staircase::shrinking_loops(1000.0, 4, 3, 0.1, 0.2);
+        assert_eq!(s.levels.len(), 4 * 12);
+        let peak = |p: usize| {
+            s.levels[p * 12..(p + 1) * 12]
+                .iter()
+                .fold(0.0f64, |m, v| m.max(*v))
+        };
+        assert_eq!(
+            [peak(0), peak(1), peak(2), peak(3)],
+            [1000.0, 750.0, 500.0, 250.0]
+        );
+        assert_eq!(*s.levels.last().unwrap(), 0.0);
+    }
 
     #[test]
     fn staircase_reaches_its_levels_and_is_continuous() {

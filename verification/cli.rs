@@ -396,3 +396,172 @@ fn an_existing_output_file_survives_a_failed_run() {
     assert_eq!(out.status.code(), Some(2));
     assert_eq!(fs::read_to_string(&output).unwrap(), "previous content\n");
 }
+
+#[test]
+fn identify_round_trip_recovers_a_model_that_compensates() {
+    let d = TempDir::new("identify");
+    let sig = d.path("sig.csv");
+    let data = d.path("data.csv");
+    let model = d.path("model.json");
+    let ok = |out: Output| {
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        )
+    };
+    ok(mfcbeam(&[
+        "signal",
+        "--periods",
+        "4",
+        "--amplitude",
+        "1000",
+        "--plateau",
+        "0.1",
+        "--output",
+        s(&sig),
+    ]));
+    ok(mfcbeam(&[
+        "simulate",
+        "--model",
+        MODEL,
+        "--input",
+        s(&sig),
+        "--output",
+        s(&data),
+    ]));
+    let out = mfcbeam(&["identify", "--input", s(&data), "--output", s(&model)]);
+    ok(out.clone());
+    let report = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        report.contains("rms error") && report.contains("cond(Phi)"),
+        "{report}"
+    );
+    let id = mfcbeam::io::read_model(&model).unwrap();
+    for (a, b) in id
+        .hysteresis()
+        .weights()
+        .iter()
+        .zip(mfcbeam::nominal::HYSTERESIS_WEIGHTS)
+    {
+        assert!(((a - b) / b).abs() < 1e-6, "{a} vs {b}");
+    }
+    assert!(mfcbeam::io::read_model_file(&model)
+        .unwrap()
+        .hysteresis
+        .state
+        .is_none());
+    // explicit orders and thresholds parse
+    let out = mfcbeam(&[
+        "identify",
+        "--input",
+        s(&data),
+        "--output",
+        s(&d.path("m2.json")),
+        "--hysteresis-thresholds",
+        "0,250,500,750",
+        "--creep-operators",
+        "0",
+        "--epsilon-h",
+        "0.01",
+    ]);
+    ok(out);
+    let m2 = mfcbeam::io::read_model(&d.path("m2.json")).unwrap();
+    assert_eq!(m2.hysteresis().thresholds(), &[0.0, 250.0, 500.0, 750.0]);
+    assert!(m2.creep().is_none());
+}
+
+#[test]
+fn identify_error_contract() {
+    let d = TempDir::new("identify-errors");
+    let output = d.path("m.json");
+    let run = |input: &Path, extra: &[&str]| {
+        let mut args = vec!["identify", "--input", s(input), "--output", s(&output)];
+        args.extend_from_slice(extra);
+        mfcbeam(&args)
+    };
+    let rows = |n: usize, f: &dyn Fn(usize) -> String| -> String {
+        let mut t = String::from("t,u,y\n");
+        for k in 0..n {
+            t.push_str(&f(k));
+            t.push('\n');
+        }
+        t
+    };
+    let few = d.write(
+        "few.csv",
+        &rows(10, &|k| format!("{},{},{}", k as f64 * 2e-4, k, k)),
+    );
+    assert_clean_failure(
+        &run(&few, &[]),
+        &["few.csv", "too few samples"],
+        Some(&output),
+    );
+    let constant = d.write(
+        "const.csv",
+        &rows(200, &|k| format!("{},5,{}", k as f64 * 2e-4, k)),
+    );
+    assert_clean_failure(
+        &run(&constant, &[]),
+        &["const.csv", "constant"],
+        Some(&output),
+    );
+    let no_t = d.write("not.csv", "u,y\n0,0\n1,1\n");
+    assert_clean_failure(
+        &run(&no_t, &[]),
+        &["not.csv", "missing column 't'"],
+        Some(&output),
+    );
+    let uneven = d.write(
+        "uneven.csv",
+        &rows(200, &|k| {
+            format!("{},{},{}", (k * k) as f64 * 1e-4, k % 7, k)
+        }),
+    );
+    assert_clean_failure(
+        &run(&uneven, &[]),
+        &["uneven.csv", "'t'", "sample time"],
+        Some(&output),
+    );
+    let nan = d.write(
+        "nan.csv",
+        &rows(200, &|k| {
+            format!(
+                "{},{},{}",
+                k as f64 * 2e-4,
+                k % 7,
+                if k == 150 {
+                    "nan".into()
+                } else {
+                    k.to_string()
+                }
+            )
+        }),
+    );
+    assert_clean_failure(
+        &run(&nan, &[]),
+        &["nan.csv", "row 151", "'y'"],
+        Some(&output),
+    );
+    let good = d.write(
+        "good.csv",
+        &rows(400, &|k| {
+            format!("{},{},{}", k as f64 * 2e-4, (k % 37) as f64 - 18.0, k % 37)
+        }),
+    );
+    assert_clean_failure(
+        &run(&good, &["--sample-time", "-1"]),
+        &["--sample-time"],
+        Some(&output),
+    );
+    assert_clean_failure(
+        &run(&good, &["--hysteresis-thresholds", "0,2,1"]),
+        &["hysteresis_thresholds"],
+        Some(&output),
+    );
+    assert_clean_failure(
+        &run(&good, &["--epsilon-h", "0"]),
+        &["epsilon_h"],
+        Some(&output),
+    );
+}

@@ -1,0 +1,253 @@
+//! Identification (23)–(25): exact recovery from noise-free data, graceful
+//! degradation with noise, constraints that always hold, unexcited operators
+//! reported, and a property test on random admissible models.
+
+mod common;
+
+use common::*;
+use mfcbeam::identification::{
+    identify, thresholds_23, IdentificationError, IdentificationSettings,
+};
+use mfcbeam::nominal::{CREEP_WEIGHTS, HYSTERESIS_WEIGHTS, SAMPLE_TIME};
+use mfcbeam::prelude::*;
+use mfcbeam::signal::Staircase;
+use proptest::prelude::*;
+
+/// The paper's identification input (section 4.1): 4 periods of a staircase
+/// through ±A, shrinking each period; `duration` seconds in all.
+fn staircase_input(amplitude: f64, duration: f64) -> Vec<f64> {
+    let segments = 4.0 * 12.0;
+    Staircase::shrinking_loops(amplitude, 4, 3, 0.1, duration / segments - 0.1).sample(SAMPLE_TIME)
+}
+
+/// Gaussian noise from the seeded LCG (Box–Muller).
+fn gaussian(rng: &mut Lcg, len: usize, sigma: f64) -> Vec<f64> {
+    (0..len)
+        .map(|_| {
+            let (a, b) = (rng.next_f64().max(1e-300), rng.next_f64());
+            sigma * (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
+        })
+        .collect()
+}
+
+fn rms(x: &[f64]) -> f64 {
+    (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt()
+}
+
+/// Every partial sum of `h` is ≥ `eps_h` and of `c` ≥ 0, as the operators
+/// recompute them.
+fn assert_constraints(w: &HysteresisCreepModel, eps_h: f64) {
+    for s in w.hysteresis().partial_sums() {
+        assert!(s >= eps_h, "hysteresis partial sum {s} < {eps_h}");
+    }
+    let mut s = 0.0;
+    for &c in w.creep().unwrap().weights() {
+        s += c;
+        assert!(s >= 0.0);
+    }
+}
+
+/// Noise-free data from the nominal model on the 40 s identification
+/// staircase: the weights come back to 1e-6 relative (each weight, relative
+/// to itself), and the identified model inverts.
+#[test]
+fn noise_free_data_recover_the_nominal_weights() {
+    let u = staircase_input(1000.0, 40.0);
+    let y = nominal_model().run(&u);
+    let id = identify(&u, &y, SAMPLE_TIME, &IdentificationSettings::default()).unwrap();
+    let w = &id.model;
+    assert_eq!(
+        w.hysteresis().thresholds(),
+        thresholds_23(12, 1000.0).as_slice()
+    );
+    for (a, b) in w.hysteresis().weights().iter().zip(HYSTERESIS_WEIGHTS) {
+        assert!(((a - b) / b).abs() <= 1e-6, "hysteresis weight {a} vs {b}");
+    }
+    for (a, b) in w.creep().unwrap().weights().iter().zip(CREEP_WEIGHTS) {
+        assert!(((a - b) / b).abs() <= 1e-6, "creep weight {a} vs {b}");
+    }
+    assert!(id.report.active_constraints.is_empty());
+    assert!(id.report.unexcited.is_empty());
+    assert!(id.report.rms_error <= 1e-9 * id.report.output_range);
+    // the identified model inverts: W[W⁻¹[ς]] = ς
+    let mut comp = Compensator::new(w, CompensatorSettings::default()).unwrap();
+    let mut plant = w.clone();
+    for &t in &Staircase::full_loop(400.0, 4, 0.1, 0.2).sample(SAMPLE_TIME) {
+        assert!((plant.step(comp.compensate(t).u) - t).abs() < 1e-9);
+    }
+}
+
+/// White measurement noise of 1 % of the output range: on a different
+/// validation input the identified model's error against the (noisy)
+/// measurement stays within 2× the noise RMS, its error against the true
+/// output well below the noise, and the result is reproducible from the seed.
+#[test]
+fn noisy_data_degrade_gracefully_on_a_validation_input() {
+    let u = staircase_input(1000.0, 20.0);
+    let y_true = nominal_model().run(&u);
+    let sigma = 0.01 * range(&y_true);
+    let noisy = |seed: u64, y: &[f64]| -> Vec<f64> {
+        let n = gaussian(&mut Lcg(seed), y.len(), sigma);
+        y.iter().zip(&n).map(|(a, b)| a + b).collect()
+    };
+    let y = noisy(42, &y_true);
+    let id = identify(&u, &y, SAMPLE_TIME, &IdentificationSettings::default()).unwrap();
+    let again = identify(&u, &y, SAMPLE_TIME, &IdentificationSettings::default()).unwrap();
+    assert_eq!(id.model, again.model, "reproducible");
+    assert_constraints(&id.model, id.report.epsilon_h);
+
+    // validation: a different shape — 3 shrinking loops of 800 V, other plateaus
+    let v = Staircase::shrinking_loops(800.0, 3, 5, 0.05, 0.3).sample(SAMPLE_TIME);
+    let v_true = nominal_model().run(&v);
+    let v_meas = noisy(7, &v_true);
+    let fit = id.model.clone().run(&v);
+    let err_meas: Vec<f64> = fit.iter().zip(&v_meas).map(|(a, b)| a - b).collect();
+    let err_true: Vec<f64> = fit.iter().zip(&v_true).map(|(a, b)| a - b).collect();
+    assert!(
+        rms(&err_meas) <= 2.0 * sigma,
+        "{} vs noise {sigma}",
+        rms(&err_meas)
+    );
+    assert!(
+        rms(&err_true) <= 0.5 * sigma,
+        "{} vs noise {sigma}",
+        rms(&err_true)
+    );
+    // the compensator of the identified model exists
+    assert!(Compensator::new(&id.model, CompensatorSettings::default()).is_ok());
+}
+
+/// An input reaching only 500 V with thresholds fixed for 1000 V: the upper
+/// half of the operators is never excited. The constraints still hold, the
+/// report names exactly those operators, and the model still inverts.
+#[test]
+fn partial_excitation_names_the_unexcited_operators() {
+    let u = staircase_input(500.0, 8.0);
+    let y = nominal_model().run(&u);
+    let settings = IdentificationSettings {
+        hysteresis_thresholds: Some(thresholds_23(12, 1000.0)),
+        creep_thresholds: Some(thresholds_23(12, 1000.0)),
+        ..Default::default()
+    };
+    let id = identify(&u, &y, SAMPLE_TIME, &settings).unwrap();
+    let named: Vec<(&str, usize)> = id
+        .report
+        .unexcited
+        .iter()
+        .map(|o| (o.group, o.index))
+        .collect();
+    let expected: Vec<(&str, usize)> = (6..12)
+        .map(|i| ("hysteresis", i))
+        .chain((6..12).map(|i| ("creep", i)))
+        .collect();
+    assert_eq!(named, expected);
+    assert!(id
+        .report
+        .to_string()
+        .contains("hysteresis operator 6 (threshold 500) was never excited"));
+    assert_constraints(&id.model, id.report.epsilon_h);
+    assert!(id.model.hysteresis().weights()[6..]
+        .iter()
+        .all(|&w| w == 0.0));
+    // on the excited range the model reproduces the data
+    assert!(id.report.max_error <= 1e-8 * id.report.output_range);
+    assert!(Compensator::new(&id.model, CompensatorSettings::default()).is_ok());
+}
+
+/// Data no model of this structure fits with positive slopes (a falling
+/// hysteresis): the constraints bind, are reported active, and still hold.
+#[test]
+fn active_constraints_hold_and_are_reported() {
+    let u = staircase_input(1000.0, 8.0);
+    let y: Vec<f64> = nominal_model().run(&u).iter().map(|v| -v).collect();
+    let id = identify(&u, &y, SAMPLE_TIME, &IdentificationSettings::default()).unwrap();
+    assert!(!id.report.active_constraints.is_empty());
+    assert_constraints(&id.model, id.report.epsilon_h);
+    assert!(Compensator::new(&id.model, CompensatorSettings::default()).is_ok());
+}
+
+/// Bad data gets a clear error.
+#[test]
+fn bad_data_is_refused() {
+    let s = IdentificationSettings::default();
+    let u: Vec<f64> = (0..1000).map(|k| (k as f64).sin()).collect();
+    assert!(matches!(
+        identify(&u, &u[..999], 2e-4, &s),
+        Err(IdentificationError::LengthMismatch { .. })
+    ));
+    assert!(matches!(
+        identify(&u[..20], &u[..20], 2e-4, &s),
+        Err(IdentificationError::TooFewSamples { .. })
+    ));
+    assert!(matches!(
+        identify(&[3.0; 100], &[1.0; 100], 2e-4, &s),
+        Err(IdentificationError::ConstantInput { .. })
+    ));
+    let mut bad = u.clone();
+    bad[17] = f64::NAN;
+    let e = identify(&u, &bad, 2e-4, &s).unwrap_err();
+    assert_eq!(e.to_string(), "y[17]: NaN is not a finite number");
+    assert!(identify(&u, &u, 0.0, &s).is_err());
+}
+
+fn rich_input(seed: u64, len: usize, amplitude: f64) -> Vec<f64> {
+    // a random walk with random reversals, drifting slowly, reaching ±amplitude
+    let mut rng = Lcg(seed);
+    let mut v = 0.0f64;
+    let mut dir = 1.0;
+    let mut out: Vec<f64> = (0..len)
+        .map(|_| {
+            if rng.next_f64() < 0.01 {
+                dir = -dir;
+            }
+            v = (v + dir * rng.uniform(0.0, 0.03) * amplitude).clamp(-amplitude, amplitude);
+            v
+        })
+        .collect();
+    out[len / 2] = amplitude; // reach r_max exactly
+    out
+}
+
+proptest! {
+    #![proptest_config(config(24, "proptest-regressions/identification.txt"))]
+
+    /// For random admissible models whose thresholds are (23) of the input
+    /// and eigenvalues (24), identification reproduces the model's output to
+    /// 1e-8 of its range, and the result satisfies (11) and (17).
+    #[test]
+    fn identification_reproduces_random_admissible_models(
+        nh in 1usize..8,
+        nc in 1usize..6,
+        m in 1usize..4,
+        sums_h in prop::collection::vec(0.05f64..2.0, 8),
+        sums_c in prop::collection::vec(0.0f64..0.2, 6),
+        seed in any::<u64>(),
+    ) {
+        let ts = 1e-3;
+        let amplitude = 10.0;
+        let u = rich_input(seed, 4000, amplitude);
+        let h = HysteresisOperator::new(thresholds_23(nh, amplitude), weights_from_partial_sums(&sums_h[..nh])).unwrap();
+        let c = CreepOperator::new(
+            thresholds_23(nc, amplitude),
+            weights_from_partial_sums(&sums_c[..nc]),
+            mfcbeam::creep::log_spaced_eigenvalues(m, ts),
+            ts,
+        ).unwrap();
+        let truth = HysteresisCreepModel::new(ts, h, Some(c)).unwrap();
+        let y = truth.clone().run(&u);
+        let settings = IdentificationSettings {
+            hysteresis_operators: nh,
+            creep_operators: nc,
+            creep_eigenvalues: m,
+            epsilon_h: Some(0.01),
+            ..Default::default()
+        };
+        let id = identify(&u, &y, ts, &settings).unwrap();
+        let fit = id.model.clone().run(&u);
+        let err = fit.iter().zip(&y).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        prop_assert!(err <= 1e-8 * range(&y), "error {err:e}, range {}", range(&y));
+        for s in id.model.hysteresis().partial_sums() {
+            prop_assert!(s >= 0.01);
+        }
+    }
+}
