@@ -251,3 +251,139 @@ proptest! {
         }
     }
 }
+
+/// Solve the small dense system `A x = b` by Gaussian elimination with
+/// partial pivoting (the reference below must not share code with the
+/// library's QR path).
+fn gauss_solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
+    let n = b.len();
+    for k in 0..n {
+        let piv = (k..n).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))?;
+        if a[piv][k].abs() < 1e-300 {
+            return None;
+        }
+        a.swap(k, piv);
+        b.swap(k, piv);
+        for i in k + 1..n {
+            let f = a[i][k] / a[k][k];
+            for j in k..n {
+                a[i][j] -= f * a[k][j];
+            }
+            b[i] -= f * b[k];
+        }
+    }
+    let mut x = vec![0.0; n];
+    for k in (0..n).rev() {
+        x[k] = (b[k] - (k + 1..n).map(|j| a[k][j] * x[j]).sum::<f64>()) / a[k][k];
+    }
+    Some(x)
+}
+
+/// The constrained optimum against a brute-force reference: every active set
+/// of the bounds on the partial sums is tried with the normal equations of
+/// `Φ` (built from the library's play and log(t)-creep operators, not from the
+/// identification code), and the best feasible point is the global optimum of
+/// the convex QP. Data from weights that break (11) and (17) force binding
+/// constraints.
+#[test]
+fn constrained_optimum_matches_brute_force_active_set_enumeration() {
+    let ts = 1e-3;
+    let u = rich_input(99, 3000, 10.0);
+    let (nh, nc, m) = (3, 2, 2);
+    let r_h = thresholds_23(nh, 10.0);
+    let r_c = thresholds_23(nc, 10.0);
+    let eig = mfcbeam::creep::log_spaced_eigenvalues(m, ts);
+    // columns of Φ
+    let mut cols: Vec<Vec<f64>> = Vec::new();
+    for &r in &r_h {
+        cols.push(PlayOperator::new(r).unwrap().run(&u));
+    }
+    for &r in &r_c {
+        cols.push(LogCreepOperator::new(r, &eig, ts).unwrap().run(&u));
+    }
+    let p = nh + nc;
+    // true weights with partial sums (0.5, -0.2, 0.3) and (0.1, -0.05): infeasible
+    let w_true = [0.5, -0.7, 0.5, 0.1, -0.15];
+    let y: Vec<f64> = (0..u.len())
+        .map(|k| (0..p).map(|j| w_true[j] * cols[j][k]).sum())
+        .collect();
+    let eps_h = 0.01;
+    let bounds: Vec<f64> = (0..p).map(|j| if j < nh { eps_h } else { 0.0 }).collect();
+    // Ψ = Φ D: columns in partial-sum coordinates
+    let psi: Vec<Vec<f64>> = (0..p)
+        .map(|j| {
+            let next_same = (j + 1 < nh && j < nh) || (j >= nh && j + 1 < p);
+            (0..u.len())
+                .map(|k| cols[j][k] - if next_same { cols[j + 1][k] } else { 0.0 })
+                .collect()
+        })
+        .collect();
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+    let objective = |s: &[f64]| -> f64 {
+        (0..u.len())
+            .map(|k| {
+                let e = (0..p).map(|j| psi[j][k] * s[j]).sum::<f64>() - y[k];
+                e * e
+            })
+            .sum()
+    };
+    let mut best = (f64::INFINITY, vec![]);
+    for mask in 0u32..(1 << p) {
+        let free: Vec<usize> = (0..p).filter(|j| mask & (1 << j) == 0).collect();
+        let mut s = bounds.clone();
+        if !free.is_empty() {
+            let rhs_vec: Vec<f64> = (0..u.len())
+                .map(|k| {
+                    y[k] - (0..p)
+                        .filter(|j| mask & (1 << j) != 0)
+                        .map(|j| psi[j][k] * bounds[j])
+                        .sum::<f64>()
+                })
+                .collect();
+            let a: Vec<Vec<f64>> = free
+                .iter()
+                .map(|&i| free.iter().map(|&j| dot(&psi[i], &psi[j])).collect())
+                .collect();
+            let b: Vec<f64> = free.iter().map(|&i| dot(&psi[i], &rhs_vec)).collect();
+            let Some(x) = gauss_solve(a, b) else { continue };
+            for (k, &j) in free.iter().enumerate() {
+                s[j] = x[k];
+            }
+        }
+        if s.iter().zip(&bounds).all(|(a, b)| *a >= b - 1e-12) {
+            let f = objective(&s);
+            if f < best.0 {
+                best = (f, s);
+            }
+        }
+    }
+    let settings = IdentificationSettings {
+        hysteresis_operators: nh,
+        creep_operators: nc,
+        creep_eigenvalues: m,
+        epsilon_h: Some(eps_h),
+        ..Default::default()
+    };
+    let id = identify(&u, &y, ts, &settings).unwrap();
+    assert!(!id.report.active_constraints.is_empty());
+    let mut w = id.model.hysteresis().weights().to_vec();
+    w.extend_from_slice(id.model.creep().unwrap().weights());
+    let mut s_id = Vec::new();
+    for (j, &wj) in w.iter().enumerate() {
+        let prev = if j == 0 || j == nh { 0.0 } else { s_id[j - 1] };
+        s_id.push(prev + wj);
+    }
+    let f_id = objective(&s_id);
+    let f_ref = best.0;
+    assert!(
+        f_id <= f_ref * (1.0 + 1e-9) + 1e-12,
+        "identify {f_id} vs reference {f_ref}"
+    );
+    for (a, b) in s_id.iter().zip(&best.1) {
+        assert!(
+            (a - b).abs() <= 1e-7 * (1.0 + b.abs()),
+            "partial sums {s_id:?} vs {:?}",
+            best.1
+        );
+    }
+}
