@@ -255,6 +255,7 @@ proptest! {
 /// Solve the small dense system `A x = b` by Gaussian elimination with
 /// partial pivoting (the reference below must not share code with the
 /// library's QR path).
+#[allow(clippy::needless_range_loop)] // textbook index form, on purpose
 fn gauss_solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
     let n = b.len();
     for k in 0..n {
