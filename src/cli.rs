@@ -6,9 +6,13 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use serde::Serialize;
 
+use mfcbeam::beam::BeamParameters;
+use mfcbeam::beam_identification::{
+    fit_step_response, modal_model, simulate_response, BeamModelKind, FitParameter,
+};
 use mfcbeam::compensator::{Compensator, CompensatorSettings};
 use mfcbeam::identification::{identify as identify_model, IdentificationSettings};
-use mfcbeam::io::{read_model, write_json, Trace};
+use mfcbeam::io::{read_beam, read_model, write_json, Trace};
 use mfcbeam::operator::Operator;
 use mfcbeam::signal::{time_axis, Staircase};
 
@@ -34,6 +38,9 @@ enum Command {
     /// Identify a model (weights by constrained least squares, (23)–(25)) from
     /// columns `t`, `u`, `y`; prints the fit report on stderr.
     Identify(IdentifyArgs),
+    /// The beam: modal analysis, simulation, step-response identification.
+    #[command(subcommand)]
+    Beam(BeamCommand),
     /// Write the nominal model of SPEC section 8 (virgin state) as a model file.
     Nominal(NominalArgs),
     /// Write a test signal (a smooth staircase) as a trace with columns `t` and the chosen name.
@@ -115,9 +122,93 @@ struct IdentifyArgs {
 
 #[derive(Debug, Args)]
 struct NominalArgs {
-    /// Output model file (JSON); stdout if absent.
+    /// Output file (JSON); stdout if absent.
     #[arg(long)]
     output: Option<PathBuf>,
+    /// Write the nominal beam (SPEC section 8) instead of the hysteresis and creep model.
+    #[arg(long)]
+    beam: bool,
+}
+
+#[derive(Debug, Subcommand)]
+enum BeamCommand {
+    /// Undamped natural frequencies and static gain of the model's n modes, as JSON on stdout.
+    Modes(BeamModesArgs),
+    /// Tip deflection `y` (m) for column `u` (effective V), exact ZOH, from rest in equilibrium with u_0.
+    Simulate(BeamSimulateArgs),
+    /// Fit beam parameters to a step response (columns `u`, `y`) by Levenberg–Marquardt.
+    Identify(BeamIdentifyArgs),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum ModelKindArg {
+    /// The paper's Ritz model (uniform-beam eigenfunctions).
+    Ritz,
+    /// Converged finite elements reduced to n modes (default).
+    Modal,
+}
+
+#[derive(Debug, Args)]
+struct BeamModelArgs {
+    /// Beam file (JSON).
+    #[arg(long)]
+    beam: PathBuf,
+    /// Discretization.
+    #[arg(long, value_enum, default_value_t = ModelKindArg::Modal)]
+    model: ModelKindArg,
+    /// Finite elements of the modal model.
+    #[arg(long, default_value_t = mfcbeam::fe::DEFAULT_ELEMENTS)]
+    elements: usize,
+}
+
+impl BeamModelArgs {
+    fn kind(&self) -> BeamModelKind {
+        match self.model {
+            ModelKindArg::Ritz => BeamModelKind::Ritz,
+            ModelKindArg::Modal => BeamModelKind::Modal {
+                elements: self.elements,
+            },
+        }
+    }
+}
+
+#[derive(Debug, Args)]
+struct BeamModesArgs {
+    #[command(flatten)]
+    model: BeamModelArgs,
+}
+
+#[derive(Debug, Args)]
+struct BeamSimulateArgs {
+    #[command(flatten)]
+    model: BeamModelArgs,
+    /// Input trace (CSV) with column `u` (effective V).
+    #[arg(long)]
+    input: PathBuf,
+    /// Output trace (CSV).
+    #[arg(long)]
+    output: PathBuf,
+    /// Sample time (s) if the input has no `t` column.
+    #[arg(long, default_value_t = 2e-4, allow_hyphen_values = true)]
+    sample_time: f64,
+}
+
+#[derive(Debug, Args)]
+struct BeamIdentifyArgs {
+    #[command(flatten)]
+    model: BeamModelArgs,
+    /// Measured step response (CSV) with columns `u` (effective V) and `y` (m).
+    #[arg(long)]
+    input: PathBuf,
+    /// Parameters to fit, e.g. `youngs_modulus,patch.input_gain`.
+    #[arg(long, value_delimiter = ',', required = true)]
+    fit: Vec<String>,
+    /// Fitted beam file (JSON).
+    #[arg(long)]
+    output: PathBuf,
+    /// Sample time (s) if the input has no `t` column.
+    #[arg(long, default_value_t = 2e-4, allow_hyphen_values = true)]
+    sample_time: f64,
 }
 
 #[derive(Debug, Args)]
@@ -173,6 +264,9 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Compensate(a) => compensate(&a),
         Command::Invert(a) => invert(&a),
         Command::Identify(a) => identify(&a),
+        Command::Beam(BeamCommand::Modes(a)) => beam_modes(&a),
+        Command::Beam(BeamCommand::Simulate(a)) => beam_simulate(&a),
+        Command::Beam(BeamCommand::Identify(a)) => beam_identify(&a),
         Command::Nominal(a) => nominal(&a),
         Command::Signal(a) => signal(&a),
     }
@@ -241,8 +335,7 @@ fn invert(a: &InvertArgs) -> Result<()> {
         weights: inv.weights(),
         state: inv.play_states(),
     })?;
-    println!("{json}");
-    Ok(())
+    print_stdout(&json)
 }
 
 fn identify(a: &IdentifyArgs) -> Result<()> {
@@ -282,11 +375,119 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
 }
 
 fn nominal(a: &NominalArgs) -> Result<()> {
-    let file = mfcbeam::nominal::nominal_model_file();
-    match &a.output {
-        Some(path) => write_json(path, &file)?,
-        None => println!("{}", serde_json::to_string_pretty(&file)?),
+    fn emit<T: Serialize>(output: &Option<PathBuf>, value: &T) -> Result<()> {
+        match output {
+            Some(path) => Ok(write_json(path, value)?),
+            None => print_stdout(&serde_json::to_string_pretty(value)?),
+        }
     }
+    if a.beam {
+        emit(&a.output, &BeamParameters::nominal())
+    } else {
+        emit(&a.output, &mfcbeam::nominal::nominal_model_file())
+    }
+}
+
+/// Print a line on stdout; a closed pipe (`| head`) ends quietly instead of
+/// panicking.
+fn print_stdout(text: &str) -> Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match writeln!(out, "{text}").and_then(|_| out.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => Ok(other?),
+    }
+}
+
+/// Sample time: the `t` column if present (uniform), else the flag.
+fn trace_sample_time(trace: &Trace, flag: f64) -> Result<f64> {
+    if trace.has_column("t") {
+        Ok(trace.sample_time_from_t()?)
+    } else if flag.is_finite() && flag > 0.0 {
+        Ok(flag)
+    } else {
+        bail!("--sample-time: must be a finite number > 0, found {flag}")
+    }
+}
+
+fn load_beam(args: &BeamModelArgs) -> Result<BeamParameters> {
+    let beam = read_beam(&args.beam)?;
+    Ok(beam)
+}
+
+#[derive(Serialize)]
+struct ModesJson {
+    frequencies_hz: Vec<f64>,
+    static_gain: f64,
+    damping_ratios: Vec<f64>,
+    model: &'static str,
+    modes: usize,
+}
+
+fn beam_modes(a: &BeamModesArgs) -> Result<()> {
+    let beam = load_beam(&a.model)?;
+    let modal =
+        modal_model(&beam, a.model.kind()).with_context(|| a.model.beam.display().to_string())?;
+    let json = ModesJson {
+        frequencies_hz: modal.frequencies_hz(),
+        static_gain: modal.static_gain(),
+        damping_ratios: modal.damping_ratios(),
+        model: match a.model.model {
+            ModelKindArg::Ritz => "ritz",
+            ModelKindArg::Modal => "modal",
+        },
+        modes: modal.len(),
+    };
+    print_stdout(&serde_json::to_string_pretty(&json)?)
+}
+
+fn beam_simulate(a: &BeamSimulateArgs) -> Result<()> {
+    let beam = load_beam(&a.model)?;
+    let mut trace = Trace::read(&a.input)?;
+    let ts = trace_sample_time(&trace, a.sample_time)?;
+    let u = trace.column("u")?;
+    let y = simulate_response(&beam, a.model.kind(), ts, &u)
+        .with_context(|| a.model.beam.display().to_string())?;
+    trace.push_column("y", &y)?;
+    trace.write(&a.output)?;
+    eprintln!(
+        "mfcbeam: simulated {} samples, wrote {}",
+        y.len(),
+        a.output.display()
+    );
+    Ok(())
+}
+
+fn beam_identify(a: &BeamIdentifyArgs) -> Result<()> {
+    let beam = load_beam(&a.model)?;
+    let trace = Trace::read(&a.input)?;
+    let ts = trace_sample_time(&trace, a.sample_time)?;
+    let u = trace.column("u")?;
+    let y = trace.column("y")?;
+    let params = a
+        .fit
+        .iter()
+        .map(|n| FitParameter::around(&beam, n.trim()))
+        .collect::<std::result::Result<Vec<_>, _>>()
+        .context("--fit")?;
+    let fit = fit_step_response(&beam, &params, a.model.kind(), ts, &u, &y)
+        .with_context(|| a.input.display().to_string())?;
+    write_json(&a.output, &fit.beam)?;
+    eprintln!("parameter                       start            fitted           std. error");
+    for (i, p) in params.iter().enumerate() {
+        eprintln!(
+            "{:<30} {:<16.9e} {:<16.9e} {:.3e}",
+            p.name,
+            mfcbeam::beam_identification::parameter(&beam, &p.name).unwrap_or(f64::NAN),
+            fit.values[i],
+            fit.standard_errors[i]
+        );
+    }
+    eprintln!(
+        "rms residual {:.4e} m (start {:.4e} m), {} iterations",
+        fit.rms_residual, fit.initial_rms_residual, fit.iterations
+    );
+    eprintln!("mfcbeam: wrote {}", a.output.display());
     Ok(())
 }
 

@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
+use crate::beam::{BeamError, BeamParameters};
 use crate::error::ModelError;
 use crate::model::{HysteresisCreepModel, ModelFile};
 
@@ -29,6 +30,8 @@ pub enum FileError {
     Json { path: PathBuf, message: String },
     #[error("{path}: {error}")]
     Model { path: PathBuf, error: ModelError },
+    #[error("{path}: {error}")]
+    Beam { path: PathBuf, error: BeamError },
     #[error("{path}: malformed CSV: {message}")]
     Csv { path: PathBuf, message: String },
     #[error("{path}: has no data rows")]
@@ -64,6 +67,23 @@ pub fn read_model(path: &Path) -> Result<HysteresisCreepModel, FileError> {
         path: path.to_path_buf(),
         error,
     })
+}
+
+/// Read and validate a beam file.
+pub fn read_beam(path: &Path) -> Result<BeamParameters, FileError> {
+    let text = fs::read_to_string(path).map_err(|error| FileError::Io {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    let beam: BeamParameters = serde_json::from_str(&text).map_err(|e| FileError::Json {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    beam.validate().map_err(|error| FileError::Beam {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    Ok(beam)
 }
 
 /// Read a model file without building the model.

@@ -55,18 +55,24 @@
 //! }
 //! ```
 
+pub mod beam;
+pub mod beam_identification;
 pub mod compensator;
 pub mod creep;
 pub mod error;
+pub mod fe;
 pub mod hysteresis;
 pub mod identification;
 pub mod inverse;
 pub mod io;
+pub mod modal;
 pub mod model;
 pub mod nominal;
 pub mod operator;
 pub mod play;
+pub mod ritz;
 pub mod signal;
+pub mod simulation;
 pub mod supply;
 
 /// The types most programs need.

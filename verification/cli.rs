@@ -565,3 +565,145 @@ fn identify_error_contract() {
         Some(&output),
     );
 }
+
+const BEAM: &str = "golden/nominal_beam.json";
+
+#[test]
+fn beam_modes_prints_frequencies_and_static_gain() {
+    for (model, f1) in [("modal", 12.1887), ("ritz", 12.7112)] {
+        let out = mfcbeam(&["beam", "modes", "--beam", BEAM, "--model", model]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let f = v["frequencies_hz"].as_array().unwrap();
+        assert_eq!(f.len(), 15);
+        assert!(
+            (f[0].as_f64().unwrap() - f1).abs() < 1e-4,
+            "{model}: {}",
+            f[0]
+        );
+        let g = v["static_gain"].as_f64().unwrap();
+        let exact = mfcbeam::beam::BeamParameters::nominal().exact_static_gain();
+        assert!(((g - exact) / exact).abs() < 0.07);
+    }
+    // a closed pipe is not a panic
+    let mut child = Command::new(env!("CARGO_BIN_EXE_mfcbeam"))
+        .args(["beam", "modes", "--beam", BEAM])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
+}
+
+#[test]
+fn beam_simulate_and_identify_round_trip() {
+    let d = TempDir::new("beam");
+    let mut text = String::from("t,u\n");
+    for k in 0..3000 {
+        text.push_str(&format!(
+            "{},{}\n",
+            k as f64 * 2e-4,
+            if k < 100 { 0.0 } else { 50.0 }
+        ));
+    }
+    let input = d.write("step.csv", &text);
+    let sim = d.path("sim.csv");
+    let ok = |out: Output| {
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        )
+    };
+    ok(mfcbeam(&[
+        "beam",
+        "simulate",
+        "--beam",
+        BEAM,
+        "--input",
+        s(&input),
+        "--output",
+        s(&sim),
+        "--elements",
+        "60",
+    ]));
+    let t = Trace::read(&sim).unwrap();
+    assert_eq!(t.header(), &["t", "u", "y"]);
+    let y = t.column("y").unwrap();
+    assert_eq!(y[0], 0.0);
+    let g = 50.0 * mfcbeam::beam::BeamParameters::nominal().exact_static_gain();
+    assert!(y.iter().any(|&v| v > g), "overshoot expected");
+    // fit E and Γ_p from a start 10 % off
+    let mut start = mfcbeam::beam::BeamParameters::nominal();
+    start.youngs_modulus *= 1.1;
+    start.patch.input_gain *= 0.9;
+    let start_path = d.write("start.json", &serde_json::to_string(&start).unwrap());
+    let fitted = d.path("fitted.json");
+    let out = mfcbeam(&[
+        "beam",
+        "identify",
+        "--beam",
+        s(&start_path),
+        "--input",
+        s(&sim),
+        "--fit",
+        "youngs_modulus,patch.input_gain",
+        "--output",
+        s(&fitted),
+        "--elements",
+        "60",
+    ]);
+    let report = String::from_utf8_lossy(&out.stderr).to_string();
+    ok(out);
+    assert!(
+        report.contains("std. error") && report.contains("rms residual"),
+        "{report}"
+    );
+    let b = mfcbeam::io::read_beam(&fitted).unwrap();
+    assert!((b.youngs_modulus / 22e9 - 1.0).abs() < 1e-6);
+    assert!((b.patch.input_gain / 8.7e-5 - 1.0).abs() < 1e-6);
+    // refusals
+    let out = mfcbeam(&[
+        "beam", "identify", "--beam", BEAM, "--input", s(&sim), "--fit", "density,youngs_modulus,patch.density,patch.stiffness,viscous_damping,patch.viscous_damping,kelvin_voigt_damping,patch.kelvin_voigt_damping,patch.input_gain",
+        "--output", s(&d.path("bad.json")), "--elements", "60",
+    ]);
+    assert_clean_failure(
+        &out,
+        &["sim.csv", "not identifiable", "patch.input_gain"],
+        Some(&d.path("bad.json")),
+    );
+    let out = mfcbeam(&[
+        "beam",
+        "identify",
+        "--beam",
+        BEAM,
+        "--input",
+        s(&sim),
+        "--fit",
+        "colour",
+        "--output",
+        s(&d.path("bad.json")),
+    ]);
+    assert_clean_failure(
+        &out,
+        &["--fit", "unknown parameter 'colour'"],
+        Some(&d.path("bad.json")),
+    );
+    let bad_beam = d.write(
+        "badbeam.json",
+        &BEAM_TEXT.replace(
+            "\"youngs_modulus\": 22000000000.0",
+            "\"youngs_modulus\": -1",
+        ),
+    );
+    let out = mfcbeam(&["beam", "modes", "--beam", s(&bad_beam)]);
+    assert_clean_failure(&out, &["badbeam.json", "youngs_modulus"], None);
+}
+
+const BEAM_TEXT: &str = include_str!("../golden/nominal_beam.json");
