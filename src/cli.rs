@@ -41,6 +41,9 @@ enum Command {
     /// The beam: modal analysis, simulation, step-response identification.
     #[command(subcommand)]
     Beam(BeamCommand),
+    /// Flatness-based feedforward: y_d and u_d for a rest-to-rest move of the
+    /// tip, and with --model the compensated patch voltages.
+    Feedforward(FeedforwardArgs),
     /// Write the nominal model of SPEC section 8 (virgin state) as a model file.
     Nominal(NominalArgs),
     /// Write a test signal (a smooth staircase) as a trace with columns `t` and the chosen name.
@@ -118,6 +121,43 @@ struct IdentifyArgs {
     /// Explicit creep eigenvalues (1/s) instead of (24).
     #[arg(long, value_delimiter = ',', num_args = 1..)]
     eigenvalues: Option<Vec<f64>>,
+}
+
+#[derive(Debug, Args)]
+struct FeedforwardArgs {
+    /// Beam file (JSON).
+    #[arg(long)]
+    beam: PathBuf,
+    /// Hysteresis and creep model (JSON): adds `u = W⁻¹[u_d]`, `u_fs`, `u_bs`, `saturated`.
+    #[arg(long)]
+    model: Option<PathBuf>,
+    /// Beam discretization the design uses.
+    #[arg(long, value_enum, default_value_t = ModelKindArg::Modal)]
+    beam_model: ModelKindArg,
+    /// Finite elements of the modal beam model.
+    #[arg(long, default_value_t = mfcbeam::fe::DEFAULT_ELEMENTS)]
+    elements: usize,
+    /// Start of the transition (s).
+    #[arg(long, default_value_t = 2.9, allow_hyphen_values = true)]
+    start: f64,
+    /// Duration T of the transition (s).
+    #[arg(long, default_value_t = 0.075, allow_hyphen_values = true)]
+    duration: f64,
+    /// Final tip deflection y_T (m), from rest at 0.
+    #[arg(long, default_value_t = 0.001, allow_hyphen_values = true)]
+    y_final: f64,
+    /// Gevrey parameter σ of the trajectory (28).
+    #[arg(long, default_value_t = 1.1, allow_hyphen_values = true)]
+    sigma: f64,
+    /// End of the trace (s).
+    #[arg(long, default_value_t = 4.0, allow_hyphen_values = true)]
+    end: f64,
+    /// Sample time (s); default: the model's, else 2e-4.
+    #[arg(long, allow_hyphen_values = true)]
+    sample_time: Option<f64>,
+    /// Output trace (CSV).
+    #[arg(long)]
+    output: PathBuf,
 }
 
 #[derive(Debug, Args)]
@@ -267,6 +307,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Beam(BeamCommand::Modes(a)) => beam_modes(&a),
         Command::Beam(BeamCommand::Simulate(a)) => beam_simulate(&a),
         Command::Beam(BeamCommand::Identify(a)) => beam_identify(&a),
+        Command::Feedforward(a) => feedforward(&a),
         Command::Nominal(a) => nominal(&a),
         Command::Signal(a) => signal(&a),
     }
@@ -371,6 +412,83 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
     write_json(&a.output, &file)?;
     eprint!("{}", id.report);
     eprintln!("mfcbeam: wrote {}", a.output.display());
+    Ok(())
+}
+
+fn feedforward(a: &FeedforwardArgs) -> Result<()> {
+    use mfcbeam::feedforward::{
+        compensate as compensate_ff, design, FeedforwardSettings, FlatParametrization,
+    };
+    let beam = read_beam(&a.beam)?;
+    let model = a.model.as_deref().map(read_model).transpose()?;
+    let ts = a
+        .sample_time
+        .or(model.as_ref().map(|m| m.sample_time()))
+        .unwrap_or(2e-4);
+    if let (Some(m), Some(t)) = (&model, a.sample_time) {
+        if (m.sample_time() - t).abs() > 1e-12 * t {
+            bail!(
+                "--sample-time: {t} s differs from the model's sample time {} s",
+                m.sample_time()
+            );
+        }
+    }
+    let kind = match a.beam_model {
+        ModelKindArg::Ritz => BeamModelKind::Ritz,
+        ModelKindArg::Modal => BeamModelKind::Modal {
+            elements: a.elements,
+        },
+    };
+    let modal = modal_model(&beam, kind).with_context(|| a.beam.display().to_string())?;
+    let flat = FlatParametrization::new(&modal).with_context(|| a.beam.display().to_string())?;
+    let settings = FeedforwardSettings {
+        start: a.start,
+        duration: a.duration,
+        y_final: a.y_final,
+        sigma: a.sigma,
+        end: a.end,
+        sample_time: ts,
+    };
+    let ff = design(&flat, &settings)?;
+    let mut trace = Trace::from_columns(
+        &a.output,
+        &[("t", &ff.t), ("y_d", &ff.y_d), ("u_d", &ff.u_d)],
+    );
+    eprintln!(
+        "mfcbeam: feedforward of {} m in {} s (σ = {}), peak |u_d| = {:.4} V effective, static gain {:.6e} m/V",
+        a.y_final, a.duration, a.sigma, ff.peak, flat.static_gain()
+    );
+    if let Some(m) = &model {
+        let supply = mfcbeam::supply::Supply::default();
+        let c = compensate_ff(&ff.u_d, m, &supply)?;
+        trace.push_column("u", &c.u)?;
+        trace.push_column("u_fs", &c.u_fs)?;
+        trace.push_column("u_bs", &c.u_bs)?;
+        trace.push_text_column(
+            "saturated",
+            c.saturated
+                .iter()
+                .map(|&s| if s { "1" } else { "0" }.to_string()),
+        )?;
+        let count = c.saturated.iter().filter(|&&s| s).count();
+        let (lo, hi) = supply.balanced_limits();
+        if count > 0 {
+            eprintln!(
+                "mfcbeam: warning: {count} samples saturated: the compensated voltage leaves the supply range [{lo}, {hi}] V; shorten the move less (longer --duration) or lower --y-final"
+            );
+        } else {
+            eprintln!(
+                "mfcbeam: compensated peak |u| = {:.4} V, inside the supply range [{lo}, {hi}] V",
+                c.peak
+            );
+        }
+    }
+    trace.write(&a.output)?;
+    eprintln!(
+        "mfcbeam: wrote {} samples to {}",
+        ff.t.len(),
+        a.output.display()
+    );
     Ok(())
 }
 

@@ -61,6 +61,7 @@ pub mod compensator;
 pub mod creep;
 pub mod error;
 pub mod fe;
+pub mod feedforward;
 pub mod hysteresis;
 pub mod identification;
 pub mod inverse;
@@ -74,6 +75,7 @@ pub mod ritz;
 pub mod signal;
 pub mod simulation;
 pub mod supply;
+pub mod trajectory;
 
 /// The types most programs need.
 pub mod prelude {

@@ -28,40 +28,22 @@ use crate::modal::ModalModel;
 use crate::model::HysteresisCreepModel;
 use crate::operator::Operator;
 
-/// The exact ZOH discretization of a [`ModalModel`], propagated in decoupled
-/// complex modal coordinates.
+/// The state-space model of a [`ModalModel`] in diagonal (complex modal)
+/// coordinates: `ż_j = λ_j z_j + (V⁻¹B)_j u`, `y = Re Σ w_j (CV)_j z_j`, keeping
+/// one pole of each conjugate pair (`w_j = 2`) and the real poles (`w_j = 1`).
 #[derive(Debug, Clone)]
-pub struct DiscreteBeam {
-    sample_time: f64,
-    pole_re: Vec<f64>,
-    pole_im: Vec<f64>,
-    gain_re: Vec<f64>,
-    gain_im: Vec<f64>,
-    out_re: Vec<f64>,
-    out_im: Vec<f64>,
-    /// Equilibrium state per unit input, `−(V⁻¹B)/λ`.
-    eq_re: Vec<f64>,
-    eq_im: Vec<f64>,
-    z_re: Vec<f64>,
-    z_im: Vec<f64>,
+pub struct DiagonalForm {
+    /// Poles `λ_j` with `Im λ_j ≥ 0`.
+    pub poles: Vec<c64>,
+    /// `(V⁻¹B)_j`.
+    pub input: Vec<c64>,
+    /// `(CV)_j`.
+    pub output: Vec<c64>,
 }
 
-/// `e^{s} − 1` for complex `s` without cancellation.
-fn cexpm1(s: c64) -> c64 {
-    let (sin, cos) = s.im.sin_cos();
-    let half = (0.5 * s.im).sin();
-    c64::new(s.re.exp_m1() * cos - 2.0 * half * half, s.re.exp() * sin)
-}
-
-impl DiscreteBeam {
-    /// Discretize `modal` at sample time `sample_time`.
-    pub fn new(modal: &ModalModel, sample_time: f64) -> Result<Self, BeamError> {
-        if !(sample_time.is_finite() && sample_time > 0.0) {
-            return Err(BeamError::InvalidSetting {
-                field: "sample_time",
-                reason: format!("must be a finite number > 0, found {sample_time}"),
-            });
-        }
+impl DiagonalForm {
+    /// Diagonalize `A = [[0, I], [−Ω², −D]]`; refuses a (nearly) defective `A`.
+    pub fn new(modal: &ModalModel) -> Result<Self, BeamError> {
         let n = modal.len();
         let a = Mat::<f64>::from_fn(2 * n, 2 * n, |i, j| {
             if i < n {
@@ -105,6 +87,75 @@ impl DiscreteBeam {
             c64::new(if i >= n { modal.input[i - n] } else { 0.0 }, 0.0)
         });
         let vinv_b = v.partial_piv_lu().solve(&b);
+        let mut form = Self {
+            poles: vec![],
+            input: vec![],
+            output: vec![],
+        };
+        for (j, &l) in lambda.iter().enumerate() {
+            if l.im < 0.0 {
+                continue; // the conjugate of a kept pole
+            }
+            form.poles.push(l);
+            form.input.push(vinv_b[(j, 0)]);
+            form.output
+                .push((0..n).map(|i| v[(i, j)] * modal.output[i]).sum());
+        }
+        Ok(form)
+    }
+
+    /// 2 for a member of a conjugate pair, 1 for a real pole.
+    pub fn weight(&self, j: usize) -> f64 {
+        if self.poles[j].im > 0.0 {
+            2.0
+        } else {
+            1.0
+        }
+    }
+
+    /// `G(0) = Σ_j w_j Re(−(CV)_j (V⁻¹B)_j / λ_j)`.
+    pub fn static_gain(&self) -> f64 {
+        (0..self.poles.len())
+            .map(|j| self.weight(j) * (-(self.output[j] * self.input[j]) / self.poles[j]).re)
+            .sum()
+    }
+}
+
+/// The exact ZOH discretization of a [`ModalModel`], propagated in decoupled
+/// complex modal coordinates.
+#[derive(Debug, Clone)]
+pub struct DiscreteBeam {
+    sample_time: f64,
+    pole_re: Vec<f64>,
+    pole_im: Vec<f64>,
+    gain_re: Vec<f64>,
+    gain_im: Vec<f64>,
+    out_re: Vec<f64>,
+    out_im: Vec<f64>,
+    /// Equilibrium state per unit input, `−(V⁻¹B)/λ`.
+    eq_re: Vec<f64>,
+    eq_im: Vec<f64>,
+    z_re: Vec<f64>,
+    z_im: Vec<f64>,
+}
+
+/// `e^{s} − 1` for complex `s` without cancellation.
+fn cexpm1(s: c64) -> c64 {
+    let (sin, cos) = s.im.sin_cos();
+    let half = (0.5 * s.im).sin();
+    c64::new(s.re.exp_m1() * cos - 2.0 * half * half, s.re.exp() * sin)
+}
+
+impl DiscreteBeam {
+    /// Discretize `modal` at sample time `sample_time`.
+    pub fn new(modal: &ModalModel, sample_time: f64) -> Result<Self, BeamError> {
+        if !(sample_time.is_finite() && sample_time > 0.0) {
+            return Err(BeamError::InvalidSetting {
+                field: "sample_time",
+                reason: format!("must be a finite number > 0, found {sample_time}"),
+            });
+        }
+        let modes = DiagonalForm::new(modal)?;
         let mut beam = Self {
             sample_time,
             pole_re: vec![],
@@ -118,16 +169,13 @@ impl DiscreteBeam {
             z_re: vec![],
             z_im: vec![],
         };
-        for (j, &l) in lambda.iter().enumerate() {
-            if l.im < 0.0 {
-                continue; // the conjugate of a kept mode
-            }
-            let weight = if l.im > 0.0 { 2.0 } else { 1.0 };
+        for j in 0..modes.poles.len() {
+            let (l, vb, cv) = (modes.poles[j], modes.input[j], modes.output[j]);
             let lt = l * sample_time;
             let pole = cexpm1(lt) + c64::new(1.0, 0.0);
-            let gain = cexpm1(lt) / l * vinv_b[(j, 0)];
-            let cv: c64 = (0..n).map(|i| v[(i, j)] * modal.output[i]).sum::<c64>() * weight;
-            let eq = -vinv_b[(j, 0)] / l;
+            let gain = cexpm1(lt) / l * vb;
+            let cv = cv * modes.weight(j);
+            let eq = -vb / l;
             beam.pole_re.push(pole.re);
             beam.pole_im.push(pole.im);
             beam.gain_re.push(gain.re);

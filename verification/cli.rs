@@ -707,3 +707,108 @@ fn beam_simulate_and_identify_round_trip() {
 }
 
 const BEAM_TEXT: &str = include_str!("../golden/nominal_beam.json");
+
+#[test]
+fn feedforward_writes_the_paper_case() {
+    let d = TempDir::new("feedforward");
+    let out_path = d.path("ff.csv");
+    let out = mfcbeam(&[
+        "feedforward",
+        "--beam",
+        BEAM,
+        "--model",
+        MODEL,
+        "--start",
+        "2.9",
+        "--duration",
+        "0.075",
+        "--y-final",
+        "0.001",
+        "--sigma",
+        "1.1",
+        "--end",
+        "4",
+        "--output",
+        s(&out_path),
+        "--elements",
+        "120",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("peak |u_d|") && err.contains("inside the supply range"),
+        "{err}"
+    );
+    let t = Trace::read(&out_path).unwrap();
+    assert_eq!(
+        t.header(),
+        &["t", "y_d", "u_d", "u", "u_fs", "u_bs", "saturated"]
+    );
+    assert_eq!(t.len(), 20001);
+    let y = t.column("y_d").unwrap();
+    assert_eq!(y[0], 0.0);
+    assert!((y[20000] - 1e-3).abs() < 1e-15);
+    let (ufs, ubs) = (t.column("u_fs").unwrap(), t.column("u_bs").unwrap());
+    assert!(ufs
+        .iter()
+        .chain(&ubs)
+        .all(|&v| (-500.0..=1500.0).contains(&v)));
+    // without a model: only t, y_d, u_d; ritz design
+    let out = mfcbeam(&[
+        "feedforward",
+        "--beam",
+        BEAM,
+        "--beam-model",
+        "ritz",
+        "--output",
+        s(&out_path),
+    ]);
+    assert!(out.status.success());
+    assert_eq!(
+        Trace::read(&out_path).unwrap().header(),
+        &["t", "y_d", "u_d"]
+    );
+    // a move too fast for the supply saturates, with a warning
+    let out = mfcbeam(&[
+        "feedforward",
+        "--beam",
+        BEAM,
+        "--model",
+        MODEL,
+        "--duration",
+        "0.034",
+        "--output",
+        s(&out_path),
+        "--elements",
+        "120",
+    ]);
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("warning"));
+    assert!(Trace::read(&out_path)
+        .unwrap()
+        .column("saturated")
+        .unwrap()
+        .contains(&1.0));
+    // bad settings
+    let bad = d.path("bad.csv");
+    let out = mfcbeam(&[
+        "feedforward",
+        "--beam",
+        BEAM,
+        "--duration",
+        "0",
+        "--output",
+        s(&bad),
+    ]);
+    assert_clean_failure(&out, &["duration"], Some(&bad));
+    let out = mfcbeam(&[
+        "feedforward",
+        "--beam",
+        BEAM,
+        "--sigma",
+        "-1",
+        "--output",
+        s(&bad),
+    ]);
+    assert_clean_failure(&out, &["sigma"], Some(&bad));
+}
