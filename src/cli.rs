@@ -12,7 +12,7 @@ use mfcbeam::beam_identification::{
 };
 use mfcbeam::compensator::{Compensator, CompensatorSettings};
 use mfcbeam::identification::{identify as identify_model, IdentificationSettings};
-use mfcbeam::io::{read_beam, read_model, write_json, Trace};
+use mfcbeam::io::{read_beam, read_model, write_atomic, write_json, Trace};
 use mfcbeam::operator::Operator;
 use mfcbeam::signal::{time_axis, Staircase};
 
@@ -44,6 +44,15 @@ enum Command {
     /// Flatness-based feedforward: y_d and u_d for a rest-to-rest move of the
     /// tip, and with --model the compensated patch voltages.
     Feedforward(FeedforwardArgs),
+    /// Run every scenario on the nominal models: traces, figures (SVG, PNG) and
+    /// the paper's claims as numbers.
+    Reproduce(ReproduceArgs),
+    /// Run one scenario of SPEC section 9 and write its trace.
+    Scenario(ScenarioArgs),
+    /// Regenerate (--write) or check (--check) the golden traces and manifest.
+    Golden(GoldenArgs),
+    /// Compare a candidate trace from any implementation with a golden trace.
+    Verify(VerifyArgs),
     /// Write the nominal model of SPEC section 8 (virgin state) as a model file.
     Nominal(NominalArgs),
     /// Write a test signal (a smooth staircase) as a trace with columns `t` and the chosen name.
@@ -158,6 +167,49 @@ struct FeedforwardArgs {
     /// Output trace (CSV).
     #[arg(long)]
     output: PathBuf,
+}
+
+#[derive(Debug, Args)]
+struct ReproduceArgs {
+    /// Output directory (traces/ and plots/ are created in it).
+    #[arg(long, default_value = "reproduce")]
+    out: PathBuf,
+}
+
+#[derive(Debug, Args)]
+struct ScenarioArgs {
+    /// Scenario id: rectangle, staircase, minor-loops, intersection, log-creep,
+    /// identification, compensated, step, feedforward.
+    name: String,
+    /// Output trace (CSV).
+    #[arg(long)]
+    output: PathBuf,
+    /// Every sample at 5 kHz instead of the golden file's decimation.
+    #[arg(long)]
+    full: bool,
+}
+
+#[derive(Debug, Args)]
+struct GoldenArgs {
+    /// Directory of the golden files.
+    #[arg(long, default_value = "golden")]
+    dir: PathBuf,
+    /// Regenerate every golden trace and the manifest (an explicit action).
+    #[arg(long, conflicts_with = "check")]
+    write: bool,
+    /// Recompute every trace and compare with the stored ones (exit 1 on a difference).
+    #[arg(long)]
+    check: bool,
+}
+
+#[derive(Debug, Args)]
+struct VerifyArgs {
+    /// Golden trace, e.g. golden/compensated.csv (its manifest is read from the same directory).
+    #[arg(long)]
+    golden: PathBuf,
+    /// Candidate trace (CSV) with the same column names: as stored, or every sample at 5 kHz.
+    #[arg(long)]
+    candidate: PathBuf,
 }
 
 #[derive(Debug, Args)]
@@ -308,6 +360,10 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Beam(BeamCommand::Simulate(a)) => beam_simulate(&a),
         Command::Beam(BeamCommand::Identify(a)) => beam_identify(&a),
         Command::Feedforward(a) => feedforward(&a),
+        Command::Reproduce(a) => reproduce(&a),
+        Command::Scenario(a) => scenario(&a),
+        Command::Golden(a) => golden(&a),
+        Command::Verify(a) => verify(&a),
         Command::Nominal(a) => nominal(&a),
         Command::Signal(a) => signal(&a),
     }
@@ -489,6 +545,202 @@ fn feedforward(a: &FeedforwardArgs) -> Result<()> {
         ff.t.len(),
         a.output.display()
     );
+    Ok(())
+}
+
+fn reproduce(a: &ReproduceArgs) -> Result<()> {
+    let claims = mfcbeam::reproduce::reproduce(&a.out).map_err(anyhow::Error::msg)?;
+    let mut text = String::from("| figure | claim | measured | holds |\n|---|---|---|---|\n");
+    for c in &claims {
+        text.push_str(&format!(
+            "| {} | {} | {} | {} |\n",
+            c.figure,
+            c.claim,
+            c.measured,
+            if c.holds { "yes" } else { "NO" }
+        ));
+    }
+    write_atomic(&a.out.join("summary.md"), text.as_bytes())?;
+    print_stdout(text.trim_end())?;
+    eprintln!(
+        "mfcbeam: wrote traces to {}, figures to {}, summary to {}",
+        a.out.join("traces").display(),
+        a.out.join("plots").display(),
+        a.out.join("summary.md").display()
+    );
+    if claims.iter().all(|c| c.holds) {
+        Ok(())
+    } else {
+        bail!("a claim does not hold (see the table)")
+    }
+}
+
+fn scenario(a: &ScenarioArgs) -> Result<()> {
+    use mfcbeam::scenarios::{run, scenario, ScenarioContext, SCENARIOS};
+    let Some(sc) = scenario(&a.name) else {
+        let ids: Vec<&str> = SCENARIOS.iter().map(|s| s.id).collect();
+        bail!(
+            "scenario '{}': unknown (one of: {})",
+            a.name,
+            ids.join(", ")
+        );
+    };
+    let tr = run(sc.id, &ScenarioContext::nominal()).context("scenario failed")?;
+    let tr = if a.full {
+        tr
+    } else {
+        tr.decimated(sc.decimation)
+    };
+    let cols: Vec<(&str, &[f64])> = tr.columns.iter().map(|(n, v)| (*n, v.as_slice())).collect();
+    Trace::from_columns(&a.output, &cols).write(&a.output)?;
+    eprintln!(
+        "mfcbeam: {} ({}): wrote {} rows to {}",
+        sc.id,
+        sc.paper,
+        tr.len(),
+        a.output.display()
+    );
+    Ok(())
+}
+
+fn golden(a: &GoldenArgs) -> Result<()> {
+    use mfcbeam::golden::{compare_columns, compute_all, read_manifest, sha256_hex, write_golden};
+    if a.write {
+        let m = write_golden(&a.dir)?;
+        eprintln!(
+            "mfcbeam: wrote {} golden traces and {}",
+            m.traces.len(),
+            a.dir.join("manifest.json").display()
+        );
+        return Ok(());
+    }
+    if !a.check {
+        bail!("golden: say --write (regenerate) or --check (compare)");
+    }
+    let manifest = read_manifest(&a.dir.join("manifest.json"))?;
+    let ctx = mfcbeam::scenarios::ScenarioContext::nominal();
+    let mut failures = 0;
+    for (file, trace, _) in compute_all(&ctx) {
+        let Some(entry) = manifest.entry_for_file(&file) else {
+            bail!(
+                "{}: no entry for {file}",
+                a.dir.join("manifest.json").display()
+            );
+        };
+        let path = a.dir.join(&file);
+        let bytes = std::fs::read(&path).with_context(|| path.display().to_string())?;
+        if sha256_hex(&bytes) != entry.sha256 {
+            eprintln!("{file}: SHA-256 differs from the manifest");
+            failures += 1;
+        }
+        let stored = mfcbeam::golden::numeric_columns(&Trace::read(&path)?)?;
+        let fresh: Vec<(String, Vec<f64>)> = trace
+            .columns
+            .iter()
+            .map(|(n, v)| (n.to_string(), v.clone()))
+            .collect();
+        if fresh.first().map(|c| c.1.len()) != stored.first().map(|c| c.1.len()) {
+            eprintln!("{file}: row count differs");
+            failures += 1;
+            continue;
+        }
+        for r in compare_columns(&stored, &fresh, entry) {
+            if !r.compared || !r.pass() {
+                eprintln!(
+                    "{file}: column {} differs (max abs {:.3e}, tolerance {:.1e})",
+                    r.name, r.max_abs, r.abs_tol
+                );
+                failures += 1;
+            }
+        }
+    }
+    if failures > 0 {
+        eprintln!("mfcbeam: {failures} golden differences");
+        std::process::exit(1);
+    }
+    eprintln!(
+        "mfcbeam: all {} golden traces reproduce within tolerance",
+        manifest.traces.len()
+    );
+    Ok(())
+}
+
+fn verify(a: &VerifyArgs) -> Result<()> {
+    use mfcbeam::golden::{
+        align, compare_columns, manifest_path_for, numeric_columns, read_manifest,
+    };
+    let manifest_path = manifest_path_for(&a.golden);
+    let manifest = read_manifest(&manifest_path)?;
+    let file = a
+        .golden
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let Some(entry) = manifest.entry_for_file(&file) else {
+        bail!("{}: no entry for {file}", manifest_path.display());
+    };
+    let golden = numeric_columns(&Trace::read(&a.golden)?)?;
+    let candidate = numeric_columns(&Trace::read(&a.candidate)?)?;
+    let rows = golden.first().map_or(0, |c| c.1.len());
+    let candidate = align(candidate, rows, entry.decimation, &a.candidate)?;
+    let reports = compare_columns(&golden, &candidate, entry);
+    let mut text = format!(
+        "golden {} ({} {}), candidate {}\n{:<12} {:>12} {:>12} {:>12} {:>10} {:>10}  result\n",
+        a.golden.display(),
+        entry.id,
+        entry.paper,
+        a.candidate.display(),
+        "column",
+        "max abs",
+        "rms",
+        "max rel",
+        "abs tol",
+        "rel tol"
+    );
+    let mut compared = 0;
+    let mut failed = 0;
+    for r in &reports {
+        if !r.compared {
+            text.push_str(&format!(
+                "{:<12} {:>12} {:>12} {:>12} {:>10.1e} {:>10.1e}  not in candidate\n",
+                r.name, "-", "-", "-", r.abs_tol, r.rel_tol
+            ));
+            continue;
+        }
+        compared += 1;
+        let verdict = match r.first_failure {
+            None => "pass".to_string(),
+            Some(row) => {
+                failed += 1;
+                format!("FAIL (first at row {row})")
+            }
+        };
+        text.push_str(&format!(
+            "{:<12} {:>12.3e} {:>12.3e} {:>12.3e} {:>10.1e} {:>10.1e}  {verdict}\n",
+            r.name, r.max_abs, r.rms, r.max_rel, r.abs_tol, r.rel_tol
+        ));
+    }
+    if compared == 0 {
+        bail!(
+            "{}: shares no column with {}",
+            a.candidate.display(),
+            a.golden.display()
+        );
+    }
+    text.push_str(&format!(
+        "{} of {} columns compared, {}\n",
+        compared,
+        reports.len(),
+        if failed == 0 {
+            "all within tolerance".to_string()
+        } else {
+            format!("{failed} outside tolerance")
+        }
+    ));
+    print_stdout(text.trim_end())?;
+    if failed > 0 {
+        std::process::exit(1);
+    }
     Ok(())
 }
 

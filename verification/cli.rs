@@ -812,3 +812,105 @@ fn feedforward_writes_the_paper_case() {
     ]);
     assert_clean_failure(&out, &["sigma"], Some(&bad));
 }
+
+#[test]
+fn verify_passes_an_exact_candidate_and_fails_a_perturbed_one() {
+    let d = TempDir::new("verify");
+    let golden = "golden/compensated.csv";
+    // an exact candidate: the golden file itself, and the full-rate scenario
+    let out = mfcbeam(&["verify", "--golden", golden, "--candidate", golden]);
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    assert_eq!(out.status.code(), Some(0), "{text}");
+    assert!(
+        text.contains("all within tolerance") && text.contains("max abs"),
+        "{text}"
+    );
+    let full = d.path("full.csv");
+    assert!(
+        mfcbeam(&["scenario", "compensated", "--full", "--output", s(&full)])
+            .status
+            .success()
+    );
+    let out = mfcbeam(&["verify", "--golden", golden, "--candidate", s(&full)]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    // a C port that only produces u from y_d, perturbed by 1e-6 V at one row
+    let t = Trace::read(Path::new(golden)).unwrap();
+    let (tt, yd, mut u) = (
+        t.column("t").unwrap(),
+        t.column("y_d").unwrap(),
+        t.column("u").unwrap(),
+    );
+    u[100] += 1e-6;
+    let cand = d.path("port.csv");
+    Trace::from_columns(&cand, &[("t", &tt), ("y_d", &yd), ("u", &u)])
+        .write(&cand)
+        .unwrap();
+    let out = mfcbeam(&["verify", "--golden", golden, "--candidate", s(&cand)]);
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    assert_eq!(out.status.code(), Some(1), "{text}");
+    assert!(
+        text.contains("FAIL (first at row 101)") && text.contains("not in candidate"),
+        "{text}"
+    );
+    // wrong length and no common column are errors (exit 2), not verdicts
+    let short = d.write("short.csv", "t,u\n0,0\n");
+    assert_clean_failure(
+        &mfcbeam(&["verify", "--golden", golden, "--candidate", s(&short)]),
+        &["short.csv", "rows"],
+        None,
+    );
+    let other = d.write("other.csv", &format!("x\n{}", "1\n".repeat(t.len())));
+    assert_clean_failure(
+        &mfcbeam(&["verify", "--golden", golden, "--candidate", s(&other)]),
+        &["shares no column"],
+        None,
+    );
+}
+
+#[test]
+fn golden_check_passes_on_the_committed_files() {
+    let out = mfcbeam(&["golden", "--check"]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = mfcbeam(&["scenario", "nonsense", "--output", "/dev/null"]);
+    assert_clean_failure(&out, &["unknown", "rectangle"], None);
+}
+
+#[test]
+fn reproduce_writes_traces_plots_and_a_summary_where_every_claim_holds() {
+    let d = TempDir::new("reproduce");
+    let out = mfcbeam(&["reproduce", "--out", s(&d.0)]);
+    let table = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success(),
+        "{table}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        table.contains("| Fig. 14 |") && !table.contains("| NO |"),
+        "{table}"
+    );
+    for s in mfcbeam::scenarios::SCENARIOS {
+        assert!(d.path(&format!("traces/{}.csv", s.id)).exists());
+        for ext in ["svg", "png"] {
+            let p = d.path(&format!("plots/{}.{ext}", s.id));
+            assert!(
+                fs::metadata(&p).map(|m| m.len() > 1000).unwrap_or(false),
+                "{}",
+                p.display()
+            );
+        }
+    }
+    assert!(fs::read_to_string(d.path("summary.md"))
+        .unwrap()
+        .contains("holds"));
+}
