@@ -780,11 +780,6 @@ fn trace_sample_time(trace: &Trace, flag: f64) -> Result<f64> {
     }
 }
 
-fn load_beam(args: &BeamModelArgs) -> Result<BeamParameters> {
-    let beam = read_beam(&args.beam)?;
-    Ok(beam)
-}
-
 #[derive(Serialize)]
 struct ModesJson {
     frequencies_hz: Vec<f64>,
@@ -795,7 +790,7 @@ struct ModesJson {
 }
 
 fn beam_modes(a: &BeamModesArgs) -> Result<()> {
-    let beam = load_beam(&a.model)?;
+    let beam = read_beam(&a.model.beam)?;
     let modal =
         modal_model(&beam, a.model.kind()).with_context(|| a.model.beam.display().to_string())?;
     let json = ModesJson {
@@ -812,7 +807,7 @@ fn beam_modes(a: &BeamModesArgs) -> Result<()> {
 }
 
 fn beam_simulate(a: &BeamSimulateArgs) -> Result<()> {
-    let beam = load_beam(&a.model)?;
+    let beam = read_beam(&a.model.beam)?;
     let mut trace = Trace::read(&a.input)?;
     let ts = trace_sample_time(&trace, a.sample_time)?;
     let u = trace.column("u")?;
@@ -829,7 +824,7 @@ fn beam_simulate(a: &BeamSimulateArgs) -> Result<()> {
 }
 
 fn beam_identify(a: &BeamIdentifyArgs) -> Result<()> {
-    let beam = load_beam(&a.model)?;
+    let beam = read_beam(&a.model.beam)?;
     let trace = Trace::read(&a.input)?;
     let ts = trace_sample_time(&trace, a.sample_time)?;
     let u = trace.column("u")?;

@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
-use crate::io::{format_f64, write_atomic, FileError, Trace};
+use crate::io::{format_f64, read_json, write_atomic, FileError, Trace};
 use crate::nominal::SAMPLE_TIME;
 use crate::scenarios::{run, ScenarioContext, ScenarioTrace, SCENARIOS};
 
@@ -120,7 +120,8 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
         .collect()
 }
 
-fn csv_bytes(trace: &ScenarioTrace) -> Vec<u8> {
+/// A scenario trace as CSV text (shortest round-trip numbers).
+pub fn csv_bytes(trace: &ScenarioTrace) -> Vec<u8> {
     let mut out = String::new();
     let names: Vec<&str> = trace.columns.iter().map(|c| c.0).collect();
     out.push_str(&names.join(","));
@@ -188,14 +189,7 @@ pub fn write_golden(dir: &Path) -> Result<Manifest, FileError> {
 
 /// Read `manifest.json`.
 pub fn read_manifest(path: &Path) -> Result<Manifest, FileError> {
-    let text = std::fs::read_to_string(path).map_err(|error| FileError::Io {
-        path: path.to_path_buf(),
-        error,
-    })?;
-    serde_json::from_str(&text).map_err(|e| FileError::Json {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    })
+    read_json(path)
 }
 
 /// The comparison of one column.

@@ -69,16 +69,21 @@ pub fn read_model(path: &Path) -> Result<HysteresisCreepModel, FileError> {
     })
 }
 
-/// Read and validate a beam file.
-pub fn read_beam(path: &Path) -> Result<BeamParameters, FileError> {
+/// Read a JSON file into `T`; errors name the file (and serde's line/field).
+pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, FileError> {
     let text = fs::read_to_string(path).map_err(|error| FileError::Io {
         path: path.to_path_buf(),
         error,
     })?;
-    let beam: BeamParameters = serde_json::from_str(&text).map_err(|e| FileError::Json {
+    serde_json::from_str(&text).map_err(|e| FileError::Json {
         path: path.to_path_buf(),
         message: e.to_string(),
-    })?;
+    })
+}
+
+/// Read and validate a beam file.
+pub fn read_beam(path: &Path) -> Result<BeamParameters, FileError> {
+    let beam: BeamParameters = read_json(path)?;
     beam.validate().map_err(|error| FileError::Beam {
         path: path.to_path_buf(),
         error,
@@ -88,14 +93,7 @@ pub fn read_beam(path: &Path) -> Result<BeamParameters, FileError> {
 
 /// Read a model file without building the model.
 pub fn read_model_file(path: &Path) -> Result<ModelFile, FileError> {
-    let text = fs::read_to_string(path).map_err(|error| FileError::Io {
-        path: path.to_path_buf(),
-        error,
-    })?;
-    serde_json::from_str(&text).map_err(|e| FileError::Json {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    })
+    read_json(path)
 }
 
 /// Write `value` as pretty JSON, atomically.

@@ -4,6 +4,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
+use crate::golden::csv_bytes;
 use crate::io::write_atomic;
 use crate::plots::{figure, write_figure};
 use crate::scenarios::{run, ScenarioContext, ScenarioTrace, SCENARIOS};
@@ -181,21 +182,10 @@ pub fn reproduce(out: &Path) -> Result<Vec<Claim>, String> {
         let tr = run(s.id, &ctx).ok_or_else(|| format!("scenario {} failed", s.id))?;
         full.insert(s.id, tr);
     }
-    for (file, trace, _) in compute_all_from(&full) {
-        let mut text = String::new();
-        let names: Vec<&str> = trace.columns.iter().map(|c| c.0).collect();
-        text.push_str(&names.join(","));
-        text.push('\n');
-        for k in 0..trace.len() {
-            let row: Vec<String> = trace
-                .columns
-                .iter()
-                .map(|c| format!("{:?}", c.1[k]))
-                .collect();
-            text.push_str(&row.join(","));
-            text.push('\n');
-        }
-        write_atomic(&traces_dir.join(file), text.as_bytes()).map_err(|e| e.to_string())?;
+    for s in SCENARIOS.iter() {
+        let bytes = csv_bytes(&full[s.id].decimated(s.decimation));
+        write_atomic(&traces_dir.join(format!("{}.csv", s.id)), &bytes)
+            .map_err(|e| e.to_string())?;
     }
     for s in SCENARIOS.iter() {
         if let Some(fig) = figure(s.id, &full[s.id], &full) {
@@ -203,17 +193,4 @@ pub fn reproduce(out: &Path) -> Result<Vec<Claim>, String> {
         }
     }
     Ok(claims(&full))
-}
-
-fn compute_all_from(full: &HashMap<&str, ScenarioTrace>) -> Vec<(String, ScenarioTrace, usize)> {
-    SCENARIOS
-        .iter()
-        .map(|s| {
-            (
-                format!("{}.csv", s.id),
-                full[s.id].decimated(s.decimation),
-                s.decimation,
-            )
-        })
-        .collect()
 }
