@@ -295,7 +295,6 @@ pub fn fit_step_response(
                 if step < 1e-12 || rel < 1e-14 {
                     return finish(
                         &with(&logp),
-                        parameters,
                         &logp,
                         &r,
                         &jacobian(&logp)?,
@@ -312,21 +311,12 @@ pub fn fit_step_response(
         }
         j = jacobian(&logp)?;
     }
-    let jf = jacobian(&logp)?;
-    finish(
-        &with(&logp),
-        parameters,
-        &logp,
-        &r,
-        &jf,
-        initial_rms,
-        iterations,
-    )
+    // `j` is the Jacobian at `logp` here: it is refreshed after every accepted step
+    finish(&with(&logp), &logp, &r, &j, initial_rms, iterations)
 }
 
 fn finish(
     beam: &BeamParameters,
-    parameters: &[FitParameter],
     logp: &[f64],
     r: &[f64],
     j: &Mat<f64>,
@@ -346,7 +336,6 @@ fn finish(
     let standard_errors = (0..p)
         .map(|k| values[k] * (sigma2 * inv[(k, k)]).max(0.0).sqrt())
         .collect();
-    let _ = parameters;
     Ok(BeamFit {
         beam: beam.clone(),
         values,

@@ -280,9 +280,10 @@ struct BeamSimulateArgs {
     /// Output trace (CSV).
     #[arg(long)]
     output: PathBuf,
-    /// Sample time (s) if the input has no `t` column.
-    #[arg(long, default_value_t = 2e-4, allow_hyphen_values = true)]
-    sample_time: f64,
+    /// Sample time (s); default: from the `t` column, else 2e-4. Given together
+    /// with a `t` column, the two must agree.
+    #[arg(long, allow_hyphen_values = true)]
+    sample_time: Option<f64>,
 }
 
 #[derive(Debug, Args)]
@@ -298,9 +299,10 @@ struct BeamIdentifyArgs {
     /// Fitted beam file (JSON).
     #[arg(long)]
     output: PathBuf,
-    /// Sample time (s) if the input has no `t` column.
-    #[arg(long, default_value_t = 2e-4, allow_hyphen_values = true)]
-    sample_time: f64,
+    /// Sample time (s); default: from the `t` column, else 2e-4. Given together
+    /// with a `t` column, the two must agree.
+    #[arg(long, allow_hyphen_values = true)]
+    sample_time: Option<f64>,
 }
 
 #[derive(Debug, Args)]
@@ -372,18 +374,10 @@ pub fn run(cli: Cli) -> Result<()> {
 fn simulate(a: &SimulateArgs) -> Result<()> {
     let a = &a.files;
     let mut model = read_model(&a.model)?;
-    let mut trace = Trace::read(&a.input)?;
+    let trace = Trace::read(&a.input)?;
     trace.check_time_column(model.sample_time())?;
-    let u = trace.column("u")?;
-    let y = model.run(&u);
-    trace.push_column("y", &y)?;
-    trace.write(&a.output)?;
-    eprintln!(
-        "mfcbeam: simulated {} samples, wrote {}",
-        y.len(),
-        a.output.display()
-    );
-    Ok(())
+    let y = model.run(&trace.column("u")?);
+    write_with_y(trace, &y, &a.output)
 }
 
 fn compensate(a: &CompensateArgs) -> Result<()> {
@@ -437,16 +431,7 @@ fn invert(a: &InvertArgs) -> Result<()> {
 
 fn identify(a: &IdentifyArgs) -> Result<()> {
     let trace = Trace::read(&a.input)?;
-    let ts = match a.sample_time {
-        Some(ts) => {
-            if !(ts.is_finite() && ts > 0.0) {
-                bail!("--sample-time: must be a finite number > 0, found {ts}");
-            }
-            trace.check_time_column(ts)?;
-            ts
-        }
-        None => trace.sample_time_from_t()?,
-    };
+    let ts = trace_sample_time(&trace, a.sample_time, None)?;
     let u = trace.column("u")?;
     let y = trace.column("y")?;
     let settings = IdentificationSettings {
@@ -460,12 +445,7 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
     };
     let id =
         identify_model(&u, &y, ts, &settings).with_context(|| a.input.display().to_string())?;
-    let mut file = id.model.to_file();
-    file.hysteresis.state = None;
-    if let Some(c) = &mut file.creep {
-        c.state = None;
-    }
-    write_json(&a.output, &file)?;
+    write_json(&a.output, &id.model.to_file().without_state())?;
     eprint!("{}", id.report);
     eprintln!("mfcbeam: wrote {}", a.output.display());
     Ok(())
@@ -770,14 +750,37 @@ fn print_stdout(text: &str) -> Result<()> {
 }
 
 /// Sample time: the `t` column if present (uniform), else the flag.
-fn trace_sample_time(trace: &Trace, flag: f64) -> Result<f64> {
-    if trace.has_column("t") {
-        Ok(trace.sample_time_from_t()?)
-    } else if flag.is_finite() && flag > 0.0 {
-        Ok(flag)
-    } else {
-        bail!("--sample-time: must be a finite number > 0, found {flag}")
+/// The sample time of a trace: `--sample-time` if given (checked against the
+/// `t` column, if any), else from the `t` column, else `fallback` (an error
+/// when there is none).
+fn trace_sample_time(trace: &Trace, flag: Option<f64>, fallback: Option<f64>) -> Result<f64> {
+    match flag {
+        Some(ts) => {
+            if !(ts.is_finite() && ts > 0.0) {
+                bail!("--sample-time: must be a finite number > 0, found {ts}");
+            }
+            trace.check_time_column(ts)?;
+            Ok(ts)
+        }
+        None if trace.has_column("t") => Ok(trace.sample_time_from_t()?),
+        None => match fallback {
+            Some(ts) => Ok(ts),
+            // names the missing column
+            None => Ok(trace.sample_time_from_t()?),
+        },
     }
+}
+
+/// Append the computed column `y` to the input trace and write it.
+fn write_with_y(mut trace: Trace, y: &[f64], output: &Path) -> Result<()> {
+    trace.push_column("y", y)?;
+    trace.write(output)?;
+    eprintln!(
+        "mfcbeam: simulated {} samples, wrote {}",
+        y.len(),
+        output.display()
+    );
+    Ok(())
 }
 
 #[derive(Serialize)]
@@ -808,25 +811,17 @@ fn beam_modes(a: &BeamModesArgs) -> Result<()> {
 
 fn beam_simulate(a: &BeamSimulateArgs) -> Result<()> {
     let beam = read_beam(&a.model.beam)?;
-    let mut trace = Trace::read(&a.input)?;
-    let ts = trace_sample_time(&trace, a.sample_time)?;
-    let u = trace.column("u")?;
-    let y = simulate_response(&beam, a.model.kind(), ts, &u)
+    let trace = Trace::read(&a.input)?;
+    let ts = trace_sample_time(&trace, a.sample_time, Some(2e-4))?;
+    let y = simulate_response(&beam, a.model.kind(), ts, &trace.column("u")?)
         .with_context(|| a.model.beam.display().to_string())?;
-    trace.push_column("y", &y)?;
-    trace.write(&a.output)?;
-    eprintln!(
-        "mfcbeam: simulated {} samples, wrote {}",
-        y.len(),
-        a.output.display()
-    );
-    Ok(())
+    write_with_y(trace, &y, &a.output)
 }
 
 fn beam_identify(a: &BeamIdentifyArgs) -> Result<()> {
     let beam = read_beam(&a.model.beam)?;
     let trace = Trace::read(&a.input)?;
-    let ts = trace_sample_time(&trace, a.sample_time)?;
+    let ts = trace_sample_time(&trace, a.sample_time, Some(2e-4))?;
     let u = trace.column("u")?;
     let y = trace.column("y")?;
     let params = a

@@ -139,8 +139,7 @@ impl FlatParametrization {
     pub fn output(&self, z: &[f64], work: &mut [f64]) -> f64 {
         let n = self.order + 1;
         let mut y = 0.0;
-        for (t, (&(coef, pole), &own)) in self.terms.iter().zip(&self.own_factor).enumerate() {
-            let _ = t;
+        for (&(coef, pole), &own) in self.terms.iter().zip(&self.own_factor) {
             let a = &mut work[..n];
             a.copy_from_slice(&z[..n]);
             let mut len = n;

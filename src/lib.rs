@@ -30,6 +30,17 @@
 //! * **Compensator** (21): `v_k = H⁻¹[ς_k − C_k]`, explicit because the
 //!   discrete creep operator has a one-sample delay
 //!   ([`compensator::Compensator`]), with saturation to the supply limits.
+//! * **Identification** (23)–(25): weights by constrained least squares,
+//!   faer QR and a clarabel QP ([`identification`]).
+//! * **Beam** (26)–(27): the paper's Ritz model ([`ritz`]) and a converged
+//!   finite-element model ([`fe`]), both in modal form ([`modal`]), exact
+//!   zero-order-hold simulation and the Hammerstein plant ([`simulation`]),
+//!   step-response fits ([`beam_identification`]).
+//! * **Feedforward** (28): the Gevrey trajectory ([`trajectory`]) and the
+//!   flatness-based input ([`feedforward`]).
+//! * **Reproduction**: the paper's scenarios ([`scenarios`]), golden traces
+//!   and their comparison ([`golden`]), figures ([`plots`]) and the claims
+//!   ([`reproduce`]).
 //!
 //! ## Two tiers
 //!

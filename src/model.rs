@@ -45,6 +45,17 @@ pub struct ModelFile {
     pub creep: Option<CreepData>,
 }
 
+impl ModelFile {
+    /// The same model without `state` entries (virgin).
+    pub fn without_state(mut self) -> Self {
+        self.hysteresis.state = None;
+        if let Some(c) = &mut self.creep {
+            c.state = None;
+        }
+        self
+    }
+}
+
 /// The complete state of a [`HysteresisCreepModel`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct ModelState {

@@ -42,10 +42,5 @@ pub fn nominal_model() -> HysteresisCreepModel {
 
 /// The nominal model as a model file, virgin (no `state` entries).
 pub fn nominal_model_file() -> ModelFile {
-    let mut file = nominal_model().to_file();
-    file.hysteresis.state = None;
-    if let Some(c) = &mut file.creep {
-        c.state = None;
-    }
-    file
+    nominal_model().to_file().without_state()
 }
