@@ -5,10 +5,10 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use mfcbeam::beam::fe::FiniteElementModel;
+use mfcbeam::beam::ritz::RitzModel;
+use mfcbeam::beam::simulation::DiscreteBeam;
 use mfcbeam::beam::BeamParameters;
-use mfcbeam::fe::FiniteElementModel;
-use mfcbeam::ritz::RitzModel;
-use mfcbeam::simulation::DiscreteBeam;
 
 fn beam(c: &mut Criterion) {
     let b = BeamParameters::nominal();

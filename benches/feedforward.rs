@@ -5,11 +5,11 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use mfcbeam::beam::fe::FiniteElementModel;
 use mfcbeam::beam::BeamParameters;
-use mfcbeam::fe::FiniteElementModel;
 use mfcbeam::feedforward::{compensate, design, FeedforwardSettings, FlatParametrization};
-use mfcbeam::nominal::nominal_model;
-use mfcbeam::supply::Supply;
+use mfcbeam::operators::nominal::nominal_model;
+use mfcbeam::operators::supply::Supply;
 
 fn feedforward(c: &mut Criterion) {
     let modal = FiniteElementModel::new(&BeamParameters::nominal(), 240)

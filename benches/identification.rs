@@ -7,7 +7,7 @@ use std::hint::black_box;
 use criterion::{criterion_group, criterion_main, Criterion};
 use mfcbeam::identification::{identify, IdentificationSettings};
 use mfcbeam::prelude::*;
-use mfcbeam::signal::Staircase;
+use mfcbeam::suite::signal::Staircase;
 
 fn identification(c: &mut Criterion) {
     let u = Staircase::shrinking_loops(1000.0, 4, 3, 0.1, 40.0 / 48.0 - 0.1).sample(2e-4);

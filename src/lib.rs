@@ -66,41 +66,29 @@
 //! }
 //! ```
 
-pub mod beam;
-pub mod beam_identification;
-pub mod compensator;
-pub mod creep;
 pub mod error;
-pub mod fe;
-pub mod feedforward;
-pub mod golden;
-pub mod hysteresis;
-pub mod identification;
-pub mod inverse;
 pub mod io;
-pub mod modal;
-pub mod model;
-pub mod nominal;
-pub mod operator;
-pub mod play;
-pub mod plots;
-pub mod reproduce;
-pub mod ritz;
-pub mod scenarios;
-pub mod signal;
-pub mod simulation;
-pub mod supply;
-pub mod trajectory;
+pub mod operators;
+pub mod suite;
+
+#[cfg(feature = "beam")]
+pub mod beam;
+#[cfg(feature = "feedforward")]
+pub mod feedforward;
+#[cfg(feature = "identification")]
+pub mod identification;
 
 /// The types most programs need.
 pub mod prelude {
-    pub use crate::compensator::{Compensated, Compensator, CompensatorSettings};
-    pub use crate::creep::{CreepOperator, ElementaryCreepOperator, LogCreepOperator};
     pub use crate::error::{ModelError, SupplyError};
-    pub use crate::hysteresis::HysteresisOperator;
-    pub use crate::model::{HysteresisCreepModel, ModelFile};
-    pub use crate::nominal::nominal_model;
-    pub use crate::operator::Operator;
-    pub use crate::play::PlayOperator;
-    pub use crate::supply::Supply;
+    pub use crate::operators::compensator::{Compensator, CompensatorSettings};
+    pub use crate::operators::creep::{CreepOperator, ElementaryCreepOperator, LogCreepOperator};
+    pub use crate::operators::hysteresis::HysteresisOperator;
+    pub use crate::operators::model::{HysteresisCreepModel, ModelFile};
+    pub use crate::operators::nominal::nominal_model;
+    pub use crate::operators::play::PlayOperator;
+    pub use crate::operators::supply::Supply;
+    pub use crate::operators::traits::{
+        ActuatorCompensator, ActuatorModel, Compensated, InverseHysteresis, Operator, Snapshot,
+    };
 }

@@ -6,13 +6,13 @@
 mod common;
 
 use common::*;
+use mfcbeam::beam::fe::FiniteElementModel;
+use mfcbeam::beam::modal::ModalModel;
+use mfcbeam::beam::ritz::{clamped_free_roots, RitzModel};
+use mfcbeam::beam::simulation::{CompensatedPlant, DiscreteBeam, HammersteinPlant};
+use mfcbeam::beam::step_response_fit::*;
 use mfcbeam::beam::BeamParameters;
-use mfcbeam::beam_identification::*;
-use mfcbeam::fe::FiniteElementModel;
-use mfcbeam::modal::ModalModel;
 use mfcbeam::prelude::*;
-use mfcbeam::ritz::{clamped_free_roots, RitzModel};
-use mfcbeam::simulation::{CompensatedPlant, DiscreteBeam, HammersteinPlant};
 
 /// The nominal beam without the patch: a uniform cantilever.
 fn uniform_beam() -> BeamParameters {

@@ -442,7 +442,7 @@ fn identify_round_trip_recovers_a_model_that_compensates() {
         .hysteresis()
         .weights()
         .iter()
-        .zip(mfcbeam::nominal::HYSTERESIS_WEIGHTS)
+        .zip(mfcbeam::operators::nominal::HYSTERESIS_WEIGHTS)
     {
         assert!(((a - b) / b).abs() < 1e-6, "{a} vs {b}");
     }
@@ -899,7 +899,7 @@ fn reproduce_writes_traces_plots_and_a_summary_where_every_claim_holds() {
         table.contains("| Fig. 14 |") && !table.contains("| NO |"),
         "{table}"
     );
-    for s in mfcbeam::scenarios::SCENARIOS {
+    for s in mfcbeam::suite::scenarios::SCENARIOS {
         assert!(d.path(&format!("traces/{}.csv", s.id)).exists());
         for ext in ["svg", "png"] {
             let p = d.path(&format!("plots/{}.{ext}", s.id));

@@ -6,8 +6,8 @@
 mod common;
 
 use common::*;
-use mfcbeam::creep::{creep_gain, log_spaced_eigenvalues};
-use mfcbeam::play::dead_zone;
+use mfcbeam::operators::creep::{creep_gain, log_spaced_eigenvalues};
+use mfcbeam::operators::play::dead_zone;
 use mfcbeam::prelude::*;
 use proptest::prelude::*;
 

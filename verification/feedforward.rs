@@ -3,15 +3,15 @@
 //! consistency, open-loop tracking through the exact ZOH beam (with and
 //! without `W` and the compensator), and the paper's case.
 
+use mfcbeam::beam::fe::FiniteElementModel;
+use mfcbeam::beam::modal::ModalModel;
+use mfcbeam::beam::ritz::RitzModel;
+use mfcbeam::beam::simulation::{DiscreteBeam, HammersteinPlant};
 use mfcbeam::beam::BeamParameters;
-use mfcbeam::fe::FiniteElementModel;
+use mfcbeam::feedforward::trajectory::Trajectory;
 use mfcbeam::feedforward::{compensate, design, FeedforwardSettings, FlatParametrization};
-use mfcbeam::modal::ModalModel;
+use mfcbeam::operators::supply::Supply;
 use mfcbeam::prelude::*;
-use mfcbeam::ritz::RitzModel;
-use mfcbeam::simulation::{DiscreteBeam, HammersteinPlant};
-use mfcbeam::supply::Supply;
-use mfcbeam::trajectory::Trajectory;
 
 fn read_csv(path: &str) -> Vec<Vec<f64>> {
     std::fs::read_to_string(path)

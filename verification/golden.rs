@@ -6,14 +6,14 @@
 
 use std::path::Path;
 
-use mfcbeam::creep::CreepOperator;
-use mfcbeam::golden::{
+use mfcbeam::io::Trace;
+use mfcbeam::operators::creep::CreepOperator;
+use mfcbeam::operators::hysteresis::HysteresisOperator;
+use mfcbeam::prelude::*;
+use mfcbeam::suite::golden::{
     compare_columns, compute_all, numeric_columns, read_manifest, sha256_hex, Manifest,
 };
-use mfcbeam::hysteresis::HysteresisOperator;
-use mfcbeam::io::Trace;
-use mfcbeam::prelude::*;
-use mfcbeam::scenarios::{ScenarioContext, Siso, SCENARIOS};
+use mfcbeam::suite::scenarios::{ScenarioContext, Siso, SCENARIOS};
 
 fn manifest() -> Manifest {
     read_manifest(Path::new("golden/manifest.json")).unwrap()

@@ -8,9 +8,9 @@ use common::*;
 use mfcbeam::identification::{
     identify, thresholds_23, IdentificationError, IdentificationSettings,
 };
-use mfcbeam::nominal::{CREEP_WEIGHTS, HYSTERESIS_WEIGHTS, SAMPLE_TIME};
+use mfcbeam::operators::nominal::{CREEP_WEIGHTS, HYSTERESIS_WEIGHTS, SAMPLE_TIME};
 use mfcbeam::prelude::*;
-use mfcbeam::signal::Staircase;
+use mfcbeam::suite::signal::Staircase;
 use proptest::prelude::*;
 
 /// The paper's identification input (section 4.1): 4 periods of a staircase
@@ -230,7 +230,7 @@ proptest! {
         let c = CreepOperator::new(
             thresholds_23(nc, amplitude),
             weights_from_partial_sums(&sums_c[..nc]),
-            mfcbeam::creep::log_spaced_eigenvalues(m, ts),
+            mfcbeam::operators::creep::log_spaced_eigenvalues(m, ts),
             ts,
         ).unwrap();
         let truth = HysteresisCreepModel::new(ts, h, Some(c)).unwrap();
@@ -293,7 +293,7 @@ fn constrained_optimum_matches_brute_force_active_set_enumeration() {
     let (nh, nc, m) = (3, 2, 2);
     let r_h = thresholds_23(nh, 10.0);
     let r_c = thresholds_23(nc, 10.0);
-    let eig = mfcbeam::creep::log_spaced_eigenvalues(m, ts);
+    let eig = mfcbeam::operators::creep::log_spaced_eigenvalues(m, ts);
     // columns of Φ
     let mut cols: Vec<Vec<f64>> = Vec::new();
     for &r in &r_h {

@@ -7,9 +7,9 @@ mod common;
 use std::path::Path;
 
 use mfcbeam::io::read_model_file;
-use mfcbeam::nominal::{nominal_model_file, SAMPLE_TIME};
+use mfcbeam::operators::nominal::{nominal_model_file, SAMPLE_TIME};
 use mfcbeam::prelude::*;
-use mfcbeam::signal::Staircase;
+use mfcbeam::suite::signal::Staircase;
 
 /// `golden/nominal_model.json` is the nominal model of SPEC section 8, bit for
 /// bit (regenerate with `mfcbeam nominal --output golden/nominal_model.json`).

@@ -20,18 +20,18 @@
 //! alternative or deliberately faulty implementation can be run through the
 //! same scenarios and compared against the golden traces.
 
+use crate::beam::modal::ModalModel;
+use crate::beam::simulation::DiscreteBeam;
+use crate::beam::step_response_fit::{modal_model, BeamModelKind};
 use crate::beam::BeamParameters;
-use crate::beam_identification::{modal_model, BeamModelKind};
-use crate::compensator::{Compensator, CompensatorSettings};
 use crate::feedforward::{compensate, design, FeedforwardSettings, FlatParametrization};
 use crate::identification::{identify, IdentificationSettings};
-use crate::modal::ModalModel;
-use crate::model::HysteresisCreepModel;
-use crate::nominal::{nominal_model, SAMPLE_TIME};
-use crate::operator::Operator;
-use crate::signal::Staircase;
-use crate::simulation::DiscreteBeam;
-use crate::supply::Supply;
+use crate::operators::compensator::{Compensator, CompensatorSettings};
+use crate::operators::model::HysteresisCreepModel;
+use crate::operators::nominal::{nominal_model, SAMPLE_TIME};
+use crate::operators::supply::Supply;
+use crate::operators::traits::Operator;
+use crate::suite::signal::Staircase;
 
 /// One sample in, one sample out: any `W` a scenario can drive.
 pub trait Siso {

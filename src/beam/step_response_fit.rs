@@ -19,11 +19,11 @@
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
 
+use crate::beam::fe::FiniteElementModel;
+use crate::beam::modal::ModalModel;
+use crate::beam::ritz::RitzModel;
+use crate::beam::simulation::DiscreteBeam;
 use crate::beam::{BeamError, BeamParameters};
-use crate::fe::FiniteElementModel;
-use crate::modal::ModalModel;
-use crate::ritz::RitzModel;
-use crate::simulation::DiscreteBeam;
 
 /// Central-difference step in log coordinates: truncation error `~h² ≈ 1e-8`,
 /// rounding of the simulated response (`~1e-12` relative) amplified to
@@ -48,7 +48,7 @@ pub enum BeamModelKind {
 impl Default for BeamModelKind {
     fn default() -> Self {
         BeamModelKind::Modal {
-            elements: crate::fe::DEFAULT_ELEMENTS,
+            elements: crate::beam::fe::DEFAULT_ELEMENTS,
         }
     }
 }

@@ -15,7 +15,7 @@
 //! up to rounding). `H⁻¹[H[v]] = v` and `H[H⁻¹[y]] = y` hold for admissible,
 //! matched states.
 
-use crate::hysteresis::{partial_sums, HysteresisOperator};
+use crate::operators::hysteresis::{partial_sums, HysteresisOperator};
 
 /// Thresholds and weights of `H⁻¹` by (22), written into caller buffers.
 pub fn inverse_parameters_into(

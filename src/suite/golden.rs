@@ -16,8 +16,8 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use crate::io::{format_f64, read_json, write_atomic, FileError, Trace};
-use crate::nominal::SAMPLE_TIME;
-use crate::scenarios::{run, ScenarioContext, ScenarioTrace, SCENARIOS};
+use crate::operators::nominal::SAMPLE_TIME;
+use crate::suite::scenarios::{run, ScenarioContext, ScenarioTrace, SCENARIOS};
 
 /// Tolerance of one column.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -29,8 +29,8 @@
 
 use faer::Mat;
 
+use crate::beam::modal::{generalized_eigen, project, project_vector, ModalModel};
 use crate::beam::{BeamError, BeamParameters};
-use crate::modal::{generalized_eigen, project, project_vector, ModalModel};
 
 /// `β_k L`, `k = 1..n`: the roots of `1 + cos x cosh x = 0`, by Newton on
 /// the equivalent `cos x + 1/cosh x = 0` (which does not overflow).

@@ -4,10 +4,10 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use crate::golden::csv_bytes;
 use crate::io::write_atomic;
-use crate::plots::{figure, write_figure};
-use crate::scenarios::{run, ScenarioContext, ScenarioTrace, SCENARIOS};
+use crate::suite::golden::csv_bytes;
+use crate::suite::plots::{figure, write_figure};
+use crate::suite::scenarios::{run, ScenarioContext, ScenarioTrace, SCENARIOS};
 
 /// A claim of the paper, measured.
 #[derive(Debug, Clone, PartialEq)]

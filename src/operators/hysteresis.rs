@@ -13,8 +13,8 @@
 //! outside are checked.
 
 use crate::error::ModelError;
-use crate::operator::Operator;
-use crate::play::play;
+use crate::operators::play::play;
+use crate::operators::traits::{InverseHysteresis, Operator, Snapshot};
 
 /// The Prandtl–Ishlinskii hysteresis operator `H` (10).
 #[derive(Debug, Clone, PartialEq)]
@@ -123,8 +123,6 @@ impl HysteresisOperator {
 }
 
 impl Operator for HysteresisOperator {
-    type State = Vec<f64>;
-
     #[inline]
     fn step(&mut self, v: f64) -> f64 {
         let mut y = 0.0;
@@ -143,6 +141,10 @@ impl Operator for HysteresisOperator {
     fn reset(&mut self) {
         self.state.fill(0.0);
     }
+}
+
+impl Snapshot for HysteresisOperator {
+    type State = Vec<f64>;
 
     fn state(&self) -> Vec<f64> {
         self.state.clone()
@@ -156,6 +158,9 @@ impl Operator for HysteresisOperator {
         Ok(())
     }
 }
+
+/// A PI operator built by (22) is the inverse of another.
+impl InverseHysteresis for HysteresisOperator {}
 
 /// `Σ w_i x_i` in four interleaved partial sums, `(a_0 + a_1) + (a_2 + a_3)`
 /// with `a_l = Σ_{i ≡ l mod 4} w_i x_i`: the order every operator here uses.

@@ -20,9 +20,11 @@
 //! is `χ` at the next sample.
 
 use crate::error::ModelError;
-use crate::hysteresis::{check_finite, check_length, check_thresholds, partial_sums, weighted_sum};
-use crate::operator::Operator;
-use crate::play::dead_zone;
+use crate::operators::hysteresis::{
+    check_finite, check_length, check_thresholds, partial_sums, weighted_sum,
+};
+use crate::operators::play::dead_zone;
+use crate::operators::traits::{Operator, Snapshot};
 
 /// `1 − e^{−a T_s}` without cancellation.
 #[inline]
@@ -99,8 +101,6 @@ impl ElementaryCreepOperator {
 }
 
 impl Operator for ElementaryCreepOperator {
-    type State = f64;
-
     #[inline]
     fn step(&mut self, v: f64) -> f64 {
         let out = self.chi;
@@ -111,6 +111,10 @@ impl Operator for ElementaryCreepOperator {
     fn reset(&mut self) {
         self.chi = 0.0;
     }
+}
+
+impl Snapshot for ElementaryCreepOperator {
+    type State = f64;
 
     fn state(&self) -> f64 {
         self.chi
@@ -155,8 +159,6 @@ impl LogCreepOperator {
 }
 
 impl Operator for LogCreepOperator {
-    type State = Vec<f64>;
-
     #[inline]
     fn step(&mut self, v: f64) -> f64 {
         let m = self.chi.len() as f64;
@@ -171,6 +173,10 @@ impl Operator for LogCreepOperator {
     fn reset(&mut self) {
         self.chi.fill(0.0);
     }
+}
+
+impl Snapshot for LogCreepOperator {
+    type State = Vec<f64>;
 
     fn state(&self) -> Vec<f64> {
         self.chi.clone()
@@ -317,9 +323,6 @@ impl CreepOperator {
 }
 
 impl Operator for CreepOperator {
-    /// One row of `m` values per threshold, as in the model file.
-    type State = Vec<Vec<f64>>;
-
     #[inline]
     fn step(&mut self, v: f64) -> f64 {
         let out = self.output;
@@ -331,6 +334,11 @@ impl Operator for CreepOperator {
         self.chi.fill(0.0);
         self.refresh_output();
     }
+}
+
+impl Snapshot for CreepOperator {
+    /// One row of `m` values per threshold, as in the model file.
+    type State = Vec<Vec<f64>>;
 
     fn state(&self) -> Vec<Vec<f64>> {
         let n = self.thresholds.len();

@@ -23,8 +23,8 @@
 
 use faer::{Mat, Side};
 
+use crate::beam::modal::ModalModel;
 use crate::beam::{BeamError, BeamParameters, SectionCoefficients};
-use crate::modal::ModalModel;
 
 /// Default number of finite elements.
 pub const DEFAULT_ELEMENTS: usize = 240;

@@ -43,12 +43,12 @@ use faer::linalg::solvers::SolveLstsq;
 use faer::Mat;
 use thiserror::Error;
 
-use crate::creep::{log_spaced_eigenvalues, CreepOperator};
 use crate::error::ModelError;
-use crate::hysteresis::HysteresisOperator;
-use crate::model::HysteresisCreepModel;
-use crate::operator::Operator;
-use crate::play::play;
+use crate::operators::creep::{log_spaced_eigenvalues, CreepOperator};
+use crate::operators::hysteresis::HysteresisOperator;
+use crate::operators::model::HysteresisCreepModel;
+use crate::operators::play::play;
+use crate::operators::traits::Operator;
 
 /// What can go wrong in an identification.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -154,7 +154,7 @@ impl IdentificationSettings {
         let check =
             |field: &'static str, r: &Option<Vec<f64>>| -> Result<(), IdentificationError> {
                 if let Some(r) = r {
-                    crate::hysteresis::check_thresholds(field, r).map_err(|e| {
+                    crate::operators::hysteresis::check_thresholds(field, r).map_err(|e| {
                         IdentificationError::InvalidSetting {
                             field,
                             reason: e.to_string(),
@@ -728,7 +728,7 @@ mod tests {
         let r = thresholds_23(12, 1000.0);
         assert_eq!(r[0], 0.0);
         assert_eq!(r[3], 250.0);
-        assert_eq!(r, crate::nominal::nominal_thresholds());
+        assert_eq!(r, crate::operators::nominal::nominal_thresholds());
     }
 
     #[test]

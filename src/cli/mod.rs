@@ -6,15 +6,15 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use serde::Serialize;
 
-use mfcbeam::beam::BeamParameters;
-use mfcbeam::beam_identification::{
+use mfcbeam::beam::step_response_fit::{
     fit_step_response, modal_model, simulate_response, BeamModelKind, FitParameter,
 };
-use mfcbeam::compensator::{Compensator, CompensatorSettings};
+use mfcbeam::beam::BeamParameters;
 use mfcbeam::identification::{identify as identify_model, IdentificationSettings};
 use mfcbeam::io::{read_beam, read_model, write_atomic, write_json, Trace};
-use mfcbeam::operator::Operator;
-use mfcbeam::signal::{time_axis, Staircase};
+use mfcbeam::operators::compensator::{Compensator, CompensatorSettings};
+use mfcbeam::operators::traits::Operator;
+use mfcbeam::suite::signal::{time_axis, Staircase};
 
 #[derive(Debug, Parser)]
 #[command(
@@ -144,7 +144,7 @@ struct FeedforwardArgs {
     #[arg(long, value_enum, default_value_t = ModelKindArg::Modal)]
     beam_model: ModelKindArg,
     /// Finite elements of the modal beam model.
-    #[arg(long, default_value_t = mfcbeam::fe::DEFAULT_ELEMENTS)]
+    #[arg(long, default_value_t = mfcbeam::beam::fe::DEFAULT_ELEMENTS)]
     elements: usize,
     /// Start of the transition (s).
     #[arg(long, default_value_t = 2.9, allow_hyphen_values = true)]
@@ -249,7 +249,7 @@ struct BeamModelArgs {
     #[arg(long, value_enum, default_value_t = ModelKindArg::Modal)]
     model: ModelKindArg,
     /// Finite elements of the modal model.
-    #[arg(long, default_value_t = mfcbeam::fe::DEFAULT_ELEMENTS)]
+    #[arg(long, default_value_t = mfcbeam::beam::fe::DEFAULT_ELEMENTS)]
     elements: usize,
 }
 
@@ -495,7 +495,7 @@ fn feedforward(a: &FeedforwardArgs) -> Result<()> {
         a.y_final, a.duration, a.sigma, ff.peak, flat.static_gain()
     );
     if let Some(m) = &model {
-        let supply = mfcbeam::supply::Supply::default();
+        let supply = mfcbeam::operators::supply::Supply::default();
         let c = compensate_ff(&ff.u_d, m, &supply)?;
         trace.push_column("u", &c.u)?;
         trace.push_column("u_fs", &c.u_fs)?;
@@ -529,7 +529,7 @@ fn feedforward(a: &FeedforwardArgs) -> Result<()> {
 }
 
 fn reproduce(a: &ReproduceArgs) -> Result<()> {
-    let claims = mfcbeam::reproduce::reproduce(&a.out).map_err(anyhow::Error::msg)?;
+    let claims = mfcbeam::suite::reproduce::reproduce(&a.out).map_err(anyhow::Error::msg)?;
     let mut text = String::from("| figure | claim | measured | holds |\n|---|---|---|---|\n");
     for c in &claims {
         text.push_str(&format!(
@@ -556,7 +556,7 @@ fn reproduce(a: &ReproduceArgs) -> Result<()> {
 }
 
 fn scenario(a: &ScenarioArgs) -> Result<()> {
-    use mfcbeam::scenarios::{run, scenario, ScenarioContext, SCENARIOS};
+    use mfcbeam::suite::scenarios::{run, scenario, ScenarioContext, SCENARIOS};
     let Some(sc) = scenario(&a.name) else {
         let ids: Vec<&str> = SCENARIOS.iter().map(|s| s.id).collect();
         bail!(
@@ -584,7 +584,9 @@ fn scenario(a: &ScenarioArgs) -> Result<()> {
 }
 
 fn golden(a: &GoldenArgs) -> Result<()> {
-    use mfcbeam::golden::{compare_columns, compute_all, read_manifest, sha256_hex, write_golden};
+    use mfcbeam::suite::golden::{
+        compare_columns, compute_all, read_manifest, sha256_hex, write_golden,
+    };
     if a.write {
         let m = write_golden(&a.dir)?;
         eprintln!(
@@ -598,7 +600,7 @@ fn golden(a: &GoldenArgs) -> Result<()> {
         bail!("golden: say --write (regenerate) or --check (compare)");
     }
     let manifest = read_manifest(&a.dir.join("manifest.json"))?;
-    let ctx = mfcbeam::scenarios::ScenarioContext::nominal();
+    let ctx = mfcbeam::suite::scenarios::ScenarioContext::nominal();
     let mut failures = 0;
     for (file, trace, _) in compute_all(&ctx) {
         let Some(entry) = manifest.entry_for_file(&file) else {
@@ -613,7 +615,7 @@ fn golden(a: &GoldenArgs) -> Result<()> {
             eprintln!("{file}: SHA-256 differs from the manifest");
             failures += 1;
         }
-        let stored = mfcbeam::golden::numeric_columns(&Trace::read(&path)?)?;
+        let stored = mfcbeam::suite::golden::numeric_columns(&Trace::read(&path)?)?;
         let fresh: Vec<(String, Vec<f64>)> = trace
             .columns
             .iter()
@@ -646,7 +648,7 @@ fn golden(a: &GoldenArgs) -> Result<()> {
 }
 
 fn verify(a: &VerifyArgs) -> Result<()> {
-    use mfcbeam::golden::{
+    use mfcbeam::suite::golden::{
         align, compare_columns, manifest_path_for, numeric_columns, read_manifest,
     };
     let manifest_path = manifest_path_for(&a.golden);
@@ -734,7 +736,10 @@ fn nominal(a: &NominalArgs) -> Result<()> {
     if a.beam {
         emit(&a.output, &BeamParameters::nominal())
     } else {
-        emit(&a.output, &mfcbeam::nominal::nominal_model_file())
+        emit(
+            &a.output,
+            &mfcbeam::operators::nominal::nominal_model_file(),
+        )
     }
 }
 
@@ -838,7 +843,7 @@ fn beam_identify(a: &BeamIdentifyArgs) -> Result<()> {
         eprintln!(
             "{:<30} {:<16.9e} {:<16.9e} {:.3e}",
             p.name,
-            mfcbeam::beam_identification::parameter(&beam, &p.name).unwrap_or(f64::NAN),
+            mfcbeam::beam::step_response_fit::parameter(&beam, &p.name).unwrap_or(f64::NAN),
             fit.values[i],
             fit.standard_errors[i]
         );

@@ -7,10 +7,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::creep::CreepOperator;
 use crate::error::ModelError;
-use crate::hysteresis::HysteresisOperator;
-use crate::operator::Operator;
+use crate::operators::creep::CreepOperator;
+use crate::operators::hysteresis::HysteresisOperator;
+use crate::operators::traits::{ActuatorModel, Operator, Snapshot};
 
 /// The hysteresis part of a model file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -166,8 +166,6 @@ impl HysteresisCreepModel {
 }
 
 impl Operator for HysteresisCreepModel {
-    type State = ModelState;
-
     #[inline]
     fn step(&mut self, v: f64) -> f64 {
         let h = self.hysteresis.step(v);
@@ -183,6 +181,10 @@ impl Operator for HysteresisCreepModel {
             c.reset();
         }
     }
+}
+
+impl Snapshot for HysteresisCreepModel {
+    type State = ModelState;
 
     fn state(&self) -> ModelState {
         ModelState {
@@ -209,3 +211,5 @@ impl Operator for HysteresisCreepModel {
         }
     }
 }
+
+impl ActuatorModel for HysteresisCreepModel {}

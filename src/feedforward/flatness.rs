@@ -23,14 +23,14 @@
 
 use faer::c64;
 
+use crate::beam::modal::ModalModel;
+use crate::beam::simulation::DiagonalForm;
 use crate::beam::BeamError;
-use crate::compensator::{Compensator, CompensatorSettings};
 use crate::error::ModelError;
-use crate::modal::ModalModel;
-use crate::model::HysteresisCreepModel;
-use crate::simulation::DiagonalForm;
-use crate::supply::Supply;
-use crate::trajectory::{Trajectory, TrajectoryError};
+use crate::feedforward::trajectory::{Trajectory, TrajectoryError};
+use crate::operators::compensator::{Compensator, CompensatorSettings};
+use crate::operators::model::HysteresisCreepModel;
+use crate::operators::supply::Supply;
 
 /// A factor of `D(s)`: `1 − s/λ` (real pole) or `1 − p s + q s²` (pair).
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -23,10 +23,10 @@
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 
+use crate::beam::modal::ModalModel;
 use crate::beam::BeamError;
-use crate::modal::ModalModel;
-use crate::model::HysteresisCreepModel;
-use crate::operator::Operator;
+use crate::operators::model::HysteresisCreepModel;
+use crate::operators::traits::Operator;
 
 /// The state-space model of a [`ModalModel`] in diagonal (complex modal)
 /// coordinates: `ż_j = λ_j z_j + (V⁻¹B)_j u`, `y = Re Σ w_j (CV)_j z_j`, keeping
@@ -273,7 +273,7 @@ impl HammersteinPlant {
 /// chain is linear, `y = beam[ς_d]` while the compensator is not saturated.
 #[derive(Debug, Clone)]
 pub struct CompensatedPlant {
-    pub compensator: crate::compensator::Compensator,
+    pub compensator: crate::operators::compensator::Compensator,
     pub plant: HammersteinPlant,
 }
 

@@ -14,13 +14,15 @@
 //! (22), so its state is exactly the one the plant has after receiving the
 //! clipped value and the identity resumes as soon as the target is reachable.
 
-use crate::creep::CreepOperator;
 use crate::error::ModelError;
-use crate::hysteresis::{check_admissible, check_finite, check_length, HysteresisOperator};
-use crate::inverse::inverse_state_into;
-use crate::model::HysteresisCreepModel;
-use crate::operator::Operator;
-use crate::play::play;
+use crate::operators::creep::CreepOperator;
+use crate::operators::hysteresis::{
+    check_admissible, check_finite, check_length, HysteresisOperator,
+};
+use crate::operators::inverse::inverse_state_into;
+use crate::operators::model::HysteresisCreepModel;
+use crate::operators::play::play;
+use crate::operators::traits::{ActuatorCompensator, Operator, Snapshot};
 
 /// Saturation limits of the compensator output (balanced voltage, V).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -71,14 +73,7 @@ impl CompensatorSettings {
     }
 }
 
-/// One compensator output sample.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Compensated {
-    /// The (clipped) balanced voltage `u_k`.
-    pub u: f64,
-    /// Whether `u_k` was clipped to a limit.
-    pub saturated: bool,
-}
+pub use crate::operators::traits::Compensated;
 
 /// Everything the compensator's next output depends on.
 #[derive(Debug, Clone, PartialEq)]
@@ -167,6 +162,15 @@ impl Compensator {
         Compensated { u, saturated }
     }
 
+    /// Return to the virgin state (forward plays, inverse plays and creep).
+    pub fn reset(&mut self) {
+        self.forward_state.fill(0.0);
+        self.inverse.reset();
+        if let Some(c) = &mut self.creep {
+            c.reset();
+        }
+    }
+
     /// Compensate a whole signal into caller buffers; returns the number of
     /// saturated samples.
     pub fn compensate_into(
@@ -199,8 +203,6 @@ impl Compensator {
 }
 
 impl Operator for Compensator {
-    type State = CompensatorState;
-
     /// The compensated voltage; use [`Compensator::compensate`] for the flag.
     #[inline]
     fn step(&mut self, target: f64) -> f64 {
@@ -208,12 +210,23 @@ impl Operator for Compensator {
     }
 
     fn reset(&mut self) {
-        self.forward_state.fill(0.0);
-        self.inverse.reset();
-        if let Some(c) = &mut self.creep {
-            c.reset();
-        }
+        Compensator::reset(self);
     }
+}
+
+impl ActuatorCompensator for Compensator {
+    #[inline]
+    fn compensate(&mut self, target: f64) -> Compensated {
+        Compensator::compensate(self, target)
+    }
+
+    fn reset(&mut self) {
+        Compensator::reset(self);
+    }
+}
+
+impl Snapshot for Compensator {
+    type State = CompensatorState;
 
     fn state(&self) -> CompensatorState {
         CompensatorState {

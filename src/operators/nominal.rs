@@ -1,9 +1,9 @@
 //! The nominal hysteresis and creep model of SPEC section 8 (reconstructed: the
 //! paper does not print its identified weights).
 
-use crate::creep::CreepOperator;
-use crate::hysteresis::HysteresisOperator;
-use crate::model::{HysteresisCreepModel, ModelFile};
+use crate::operators::creep::CreepOperator;
+use crate::operators::hysteresis::HysteresisOperator;
+use crate::operators::model::{HysteresisCreepModel, ModelFile};
 
 /// Sample time of the paper's real-time board: 0.2 ms.
 pub const SAMPLE_TIME: f64 = 2e-4;

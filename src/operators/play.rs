@@ -9,7 +9,7 @@
 //! monotonicity changes (rate independence).
 
 use crate::error::ModelError;
-use crate::operator::Operator;
+use crate::operators::traits::{Operator, Snapshot};
 
 /// One play (backlash) step: `max(v − r, min(v + r, x))`.
 ///
@@ -67,8 +67,6 @@ impl PlayOperator {
 }
 
 impl Operator for PlayOperator {
-    type State = f64;
-
     #[inline]
     fn step(&mut self, v: f64) -> f64 {
         self.x = play(v, self.threshold, self.x);
@@ -78,6 +76,10 @@ impl Operator for PlayOperator {
     fn reset(&mut self) {
         self.x = 0.0;
     }
+}
+
+impl Snapshot for PlayOperator {
+    type State = f64;
 
     fn state(&self) -> f64 {
         self.x

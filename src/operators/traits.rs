@@ -1,0 +1,99 @@
+//! The traits every implementation of an operator of the paper implements.
+//!
+//! They are object safe, so that property checks ([`crate::suite::conformance`]),
+//! scenarios and benchmarks take `&mut dyn …` and run the project's fast
+//! implementations, the naive references ([`crate::suite::reference`]) and
+//! anybody else's through the same code:
+//!
+//! * [`Operator`] — a causal single-input single-output operator, one sample
+//!   at a time: the play (7)–(9), PI hysteresis (10), the creep operators
+//!   (13)–(16), the model `W` (6);
+//! * [`ActuatorModel`] — the model `W = H + C` of the actuator (4), (6);
+//! * [`InverseHysteresis`] — the inverse PI operator `H⁻¹` of (22);
+//! * [`ActuatorCompensator`] — the compensator `W⁻¹` (21): the output and
+//!   whether it was clipped.
+//!
+//! Typed snapshots of the state are a separate trait, [`Snapshot`], because a
+//! state type differs per implementation. Implementations are configured from
+//! the model file ([`crate::operators::model::ModelFile`]): its `state` is the
+//! common way to start one from a given state.
+
+use crate::error::{DimensionError, ModelError};
+
+/// A causal time-discrete operator `v ↦ y`, one sample at a time.
+pub trait Operator {
+    /// Process one sample. Allocates nothing and does no I/O.
+    fn step(&mut self, v: f64) -> f64;
+
+    /// Return to the virgin (all-zero) state.
+    fn reset(&mut self);
+
+    /// Process a whole signal into a caller-provided buffer (no allocation).
+    fn run_into(&mut self, input: &[f64], output: &mut [f64]) -> Result<(), DimensionError> {
+        if input.len() != output.len() {
+            return Err(DimensionError {
+                what: "output buffer",
+                expected: input.len(),
+                found: output.len(),
+            });
+        }
+        for (y, &v) in output.iter_mut().zip(input) {
+            *y = self.step(v);
+        }
+        Ok(())
+    }
+
+    /// Process a whole signal and return the output.
+    fn run(&mut self, input: &[f64]) -> Vec<f64> {
+        input.iter().map(|&v| self.step(v)).collect()
+    }
+}
+
+/// A state that can be read, set and restored, so that a run can be split
+/// and resumed bit-identically (the semigroup property).
+pub trait Snapshot {
+    /// Everything the next output depends on.
+    type State: Clone + PartialEq + std::fmt::Debug;
+
+    /// A copy of the current state.
+    fn state(&self) -> Self::State;
+
+    /// Replace the state; refuses states of the wrong shape or, for
+    /// hysteresis, states that no input can reach.
+    fn set_state(&mut self, state: &Self::State) -> Result<(), ModelError>;
+}
+
+/// The actuator model `W = H + C` (6): balanced voltage in, effective voltage
+/// out. `step` returns `W[v]_k` for the input `v_k`; the creep part uses
+/// `v_{k−1}` (the one-sample delay of (20)).
+pub trait ActuatorModel: Operator {}
+
+/// The inverse Prandtl–Ishlinskii operator `H⁻¹` (22): `step(y)` returns the
+/// `v` for which the forward operator, from the matched state, outputs `y`.
+pub trait InverseHysteresis: Operator {}
+
+/// One compensator output sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Compensated {
+    /// The (clipped) balanced voltage `u_k`.
+    pub u: f64,
+    /// Whether `u_k` was clipped to a limit.
+    pub saturated: bool,
+}
+
+/// The compensator `W⁻¹` (21): for a target effective voltage, the balanced
+/// voltage that makes `W` produce it, clipped to the limits, and whether it
+/// was clipped. After a clipped sample its state is the one the plant has
+/// after receiving the clipped value.
+pub trait ActuatorCompensator {
+    /// One sample. Allocates nothing and does no I/O.
+    fn compensate(&mut self, target: f64) -> Compensated;
+
+    /// Return to the virgin state.
+    fn reset(&mut self);
+
+    /// Compensate a whole signal.
+    fn compensate_all(&mut self, targets: &[f64]) -> Vec<Compensated> {
+        targets.iter().map(|&t| self.compensate(t)).collect()
+    }
+}
