@@ -571,7 +571,7 @@ const BEAM: &str = "golden/nominal_beam.json";
 #[test]
 fn beam_modes_prints_frequencies_and_static_gain() {
     for (model, f1) in [("modal", 12.1887), ("ritz", 12.7112)] {
-        let out = mfcbeam(&["beam", "modes", "--beam", BEAM, "--model", model]);
+        let out = mfcbeam(&["beam", "modes", "--beam", BEAM, "--beam-model", model]);
         assert!(
             out.status.success(),
             "{}",
@@ -900,9 +900,9 @@ fn reproduce_writes_traces_plots_and_a_summary_where_every_claim_holds() {
         "{table}"
     );
     for s in mfcbeam::suite::scenarios::SCENARIOS {
-        assert!(d.path(&format!("traces/{}.csv", s.id)).exists());
+        assert!(d.path(&format!("traces/{}.csv", s.id())).exists());
         for ext in ["svg", "png"] {
-            let p = d.path(&format!("plots/{}.{ext}", s.id));
+            let p = d.path(&format!("plots/{}.{ext}", s.id()));
             assert!(
                 fs::metadata(&p).map(|m| m.len() > 1000).unwrap_or(false),
                 "{}",

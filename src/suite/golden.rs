@@ -15,9 +15,29 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
+use thiserror::Error;
+
 use crate::io::{format_f64, read_json, write_atomic, FileError, Trace};
 use crate::operators::nominal::SAMPLE_TIME;
-use crate::suite::scenarios::{run, ScenarioContext, ScenarioTrace, SCENARIOS};
+use crate::suite::scenarios::{
+    run, scenario, Column, ScenarioContext, ScenarioError, ScenarioTrace, SCENARIOS,
+};
+
+/// What can go wrong writing, checking or comparing golden traces.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum GoldenError {
+    #[error(transparent)]
+    File(#[from] FileError),
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+    /// The manifest lacks an entry, or an entry lacks a column.
+    #[error("{path}: {reason}")]
+    Manifest { path: PathBuf, reason: String },
+    /// The candidate shares no column with the golden trace.
+    #[error("{candidate}: shares no column with {golden}")]
+    NoCommonColumn { candidate: PathBuf, golden: PathBuf },
+}
 
 /// Tolerance of one column.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -59,56 +79,15 @@ impl Manifest {
     }
 }
 
-fn spec(name: &str, unit: &str, abs_tol: f64, rel_tol: f64, why: &str) -> ColumnSpec {
-    ColumnSpec {
-        name: name.into(),
-        unit: unit.into(),
-        abs_tol,
-        rel_tol,
-        justification: why.into(),
-    }
-}
-
-const WHY_INPUT: &str = "generated input: closed-form samples, equal to rounding (1e-12 of 1000 V)";
-const WHY_W: &str = "W: sums of at most 72 terms of at most 1000 V round to < 2e-11 V; 50x margin for another summation order";
-const WHY_COMP: &str = "W^-1: the W rounding amplified by the steepest inverse slope 1/s_min (2.2) and the creep term; 1e-8 V";
-const WHY_TIP: &str =
-    "beam: exact ZOH by diagonalization, rounding ~1e-11 of the 1 mm scale; 1e-12 m";
-const WHY_TIME: &str = "k Ts in double precision";
-
-/// The tolerance of a column of a scenario.
-pub fn column_spec(scenario: &str, column: &str) -> ColumnSpec {
-    match (scenario, column) {
-        (_, "t") => spec(column, "s", 1e-9, 0.0, WHY_TIME),
-        (_, "saturated") => spec(column, "0/1", 0.0, 0.0, "a flag: must match exactly"),
-        (_, "tip" | "tip_raw") => spec(column, "m", 1e-12, 1e-9, WHY_TIP),
-        ("compensated" | "step" | "feedforward", "u" | "u_fs" | "u_bs") => {
-            spec(column, "V", 1e-8, 1e-11, WHY_COMP)
+impl From<Column> for ColumnSpec {
+    fn from(c: Column) -> Self {
+        ColumnSpec {
+            name: c.name.into(),
+            unit: c.unit.into(),
+            abs_tol: c.abs_tol,
+            rel_tol: c.rel_tol,
+            justification: c.justification.into(),
         }
-        ("compensated", "y_d") | ("step", "v") => spec(column, "V", 1e-9, 0.0, WHY_INPUT),
-        ("feedforward", "y_d") => spec(
-            column,
-            "m",
-            1e-15,
-            1e-10,
-            "N(d/dt) z_d from order-30 derivatives accurate to 1e-10 of their scale",
-        ),
-        ("feedforward", "u_d") => spec(
-            column,
-            "V",
-            1e-8,
-            1e-10,
-            "D(d/dt) z_d: derivatives to 1e-10 of their scale, 30 factors applied",
-        ),
-        ("identification", "y_fit") => spec(
-            column,
-            "V",
-            1e-6,
-            0.0,
-            "model identified by QR + QP + polish: weights to ~1e-11, outputs to 1e-8 V; 1e-6 V leaves room for another QP solver",
-        ),
-        (_, "u" | "u_a" | "u_b" | "u_c") => spec(column, "V", 1e-9, 0.0, WHY_INPUT),
-        _ => spec(column, "V", 1e-9, 1e-12, WHY_W),
     }
 }
 
@@ -134,47 +113,45 @@ pub fn csv_bytes(trace: &ScenarioTrace) -> Vec<u8> {
     out.into_bytes()
 }
 
-/// Run every scenario on `ctx` and return (file name, decimated trace).
-pub fn compute_all(ctx: &ScenarioContext) -> Vec<(String, ScenarioTrace, usize)> {
+/// Run every scenario on `ctx` and return (file name, decimated trace, decimation).
+pub fn compute_all(
+    ctx: &ScenarioContext,
+) -> Result<Vec<(String, ScenarioTrace, usize)>, ScenarioError> {
     SCENARIOS
         .iter()
         .map(|s| {
-            let trace = run(s.id, ctx).expect("nominal scenarios run");
-            (
-                format!("{}.csv", s.id),
-                trace.decimated(s.decimation),
-                s.decimation,
-            )
+            let trace = run(*s, ctx)?;
+            Ok((
+                format!("{}.csv", s.id()),
+                trace.decimated(s.decimation()),
+                s.decimation(),
+            ))
         })
         .collect()
 }
 
 /// Regenerate every golden trace and the manifest in `dir`.
-pub fn write_golden(dir: &Path) -> Result<Manifest, FileError> {
+pub fn write_golden(dir: &Path) -> Result<Manifest, GoldenError> {
     let ctx = ScenarioContext::nominal();
     let mut traces = Vec::new();
-    for (s, (file, trace, k)) in SCENARIOS.iter().zip(compute_all(&ctx)) {
+    for (s, (file, trace, k)) in SCENARIOS.iter().zip(compute_all(&ctx)?) {
         let bytes = csv_bytes(&trace);
         write_atomic(&dir.join(&file), &bytes)?;
         traces.push(TraceManifest {
-            id: s.id.into(),
+            id: s.id().into(),
             file: file.clone(),
-            paper: s.paper.into(),
-            description: s.description.into(),
+            paper: s.paper().into(),
+            description: s.description().into(),
             provenance: format!(
                 "mfcbeam scenario {} --output golden/{file} (all at once: mfcbeam golden --write)",
-                s.id
+                s.id()
             ),
             models: vec!["nominal_model.json".into(), "nominal_beam.json".into()],
             sample_time: SAMPLE_TIME,
             decimation: k,
             rows: trace.len(),
             sha256: sha256_hex(&bytes),
-            columns: trace
-                .columns
-                .iter()
-                .map(|c| column_spec(s.id, c.0))
-                .collect(),
+            columns: s.columns().into_iter().map(ColumnSpec::from).collect(),
         });
     }
     let manifest = Manifest {
@@ -214,12 +191,14 @@ impl ColumnReport {
     }
 }
 
-/// Compare candidate columns with golden ones row by row.
+/// Compare candidate columns with golden ones row by row. Every golden
+/// column must be declared in the manifest entry: there is no fallback
+/// tolerance.
 pub fn compare_columns(
     golden: &[(String, Vec<f64>)],
     candidate: &[(String, Vec<f64>)],
     spec: &TraceManifest,
-) -> Vec<ColumnReport> {
+) -> Result<Vec<ColumnReport>, GoldenError> {
     golden
         .iter()
         .map(|(name, g)| {
@@ -227,8 +206,10 @@ pub fn compare_columns(
                 .columns
                 .iter()
                 .find(|c| &c.name == name)
-                .cloned()
-                .unwrap_or_else(|| column_spec(&spec.id, name));
+                .ok_or_else(|| GoldenError::Manifest {
+                    path: PathBuf::from("manifest.json"),
+                    reason: format!("{}: column '{name}' has no declared tolerance", spec.file),
+                })?;
             let mut rep = ColumnReport {
                 name: name.clone(),
                 compared: false,
@@ -240,7 +221,7 @@ pub fn compare_columns(
                 first_failure: None,
             };
             let Some((_, c)) = candidate.iter().find(|(n, _)| n == name) else {
-                return rep;
+                return Ok(rep);
             };
             rep.compared = true;
             let mut sq = 0.0;
@@ -257,7 +238,7 @@ pub fn compare_columns(
                 }
             }
             rep.rms = (sq / g.len().max(1) as f64).sqrt();
-            rep
+            Ok(rep)
         })
         .collect()
 }
@@ -304,4 +285,176 @@ pub fn manifest_path_for(golden_file: &Path) -> PathBuf {
         .parent()
         .map(|p| p.join("manifest.json"))
         .unwrap_or_else(|| PathBuf::from("manifest.json"))
+}
+
+/// One difference `golden --check` found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GoldenDifference {
+    pub file: String,
+    pub what: String,
+}
+
+/// Recompute every scenario on `ctx` and compare with the golden files in
+/// `dir`: each file's SHA-256 against the manifest, the row count, and every
+/// column within its tolerance. Returns the differences (none: all reproduce).
+pub fn check_golden(
+    dir: &Path,
+    ctx: &ScenarioContext,
+) -> Result<Vec<GoldenDifference>, GoldenError> {
+    let manifest_path = dir.join("manifest.json");
+    let manifest = read_manifest(&manifest_path)?;
+    let mut out = Vec::new();
+    for (file, trace, _) in compute_all(ctx)? {
+        let entry = manifest
+            .entry_for_file(&file)
+            .ok_or_else(|| GoldenError::Manifest {
+                path: manifest_path.clone(),
+                reason: format!("no entry for {file}"),
+            })?;
+        let path = dir.join(&file);
+        let bytes = std::fs::read(&path).map_err(|error| FileError::Io {
+            path: path.clone(),
+            error,
+        })?;
+        let diff = |what: String| GoldenDifference {
+            file: file.clone(),
+            what,
+        };
+        if sha256_hex(&bytes) != entry.sha256 {
+            out.push(diff("SHA-256 differs from the manifest".into()));
+        }
+        let stored = numeric_columns(&Trace::read(&path)?)?;
+        let fresh: Vec<(String, Vec<f64>)> = trace
+            .columns
+            .iter()
+            .map(|(n, v)| (n.to_string(), v.clone()))
+            .collect();
+        if fresh.first().map(|c| c.1.len()) != stored.first().map(|c| c.1.len()) {
+            out.push(diff("row count differs".into()));
+            continue;
+        }
+        for r in compare_columns(&stored, &fresh, entry)? {
+            if !r.compared || !r.pass() {
+                out.push(diff(format!(
+                    "column {} differs (max abs {:.3e}, tolerance {:.1e})",
+                    r.name, r.max_abs, r.abs_tol
+                )));
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The comparison of a candidate trace with a golden trace.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VerifyReport {
+    pub golden: PathBuf,
+    pub candidate: PathBuf,
+    pub entry: TraceManifest,
+    pub columns: Vec<ColumnReport>,
+}
+
+impl VerifyReport {
+    /// Columns compared (present in both).
+    pub fn compared(&self) -> usize {
+        self.columns.iter().filter(|r| r.compared).count()
+    }
+
+    /// Compared columns outside tolerance.
+    pub fn failed(&self) -> usize {
+        self.columns
+            .iter()
+            .filter(|r| r.compared && !r.pass())
+            .count()
+    }
+}
+
+impl std::fmt::Display for VerifyReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "golden {} ({} {}), candidate {}",
+            self.golden.display(),
+            self.entry.id,
+            self.entry.paper,
+            self.candidate.display()
+        )?;
+        writeln!(
+            f,
+            "{:<12} {:>12} {:>12} {:>12} {:>10} {:>10}  result",
+            "column", "max abs", "rms", "max rel", "abs tol", "rel tol"
+        )?;
+        for r in &self.columns {
+            if !r.compared {
+                writeln!(
+                    f,
+                    "{:<12} {:>12} {:>12} {:>12} {:>10.1e} {:>10.1e}  not in candidate",
+                    r.name, "-", "-", "-", r.abs_tol, r.rel_tol
+                )?;
+                continue;
+            }
+            let verdict = match r.first_failure {
+                None => "pass".to_string(),
+                Some(row) => format!("FAIL (first at row {row})"),
+            };
+            writeln!(
+                f,
+                "{:<12} {:>12.3e} {:>12.3e} {:>12.3e} {:>10.1e} {:>10.1e}  {verdict}",
+                r.name, r.max_abs, r.rms, r.max_rel, r.abs_tol, r.rel_tol
+            )?;
+        }
+        write!(
+            f,
+            "{} of {} columns compared, {}",
+            self.compared(),
+            self.columns.len(),
+            match self.failed() {
+                0 => "all within tolerance".to_string(),
+                n => format!("{n} outside tolerance"),
+            }
+        )
+    }
+}
+
+/// Compare a candidate trace with a golden trace (its manifest is read from
+/// the golden file's directory): per column max-abs, RMS and max-relative
+/// error against the declared tolerances. A candidate at the full rate is
+/// aligned to the stored rows.
+pub fn verify(golden: &Path, candidate: &Path) -> Result<VerifyReport, GoldenError> {
+    let manifest_path = manifest_path_for(golden);
+    let manifest = read_manifest(&manifest_path)?;
+    let file = golden
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let entry = manifest
+        .entry_for_file(&file)
+        .ok_or_else(|| GoldenError::Manifest {
+            path: manifest_path.clone(),
+            reason: format!("no entry for {file}"),
+        })?
+        .clone();
+    let stored = numeric_columns(&Trace::read(golden)?)?;
+    let cand = numeric_columns(&Trace::read(candidate)?)?;
+    let rows = stored.first().map_or(0, |c| c.1.len());
+    let cand = align(cand, rows, entry.decimation, candidate)?;
+    let columns = compare_columns(&stored, &cand, &entry)?;
+    let report = VerifyReport {
+        golden: golden.to_path_buf(),
+        candidate: candidate.to_path_buf(),
+        entry,
+        columns,
+    };
+    if report.compared() == 0 {
+        return Err(GoldenError::NoCommonColumn {
+            candidate: candidate.to_path_buf(),
+            golden: golden.to_path_buf(),
+        });
+    }
+    Ok(report)
+}
+
+/// The declared columns of a scenario, as the manifest stores them.
+pub fn declared_columns(id: &str) -> Option<Vec<ColumnSpec>> {
+    scenario(id).map(|s| s.columns().into_iter().map(ColumnSpec::from).collect())
 }

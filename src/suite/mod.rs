@@ -4,6 +4,8 @@
 //! `suite` feature — the paper's scenarios ([`scenarios`]), their golden
 //! traces ([`golden`]), figures ([`plots`]) and claims ([`reproduce`]).
 
+pub mod conformance;
+pub mod reference;
 pub mod signal;
 
 #[cfg(feature = "suite")]

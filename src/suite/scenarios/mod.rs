@@ -1,6 +1,5 @@
-//! The paper's scenarios (SPEC section 9), each a deterministic function of
-//! the nominal models (SPEC section 8) that produces one trace: the inputs
-//! and every intermediate signal.
+//! The paper's scenarios, each a deterministic function of the nominal
+//! models that produces one trace: the inputs and every intermediate signal.
 //!
 //! | id | paper | what it shows |
 //! |---|---|---|
@@ -14,40 +13,195 @@
 //! | `step` | Figs. 12–13 | a step through the beam with and without compensation |
 //! | `feedforward` | Fig. 14 | rest-to-rest move through compensator, `W` and beam |
 //!
+//! A scenario is one file implementing [`Scenario`]: its id and paper
+//! figure, its columns with units and golden tolerances ([`Column`]), how it
+//! runs, its figure and the paper's claims it measures. [`SCENARIOS`] lists
+//! them; adding a scenario is a new file and one line there. A trace whose
+//! columns differ from the declared ones is an error, so no column can go
+//! without a tolerance.
+//!
 //! Every scenario runs at the full 5 kHz; long ones keep every `k`-th row
-//! (`decimation`) in the golden files and are compared at those rows.
-//! The plant's `W` is pluggable ([`ScenarioContext::plant`]) so that an
-//! alternative or deliberately faulty implementation can be run through the
-//! same scenarios and compared against the golden traces.
+//! (`decimation`) in the golden files and are compared at those rows. The
+//! plant's `W` and the compensator are pluggable ([`ScenarioContext`]), so
+//! that an alternative or deliberately faulty implementation runs through the
+//! same scenarios and is compared against the golden traces.
+
+use std::collections::HashMap;
+
+use thiserror::Error;
 
 use crate::beam::modal::ModalModel;
 use crate::beam::simulation::DiscreteBeam;
 use crate::beam::step_response_fit::{modal_model, BeamModelKind};
 use crate::beam::BeamParameters;
-use crate::feedforward::{compensate, design, FeedforwardSettings, FlatParametrization};
-use crate::identification::{identify, IdentificationSettings};
-use crate::operators::compensator::{Compensator, CompensatorSettings};
+use crate::operators::compensator::CompensatorSettings;
 use crate::operators::model::HysteresisCreepModel;
 use crate::operators::nominal::{nominal_model, SAMPLE_TIME};
-use crate::operators::supply::Supply;
-use crate::operators::traits::Operator;
+use crate::operators::traits::{ActuatorCompensator, ActuatorModel};
+use crate::suite::conformance::{fast_compensator, fast_model, CompensatorFactory, ModelFactory};
+use crate::suite::plots::Figure;
 use crate::suite::signal::Staircase;
 
-/// One sample in, one sample out: any `W` a scenario can drive.
-pub trait Siso {
-    fn step(&mut self, v: f64) -> f64;
+mod compensated;
+mod feedforward;
+mod identification;
+mod intersection;
+mod log_creep;
+mod minor_loops;
+mod rectangle;
+mod staircase;
+mod step;
+
+/// Every scenario, in the order of the paper.
+pub static SCENARIOS: &[&dyn Scenario] = &[
+    &rectangle::Rectangle,
+    &staircase::StaircaseLoop,
+    &minor_loops::MinorLoops,
+    &intersection::Intersection,
+    &log_creep::LogCreep,
+    &identification::Identification,
+    &compensated::Compensated,
+    &step::Step,
+    &feedforward::Feedforward,
+];
+
+/// Look a scenario up by id.
+pub fn scenario(id: &str) -> Option<&'static dyn Scenario> {
+    SCENARIOS.iter().copied().find(|s| s.id() == id)
 }
 
-impl<T: Operator> Siso for T {
-    fn step(&mut self, v: f64) -> f64 {
-        Operator::step(self, v)
+/// One of the paper's experiments, reproduced.
+pub trait Scenario: Sync {
+    /// Short id, also the golden file's stem (`golden/<id>.csv`).
+    fn id(&self) -> &'static str;
+    /// The paper's figure or section.
+    fn paper(&self) -> &'static str;
+    /// What it does and shows.
+    fn description(&self) -> &'static str;
+    /// Keep every `decimation`-th row in the golden file.
+    fn decimation(&self) -> usize;
+    /// The columns of its trace, in order, with units and tolerances.
+    fn columns(&self) -> Vec<Column>;
+    /// Compute the trace at the full sample rate.
+    fn compute(&self, ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError>;
+    /// Its figure (`all` holds every scenario's full-rate trace, for overlays).
+    fn figure(&self, _trace: &ScenarioTrace, _all: &Traces) -> Option<Figure> {
+        None
+    }
+    /// The paper's claims this scenario measures.
+    fn claims(&self, _trace: &ScenarioTrace, _all: &Traces) -> Vec<Claim> {
+        Vec::new()
     }
 }
 
-/// Builds the plant's `W` from a model.
-pub type PlantFactory = Box<dyn Fn(&HysteresisCreepModel) -> Box<dyn Siso>>;
+/// Full-rate traces by scenario id.
+pub type Traces = HashMap<&'static str, ScenarioTrace>;
 
-/// The models a scenario runs on.
+/// A column of a scenario's trace: unit, golden tolerance (a row passes when
+/// `|candidate − golden| ≤ abs_tol + rel_tol · |golden|`) and why.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Column {
+    pub name: &'static str,
+    pub unit: &'static str,
+    pub abs_tol: f64,
+    pub rel_tol: f64,
+    pub justification: &'static str,
+}
+
+/// The time column `t = k T_s`.
+pub const fn time() -> Column {
+    Column {
+        name: "t",
+        unit: "s",
+        abs_tol: 1e-9,
+        rel_tol: 0.0,
+        justification: "k Ts in double precision",
+    }
+}
+
+/// A generated input in volts (closed-form samples).
+pub const fn input(name: &'static str) -> Column {
+    Column {
+        name,
+        unit: "V",
+        abs_tol: 1e-9,
+        rel_tol: 0.0,
+        justification: "generated input: closed-form samples, equal to rounding (1e-12 of 1000 V)",
+    }
+}
+
+/// An output of `W`, `H` or `C` (V).
+pub const fn model_output(name: &'static str) -> Column {
+    Column {
+        name,
+        unit: "V",
+        abs_tol: 1e-9,
+        rel_tol: 1e-12,
+        justification: "W: sums of at most 72 terms of at most 1000 V round to < 2e-11 V; 50x margin for another summation order",
+    }
+}
+
+/// An output of the compensator `W⁻¹` or a patch voltage derived from it (V).
+pub const fn compensator_output(name: &'static str) -> Column {
+    Column {
+        name,
+        unit: "V",
+        abs_tol: 1e-8,
+        rel_tol: 1e-11,
+        justification: "W^-1: the W rounding amplified by the steepest inverse slope 1/s_min (2.2) and the creep term; 1e-8 V",
+    }
+}
+
+/// A tip deflection from the exact zero-order-hold beam (m).
+pub const fn tip(name: &'static str) -> Column {
+    Column {
+        name,
+        unit: "m",
+        abs_tol: 1e-12,
+        rel_tol: 1e-9,
+        justification:
+            "beam: exact ZOH by diagonalization, rounding ~1e-11 of the 1 mm scale; 1e-12 m",
+    }
+}
+
+/// A 0/1 flag: must match exactly.
+pub const fn flag(name: &'static str) -> Column {
+    Column {
+        name,
+        unit: "0/1",
+        abs_tol: 0.0,
+        rel_tol: 0.0,
+        justification: "a flag: must match exactly",
+    }
+}
+
+/// A claim of the paper, measured.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Claim {
+    pub figure: &'static str,
+    pub claim: &'static str,
+    pub measured: String,
+    pub holds: bool,
+}
+
+/// A scenario that could not run, or whose trace breaks its declaration.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[error("scenario {scenario}: {reason}")]
+pub struct ScenarioError {
+    pub scenario: &'static str,
+    pub reason: String,
+}
+
+impl ScenarioError {
+    pub(crate) fn new(scenario: &'static str, reason: impl std::fmt::Display) -> Self {
+        Self {
+            scenario,
+            reason: reason.to_string(),
+        }
+    }
+}
+
+/// The models a scenario runs on, and how its `W` and `W⁻¹` are built.
 pub struct ScenarioContext {
     /// The hysteresis and creep model (compensator and plant).
     pub model: HysteresisCreepModel,
@@ -55,12 +209,16 @@ pub struct ScenarioContext {
     pub beam: BeamParameters,
     /// Its `modal` model (240 elements → 15 modes).
     pub modal: ModalModel,
-    /// How the plant's `W` is built (default: the model itself).
-    pub plant: PlantFactory,
+    /// How the plant's `W` is built from the model file (default: the
+    /// project's [`HysteresisCreepModel`]).
+    pub plant: Box<ModelFactory<'static>>,
+    /// How the compensator is built (default: the project's
+    /// [`crate::operators::compensator::Compensator`]).
+    pub compensator: Box<CompensatorFactory<'static>>,
 }
 
 impl ScenarioContext {
-    /// The nominal models of SPEC section 8.
+    /// The nominal models.
     pub fn nominal() -> Self {
         let beam = BeamParameters::nominal();
         let modal = modal_model(&beam, BeamModelKind::default()).expect("nominal beam is valid");
@@ -68,45 +226,30 @@ impl ScenarioContext {
             model: nominal_model(),
             beam,
             modal,
-            plant: Box::new(|m| Box::new(m.clone())),
+            plant: Box::new(fast_model),
+            compensator: Box::new(fast_compensator),
         }
     }
 
-    fn plant_w(&self) -> Box<dyn Siso> {
-        (self.plant)(&self.model)
+    /// A fresh plant `W` from the model's current state.
+    pub fn plant(&self, scenario: &'static str) -> Result<Box<dyn ActuatorModel>, ScenarioError> {
+        (self.plant)(&self.model.to_file()).map_err(|e| ScenarioError::new(scenario, e))
     }
 
-    fn beam(&self) -> DiscreteBeam {
+    /// A fresh compensator with the given limits.
+    pub fn compensator(
+        &self,
+        scenario: &'static str,
+        settings: CompensatorSettings,
+    ) -> Result<Box<dyn ActuatorCompensator>, ScenarioError> {
+        (self.compensator)(&self.model.to_file(), settings)
+            .map_err(|e| ScenarioError::new(scenario, e))
+    }
+
+    /// The beam discretized at the sample time, at rest.
+    pub fn beam(&self) -> DiscreteBeam {
         DiscreteBeam::new(&self.modal, SAMPLE_TIME).expect("nominal beam discretizes")
     }
-}
-
-/// A scenario's description.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Scenario {
-    pub id: &'static str,
-    pub paper: &'static str,
-    pub description: &'static str,
-    /// Keep every `decimation`-th row in the golden file.
-    pub decimation: usize,
-}
-
-/// Every scenario of SPEC section 9.
-pub const SCENARIOS: [Scenario; 9] = [
-    Scenario { id: "rectangle", paper: "Fig. 2", description: "u = 500 V on [5, 45) s, else 0, 90 s: creep after the step, remanent offset", decimation: 50 },
-    Scenario { id: "staircase", paper: "Fig. 3", description: "smooth staircase over the full range [-1000, 1000] V: hysteresis loop with creep at each step", decimation: 20 },
-    Scenario { id: "minor-loops", paper: "Fig. 8a", description: "nested reversals inside the major loop: Madelung rules, Masing congruence", decimation: 10 },
-    Scenario { id: "intersection", paper: "Fig. 8b", description: "three histories of H reaching one point with the input increasing", decimation: 10 },
-    Scenario { id: "log-creep", paper: "Fig. 9", description: "smooth staircase with 20 s plateaus: creep linear in log t", decimation: 50 },
-    Scenario { id: "identification", paper: "Sec. 4.1", description: "periodic staircase shrinking each period, 40 s, and the identified model's fit", decimation: 20 },
-    Scenario { id: "compensated", paper: "Fig. 10", description: "the staircase of Fig. 3 (as desired effective voltage) through W^-1 then W and the beam", decimation: 20 },
-    Scenario { id: "step", paper: "Figs. 12-13", description: "a 100 V step at 1 s held 44 s through the beam, without and with compensation", decimation: 25 },
-    Scenario { id: "feedforward", paper: "Fig. 14", description: "1 mm in 75 ms from 2.9 s (sigma 1.1) through compensator, W and beam", decimation: 1 },
-];
-
-/// Look a scenario up by id.
-pub fn scenario(id: &str) -> Option<&'static Scenario> {
-    SCENARIOS.iter().find(|s| s.id == id)
 }
 
 /// A computed scenario: named columns at the full sample rate.
@@ -122,6 +265,11 @@ impl ScenarioTrace {
             .iter()
             .find(|c| c.0 == name)
             .map(|c| c.1.as_slice())
+    }
+
+    /// A column by name, empty if absent (for figures and claims).
+    pub fn col(&self, name: &str) -> &[f64] {
+        self.column(name).unwrap_or(&[])
     }
 
     /// Number of rows.
@@ -146,16 +294,46 @@ impl ScenarioTrace {
     }
 }
 
-fn time(len: usize) -> Vec<f64> {
+/// Run a scenario and check its trace against its declared columns.
+pub fn run(scenario: &dyn Scenario, ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
+    let trace = scenario.compute(ctx)?;
+    let declared: Vec<&str> = scenario.columns().iter().map(|c| c.name).collect();
+    let found: Vec<&str> = trace.columns.iter().map(|c| c.0).collect();
+    if declared != found {
+        return Err(ScenarioError::new(
+            scenario.id(),
+            format!("computed columns {found:?} differ from the declared {declared:?}"),
+        ));
+    }
+    if let Some((name, _)) = trace.columns.iter().find(|c| c.1.len() != trace.len()) {
+        return Err(ScenarioError::new(
+            scenario.id(),
+            format!("column {name} has a different length"),
+        ));
+    }
+    Ok(trace)
+}
+
+/// Run every scenario at the full rate.
+pub fn run_all(ctx: &ScenarioContext) -> Result<Traces, ScenarioError> {
+    SCENARIOS
+        .iter()
+        .map(|s| Ok((s.id(), run(*s, ctx)?)))
+        .collect()
+}
+
+/// `t_k = k T_s`.
+pub(crate) fn time_axis(len: usize) -> Vec<f64> {
     (0..len).map(|k| k as f64 * SAMPLE_TIME).collect()
 }
 
-fn samples(duration: f64) -> usize {
+/// Samples in `[0, duration]`.
+pub(crate) fn samples(duration: f64) -> usize {
     (duration / SAMPLE_TIME).round() as usize + 1
 }
 
 /// Piecewise-linear path through `points` from 0 at `rate` V/s.
-fn ramps(points: &[f64], rate: f64) -> Vec<f64> {
+pub(crate) fn ramps(points: &[f64], rate: f64) -> Vec<f64> {
     let mut out = vec![0.0];
     let mut last = 0.0;
     for &p in points {
@@ -177,188 +355,15 @@ pub fn fig3_staircase(amplitude: f64) -> Vec<f64> {
     Staircase::full_loop(amplitude, 4, 0.2, 1.8).sample(SAMPLE_TIME)
 }
 
-/// Run one scenario at the full sample rate.
-pub fn run(id: &str, ctx: &ScenarioContext) -> Option<ScenarioTrace> {
-    let trace = match id {
-        "rectangle" => {
-            let n = samples(90.0);
-            let u: Vec<f64> = (0..n)
-                .map(|k| {
-                    let t = k as f64 * SAMPLE_TIME;
-                    if (5.0..45.0).contains(&t) {
-                        500.0
-                    } else {
-                        0.0
-                    }
-                })
-                .collect();
-            let w = run_siso(ctx.plant_w().as_mut(), &u);
-            let tip = ctx.beam().simulate(&w);
-            ScenarioTrace {
-                columns: vec![("t", time(n)), ("u", u), ("w", w), ("tip", tip)],
-            }
-        }
-        "staircase" => {
-            let u = fig3_staircase(1000.0);
-            let w = run_siso(ctx.plant_w().as_mut(), &u);
-            let h = ctx.model.hysteresis().clone().run(&u);
-            let tip = ctx.beam().simulate(&w);
-            ScenarioTrace {
-                columns: vec![
-                    ("t", time(u.len())),
-                    ("u", u),
-                    ("w", w),
-                    ("h", h),
-                    ("tip", tip),
-                ],
-            }
-        }
-        "minor-loops" => {
-            let u = ramps(
-                &[
-                    900.0, -900.0, 600.0, -300.0, 400.0, 0.0, 300.0, -300.0, 400.0, 0.0, 300.0,
-                    -900.0, 900.0,
-                ],
-                400.0,
-            );
-            let w = run_siso(ctx.plant_w().as_mut(), &u);
-            let h = ctx.model.hysteresis().clone().run(&u);
-            ScenarioTrace {
-                columns: vec![("t", time(u.len())), ("u", u), ("w", w), ("h", h)],
-            }
-        }
-        "intersection" => {
-            // virgin curve to 200 V; and branches rising from reversals on the
-            // descending branches from 1000 V and 900 V that cross it at 200 V
-            let paths = [
-                ramps(&[300.0], 400.0),
-                ramps(&[1000.0, -483.5, 300.0], 400.0),
-                ramps(&[900.0, -465.7, 300.0], 400.0),
-            ];
-            let n = paths.iter().map(Vec::len).max().unwrap_or(0);
-            let mut columns = vec![("t", time(n))];
-            let names = [("u_a", "h_a"), ("u_b", "h_b"), ("u_c", "h_c")];
-            for (p, (un, hn)) in paths.iter().zip(names) {
-                let mut u = p.clone();
-                let last = *u.last().unwrap();
-                u.resize(n, last); // hold the end value
-                let h = ctx.model.hysteresis().clone().run(&u);
-                columns.push((un, u));
-                columns.push((hn, h));
-            }
-            ScenarioTrace { columns }
-        }
-        "log-creep" => {
-            let s = Staircase {
-                start: 0.0,
-                levels: vec![200.0, 400.0, 600.0, 300.0, 0.0, -400.0],
-                rise: 0.1,
-                plateau: 19.9,
-            };
-            let u = s.sample(SAMPLE_TIME);
-            let w = run_siso(ctx.plant_w().as_mut(), &u);
-            let c = ctx
-                .model
-                .creep()
-                .map(|c| c.clone().run(&u))
-                .unwrap_or(vec![0.0; u.len()]);
-            ScenarioTrace {
-                columns: vec![("t", time(u.len())), ("u", u), ("w", w), ("c", c)],
-            }
-        }
-        "identification" => {
-            let u = Staircase::shrinking_loops(1000.0, 4, 3, 0.1, 40.0 / 48.0 - 0.1)
-                .sample(SAMPLE_TIME);
-            let y = run_siso(ctx.plant_w().as_mut(), &u);
-            let id = identify(&u, &y, SAMPLE_TIME, &IdentificationSettings::default()).ok()?;
-            let fit = id.model.clone().run(&u);
-            ScenarioTrace {
-                columns: vec![("t", time(u.len())), ("u", u), ("y", y), ("y_fit", fit)],
-            }
-        }
-        "compensated" => {
-            let y_d = fig3_staircase(500.0);
-            let mut comp = Compensator::new(&ctx.model, CompensatorSettings::default()).ok()?;
-            let supply = Supply::default();
-            let (mut u, mut sat, mut fs, mut bs) = (vec![], vec![], vec![], vec![]);
-            for &t in &y_d {
-                let c = comp.compensate(t);
-                let (p, _) = supply.patch_voltages_saturating(c.u);
-                u.push(c.u);
-                sat.push(if c.saturated { 1.0 } else { 0.0 });
-                fs.push(p.front);
-                bs.push(p.back);
-            }
-            let y = run_siso(ctx.plant_w().as_mut(), &u);
-            let tip = ctx.beam().simulate(&y);
-            ScenarioTrace {
-                columns: vec![
-                    ("t", time(y_d.len())),
-                    ("y_d", y_d),
-                    ("u", u),
-                    ("saturated", sat),
-                    ("u_fs", fs),
-                    ("u_bs", bs),
-                    ("y", y),
-                    ("tip", tip),
-                ],
-            }
-        }
-        "step" => {
-            let n = samples(45.0);
-            let v: Vec<f64> = (0..n)
-                .map(|k| {
-                    if k as f64 * SAMPLE_TIME < 1.0 {
-                        0.0
-                    } else {
-                        100.0
-                    }
-                })
-                .collect();
-            // without compensation: the voltage step goes straight to W
-            let w_raw = run_siso(ctx.plant_w().as_mut(), &v);
-            let tip_raw = ctx.beam().simulate(&w_raw);
-            // with: the compensator shapes the voltage so that W gives the step
-            let mut comp = Compensator::new(&ctx.model, CompensatorSettings::default()).ok()?;
-            let u: Vec<f64> = v.iter().map(|&t| comp.compensate(t).u).collect();
-            let w = run_siso(ctx.plant_w().as_mut(), &u);
-            let tip = ctx.beam().simulate(&w);
-            ScenarioTrace {
-                columns: vec![
-                    ("t", time(n)),
-                    ("v", v),
-                    ("w_raw", w_raw),
-                    ("tip_raw", tip_raw),
-                    ("u", u),
-                    ("w", w),
-                    ("tip", tip),
-                ],
-            }
-        }
-        "feedforward" => {
-            let flat = FlatParametrization::new(&ctx.modal).ok()?;
-            let ff = design(&flat, &FeedforwardSettings::default()).ok()?;
-            let c = compensate(&ff.u_d, &ctx.model, &Supply::default()).ok()?;
-            let w = run_siso(ctx.plant_w().as_mut(), &c.u);
-            let tip = ctx.beam().simulate(&w);
-            ScenarioTrace {
-                columns: vec![
-                    ("t", ff.t),
-                    ("y_d", ff.y_d),
-                    ("u_d", ff.u_d),
-                    ("u", c.u),
-                    ("u_fs", c.u_fs),
-                    ("u_bs", c.u_bs),
-                    ("w", w),
-                    ("tip", tip),
-                ],
-            }
-        }
-        _ => return None,
-    };
-    Some(trace)
+/// The first index with `t ≥ x` (the last if none).
+pub(crate) fn at_time(t: &[f64], x: f64) -> usize {
+    t.iter()
+        .position(|&v| v >= x)
+        .unwrap_or(t.len().saturating_sub(1))
 }
 
-fn run_siso(op: &mut dyn Siso, u: &[f64]) -> Vec<f64> {
-    u.iter().map(|&v| op.step(v)).collect()
+/// `max − min`.
+pub(crate) fn range(x: &[f64]) -> f64 {
+    x.iter().fold(f64::NEG_INFINITY, |m, v| m.max(*v))
+        - x.iter().fold(f64::INFINITY, |m, v| m.min(*v))
 }

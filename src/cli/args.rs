@@ -1,0 +1,344 @@
+//! Command-line arguments (clap); the commands themselves are in
+//! [`super::commands`]. Defaults come from the library's `Default`s. One
+//! option name means one thing in every command: `--model` is always a
+//! hysteresis and creep model file, `--beam` a beam file, `--beam-model`
+//! the beam discretization.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+use mfcbeam::beam::step_response_fit::BeamModelKind;
+use mfcbeam::feedforward::FeedforwardSettings;
+use mfcbeam::identification::IdentificationSettings;
+use mfcbeam::operators::nominal::SAMPLE_TIME;
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "mfcbeam",
+    version,
+    about = "Hysteresis and creep compensation of an MFC-actuated beam (Schröck, Meurer, Kugi 2011)"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run the model W = H + C on column `u`; writes IN's columns plus `y = W[u]`.
+    Simulate(SimulateArgs),
+    /// Run the compensator W⁻¹ on column `y_d`; writes IN's columns plus `u` and `saturated`.
+    Compensate(CompensateArgs),
+    /// Print H⁻¹ (thresholds, weights, state) of a model as JSON, by the rules (22).
+    Invert(InvertArgs),
+    /// Identify a model (weights by constrained least squares, (23)–(25)) from
+    /// columns `t`, `u`, `y`; prints the fit report on stderr.
+    Identify(IdentifyArgs),
+    /// The beam: modal analysis, simulation, step-response identification.
+    #[command(subcommand)]
+    Beam(BeamCommand),
+    /// Flatness-based feedforward: y_d and u_d for a rest-to-rest move of the
+    /// tip, and with --model the compensated patch voltages.
+    Feedforward(FeedforwardArgs),
+    /// Run every scenario on the nominal models: traces, figures (SVG, PNG) and
+    /// the paper's claims as numbers.
+    Reproduce(ReproduceArgs),
+    /// Run one scenario of the paper and write its trace.
+    Scenario(ScenarioArgs),
+    /// Regenerate (--write) or check (--check) the golden traces and manifest.
+    Golden(GoldenArgs),
+    /// Compare a candidate trace from any implementation with a golden trace.
+    Verify(VerifyArgs),
+    /// Write the nominal model of the paper (reconstructed) (virgin state) as a model file.
+    Nominal(NominalArgs),
+    /// Write a test signal (a smooth staircase) as a trace with columns `t` and the chosen name.
+    Signal(SignalArgs),
+}
+
+/// A model applied to one trace, written to another.
+#[derive(Debug, Args)]
+pub struct ModelTraceArgs {
+    /// Model file (JSON).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Input trace (CSV): column `u` (V) for simulate, `y_d` (V) for compensate.
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Output trace (CSV).
+    #[arg(long)]
+    pub output: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    #[command(flatten)]
+    pub files: ModelTraceArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct CompensateArgs {
+    #[command(flatten)]
+    pub files: ModelTraceArgs,
+    /// Saturation limits `LO,HI` of the balanced voltage (default: -1000,1000).
+    #[arg(long, value_name = "LO,HI", allow_hyphen_values = true, value_parser = parse_limits, conflicts_with = "no_limits")]
+    pub limits: Option<(f64, f64)>,
+    /// Do not saturate the output.
+    #[arg(long)]
+    pub no_limits: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct InvertArgs {
+    /// Model file (JSON).
+    #[arg(long)]
+    pub model: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct IdentifyArgs {
+    /// Measurement (CSV) with columns `u` (V), `y` and, unless --sample-time is given, `t` (s).
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Output model file (JSON, virgin state).
+    #[arg(long)]
+    pub output: PathBuf,
+    /// Number of plays n_H + 1.
+    #[arg(long, default_value_t = IdentificationSettings::default().hysteresis_operators)]
+    pub hysteresis_operators: usize,
+    /// Number of log(t)-creep operators n_C + 1 (0: no creep).
+    #[arg(long, default_value_t = IdentificationSettings::default().creep_operators)]
+    pub creep_operators: usize,
+    /// Number of creep eigenvalues m, spread by (24).
+    #[arg(long, default_value_t = IdentificationSettings::default().creep_eigenvalues)]
+    pub creep_eigenvalues: usize,
+    /// Sample time (s); default: from the `t` column.
+    #[arg(long, allow_hyphen_values = true)]
+    pub sample_time: Option<f64>,
+    /// Margin ε_H > 0 of the hysteresis partial sums (default 1e-3 · range(y) / range(u)).
+    #[arg(long, allow_hyphen_values = true)]
+    pub epsilon_h: Option<f64>,
+    /// Explicit hysteresis thresholds `0,r1,r2,...` instead of (23).
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub hysteresis_thresholds: Option<Vec<f64>>,
+    /// Explicit creep thresholds `0,r1,r2,...` instead of (23).
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub creep_thresholds: Option<Vec<f64>>,
+    /// Explicit creep eigenvalues (1/s) instead of (24).
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub eigenvalues: Option<Vec<f64>>,
+}
+
+#[derive(Debug, Args)]
+pub struct FeedforwardArgs {
+    #[command(flatten)]
+    pub beam: BeamModelArgs,
+    /// Hysteresis and creep model file (JSON): adds `u = W⁻¹[u_d]`, `u_fs`, `u_bs`, `saturated`.
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// Start of the transition (s).
+    #[arg(long, default_value_t = FeedforwardSettings::default().start, allow_hyphen_values = true)]
+    pub start: f64,
+    /// Duration T of the transition (s).
+    #[arg(long, default_value_t = FeedforwardSettings::default().duration, allow_hyphen_values = true)]
+    pub duration: f64,
+    /// Final tip deflection y_T (m), from rest at 0.
+    #[arg(long, default_value_t = FeedforwardSettings::default().y_final, allow_hyphen_values = true)]
+    pub y_final: f64,
+    /// Gevrey parameter σ of the trajectory (28).
+    #[arg(long, default_value_t = FeedforwardSettings::default().sigma, allow_hyphen_values = true)]
+    pub sigma: f64,
+    /// End of the trace (s).
+    #[arg(long, default_value_t = FeedforwardSettings::default().end, allow_hyphen_values = true)]
+    pub end: f64,
+    /// Sample time (s); default: the model's, else 2e-4.
+    #[arg(long, allow_hyphen_values = true)]
+    pub sample_time: Option<f64>,
+    /// Output trace (CSV).
+    #[arg(long)]
+    pub output: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct ReproduceArgs {
+    /// Output directory (traces/ and plots/ are created in it).
+    #[arg(long, default_value = "reproduce")]
+    pub out: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct ScenarioArgs {
+    /// Scenario id: rectangle, staircase, minor-loops, intersection, log-creep,
+    /// identification, compensated, step, feedforward.
+    pub name: String,
+    /// Output trace (CSV).
+    #[arg(long)]
+    pub output: PathBuf,
+    /// Every sample at 5 kHz instead of the golden file's decimation.
+    #[arg(long)]
+    pub full: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct GoldenArgs {
+    /// Directory of the golden files.
+    #[arg(long, default_value = "golden")]
+    pub dir: PathBuf,
+    /// Regenerate every golden trace and the manifest (an explicit action).
+    #[arg(long, conflicts_with = "check")]
+    pub write: bool,
+    /// Recompute every trace and compare with the stored ones (exit 1 on a difference).
+    #[arg(long)]
+    pub check: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct VerifyArgs {
+    /// Golden trace, e.g. golden/compensated.csv (its manifest is read from the same directory).
+    #[arg(long)]
+    pub golden: PathBuf,
+    /// Candidate trace (CSV) with the same column names: as stored, or every sample at 5 kHz.
+    #[arg(long)]
+    pub candidate: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct NominalArgs {
+    /// Output file (JSON); stdout if absent.
+    #[arg(long)]
+    pub output: Option<PathBuf>,
+    /// Write the nominal beam (the paper (reconstructed)) instead of the hysteresis and creep model.
+    #[arg(long)]
+    pub beam: bool,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum BeamCommand {
+    /// Undamped natural frequencies and static gain of the model's n modes, as JSON on stdout.
+    Modes(BeamModesArgs),
+    /// Tip deflection `y` (m) for column `u` (effective V), exact ZOH, from rest in equilibrium with u_0.
+    Simulate(BeamSimulateArgs),
+    /// Fit beam parameters to a step response (columns `u`, `y`) by Levenberg–Marquardt.
+    Identify(BeamIdentifyArgs),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ModelKindArg {
+    /// The paper's Ritz model (uniform-beam eigenfunctions).
+    Ritz,
+    /// Converged finite elements reduced to n modes (default).
+    Modal,
+}
+
+#[derive(Debug, Args)]
+pub struct BeamModelArgs {
+    /// Beam file (JSON).
+    #[arg(long)]
+    pub beam: PathBuf,
+    /// Beam discretization: `modal` (converged finite elements reduced to
+    /// `basis_functions` modes) or `ritz` (the paper's).
+    #[arg(long, value_enum, default_value_t = ModelKindArg::Modal)]
+    pub beam_model: ModelKindArg,
+    /// Finite elements of the modal model.
+    #[arg(long, default_value_t = mfcbeam::beam::fe::DEFAULT_ELEMENTS)]
+    pub elements: usize,
+}
+
+impl BeamModelArgs {
+    pub fn kind(&self) -> BeamModelKind {
+        match self.beam_model {
+            ModelKindArg::Ritz => BeamModelKind::Ritz,
+            ModelKindArg::Modal => BeamModelKind::Modal {
+                elements: self.elements,
+            },
+        }
+    }
+}
+
+#[derive(Debug, Args)]
+pub struct BeamModesArgs {
+    #[command(flatten)]
+    pub model: BeamModelArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct BeamSimulateArgs {
+    #[command(flatten)]
+    pub model: BeamModelArgs,
+    /// Input trace (CSV) with column `u` (effective V).
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Output trace (CSV).
+    #[arg(long)]
+    pub output: PathBuf,
+    /// Sample time (s); default: from the `t` column, else 2e-4. Given together
+    /// with a `t` column, the two must agree.
+    #[arg(long, allow_hyphen_values = true)]
+    pub sample_time: Option<f64>,
+}
+
+#[derive(Debug, Args)]
+pub struct BeamIdentifyArgs {
+    #[command(flatten)]
+    pub model: BeamModelArgs,
+    /// Measured step response (CSV) with columns `u` (effective V) and `y` (m).
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Parameters to fit, e.g. `youngs_modulus,patch.input_gain`.
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub fit: Vec<String>,
+    /// Fitted beam file (JSON).
+    #[arg(long)]
+    pub output: PathBuf,
+    /// Sample time (s); default: from the `t` column, else 2e-4. Given together
+    /// with a `t` column, the two must agree.
+    #[arg(long, allow_hyphen_values = true)]
+    pub sample_time: Option<f64>,
+}
+
+#[derive(Debug, Args)]
+pub struct SignalArgs {
+    /// Output trace (CSV).
+    #[arg(long)]
+    pub output: PathBuf,
+    /// Name of the signal column.
+    #[arg(long, default_value = "u")]
+    pub column: String,
+    /// Peak value of the staircase 0 → +A → −A → 0.
+    #[arg(long, default_value_t = 900.0, allow_hyphen_values = true)]
+    pub amplitude: f64,
+    /// Number of loops; with more than one the amplitude shrinks each period
+    /// (the identification input of section 4.1).
+    #[arg(long, default_value_t = 1)]
+    pub periods: usize,
+    /// Steps per quarter of the loop.
+    #[arg(long, default_value_t = 3)]
+    pub steps: usize,
+    /// Duration of each smooth transition (s).
+    #[arg(long, default_value_t = 0.1, allow_hyphen_values = true)]
+    pub rise: f64,
+    /// Duration of each plateau (s).
+    #[arg(long, default_value_t = 1.5, allow_hyphen_values = true)]
+    pub plateau: f64,
+    /// Sample time (s).
+    #[arg(long, default_value_t = SAMPLE_TIME, allow_hyphen_values = true)]
+    pub sample_time: f64,
+}
+
+fn parse_limits(s: &str) -> std::result::Result<(f64, f64), String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 2 {
+        return Err(format!("expected LO,HI, found '{s}'"));
+    }
+    let parse = |p: &str| {
+        p.parse::<f64>()
+            .ok()
+            .filter(|v| !v.is_nan())
+            .ok_or_else(|| format!("'{p}' is not a number"))
+    };
+    let (lo, hi) = (parse(parts[0])?, parse(parts[1])?);
+    if lo >= hi {
+        return Err(format!("LO = {lo} must be below HI = {hi}"));
+    }
+    Ok((lo, hi))
+}

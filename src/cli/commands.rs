@@ -1,0 +1,444 @@
+//! The commands of the `mfcbeam` binary: read files, call the library,
+//! write files. Argument definitions are in [`super::args`].
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use serde::Serialize;
+
+use mfcbeam::beam::step_response_fit::{
+    fit_step_response, modal_model, simulate_response, FitParameter,
+};
+use mfcbeam::beam::BeamParameters;
+use mfcbeam::identification::{identify as identify_model, IdentificationSettings};
+use mfcbeam::io::{read_beam, read_model, write_atomic, write_json, Trace};
+use mfcbeam::operators::compensator::{Compensator, CompensatorSettings};
+use mfcbeam::operators::nominal::SAMPLE_TIME;
+use mfcbeam::operators::traits::Operator;
+use mfcbeam::suite::signal::{time_axis, Staircase};
+
+use super::args::*;
+
+/// Run the command `cli` names.
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Simulate(a) => simulate(&a),
+        Command::Compensate(a) => compensate(&a),
+        Command::Invert(a) => invert(&a),
+        Command::Identify(a) => identify(&a),
+        Command::Beam(BeamCommand::Modes(a)) => beam_modes(&a),
+        Command::Beam(BeamCommand::Simulate(a)) => beam_simulate(&a),
+        Command::Beam(BeamCommand::Identify(a)) => beam_identify(&a),
+        Command::Feedforward(a) => feedforward(&a),
+        Command::Reproduce(a) => reproduce(&a),
+        Command::Scenario(a) => scenario(&a),
+        Command::Golden(a) => golden(&a),
+        Command::Verify(a) => verify(&a),
+        Command::Nominal(a) => nominal(&a),
+        Command::Signal(a) => signal(&a),
+    }
+}
+
+fn simulate(a: &SimulateArgs) -> Result<()> {
+    let a = &a.files;
+    let mut model = read_model(&a.model)?;
+    let trace = Trace::read(&a.input)?;
+    trace.check_time_column(model.sample_time())?;
+    let y = model.run(&trace.column("u")?);
+    write_with_y(trace, &y, &a.output)
+}
+
+fn compensate(a: &CompensateArgs) -> Result<()> {
+    let model = read_model(&a.files.model)?;
+    let settings = if a.no_limits {
+        CompensatorSettings::unlimited()
+    } else if let Some((lo, hi)) = a.limits {
+        CompensatorSettings::with_limits(lo, hi)
+    } else {
+        CompensatorSettings::default()
+    };
+    let mut comp = Compensator::new(&model, settings).context("--limits")?;
+    let mut trace = Trace::read(&a.files.input)?;
+    trace.check_time_column(model.sample_time())?;
+    let y_d = trace.column("y_d")?;
+    let mut u = vec![0.0; y_d.len()];
+    let mut sat = vec![false; y_d.len()];
+    let count = comp.compensate_into(&y_d, &mut u, &mut sat)?;
+    trace.push_column("u", &u)?;
+    trace.push_text_column(
+        "saturated",
+        sat.iter().map(|&s| if s { "1" } else { "0" }.to_string()),
+    )?;
+    trace.write(&a.files.output)?;
+    eprintln!(
+        "mfcbeam: compensated {} samples, {} saturated, wrote {}",
+        u.len(),
+        count,
+        a.files.output.display()
+    );
+    Ok(())
+}
+
+#[derive(Serialize)]
+struct InverseJson<'a> {
+    thresholds: &'a [f64],
+    weights: &'a [f64],
+    state: &'a [f64],
+}
+
+fn invert(a: &InvertArgs) -> Result<()> {
+    let model = read_model(&a.model)?;
+    let inv = model.hysteresis().inverse();
+    let json = serde_json::to_string_pretty(&InverseJson {
+        thresholds: inv.thresholds(),
+        weights: inv.weights(),
+        state: inv.play_states(),
+    })?;
+    print_stdout(&json)
+}
+
+fn identify(a: &IdentifyArgs) -> Result<()> {
+    let trace = Trace::read(&a.input)?;
+    let ts = trace_sample_time(&trace, a.sample_time, None)?;
+    let u = trace.column("u")?;
+    let y = trace.column("y")?;
+    let settings = IdentificationSettings {
+        hysteresis_operators: a.hysteresis_operators,
+        creep_operators: a.creep_operators,
+        creep_eigenvalues: a.creep_eigenvalues,
+        hysteresis_thresholds: a.hysteresis_thresholds.clone(),
+        creep_thresholds: a.creep_thresholds.clone(),
+        eigenvalues: a.eigenvalues.clone(),
+        epsilon_h: a.epsilon_h,
+    };
+    let id =
+        identify_model(&u, &y, ts, &settings).with_context(|| a.input.display().to_string())?;
+    write_json(&a.output, &id.model.to_file().without_state())?;
+    eprint!("{}", id.report);
+    eprintln!("mfcbeam: wrote {}", a.output.display());
+    Ok(())
+}
+
+fn feedforward(a: &FeedforwardArgs) -> Result<()> {
+    use mfcbeam::feedforward::{
+        compensate as compensate_ff, design, FeedforwardSettings, FlatParametrization,
+    };
+    let beam = read_beam(&a.beam.beam)?;
+    let model = a.model.as_deref().map(read_model).transpose()?;
+    let ts = a
+        .sample_time
+        .or(model.as_ref().map(|m| m.sample_time()))
+        .unwrap_or(SAMPLE_TIME);
+    if let (Some(m), Some(t)) = (&model, a.sample_time) {
+        if (m.sample_time() - t).abs() > 1e-12 * t {
+            bail!(
+                "--sample-time: {t} s differs from the model's sample time {} s",
+                m.sample_time()
+            );
+        }
+    }
+    let modal =
+        modal_model(&beam, a.beam.kind()).with_context(|| a.beam.beam.display().to_string())?;
+    let flat =
+        FlatParametrization::new(&modal).with_context(|| a.beam.beam.display().to_string())?;
+    let settings = FeedforwardSettings {
+        start: a.start,
+        duration: a.duration,
+        y_final: a.y_final,
+        sigma: a.sigma,
+        end: a.end,
+        sample_time: ts,
+    };
+    let ff = design(&flat, &settings)?;
+    let mut trace = Trace::from_columns(
+        &a.output,
+        &[("t", &ff.t), ("y_d", &ff.y_d), ("u_d", &ff.u_d)],
+    );
+    eprintln!(
+        "mfcbeam: feedforward of {} m in {} s (σ = {}), peak |u_d| = {:.4} V effective, static gain {:.6e} m/V",
+        a.y_final, a.duration, a.sigma, ff.peak, flat.static_gain()
+    );
+    if let Some(m) = &model {
+        let supply = mfcbeam::operators::supply::Supply::default();
+        let c = compensate_ff(&ff.u_d, m, &supply)?;
+        trace.push_column("u", &c.u)?;
+        trace.push_column("u_fs", &c.u_fs)?;
+        trace.push_column("u_bs", &c.u_bs)?;
+        trace.push_text_column(
+            "saturated",
+            c.saturated
+                .iter()
+                .map(|&s| if s { "1" } else { "0" }.to_string()),
+        )?;
+        let count = c.saturated.iter().filter(|&&s| s).count();
+        let (lo, hi) = supply.balanced_limits();
+        if count > 0 {
+            eprintln!(
+                "mfcbeam: warning: {count} samples saturated: the compensated voltage leaves the supply range [{lo}, {hi}] V; shorten the move less (longer --duration) or lower --y-final"
+            );
+        } else {
+            eprintln!(
+                "mfcbeam: compensated peak |u| = {:.4} V, inside the supply range [{lo}, {hi}] V",
+                c.peak
+            );
+        }
+    }
+    trace.write(&a.output)?;
+    eprintln!(
+        "mfcbeam: wrote {} samples to {}",
+        ff.t.len(),
+        a.output.display()
+    );
+    Ok(())
+}
+
+fn reproduce(a: &ReproduceArgs) -> Result<()> {
+    let claims = mfcbeam::suite::reproduce::reproduce(&a.out)?;
+    let mut text = String::from("| figure | claim | measured | holds |\n|---|---|---|---|\n");
+    for c in &claims {
+        text.push_str(&format!(
+            "| {} | {} | {} | {} |\n",
+            c.figure,
+            c.claim,
+            c.measured,
+            if c.holds { "yes" } else { "NO" }
+        ));
+    }
+    write_atomic(&a.out.join("summary.md"), text.as_bytes())?;
+    print_stdout(text.trim_end())?;
+    eprintln!(
+        "mfcbeam: wrote traces to {}, figures to {}, summary to {}",
+        a.out.join("traces").display(),
+        a.out.join("plots").display(),
+        a.out.join("summary.md").display()
+    );
+    if claims.iter().all(|c| c.holds) {
+        Ok(())
+    } else {
+        bail!("a claim does not hold (see the table)")
+    }
+}
+
+fn scenario(a: &ScenarioArgs) -> Result<()> {
+    use mfcbeam::suite::scenarios::{run, scenario, ScenarioContext, SCENARIOS};
+    let Some(sc) = scenario(&a.name) else {
+        let ids: Vec<&str> = SCENARIOS.iter().map(|s| s.id()).collect();
+        bail!(
+            "scenario '{}': unknown (one of: {})",
+            a.name,
+            ids.join(", ")
+        );
+    };
+    let tr = run(sc, &ScenarioContext::nominal())?;
+    let tr = if a.full {
+        tr
+    } else {
+        tr.decimated(sc.decimation())
+    };
+    let cols: Vec<(&str, &[f64])> = tr.columns.iter().map(|(n, v)| (*n, v.as_slice())).collect();
+    Trace::from_columns(&a.output, &cols).write(&a.output)?;
+    eprintln!(
+        "mfcbeam: {} ({}): wrote {} rows to {}",
+        sc.id(),
+        sc.paper(),
+        tr.len(),
+        a.output.display()
+    );
+    Ok(())
+}
+
+fn golden(a: &GoldenArgs) -> Result<()> {
+    use mfcbeam::suite::golden::{check_golden, write_golden};
+    if a.write {
+        let m = write_golden(&a.dir)?;
+        eprintln!(
+            "mfcbeam: wrote {} golden traces and {}",
+            m.traces.len(),
+            a.dir.join("manifest.json").display()
+        );
+        return Ok(());
+    }
+    if !a.check {
+        bail!("golden: say --write (regenerate) or --check (compare)");
+    }
+    let ctx = mfcbeam::suite::scenarios::ScenarioContext::nominal();
+    let differences = check_golden(&a.dir, &ctx)?;
+    for d in &differences {
+        eprintln!("{}: {}", d.file, d.what);
+    }
+    if !differences.is_empty() {
+        eprintln!("mfcbeam: {} golden differences", differences.len());
+        std::process::exit(1);
+    }
+    eprintln!(
+        "mfcbeam: all {} golden traces reproduce within tolerance",
+        mfcbeam::suite::scenarios::SCENARIOS.len()
+    );
+    Ok(())
+}
+
+fn verify(a: &VerifyArgs) -> Result<()> {
+    let report = mfcbeam::suite::golden::verify(&a.golden, &a.candidate)?;
+    print_stdout(&report.to_string())?;
+    if report.failed() > 0 {
+        std::process::exit(1);
+    }
+    Ok(())
+}
+
+fn nominal(a: &NominalArgs) -> Result<()> {
+    fn emit<T: Serialize>(output: &Option<PathBuf>, value: &T) -> Result<()> {
+        match output {
+            Some(path) => Ok(write_json(path, value)?),
+            None => print_stdout(&serde_json::to_string_pretty(value)?),
+        }
+    }
+    if a.beam {
+        emit(&a.output, &BeamParameters::nominal())
+    } else {
+        emit(
+            &a.output,
+            &mfcbeam::operators::nominal::nominal_model_file(),
+        )
+    }
+}
+
+/// Print a line on stdout; a closed pipe (`| head`) ends quietly instead of
+/// panicking.
+fn print_stdout(text: &str) -> Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match writeln!(out, "{text}").and_then(|_| out.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => Ok(other?),
+    }
+}
+
+/// Sample time: the `t` column if present (uniform), else the flag.
+/// The sample time of a trace: `--sample-time` if given (checked against the
+/// `t` column, if any), else from the `t` column, else `fallback` (an error
+/// when there is none).
+fn trace_sample_time(trace: &Trace, flag: Option<f64>, fallback: Option<f64>) -> Result<f64> {
+    match flag {
+        Some(ts) => {
+            if !(ts.is_finite() && ts > 0.0) {
+                bail!("--sample-time: must be a finite number > 0, found {ts}");
+            }
+            trace.check_time_column(ts)?;
+            Ok(ts)
+        }
+        None if trace.has_column("t") => Ok(trace.sample_time_from_t()?),
+        None => match fallback {
+            Some(ts) => Ok(ts),
+            // names the missing column
+            None => Ok(trace.sample_time_from_t()?),
+        },
+    }
+}
+
+/// Append the computed column `y` to the input trace and write it.
+fn write_with_y(mut trace: Trace, y: &[f64], output: &Path) -> Result<()> {
+    trace.push_column("y", y)?;
+    trace.write(output)?;
+    eprintln!(
+        "mfcbeam: simulated {} samples, wrote {}",
+        y.len(),
+        output.display()
+    );
+    Ok(())
+}
+
+#[derive(Serialize)]
+struct ModesJson {
+    frequencies_hz: Vec<f64>,
+    static_gain: f64,
+    damping_ratios: Vec<f64>,
+    model: &'static str,
+    modes: usize,
+}
+
+fn beam_modes(a: &BeamModesArgs) -> Result<()> {
+    let beam = read_beam(&a.model.beam)?;
+    let modal =
+        modal_model(&beam, a.model.kind()).with_context(|| a.model.beam.display().to_string())?;
+    let json = ModesJson {
+        frequencies_hz: modal.frequencies_hz(),
+        static_gain: modal.static_gain(),
+        damping_ratios: modal.damping_ratios(),
+        model: match a.model.beam_model {
+            ModelKindArg::Ritz => "ritz",
+            ModelKindArg::Modal => "modal",
+        },
+        modes: modal.len(),
+    };
+    print_stdout(&serde_json::to_string_pretty(&json)?)
+}
+
+fn beam_simulate(a: &BeamSimulateArgs) -> Result<()> {
+    let beam = read_beam(&a.model.beam)?;
+    let trace = Trace::read(&a.input)?;
+    let ts = trace_sample_time(&trace, a.sample_time, Some(SAMPLE_TIME))?;
+    let y = simulate_response(&beam, a.model.kind(), ts, &trace.column("u")?)
+        .with_context(|| a.model.beam.display().to_string())?;
+    write_with_y(trace, &y, &a.output)
+}
+
+fn beam_identify(a: &BeamIdentifyArgs) -> Result<()> {
+    let beam = read_beam(&a.model.beam)?;
+    let trace = Trace::read(&a.input)?;
+    let ts = trace_sample_time(&trace, a.sample_time, Some(SAMPLE_TIME))?;
+    let u = trace.column("u")?;
+    let y = trace.column("y")?;
+    let params = a
+        .fit
+        .iter()
+        .map(|n| FitParameter::around(&beam, n.trim()))
+        .collect::<std::result::Result<Vec<_>, _>>()
+        .context("--fit")?;
+    let fit = fit_step_response(&beam, &params, a.model.kind(), ts, &u, &y)
+        .with_context(|| a.input.display().to_string())?;
+    write_json(&a.output, &fit.beam)?;
+    eprintln!("parameter                       start            fitted           std. error");
+    for (i, p) in params.iter().enumerate() {
+        eprintln!(
+            "{:<30} {:<16.9e} {:<16.9e} {:.3e}",
+            p.name,
+            mfcbeam::beam::step_response_fit::parameter(&beam, &p.name).unwrap_or(f64::NAN),
+            fit.values[i],
+            fit.standard_errors[i]
+        );
+    }
+    eprintln!(
+        "rms residual {:.4e} m (start {:.4e} m), {} iterations",
+        fit.rms_residual, fit.initial_rms_residual, fit.iterations
+    );
+    eprintln!("mfcbeam: wrote {}", a.output.display());
+    Ok(())
+}
+
+fn signal(a: &SignalArgs) -> Result<()> {
+    for (name, v) in [
+        ("--rise", a.rise),
+        ("--plateau", a.plateau),
+        ("--sample-time", a.sample_time),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            bail!("{name}: must be a finite number > 0, found {v}");
+        }
+    }
+    if !a.amplitude.is_finite() {
+        bail!("--amplitude: must be finite, found {}", a.amplitude);
+    }
+    let s = Staircase::shrinking_loops(a.amplitude, a.periods, a.steps, a.rise, a.plateau);
+    let x = s.sample(a.sample_time);
+    let t = time_axis(x.len(), a.sample_time);
+    let trace = Trace::from_columns(Path::new(&a.output), &[("t", &t), (&a.column, &x)]);
+    trace.write(&a.output)?;
+    eprintln!(
+        "mfcbeam: wrote {} samples ({} s) to {}",
+        x.len(),
+        s.duration(),
+        a.output.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,250 @@
+//! Seeded generators of conformance cases: admissible random models, inputs
+//! of several shapes, nested extrema for the branching rules.
+
+use crate::operators::model::{CreepData, HysteresisData, ModelFile};
+use crate::suite::reference::NaiveModel;
+
+/// SplitMix64: small, seeded, the same on every platform.
+#[derive(Debug, Clone)]
+pub struct Rng(u64);
+
+impl Rng {
+    /// A generator from a seed.
+    pub fn new(seed: u64) -> Self {
+        Rng(seed)
+    }
+
+    /// The next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in `[0, 1)`.
+    pub fn unit(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Uniform in `[lo, hi)`.
+    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.unit()
+    }
+
+    /// Uniform integer in `lo..=hi`.
+    pub fn int(&mut self, lo: usize, hi: usize) -> usize {
+        lo + (self.next_u64() % (hi - lo + 1) as u64) as usize
+    }
+
+    /// True with probability `p`.
+    pub fn chance(&mut self, p: f64) -> bool {
+        self.unit() < p
+    }
+}
+
+/// What kind of model a property needs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ModelShape {
+    /// Creep or not, virgin or not, at random.
+    Any,
+    /// With or without creep, always virgin (odd symmetry needs the zero state).
+    Virgin,
+    /// Hysteresis only, virgin (rate independence and the branching rules).
+    HysteresisOnly,
+}
+
+/// A random admissible model: `1..=max_plays` plays with threshold increments
+/// in `[5, 100]` V, partial sums in `[0.05, 1]` (single weights often
+/// negative), with probability 0.7 a creep part (`1..=max_plays` thresholds,
+/// partial sums in `[0, 0.1]`, 1 to 6 eigenvalues log-uniform in
+/// `[0.01, 1000]` s⁻¹), and for [`ModelShape::Any`] with probability 0.5 a
+/// non-virgin state reached by a random history.
+pub fn random_model(rng: &mut Rng, max_plays: usize, shape: ModelShape) -> ModelFile {
+    let sample_time = if rng.chance(0.5) {
+        2e-4
+    } else {
+        10f64.powf(rng.uniform(-4.0, -2.0))
+    };
+    let plays = rng.int(1, max_plays.max(1));
+    let thresholds = increasing(rng, plays);
+    let weights = from_sums((0..plays).map(|_| rng.uniform(0.05, 1.0)).collect());
+    let creep = (shape != ModelShape::HysteresisOnly && rng.chance(0.7)).then(|| {
+        let n = rng.int(1, max_plays.max(1));
+        let m = rng.int(1, 6);
+        CreepData {
+            thresholds: increasing(rng, n),
+            weights: from_sums((0..n).map(|_| rng.uniform(0.0, 0.1)).collect()),
+            eigenvalues: (0..m).map(|_| 10f64.powf(rng.uniform(-2.0, 3.0))).collect(),
+            state: None,
+        }
+    });
+    let file = ModelFile {
+        sample_time,
+        hysteresis: HysteresisData {
+            thresholds,
+            weights,
+            state: None,
+        },
+        creep,
+    };
+    if shape == ModelShape::Any && rng.chance(0.5) {
+        let reach = reach(&file);
+        let len = rng.int(1, 60);
+        let history = random_input(rng, len, 1.2 * reach);
+        with_state_after(&file, &history)
+    } else {
+        file
+    }
+}
+
+fn increasing(rng: &mut Rng, n: usize) -> Vec<f64> {
+    let mut r = vec![0.0];
+    for _ in 1..n {
+        let last = *r.last().unwrap();
+        r.push(last + rng.uniform(5.0, 100.0));
+    }
+    r
+}
+
+/// Weights whose partial sums are `sums`.
+fn from_sums(sums: Vec<f64>) -> Vec<f64> {
+    let mut prev = 0.0;
+    sums.into_iter()
+        .map(|s| {
+            let w = s - prev;
+            prev = s;
+            w
+        })
+        .collect()
+}
+
+/// The largest threshold of the model (at least 1).
+pub fn reach(file: &ModelFile) -> f64 {
+    let rh = file.hysteresis.thresholds.last().copied().unwrap_or(0.0);
+    let rc = file
+        .creep
+        .as_ref()
+        .and_then(|c| c.thresholds.last().copied())
+        .unwrap_or(0.0);
+    rh.max(rc).max(1.0)
+}
+
+/// The model file with the state the reference model has after `history`
+/// (from the file's own state): the state semantics of the model file.
+pub fn with_state_after(file: &ModelFile, history: &[f64]) -> ModelFile {
+    use crate::operators::traits::Operator;
+    let mut m = NaiveModel::from_file(file).expect("generated models are valid");
+    m.run(history);
+    let mut out = file.clone();
+    out.hysteresis.state = Some(m.hysteresis.x.clone());
+    if let (Some(c), Some(mc)) = (&mut out.creep, &m.creep) {
+        c.state = Some(mc.chi.clone());
+    }
+    out
+}
+
+/// A random input of `len` samples within `±amplitude`, made of segments:
+/// ramps to random levels, holds, steps and noise around a level.
+pub fn random_input(rng: &mut Rng, len: usize, amplitude: f64) -> Vec<f64> {
+    let mut out = Vec::with_capacity(len);
+    let mut v = 0.0;
+    while out.len() < len {
+        let seg = rng.int(1, 40).min(len - out.len());
+        match rng.int(0, 3) {
+            0 => {
+                let to = rng.uniform(-amplitude, amplitude);
+                for j in 1..=seg {
+                    out.push(v + (to - v) * j as f64 / seg as f64);
+                }
+                v = to;
+            }
+            1 => out.extend(std::iter::repeat_n(v, seg)),
+            2 => {
+                v = rng.uniform(-amplitude, amplitude);
+                out.extend(std::iter::repeat_n(v, seg));
+            }
+            _ => {
+                let width = 0.05 * amplitude;
+                for _ in 0..seg {
+                    out.push((v + rng.uniform(-width, width)).clamp(-amplitude, amplitude));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Nested extrema `e_0 > 0 > e_1`, each next one strictly between the two
+/// before it, followed by one more fraction in `(0, 1)` (where the property
+/// reverses).
+pub fn nested_extrema(rng: &mut Rng, amplitude: f64) -> Vec<f64> {
+    let mut e = vec![
+        rng.uniform(0.3, 1.0) * amplitude,
+        -rng.uniform(0.3, 1.0) * amplitude,
+    ];
+    for _ in 0..rng.int(1, 6) {
+        let n = e.len();
+        let f = rng.uniform(0.05, 0.95);
+        e.push(e[n - 1] + f * (e[n - 2] - e[n - 1]));
+    }
+    e.push(rng.uniform(0.05, 0.95));
+    e
+}
+
+/// Whether `e` (without its last entry, the fraction) is a nested sequence
+/// of extrema and the fraction lies in `(0, 1)`.
+pub fn valid_extrema(e: &[f64]) -> bool {
+    if e.len() < 3 {
+        return false;
+    }
+    let (ext, f) = (&e[..e.len() - 1], e[e.len() - 1]);
+    if !(f > 0.0 && f < 1.0 && ext.iter().all(|x| x.is_finite())) {
+        return false;
+    }
+    if ext[0] <= 0.0 || ext[1] >= 0.0 {
+        return false;
+    }
+    (2..ext.len()).all(|k| {
+        let (a, b) = (ext[k - 2], ext[k - 1]);
+        let (lo, hi) = if a < b { (a, b) } else { (b, a) };
+        ext[k] > lo && ext[k] < hi
+    })
+}
+
+/// Samples from `from` (exclusive) to `to` (inclusive, exactly) in `sub` steps.
+pub fn segment(from: f64, to: f64, sub: usize) -> Vec<f64> {
+    (1..=sub)
+        .map(|j| {
+            if j == sub {
+                to
+            } else {
+                from + (to - from) * j as f64 / sub as f64
+            }
+        })
+        .collect()
+}
+
+/// A path from 0 through `points`, `sub` samples per leg.
+pub fn path(points: &[f64], sub: usize) -> Vec<f64> {
+    let mut out = vec![0.0];
+    let mut last = 0.0;
+    for &p in points {
+        out.extend(segment(last, p, sub));
+        last = p;
+    }
+    out
+}
+
+/// `k` linearly interpolated samples inserted between consecutive samples.
+pub fn refine(v: &[f64], k: usize) -> Vec<f64> {
+    let mut out = vec![v[0]];
+    for w in v.windows(2) {
+        for j in 1..=k {
+            out.push(w[0] + (w[1] - w[0]) * j as f64 / (k + 1) as f64);
+        }
+        out.push(w[1]);
+    }
+    out
+}

@@ -1,0 +1,366 @@
+//! Properties of the compensator `W⁻¹` (21): agreement with the reference,
+//! `W∘W⁻¹ = id` and `W⁻¹∘W = id` from matched states, the paper's
+//! compensated staircase, odd symmetry, the state semantics of the model
+//! file, the saturation flags and the recovery after saturation.
+
+use super::cases::{random_input, random_model, reach, with_state_after, ModelShape, Rng};
+use super::{compare, fail, refused, tolerance, Case, ConformanceReport, ConformanceSettings};
+use super::{CompensatorFactory, Outcome, Property};
+use crate::error::ModelError;
+use crate::operators::compensator::CompensatorSettings;
+use crate::operators::nominal::nominal_model_file;
+use crate::operators::traits::{ActuatorCompensator, Compensated, Operator};
+use crate::suite::reference::{NaiveCompensator, NaiveModel};
+use crate::suite::signal::Staircase;
+
+type Check<'a> = fn(&Case, &CompensatorFactory<'a>, &ConformanceSettings) -> Outcome;
+
+/// Run every property of `W⁻¹` on the compensators `factory` builds.
+pub fn check_compensator(
+    factory: &CompensatorFactory<'_>,
+    settings: &ConformanceSettings,
+) -> Result<ConformanceReport, ModelError> {
+    super::run_properties("compensator", &properties(), factory, settings)
+}
+
+fn properties<'a>() -> Vec<Property<CompensatorFactory<'a>>> {
+    let p = |name, description, max_cases, generate, check: Check<'a>| Property {
+        name,
+        description,
+        max_cases,
+        generate,
+        check,
+    };
+    vec![
+        p("agreement", "W⁻¹ equals the naive reference compensator (21), (22) on random models, states and targets", usize::MAX, target_case, agreement),
+        p("model_after_compensator", "W[W⁻¹[y]] = y from matched states (no limits)", usize::MAX, target_case, model_after_compensator),
+        p("compensator_after_model", "W⁻¹[W[v]] = v from matched states (no limits)", usize::MAX, voltage_case, compensator_after_model),
+        p("paper_staircase", "the Fig. 10 staircase on the nominal model: W[W⁻¹[y_d]] = y_d, nothing saturated", 1, paper_case, model_after_compensator),
+        p("odd_symmetry", "W⁻¹[-y] = -W⁻¹[y] from the virgin state with symmetric limits", usize::MAX, virgin_case, odd_symmetry),
+        p("split_and_resume", "a compensator from the model file's state continues W⁻¹∘W (state semantics)", usize::MAX, voltage_case, split_and_resume),
+        p("saturation_flags", "outputs stay within the limits and exactly the clipped samples are flagged", usize::MAX, saturating_case, saturation_flags),
+        p("saturation_recovery", "after clipped samples W[W⁻¹[y]] = y again as soon as y is reachable", usize::MAX, saturating_case, saturation_recovery),
+    ]
+}
+
+fn settings_of(case: &Case) -> CompensatorSettings {
+    match case.limits {
+        Some((lo, hi)) => CompensatorSettings::with_limits(lo, hi),
+        None => CompensatorSettings::unlimited(),
+    }
+}
+
+fn build(
+    factory: &CompensatorFactory,
+    case: &Case,
+) -> Result<Box<dyn ActuatorCompensator>, Outcome> {
+    factory(&case.model, settings_of(case)).map_err(refused)
+}
+
+fn plant(case: &Case) -> NaiveModel {
+    NaiveModel::from_file(&case.model).expect("conformance cases are valid models")
+}
+
+fn max_abs(x: &[f64]) -> f64 {
+    x.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+}
+
+fn outputs(c: &[Compensated]) -> Vec<f64> {
+    c.iter().map(|c| c.u).collect()
+}
+
+/// Random model and targets `W[v]` of a random input `v` (reachable).
+fn target_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
+    let mut case = voltage_case(rng, s, 0);
+    case.input = plant(&case).run(&case.input);
+    case
+}
+
+/// Random model and random voltages `v` (the property maps them through `W`).
+fn voltage_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
+    let model = random_model(rng, s.max_plays, ModelShape::Any);
+    let n = rng.int(4, s.max_samples);
+    let input = random_input(rng, n, 1.2 * reach(&model));
+    Case {
+        model,
+        input,
+        limits: None,
+    }
+}
+
+fn virgin_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
+    let model = random_model(rng, s.max_plays, ModelShape::Virgin);
+    let n = rng.int(4, s.max_samples);
+    let r = reach(&model);
+    let input = random_input(rng, n, 1.2 * r);
+    let mut case = Case {
+        model,
+        input,
+        limits: Some((-0.8 * r, 0.8 * r)),
+    };
+    case.input = plant(&case).run(&case.input);
+    case
+}
+
+fn paper_case(_: &mut Rng, _: &ConformanceSettings, _: usize) -> Case {
+    let d = CompensatorSettings::default();
+    Case {
+        model: nominal_model_file(),
+        input: Staircase::full_loop(500.0, 4, 0.05, 0.2).sample(2e-4),
+        limits: Some((d.lower_limit, d.upper_limit)),
+    }
+}
+
+/// Tight limits and targets far beyond what they allow, then back inside.
+fn saturating_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
+    let model = random_model(rng, s.max_plays, ModelShape::Any);
+    let r = reach(&model);
+    let limit = rng.uniform(0.2, 0.8) * r;
+    let gain: f64 = model
+        .hysteresis
+        .weights
+        .iter()
+        .chain(model.creep.iter().flat_map(|c| c.weights.iter()))
+        .map(|w| w.abs())
+        .sum();
+    let excursion = rng.uniform(2.0, 5.0) * gain * (limit + r);
+    let n = rng.int(10, s.max_samples.max(10));
+    let input = (0..n)
+        .map(|k| excursion * (k as f64 * rng.uniform(0.1, 0.5)).sin())
+        .collect();
+    Case {
+        model,
+        input,
+        limits: Some((-limit, limit)),
+    }
+}
+
+fn agreement(case: &Case, factory: &CompensatorFactory, s: &ConformanceSettings) -> Outcome {
+    let mut cand = match build(factory, case) {
+        Ok(c) => c,
+        Err(o) => return o,
+    };
+    let mut reference =
+        NaiveCompensator::from_file(&case.model, settings_of(case)).expect("valid case");
+    let expected = outputs(&reference.compensate_all(&case.input));
+    let found = outputs(&cand.compensate_all(&case.input));
+    let tol = s.tolerance_scale
+        * tolerance::compensator(&case.model, max_abs(&expected), max_abs(&case.input));
+    compare(&case.input, &expected, &found, tol, "u")
+}
+
+fn model_after_compensator(
+    case: &Case,
+    factory: &CompensatorFactory,
+    s: &ConformanceSettings,
+) -> Outcome {
+    let mut cand = match build(factory, case) {
+        Ok(c) => c,
+        Err(o) => return o,
+    };
+    let out = cand.compensate_all(&case.input);
+    if let Some(k) = out.iter().position(|c| c.saturated) {
+        if case.limits.is_none() {
+            return fail(
+                &case.input,
+                &[0.0],
+                &[1.0],
+                k,
+                f64::INFINITY,
+                0.0,
+                format!("sample {k} flagged saturated without limits"),
+            );
+        }
+        return fail(
+            &case.input,
+            &[0.0],
+            &[1.0],
+            k,
+            f64::INFINITY,
+            0.0,
+            format!("sample {k} saturated on a reachable target"),
+        );
+    }
+    let u = outputs(&out);
+    let y = plant(case).run(&u);
+    let tol =
+        s.tolerance_scale * tolerance::compensator(&case.model, max_abs(&u), max_abs(&case.input));
+    compare(&case.input, &case.input, &y, tol, "W[W⁻¹[y]]")
+}
+
+fn compensator_after_model(
+    case: &Case,
+    factory: &CompensatorFactory,
+    s: &ConformanceSettings,
+) -> Outcome {
+    let mut cand = match build(factory, case) {
+        Ok(c) => c,
+        Err(o) => return o,
+    };
+    let targets = plant(case).run(&case.input);
+    let found = outputs(&cand.compensate_all(&targets));
+    let tol = s.tolerance_scale
+        * tolerance::compensator(&case.model, max_abs(&case.input), max_abs(&targets));
+    compare(&targets, &case.input, &found, tol, "W⁻¹[W[v]]")
+}
+
+fn odd_symmetry(case: &Case, factory: &CompensatorFactory, s: &ConformanceSettings) -> Outcome {
+    let mut virgin = case.clone();
+    virgin.model.hysteresis.state = None;
+    if let Some(c) = &mut virgin.model.creep {
+        c.state = None;
+    }
+    if let Some((lo, hi)) = virgin.limits {
+        let l = lo.abs().min(hi.abs());
+        virgin.limits = Some((-l, l));
+    }
+    let (mut a, mut b) = match (build(factory, &virgin), build(factory, &virgin)) {
+        (Ok(a), Ok(b)) => (a, b),
+        (Err(o), _) | (_, Err(o)) => return o,
+    };
+    let neg: Vec<f64> = case.input.iter().map(|x| -x).collect();
+    let expected: Vec<f64> = outputs(&a.compensate_all(&case.input))
+        .iter()
+        .map(|u| -u)
+        .collect();
+    let found = outputs(&b.compensate_all(&neg));
+    let tol = s.exact_or(tolerance::compensator(
+        &virgin.model,
+        max_abs(&expected),
+        max_abs(&case.input),
+    ));
+    compare(&neg, &expected, &found, tol, "W⁻¹[-y] vs -W⁻¹[y]")
+}
+
+fn split_and_resume(case: &Case, factory: &CompensatorFactory, s: &ConformanceSettings) -> Outcome {
+    if case.input.len() < 2 {
+        return Outcome::Skipped;
+    }
+    let k = case.input.len() / 2;
+    // the plant runs the first half; its state goes into the model file
+    let mut p = plant(case);
+    p.run(&case.input[..k]);
+    let targets = p.run(&case.input[k..]);
+    let resumed = Case {
+        model: with_state_after(&case.model, &case.input[..k]),
+        input: targets.clone(),
+        limits: None,
+    };
+    let mut cand = match build(factory, &resumed) {
+        Ok(c) => c,
+        Err(o) => return o,
+    };
+    let found = outputs(&cand.compensate_all(&targets));
+    let tol = s.tolerance_scale
+        * tolerance::compensator(&case.model, max_abs(&case.input), max_abs(&targets));
+    compare(
+        &targets,
+        &case.input[k..],
+        &found,
+        tol,
+        "W⁻¹ from the saved state",
+    )
+}
+
+fn saturation_flags(case: &Case, factory: &CompensatorFactory, s: &ConformanceSettings) -> Outcome {
+    let Some((lo, hi)) = case.limits else {
+        return Outcome::Skipped;
+    };
+    let mut cand = match build(factory, case) {
+        Ok(c) => c,
+        Err(o) => return o,
+    };
+    let mut reference =
+        NaiveCompensator::from_file(&case.model, settings_of(case)).expect("valid case");
+    let tol = s.tolerance_scale
+        * tolerance::compensator(&case.model, hi.abs().max(lo.abs()), max_abs(&case.input));
+    let mut any = false;
+    for (k, &t) in case.input.iter().enumerate() {
+        let c = cand.compensate(t);
+        let r = reference.compensate(t);
+        any |= r.saturated;
+        if !(c.u >= lo && c.u <= hi) {
+            return fail(
+                &case.input[..=k],
+                &[r.u],
+                &[c.u],
+                k,
+                f64::INFINITY,
+                0.0,
+                format!("sample {k}: output {} outside the limits [{lo}, {hi}]", c.u),
+            );
+        }
+        // a flag may differ only where the unclipped value is within rounding of a limit
+        let edge = (reference.last_request() - lo)
+            .abs()
+            .min((reference.last_request() - hi).abs())
+            <= tol;
+        if c.saturated != r.saturated && !edge {
+            let (e, f) = (
+                f64::from(u8::from(r.saturated)),
+                f64::from(u8::from(c.saturated)),
+            );
+            return fail(
+                &case.input[..=k],
+                &[e],
+                &[f],
+                k,
+                1.0,
+                0.0,
+                format!("sample {k}: saturated flag {f}, expected {e}"),
+            );
+        }
+    }
+    if !any {
+        return Outcome::Skipped;
+    }
+    Outcome::Held {
+        error: 0.0,
+        tolerance: 0.0,
+    }
+}
+
+fn saturation_recovery(
+    case: &Case,
+    factory: &CompensatorFactory,
+    s: &ConformanceSettings,
+) -> Outcome {
+    let Some((lo, hi)) = case.limits else {
+        return Outcome::Skipped;
+    };
+    let mut cand = match build(factory, case) {
+        Ok(c) => c,
+        Err(o) => return o,
+    };
+    let mut p = plant(case);
+    let mut any = false;
+    for &t in &case.input {
+        let c = cand.compensate(t);
+        // at a limit, flagged or not: the flags are another property's business
+        any |= c.saturated || c.u <= lo || c.u >= hi;
+        p.step(c.u.clamp(lo, hi));
+    }
+    if !any {
+        return Outcome::Skipped;
+    }
+    // reachable targets: W of small moves around the plant's last input,
+    // well inside the limits
+    let last = p.hysteresis.x[0].clamp(0.5 * lo, 0.5 * hi);
+    let v: Vec<f64> = (1..=30)
+        .map(|j| last + 0.2 * hi.min(-lo) * (j as f64 * 0.7).sin())
+        .collect();
+    let mut probe = p.clone();
+    let targets = probe.run(&v);
+    let found = outputs(&cand.compensate_all(&targets));
+    let y = p.run(&found);
+    let tol = s.tolerance_scale
+        * tolerance::compensator(&case.model, hi.abs().max(lo.abs()), max_abs(&case.input));
+    let signal = [case.input.clone(), targets.clone()].concat();
+    match compare(&signal, &targets, &y, tol, "W[W⁻¹[y]] after saturation") {
+        Outcome::Failed(mut f) => {
+            f.sample += case.input.len();
+            Outcome::Failed(f)
+        }
+        o => o,
+    }
+}

@@ -1,0 +1,518 @@
+//! Properties of the actuator model `W = H + C` (6) and of its hysteresis
+//! part `H` (10): agreement with the reference, the paper's inputs, odd
+//! symmetry, the state semantics of the model file (split and resume), and
+//! on hysteresis-only models rate independence, monotonicity, the Lipschitz
+//! bound, the Madelung rules (i)–(iii), the Masing rule and the intersection
+//! property.
+
+use super::cases::{
+    nested_extrema, path, random_input, random_model, reach, refine, segment, valid_extrema,
+    with_state_after, ModelShape, Rng,
+};
+use super::{compare, fail, refused, tolerance, Case, ConformanceReport, ConformanceSettings};
+use super::{ModelFactory, Outcome, Property};
+use crate::error::ModelError;
+use crate::operators::nominal::nominal_model_file;
+use crate::operators::traits::{ActuatorModel, Operator};
+use crate::suite::reference::NaiveModel;
+use crate::suite::signal::Staircase;
+
+type Check<'a> = fn(&Case, &ModelFactory<'a>, &ConformanceSettings) -> Outcome;
+
+/// Run every property of `W` on the implementations `factory` builds.
+pub fn check_model(
+    factory: &ModelFactory<'_>,
+    settings: &ConformanceSettings,
+) -> Result<ConformanceReport, ModelError> {
+    super::run_properties("model", &properties(), factory, settings)
+}
+
+fn properties<'a>() -> Vec<Property<ModelFactory<'a>>> {
+    let p = |name, description, max_cases, generate, check: Check<'a>| Property {
+        name,
+        description,
+        max_cases,
+        generate,
+        check,
+    };
+    vec![
+        p("agreement", "W equals the naive reference (10), (16), (20) on random models, states and inputs", usize::MAX, any_case, agreement),
+        p("paper_inputs", "W equals the reference on the nominal model and the paper's inputs (Figs. 2, 3, 8a)", 3, paper_case, agreement),
+        p("odd_symmetry", "W[-v] = -W[v] from the virgin state (6)", usize::MAX, virgin_case, odd_symmetry),
+        p("split_and_resume", "a run resumed from the model file's state continues the whole run (state semantics)", usize::MAX, any_case, split_and_resume),
+        p("rate_independence", "H: samples inserted on monotone segments change nothing at the original samples (7)", usize::MAX, hysteresis_case, rate_independence),
+        p("monotonicity", "H: on a monotone input the output moves the same way with slope >= s_min (11)", usize::MAX, hysteresis_case, monotonicity),
+        p("lipschitz", "H: |H[u] - H[v]| <= (sum |w_i|) max |u - v| from one state (10)", usize::MAX, hysteresis_case, lipschitz),
+        p("madelung_turning_point", "H: a minor loop wiped out earlier leaves the curve from a turning point unchanged (Madelung i)", usize::MAX, extrema_case, madelung_i),
+        p("madelung_return_point", "H: from p1 to p2 and back returns exactly to p1 (Madelung ii, return-point memory)", usize::MAX, extrema_case, madelung_ii),
+        p("madelung_wiping_out", "H: continued beyond p1 the curve is the one that led to p1 (Madelung iii)", usize::MAX, extrema_case, madelung_iii),
+        p("masing", "H: a branch from a turning point is the initial loading curve scaled by 2 (Masing)", usize::MAX, extrema_case, masing),
+        p("intersection", "H: branches from different histories meet at one point with different slopes (Fig. 8b)", 1, nominal_hysteresis_case, intersection),
+    ]
+}
+
+fn build(factory: &ModelFactory, case: &Case) -> Result<Box<dyn ActuatorModel>, Outcome> {
+    factory(&case.model).map_err(refused)
+}
+
+fn reference(case: &Case) -> NaiveModel {
+    NaiveModel::from_file(&case.model).expect("conformance cases are valid models")
+}
+
+fn max_abs(x: &[f64]) -> f64 {
+    x.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+}
+
+fn input_len(rng: &mut Rng, settings: &ConformanceSettings) -> usize {
+    rng.int(4, settings.max_samples)
+}
+
+fn any_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
+    let model = random_model(rng, s.max_plays, ModelShape::Any);
+    let n = input_len(rng, s);
+    let input = random_input(rng, n, 1.2 * reach(&model));
+    Case {
+        model,
+        input,
+        limits: None,
+    }
+}
+
+fn virgin_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
+    let model = random_model(rng, s.max_plays, ModelShape::Virgin);
+    let n = input_len(rng, s);
+    let input = random_input(rng, n, 1.2 * reach(&model));
+    Case {
+        model,
+        input,
+        limits: None,
+    }
+}
+
+fn hysteresis_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
+    let model = random_model(rng, s.max_plays, ModelShape::HysteresisOnly);
+    let n = input_len(rng, s);
+    let input = random_input(rng, n, 1.2 * reach(&model));
+    Case {
+        model,
+        input,
+        limits: None,
+    }
+}
+
+fn extrema_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
+    let model = random_model(rng, s.max_plays, ModelShape::HysteresisOnly);
+    let input = nested_extrema(rng, 1.2 * reach(&model));
+    Case {
+        model,
+        input,
+        limits: None,
+    }
+}
+
+/// The paper's inputs on the nominal model: a shortened Fig. 3 staircase,
+/// the Fig. 2 rectangle (shortened) and the Fig. 8a nested reversals.
+pub(crate) fn paper_input(i: usize) -> Vec<f64> {
+    match i % 3 {
+        0 => Staircase::full_loop(1000.0, 4, 0.05, 0.2).sample(2e-4),
+        1 => (0..20_000)
+            .map(|k| {
+                if (2500..12_500).contains(&k) {
+                    500.0
+                } else {
+                    0.0
+                }
+            })
+            .collect(),
+        _ => path(
+            &[
+                900.0, -900.0, 600.0, -300.0, 400.0, 0.0, 300.0, -300.0, 400.0,
+            ],
+            200,
+        ),
+    }
+}
+
+fn paper_case(_: &mut Rng, _: &ConformanceSettings, i: usize) -> Case {
+    Case {
+        model: nominal_model_file(),
+        input: paper_input(i),
+        limits: None,
+    }
+}
+
+fn nominal_hysteresis_case(_: &mut Rng, _: &ConformanceSettings, _: usize) -> Case {
+    let mut model = nominal_model_file();
+    model.creep = None;
+    Case {
+        model,
+        input: vec![200.0, 1000.0, 900.0],
+        limits: None,
+    }
+}
+
+fn agreement(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
+    let mut cand = match build(factory, case) {
+        Ok(c) => c,
+        Err(o) => return o,
+    };
+    let expected = reference(case).run(&case.input);
+    let found = cand.run(&case.input);
+    let tol = s.tolerance_scale * tolerance::model(&case.model, max_abs(&case.input));
+    compare(&case.input, &expected, &found, tol, "W")
+}
+
+fn odd_symmetry(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
+    let mut model = case.model.clone();
+    model.hysteresis.state = None;
+    if let Some(c) = &mut model.creep {
+        c.state = None;
+    }
+    let virgin = Case {
+        model,
+        ..case.clone()
+    };
+    let (mut a, mut b) = match (build(factory, &virgin), build(factory, &virgin)) {
+        (Ok(a), Ok(b)) => (a, b),
+        (Err(o), _) | (_, Err(o)) => return o,
+    };
+    let neg: Vec<f64> = case.input.iter().map(|x| -x).collect();
+    let expected: Vec<f64> = a.run(&case.input).iter().map(|y| -y).collect();
+    let found = b.run(&neg);
+    let tol = s.exact_or(tolerance::model(&virgin.model, max_abs(&case.input)));
+    compare(&neg, &expected, &found, tol, "W[-v] vs -W[v]")
+}
+
+fn split_and_resume(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
+    if case.input.len() < 2 {
+        return Outcome::Skipped;
+    }
+    let k = case.input.len() / 2;
+    let whole = reference(case).run(&case.input);
+    let resumed = Case {
+        model: with_state_after(&case.model, &case.input[..k]),
+        input: case.input[k..].to_vec(),
+        limits: None,
+    };
+    let mut cand = match build(factory, &resumed) {
+        Ok(c) => c,
+        Err(o) => return o,
+    };
+    let found = cand.run(&resumed.input);
+    let tol = s.tolerance_scale * tolerance::model(&case.model, max_abs(&case.input));
+    compare(
+        &resumed.input,
+        &whole[k..],
+        &found,
+        tol,
+        "second half from the saved state",
+    )
+}
+
+fn hysteresis_only(case: &Case) -> bool {
+    case.model.creep.is_none()
+}
+
+fn rate_independence(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
+    if !hysteresis_only(case) || case.input.len() < 2 {
+        return Outcome::Skipped;
+    }
+    let (mut a, mut b) = match (build(factory, case), build(factory, case)) {
+        (Ok(a), Ok(b)) => (a, b),
+        (Err(o), _) | (_, Err(o)) => return o,
+    };
+    let k = 3;
+    let fine = refine(&case.input, k);
+    let expected = a.run(&case.input);
+    let found: Vec<f64> = b.run(&fine).into_iter().step_by(k + 1).collect();
+    let tol = s.exact_or(tolerance::model(&case.model, max_abs(&case.input)));
+    compare(
+        &fine,
+        &expected,
+        &found,
+        tol,
+        "refined input at the original samples",
+    )
+}
+
+fn monotonicity(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
+    if !hysteresis_only(case) || case.input.is_empty() {
+        return Outcome::Skipped;
+    }
+    let mut cand = match build(factory, case) {
+        Ok(c) => c,
+        Err(o) => return o,
+    };
+    // the input as a history, then a monotone ramp in the direction of its sign
+    let r = reach(&case.model);
+    let start = case.input[case.input.len() - 1];
+    let dir = if start >= 0.0 { -1.0 } else { 1.0 };
+    let ramp: Vec<f64> = (1..=60)
+        .map(|j| start + dir * 0.05 * r * j as f64)
+        .collect();
+    cand.run(&case.input);
+    let mut signal = vec![start];
+    signal.extend(&ramp);
+    let y = cand.run(&signal);
+    let s_min = tolerance::min_slope(&case.model);
+    let tol = s.tolerance_scale * tolerance::model(&case.model, max_abs(&signal));
+    // required: dir (y_{k+1} − y_k) >= s_min |Δv| − tol; compare the deficit with 0
+    let deficit: Vec<f64> = y
+        .windows(2)
+        .zip(signal.windows(2))
+        .map(|(yw, vw)| (s_min * (vw[1] - vw[0]).abs() - dir * (yw[1] - yw[0])).max(0.0))
+        .collect();
+    compare(
+        &signal,
+        &vec![0.0; deficit.len()],
+        &deficit,
+        tol,
+        "slope deficit on a monotone input",
+    )
+}
+
+fn lipschitz(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
+    if !hysteresis_only(case) || case.input.len() < 2 {
+        return Outcome::Skipped;
+    }
+    let (mut a, mut b) = match (build(factory, case), build(factory, case)) {
+        (Ok(a), Ok(b)) => (a, b),
+        (Err(o), _) | (_, Err(o)) => return o,
+    };
+    // a perturbation of alternating sign, 1 % of the reach
+    let d = 0.01 * reach(&case.model);
+    let v: Vec<f64> = case
+        .input
+        .iter()
+        .enumerate()
+        .map(|(k, x)| x + if k % 3 == 0 { d } else { -0.5 * d })
+        .collect();
+    let w_abs: f64 = case.model.hysteresis.weights.iter().map(|w| w.abs()).sum();
+    let yu = a.run(&case.input);
+    let yv = b.run(&v);
+    let tol = s.tolerance_scale * tolerance::model(&case.model, max_abs(&v));
+    let excess: Vec<f64> = yu
+        .iter()
+        .zip(&yv)
+        .map(|(p, q)| ((p - q).abs() - w_abs * d).max(0.0))
+        .collect();
+    compare(
+        &v,
+        &vec![0.0; excess.len()],
+        &excess,
+        tol,
+        "|H[u] - H[v]| beyond the Lipschitz bound",
+    )
+}
+
+/// Extrema and the reversal fraction of an extrema case, if valid.
+fn extrema(case: &Case) -> Option<(&[f64], f64)> {
+    (hysteresis_only(case) && valid_extrema(&case.input)).then(|| {
+        (
+            &case.input[..case.input.len() - 1],
+            case.input[case.input.len() - 1],
+        )
+    })
+}
+
+const SUB: usize = 3;
+
+fn madelung_i(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
+    let Some((e, g)) = extrema(case) else {
+        return Outcome::Skipped;
+    };
+    let k = e.len() - 1;
+    if k < 2 {
+        return Outcome::Skipped;
+    }
+    // a minor loop at e_1 toward e_2, wiped out by the move to e_2
+    let mut looped = e[..=1].to_vec();
+    looped.extend([e[1] + g * (e[2] - e[1]), e[1]]);
+    looped.extend_from_slice(&e[2..]);
+    let tail = segment(e[k], e[k - 1], 7);
+    let (mut a, mut b) = match (build(factory, case), build(factory, case)) {
+        (Ok(a), Ok(b)) => (a, b),
+        (Err(o), _) | (_, Err(o)) => return o,
+    };
+    a.run(&path(e, SUB));
+    let signal = [path(&looped, SUB), tail.clone()].concat();
+    b.run(&path(&looped, SUB));
+    let expected = a.run(&tail);
+    let found = b.run(&tail);
+    let tol = s.exact_or(tolerance::model(&case.model, max_abs(e)));
+    compare(
+        &signal,
+        &expected,
+        &found,
+        tol,
+        "curve from the last turning point",
+    )
+}
+
+fn madelung_ii(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
+    let Some((e, g)) = extrema(case) else {
+        return Outcome::Skipped;
+    };
+    let k = e.len() - 1;
+    let p1 = e[k];
+    let p2 = p1 + g * (e[k - 1] - p1);
+    let mut cand = match build(factory, case) {
+        Ok(c) => c,
+        Err(o) => return o,
+    };
+    let first = path(e, SUB);
+    let y_p1 = *cand.run(&first).last().expect("a path has samples");
+    let out = segment(p1, p2, SUB);
+    let back = segment(p2, p1, SUB);
+    cand.run(&out);
+    let y_back = *cand.run(&back).last().expect("a segment has samples");
+    let signal = [first, out, back].concat();
+    let tol = s.exact_or(tolerance::model(&case.model, max_abs(e)));
+    compare(&signal, &[y_p1], &[y_back], tol, "output back at p1")
+}
+
+fn madelung_iii(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
+    let Some((e, g)) = extrema(case) else {
+        return Outcome::Skipped;
+    };
+    let k = e.len() - 1;
+    let p1 = e[k];
+    let p2 = p1 + g * (e[k - 1] - p1);
+    let dir = (p1 - e[k - 1]).signum();
+    let onward = segment(p1, p1 + dir * 0.5 * reach(&case.model), 9);
+    let (mut a, mut b) = match (build(factory, case), build(factory, case)) {
+        (Ok(a), Ok(b)) => (a, b),
+        (Err(o), _) | (_, Err(o)) => return o,
+    };
+    a.run(&path(e, SUB));
+    let expected = a.run(&onward);
+    let signal = [
+        path(e, SUB),
+        segment(p1, p2, SUB),
+        segment(p2, p1, SUB),
+        onward.clone(),
+    ]
+    .concat();
+    b.run(&signal[..signal.len() - onward.len()]);
+    let found = b.run(&onward);
+    let tol = s.exact_or(tolerance::model(&case.model, max_abs(&signal)));
+    compare(
+        &signal,
+        &expected,
+        &found,
+        tol,
+        "continuation beyond p1 after the minor loop",
+    )
+}
+
+fn masing(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
+    let Some((e, _)) = extrema(case) else {
+        return Outcome::Skipped;
+    };
+    let k = e.len() - 1;
+    let (u_r, target) = (e[k], e[k - 1]);
+    let dir = (target - u_r).signum();
+    let branch = segment(u_r, target, 23);
+    // the initial loading curve φ of the candidate itself, from the virgin
+    // state along one monotone ramp through every |u − u_R|/2 needed
+    let half: Vec<f64> = branch.iter().map(|u| (u - u_r).abs() / 2.0).collect();
+    let mut virgin_case = case.clone();
+    virgin_case.model.hysteresis.state = None;
+    let (mut hist, mut virgin) = match (build(factory, case), build(factory, &virgin_case)) {
+        (Ok(a), Ok(b)) => (a, b),
+        (Err(o), _) | (_, Err(o)) => return o,
+    };
+    let mut ramp = vec![0.0];
+    ramp.extend(&half);
+    let phi = virgin.run(&ramp);
+    let first = path(e, SUB);
+    let y_r = *hist.run(&first).last().expect("a path has samples");
+    let found = hist.run(&branch);
+    let expected: Vec<f64> = phi[1..].iter().map(|p| y_r + dir * 2.0 * p).collect();
+    let tol = 4.0 * s.tolerance_scale * tolerance::model(&case.model, max_abs(e));
+    compare(
+        &[first, branch].concat(),
+        &expected,
+        &found,
+        tol,
+        "branch vs 2 φ(|u - u_R|/2)",
+    )
+}
+
+fn intersection(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
+    if !hysteresis_only(case) || case.input.len() != 3 {
+        return Outcome::Skipped;
+    }
+    let (u_star, tops) = (case.input[0], &case.input[1..]);
+    let run =
+        |signal: &[f64]| -> Result<Vec<f64>, Outcome> { Ok(build(factory, case)?.run(signal)) };
+    let virgin = match run(&[segment(0.0, u_star, 5), vec![u_star + 1.0]].concat()) {
+        Ok(y) => y,
+        Err(o) => return o,
+    };
+    let y_star = virgin[virgin.len() - 2];
+    let mut slopes = vec![virgin[virgin.len() - 1] - y_star];
+    let tol = s.tolerance_scale * (tolerance::model(&case.model, 1000.0) + 1e-9 * y_star.abs());
+    for &top in tops {
+        // the reversal m on the descending branch from `top` whose ascending
+        // branch passes through (u*, y*), by bisection on the candidate
+        let branch = |m: f64| {
+            [
+                path(&[top, m], 5),
+                segment(m, u_star, 5),
+                vec![u_star + 1.0],
+            ]
+            .concat()
+        };
+        let (mut lo, mut hi) = (-top, u_star - 1e-9);
+        for _ in 0..120 {
+            let mid = 0.5 * (lo + hi);
+            let y = match run(&branch(mid)) {
+                Ok(y) => y,
+                Err(o) => return o,
+            };
+            if y[y.len() - 2] < y_star {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let signal = branch(hi);
+        let y = match run(&signal) {
+            Ok(y) => y,
+            Err(o) => return o,
+        };
+        let y_at = y[y.len() - 2];
+        if (y_at - y_star).abs() > tol {
+            return fail(
+                &signal,
+                &[y_star],
+                &[y_at],
+                signal.len() - 2,
+                (y_at - y_star).abs(),
+                tol,
+                "the branch does not reach the point".into(),
+            );
+        }
+        slopes.push(y[y.len() - 1] - y_at);
+    }
+    for i in 0..slopes.len() {
+        for j in 0..i {
+            if (slopes[i] - slopes[j]).abs() <= 1e-6 {
+                return fail(
+                    &case.input,
+                    &[slopes[j]],
+                    &[slopes[i]],
+                    i,
+                    0.0,
+                    1e-6,
+                    format!("branches {j} and {i} merge instead of crossing: slopes {slopes:?}"),
+                );
+            }
+        }
+    }
+    Outcome::Held {
+        error: 0.0,
+        tolerance: tol,
+    }
+}

@@ -1,0 +1,359 @@
+//! Naive reference implementations: the formulas of the paper written down
+//! as plainly as possible, to compare any other implementation against.
+//!
+//! They share nothing with the fast operators of [`crate::operators`] except
+//! the validation of the model file: `f64::max`/`f64::min` for the play (20),
+//! sequential sums in the paper's order for (10) and (16), a nested
+//! threshold-then-eigenvalue loop for the creep operators (15), (20), the
+//! direct `O(n²)` sums of the transformation rules (22), and the explicit
+//! compensator (21). [`BisectionCompensator`] inverts `W` numerically, the
+//! way an operator without an analytic inverse (a Preisach model) must be
+//! inverted; it is the peer the analytic inverse is benchmarked against.
+//!
+//! Every type here implements the traits of [`crate::operators::traits`], so
+//! the conformance checks ([`crate::suite::conformance`]) run on them too.
+
+use crate::error::ModelError;
+use crate::operators::compensator::CompensatorSettings;
+use crate::operators::model::{HysteresisCreepModel, ModelFile};
+use crate::operators::traits::{
+    ActuatorCompensator, ActuatorModel, Compensated, InverseHysteresis, Operator,
+};
+
+/// The PI hysteresis operator (10) with the discrete play (20), textbook form.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NaiveHysteresis {
+    /// Thresholds `r_i`.
+    pub r: Vec<f64>,
+    /// Weights `w_i`.
+    pub w: Vec<f64>,
+    /// Play states `x_i`.
+    pub x: Vec<f64>,
+}
+
+impl NaiveHysteresis {
+    /// The output `Σ w_i max(v − r_i, min(v + r_i, x_i))` of input `v` from
+    /// the current state, without changing it.
+    pub fn evaluate(&self, v: f64) -> f64 {
+        let mut y = 0.0;
+        for i in 0..self.r.len() {
+            y += self.w[i] * (v - self.r[i]).max((v + self.r[i]).min(self.x[i]));
+        }
+        y
+    }
+
+    /// The inverse operator by the direct sums of (22):
+    /// `r'_j = Σ_{i≤j} w_i (r_j − r_i)`, `w'_0 = 1/w_0`,
+    /// `w'_j = −w_j / (s_j s_{j−1})`, `x'_j = s_j x_j + Σ_{i>j} w_i x_i`.
+    pub fn inverse(&self) -> NaiveHysteresis {
+        let n = self.r.len();
+        let s = |j: usize| (0..=j).map(|i| self.w[i]).sum::<f64>();
+        let r = (0..n)
+            .map(|j| (0..=j).map(|i| self.w[i] * (self.r[j] - self.r[i])).sum())
+            .collect();
+        let w = (0..n)
+            .map(|j| {
+                if j == 0 {
+                    1.0 / self.w[0]
+                } else {
+                    -self.w[j] / (s(j) * s(j - 1))
+                }
+            })
+            .collect();
+        let x = (0..n)
+            .map(|j| s(j) * self.x[j] + (j + 1..n).map(|i| self.w[i] * self.x[i]).sum::<f64>())
+            .collect();
+        NaiveHysteresis { r, w, x }
+    }
+}
+
+impl Operator for NaiveHysteresis {
+    fn step(&mut self, v: f64) -> f64 {
+        let mut y = 0.0;
+        for i in 0..self.r.len() {
+            self.x[i] = (v - self.r[i]).max((v + self.r[i]).min(self.x[i]));
+            y += self.w[i] * self.x[i];
+        }
+        y
+    }
+
+    fn reset(&mut self) {
+        self.x.iter_mut().for_each(|x| *x = 0.0);
+    }
+}
+
+impl InverseHysteresis for NaiveHysteresis {}
+
+/// The PI creep operator (16) over log(t)-creep operators (15) with the exact
+/// zero-order-hold step (20), textbook form.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NaiveCreep {
+    /// Thresholds `r_i`.
+    pub r: Vec<f64>,
+    /// Weights `w_i`.
+    pub w: Vec<f64>,
+    /// Eigenvalues `a_j` (s⁻¹).
+    pub a: Vec<f64>,
+    /// Sample time (s).
+    pub ts: f64,
+    /// `chi[i][j]`: threshold `i`, eigenvalue `j`.
+    pub chi: Vec<Vec<f64>>,
+}
+
+impl NaiveCreep {
+    /// `C_k = Σ_i w_i (1/m) Σ_j χ_ij`.
+    pub fn output(&self) -> f64 {
+        let m = self.a.len() as f64;
+        (0..self.r.len())
+            .map(|i| self.w[i] * self.chi[i].iter().sum::<f64>() / m)
+            .sum()
+    }
+
+    /// `χ ← χ + (1 − e^{−a T_s}) d_r(v − χ)`.
+    pub fn advance(&mut self, v: f64) {
+        for i in 0..self.r.len() {
+            for j in 0..self.a.len() {
+                let z = v - self.chi[i][j];
+                let d = (z - self.r[i]).max((z + self.r[i]).min(0.0));
+                self.chi[i][j] += -(-self.a[j] * self.ts).exp_m1() * d;
+            }
+        }
+    }
+
+    fn reset(&mut self) {
+        for row in &mut self.chi {
+            row.iter_mut().for_each(|c| *c = 0.0);
+        }
+    }
+}
+
+/// Hysteresis and creep parts of a validated model file.
+fn naive_parts(file: &ModelFile) -> Result<(NaiveHysteresis, Option<NaiveCreep>), ModelError> {
+    // validation (11), (12), (17), (18), admissibility, shapes: the one rule set
+    HysteresisCreepModel::from_file(file)?;
+    let h = &file.hysteresis;
+    let hysteresis = NaiveHysteresis {
+        r: h.thresholds.clone(),
+        w: h.weights.clone(),
+        x: h.state
+            .clone()
+            .unwrap_or_else(|| vec![0.0; h.thresholds.len()]),
+    };
+    let creep = file.creep.as_ref().map(|c| NaiveCreep {
+        r: c.thresholds.clone(),
+        w: c.weights.clone(),
+        a: c.eigenvalues.clone(),
+        ts: file.sample_time,
+        chi: c
+            .state
+            .clone()
+            .unwrap_or_else(|| vec![vec![0.0; c.eigenvalues.len()]; c.thresholds.len()]),
+    });
+    Ok((hysteresis, creep))
+}
+
+/// The model `W = H + C` (6), textbook form.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NaiveModel {
+    /// `H`.
+    pub hysteresis: NaiveHysteresis,
+    /// `C`, if the model has creep.
+    pub creep: Option<NaiveCreep>,
+}
+
+impl NaiveModel {
+    /// From a model file (validated), starting from its `state`.
+    pub fn from_file(file: &ModelFile) -> Result<Self, ModelError> {
+        let (hysteresis, creep) = naive_parts(file)?;
+        Ok(Self { hysteresis, creep })
+    }
+}
+
+impl Operator for NaiveModel {
+    fn step(&mut self, v: f64) -> f64 {
+        let h = self.hysteresis.step(v);
+        match &mut self.creep {
+            Some(c) => {
+                let out = c.output();
+                c.advance(v);
+                h + out
+            }
+            None => h,
+        }
+    }
+
+    fn reset(&mut self) {
+        self.hysteresis.reset();
+        if let Some(c) = &mut self.creep {
+            c.reset();
+        }
+    }
+}
+
+impl ActuatorModel for NaiveModel {}
+
+/// `H⁻¹` of a model file's hysteresis part with its state, by the direct
+/// sums of (22).
+pub fn naive_inverse_hysteresis(file: &ModelFile) -> Result<NaiveHysteresis, ModelError> {
+    Ok(naive_parts(file)?.0.inverse())
+}
+
+/// Clip `v` to `[lower, upper]`, and whether it was clipped.
+fn clip(v: f64, settings: &CompensatorSettings) -> (f64, bool) {
+    if v < settings.lower_limit {
+        (settings.lower_limit, true)
+    } else if v > settings.upper_limit {
+        (settings.upper_limit, true)
+    } else {
+        (v, false)
+    }
+}
+
+/// The compensator (21), textbook form: `v_k = H⁻¹[ς_k − C_k]`, clipped; the
+/// forward plays follow the emitted value, and after a clipped sample the
+/// inverse is rebuilt from them by the direct sums of (22).
+#[derive(Debug, Clone, PartialEq)]
+pub struct NaiveCompensator {
+    settings: CompensatorSettings,
+    initial: (NaiveHysteresis, Option<NaiveCreep>),
+    forward: NaiveHysteresis,
+    inverse: NaiveHysteresis,
+    creep: Option<NaiveCreep>,
+    last_request: f64,
+}
+
+impl NaiveCompensator {
+    /// The unclipped value `H⁻¹[ς_k − C_k]` of the last sample.
+    pub fn last_request(&self) -> f64 {
+        self.last_request
+    }
+
+    /// From a model file (validated), with matched states.
+    pub fn from_file(file: &ModelFile, settings: CompensatorSettings) -> Result<Self, ModelError> {
+        settings.validate()?;
+        let (forward, creep) = naive_parts(file)?;
+        Ok(Self {
+            settings,
+            inverse: forward.inverse(),
+            initial: (forward.clone(), creep.clone()),
+            forward,
+            creep,
+            last_request: 0.0,
+        })
+    }
+}
+
+impl ActuatorCompensator for NaiveCompensator {
+    fn compensate(&mut self, target: f64) -> Compensated {
+        let c = self.creep.as_ref().map_or(0.0, NaiveCreep::output);
+        let v = self.inverse.step(target - c);
+        self.last_request = v;
+        let (u, saturated) = clip(v, &self.settings);
+        self.forward.step(u);
+        if saturated {
+            self.inverse = self.forward.inverse();
+        }
+        if let Some(cr) = &mut self.creep {
+            cr.advance(u);
+        }
+        Compensated { u, saturated }
+    }
+
+    fn reset(&mut self) {
+        let (mut h, mut c) = self.initial.clone();
+        h.reset();
+        if let Some(c) = &mut c {
+            c.reset();
+        }
+        self.inverse = h.inverse();
+        self.forward = h;
+        self.creep = c;
+    }
+}
+
+/// A numerical inverse of `W`: each sample, bisection on the forward
+/// operator for the `v` with `H_state[v] + C_k = ς_k` (`H` is strictly
+/// increasing by (11)), then the forward state advances with it. This is how
+/// a hysteresis model without an analytic inverse is compensated; here it is
+/// the peer the analytic inverse (22) is measured against. Allocation-free.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BisectionCompensator {
+    settings: CompensatorSettings,
+    model: NaiveModel,
+    initial: NaiveModel,
+    /// Bisection steps per sample (64 reach the last bit of a double).
+    pub iterations: u32,
+}
+
+impl BisectionCompensator {
+    /// From a model file (validated), with matched states.
+    pub fn from_file(file: &ModelFile, settings: CompensatorSettings) -> Result<Self, ModelError> {
+        settings.validate()?;
+        let model = NaiveModel::from_file(file)?;
+        Ok(Self {
+            settings,
+            initial: model.clone(),
+            model,
+            iterations: 64,
+        })
+    }
+}
+
+impl ActuatorCompensator for BisectionCompensator {
+    fn compensate(&mut self, target: f64) -> Compensated {
+        let c = self.model.creep.as_ref().map_or(0.0, NaiveCreep::output);
+        let goal = target - c;
+        let h = &self.model.hysteresis;
+        // A bracket: the limits, or where they are infinite, doubling steps
+        // away from the last input (the state of the play with r = 0).
+        let centre = h.x.first().copied().unwrap_or(0.0);
+        let mut lo = self.settings.lower_limit;
+        if !lo.is_finite() {
+            let mut width = 1.0f64;
+            lo = centre - width;
+            while h.evaluate(lo) > goal && width < 1e300 {
+                width *= 2.0;
+                lo = centre - width;
+            }
+        }
+        let mut hi = self.settings.upper_limit;
+        if !hi.is_finite() {
+            let mut width = 1.0f64;
+            hi = centre + width;
+            while h.evaluate(hi) < goal && width < 1e300 {
+                width *= 2.0;
+                hi = centre + width;
+            }
+        }
+        let (u, saturated) = if h.evaluate(lo) > goal {
+            (lo, true)
+        } else if h.evaluate(hi) < goal {
+            (hi, true)
+        } else {
+            for _ in 0..self.iterations {
+                let mid = 0.5 * (lo + hi);
+                if mid <= lo || mid >= hi {
+                    break;
+                }
+                if h.evaluate(mid) < goal {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            // the end of the final bracket whose output is nearer the goal
+            if (h.evaluate(lo) - goal).abs() <= (h.evaluate(hi) - goal).abs() {
+                (lo, false)
+            } else {
+                (hi, false)
+            }
+        };
+        self.model.step(u);
+        Compensated { u, saturated }
+    }
+
+    fn reset(&mut self) {
+        self.model = self.initial.clone();
+        self.model.reset();
+    }
+}

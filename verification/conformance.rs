@@ -1,0 +1,262 @@
+//! The conformance checks run on every implementation the project has (the
+//! fast operators, the naive references, the numerical bisection inverse),
+//! and proof that they bite: wrappers that inject known faults each fail at
+//! least one property, with a small counterexample.
+
+use mfcbeam::operators::creep::CreepOperator;
+use mfcbeam::operators::hysteresis::HysteresisOperator;
+use mfcbeam::prelude::*;
+use mfcbeam::suite::conformance::{
+    bisection_compensator, check_compensator, check_inverse_hysteresis, check_model,
+    fast_compensator, fast_inverse_hysteresis, fast_model, reference_compensator,
+    reference_inverse_hysteresis, reference_model, ConformanceReport, ConformanceSettings,
+};
+
+fn settings() -> ConformanceSettings {
+    ConformanceSettings {
+        cases: 40,
+        ..ConformanceSettings::default()
+    }
+}
+
+/// The project's own operators meet the exact properties bit for bit.
+fn exact() -> ConformanceSettings {
+    ConformanceSettings {
+        exact: true,
+        ..settings()
+    }
+}
+
+fn assert_passes(report: &ConformanceReport, who: &str) {
+    eprintln!("{who}:\n{report}");
+    assert!(report.passed(), "{who} fails:\n{report}");
+    assert!(report.properties.iter().all(|p| p.cases > 0));
+}
+
+#[test]
+fn the_fast_model_conforms() {
+    assert_passes(&check_model(&fast_model, &exact()).unwrap(), "fast W");
+}
+
+#[test]
+fn the_reference_model_conforms() {
+    assert_passes(
+        &check_model(&reference_model, &settings()).unwrap(),
+        "reference W",
+    );
+}
+
+#[test]
+fn the_fast_compensator_conforms() {
+    assert_passes(
+        &check_compensator(&fast_compensator, &exact()).unwrap(),
+        "fast W⁻¹",
+    );
+}
+
+#[test]
+fn the_reference_compensator_conforms() {
+    assert_passes(
+        &check_compensator(&reference_compensator, &settings()).unwrap(),
+        "reference W⁻¹",
+    );
+}
+
+/// The numerical inverse finds `v` to the last bit by bisection: it meets the
+/// analytic inverse's tolerances.
+#[test]
+fn the_bisection_compensator_conforms() {
+    assert_passes(
+        &check_compensator(&bisection_compensator, &settings()).unwrap(),
+        "bisection W⁻¹",
+    );
+}
+
+#[test]
+fn the_fast_inverse_hysteresis_conforms() {
+    assert_passes(
+        &check_inverse_hysteresis(&fast_inverse_hysteresis, &exact()).unwrap(),
+        "fast H⁻¹",
+    );
+}
+
+#[test]
+fn the_reference_inverse_hysteresis_conforms() {
+    assert_passes(
+        &check_inverse_hysteresis(&reference_inverse_hysteresis, &settings()).unwrap(),
+        "reference H⁻¹",
+    );
+}
+
+/// `W` whose creep is driven by `v_k` instead of `v_{k−1}`.
+struct CreepWithoutDelay {
+    h: HysteresisOperator,
+    c: Option<CreepOperator>,
+}
+
+impl Operator for CreepWithoutDelay {
+    fn step(&mut self, v: f64) -> f64 {
+        self.h.step(v) + self.c.as_mut().map_or(0.0, |c| c.advance(v))
+    }
+    fn reset(&mut self) {
+        self.h.reset();
+        if let Some(c) = &mut self.c {
+            c.reset();
+        }
+    }
+}
+impl ActuatorModel for CreepWithoutDelay {}
+
+/// Any operator with its output delayed by one sample.
+struct Delayed<T> {
+    inner: T,
+    last: f64,
+}
+
+impl<T: Operator> Operator for Delayed<T> {
+    fn step(&mut self, v: f64) -> f64 {
+        std::mem::replace(&mut self.last, self.inner.step(v))
+    }
+    fn reset(&mut self) {
+        self.inner.reset();
+        self.last = 0.0;
+    }
+}
+impl<T: Operator> ActuatorModel for Delayed<T> {}
+
+/// A compensator that never reports saturation.
+struct NoFlag(Compensator);
+
+impl ActuatorCompensator for NoFlag {
+    fn compensate(&mut self, target: f64) -> Compensated {
+        Compensated {
+            saturated: false,
+            ..self.0.compensate(target)
+        }
+    }
+    fn reset(&mut self) {
+        self.0.reset();
+    }
+}
+
+/// The model file with its last threshold moved by 1e-6 relative.
+fn shifted(file: &ModelFile) -> ModelFile {
+    let mut f = file.clone();
+    let r = &mut f.hysteresis.thresholds;
+    let n = r.len();
+    r[n - 1] *= 1.0 + 1e-6;
+    f
+}
+
+/// The model file with the sign of one weight flipped: the largest one
+/// whose flip keeps every partial sum positive (11), so the model stays valid.
+fn flipped(file: &ModelFile) -> ModelFile {
+    let mut f = file.clone();
+    let w = &mut f.hysteresis.weights;
+    let keeps_11 = |w: &[f64], j: usize| {
+        let mut s = 0.0;
+        w.iter().enumerate().all(|(i, &x)| {
+            s += if i == j { -x } else { x };
+            s > 0.0
+        })
+    };
+    let best = (1..w.len())
+        .filter(|&j| keeps_11(w, j))
+        .max_by(|&a, &b| w[a].abs().total_cmp(&w[b].abs()));
+    if let Some(j) = best {
+        w[j] = -w[j];
+    }
+    f
+}
+
+fn assert_caught(report: &ConformanceReport, fault: &str) {
+    eprintln!("{fault}:\n{report}");
+    let failed = report.failed();
+    assert!(!failed.is_empty(), "{fault} was not caught");
+    for p in failed {
+        let c = p
+            .counterexample
+            .as_ref()
+            .expect("a failure has a counterexample");
+        // small enough to debug by hand
+        assert!(
+            c.case.input.len() <= 50,
+            "{fault}: {} counterexample has {} samples",
+            p.name,
+            c.case.input.len()
+        );
+        eprintln!(
+            "  {}: {} plays, {} samples, {}",
+            p.name,
+            c.case.model.hysteresis.thresholds.len(),
+            c.case.input.len(),
+            c.failure.message
+        );
+    }
+}
+
+#[test]
+fn injected_faults_are_caught_with_small_counterexamples() {
+    let s = ConformanceSettings {
+        cases: 24,
+        ..ConformanceSettings::default()
+    };
+    let creep_vk = |f: &ModelFile| -> Result<Box<dyn ActuatorModel>, ModelError> {
+        let m = HysteresisCreepModel::from_file(f)?;
+        Ok(Box::new(CreepWithoutDelay {
+            h: m.hysteresis().clone(),
+            c: m.creep().cloned(),
+        }))
+    };
+    assert_caught(&check_model(&creep_vk, &s).unwrap(), "creep from v_k");
+
+    let threshold = |f: &ModelFile| fast_model(&shifted(f));
+    assert_caught(
+        &check_model(&threshold, &s).unwrap(),
+        "threshold moved 1e-6",
+    );
+
+    let sign = |f: &ModelFile| fast_model(&flipped(f));
+    assert_caught(&check_model(&sign, &s).unwrap(), "weight sign flipped");
+
+    let delay = |f: &ModelFile| -> Result<Box<dyn ActuatorModel>, ModelError> {
+        Ok(Box::new(Delayed {
+            inner: HysteresisCreepModel::from_file(f)?,
+            last: 0.0,
+        }))
+    };
+    assert_caught(&check_model(&delay, &s).unwrap(), "one-sample delay");
+
+    let no_flag = |f: &ModelFile,
+                   c: CompensatorSettings|
+     -> Result<Box<dyn ActuatorCompensator>, ModelError> {
+        Ok(Box::new(NoFlag(Compensator::new(
+            &HysteresisCreepModel::from_file(f)?,
+            c,
+        )?)))
+    };
+    assert_caught(
+        &check_compensator(&no_flag, &s).unwrap(),
+        "saturated flag dropped",
+    );
+
+    let inv_threshold = |f: &ModelFile| fast_inverse_hysteresis(&shifted(f));
+    assert_caught(
+        &check_inverse_hysteresis(&inv_threshold, &s).unwrap(),
+        "H⁻¹ of a threshold moved 1e-6",
+    );
+}
+
+#[test]
+fn bad_settings_are_refused() {
+    let s = ConformanceSettings {
+        cases: 0,
+        ..ConformanceSettings::default()
+    };
+    assert!(check_model(&fast_model, &s).is_err());
+    let s = ConformanceSettings {
+        tolerance_scale: 0.5,
+        ..ConformanceSettings::default()
+    };
+    assert!(check_compensator(&fast_compensator, &s).is_err());
+}
