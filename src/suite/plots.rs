@@ -114,7 +114,16 @@ fn bounds(panel: &Panel) -> (f64, f64, f64, f64) {
     (x0, x1, y0, y1)
 }
 
-fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, fig: &Figure) -> Result<(), String> {
+/// Draw `fig` with curves `width` pixels wide.
+///
+/// The bitmap backend draws 1-pixel curves: its rasterizer turns a 2-pixel
+/// segment that is exactly vertical in pixels (a step) into a line running
+/// out of the panel, which showed in the step figure at t = 1 s.
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    fig: &Figure,
+    width: u32,
+) -> Result<(), String> {
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     root.fill(&WHITE).map_err(err)?;
     let root = root.titled(&fig.title, ("sans-serif", 22)).map_err(err)?;
@@ -142,12 +151,12 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, fig: &Figure) -> Resul
             chart
                 .draw_series(LineSeries::new(
                     s.points.iter().copied(),
-                    color.stroke_width(2),
+                    color.stroke_width(width),
                 ))
                 .map_err(err)?
                 .label(s.label.as_str())
                 .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(width))
                 });
         }
         if panel.series.len() > 1 {
@@ -170,9 +179,9 @@ pub fn write_figure(fig: &Figure, stem: &Path) -> Result<Vec<PathBuf>, String> {
     let h = 330 * fig.panels.len() as u32 + 50;
     let svg = stem.with_extension("svg");
     let png = stem.with_extension("png");
-    draw(SVGBackend::new(&svg, (1000, h)).into_drawing_area(), fig)
+    draw(SVGBackend::new(&svg, (1000, h)).into_drawing_area(), fig, 2)
         .map_err(|e| format!("{}: {e}", svg.display()))?;
-    draw(BitMapBackend::new(&png, (1000, h)).into_drawing_area(), fig)
+    draw(BitMapBackend::new(&png, (1000, h)).into_drawing_area(), fig, 1)
         .map_err(|e| format!("{}: {e}", png.display()))?;
     Ok(vec![svg, png])
 }
