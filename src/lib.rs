@@ -5,8 +5,8 @@
 //! patches, after Schröck, Meurer and Kugi, *Control of a flexible beam actuated
 //! by macro-fiber composite patches: II. Hysteresis and creep compensation,
 //! experimental results*, Smart Mater. Struct. 20 (2011) 015016. Equation
-//! numbers `(n)` refer to that paper; `SPEC.md` restates them with every number
-//! resolved.
+//! numbers `(n)` refer to that paper; `docs/MATHEMATICS.md` in the repository
+//! restates them with every number resolved.
 //!
 //! ## The mathematics
 //!
@@ -15,40 +15,52 @@
 //! `W = H + C` (4), (6) to an effective voltage that drives the linear beam.
 //!
 //! * **Play** (7)–(9), time-discrete (20): `x_k = max(v_k − r, min(v_k + r, x_{k−1}))`
-//!   ([`play::PlayOperator`]).
+//!   ([`operators::play`]).
 //! * **Prandtl–Ishlinskii hysteresis** (10)–(12): `H[v] = Σ_i w_i P_{r_i}[v]` with
 //!   `0 = r_0 < … < r_n` and partial sums `s_j = Σ_{i≤j} w_i > 0`
-//!   ([`hysteresis::HysteresisOperator`]). Its branches have the slopes `s_j`; it
+//!   ([`operators::hysteresis`]). Its branches have the slopes `s_j`; it
 //!   obeys the Madelung rules, the Masing rule and the intersection property.
 //! * **Creep** (13)–(18): elementary operators `dχ/dt = a d_r(v − χ)` solved
 //!   exactly under zero-order hold, averaged over eigenvalues spread over
 //!   decades (24) into log(t)-creep operators (15), and weighted into a PI creep
-//!   operator (16) ([`creep`]).
+//!   operator (16) ([`operators::creep`]).
 //! * **Inverse** (22): the Krejčí–Kuhnen transformation rules give `H⁻¹` as
 //!   another PI operator, with transformed thresholds, weights and states
-//!   ([`inverse`]).
+//!   ([`operators::inverse`]).
 //! * **Compensator** (21): `v_k = H⁻¹[ς_k − C_k]`, explicit because the
 //!   discrete creep operator has a one-sample delay
-//!   ([`compensator::Compensator`]), with saturation to the supply limits.
+//!   ([`operators::compensator`]), with saturation to the supply limits.
 //! * **Identification** (23)–(25): weights by constrained least squares,
-//!   faer QR and a clarabel QP ([`identification`]).
-//! * **Beam** (26)–(27): the paper's Ritz model ([`ritz`]) and a converged
-//!   finite-element model ([`fe`]), both in modal form ([`modal`]), exact
-//!   zero-order-hold simulation and the Hammerstein plant ([`simulation`]),
-//!   step-response fits ([`beam_identification`]).
-//! * **Feedforward** (28): the Gevrey trajectory ([`trajectory`]) and the
-//!   flatness-based input ([`feedforward`]).
-//! * **Reproduction**: the paper's scenarios ([`scenarios`]), golden traces
-//!   and their comparison ([`golden`]), figures ([`plots`]) and the claims
-//!   ([`reproduce`]).
+//!   faer QR and a clarabel QP (`identification`, feature `identification`).
+//! * **Beam** (26)–(27): the paper's Ritz model and a converged finite-element
+//!   model, both in modal form, exact zero-order-hold simulation, the
+//!   Hammerstein plant and step-response fits (`beam`, feature `beam`).
+//! * **Feedforward** (28): the Gevrey trajectory and the flatness-based input
+//!   (`feedforward`, feature `feedforward`).
+//! * **The suite** ([`suite`]): naive reference implementations, conformance
+//!   checks for any implementation, and — feature `suite` — the paper's
+//!   scenarios, golden traces, figures and claims.
+//!
+//! `docs/MATHEMATICS.md` states all of it equation by equation;
+//! `docs/FILES.md` is the file and command-line contract.
+//!
+//! ## Features
+//!
+//! The operator core — [`operators`], [`io`] (model files),
+//! [`suite::reference`], [`suite::conformance`] — needs only `serde`,
+//! `serde_json` and `thiserror`: `default-features = false`. The features
+//! `identification` (faer, clarabel), `beam` (faer), `feedforward`, `suite`
+//! (scenarios, golden traces, plots, CSV traces) and `cli` (the binary; the
+//! default) add the rest.
 //!
 //! ## Two tiers
 //!
-//! Most users call [`io::read_model`], [`compensator::Compensator::new`] and
-//! [`operator::Operator::run`]. The real-time path is
-//! [`compensator::Compensator::compensate`] (and every operator's
-//! [`operator::Operator::step`]): one sample, no allocation, no I/O; state can
-//! be snapshotted and restored so that runs split and resume bit-identically.
+//! Most users call [`io::read_model`], [`operators::compensator::Compensator::new`]
+//! and [`operators::traits::Operator::run`]. The real-time path is
+//! [`operators::compensator::Compensator::compensate`] (and every operator's
+//! [`operators::traits::Operator::step`]): one sample, no allocation, no I/O;
+//! state can be snapshotted and restored ([`operators::traits::Snapshot`]) so
+//! that runs split and resume bit-identically.
 //!
 //! ## Example
 //!
@@ -92,3 +104,8 @@ pub mod prelude {
         ActuatorCompensator, ActuatorModel, Compensated, InverseHysteresis, Operator, Snapshot,
     };
 }
+
+/// The README's Rust examples, compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

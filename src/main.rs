@@ -1,4 +1,4 @@
-//! The `mfcbeam` command line (SPEC section 11). Errors end the program with
+//! The `mfcbeam` command line (`docs/FILES.md`). Errors end the program with
 //! exit code 2 and one line on stderr naming the file, row or field.
 
 mod cli;

@@ -1,4 +1,4 @@
-//! The command-line contract of SPEC section 11: outputs, number format, and
+//! The command-line contract of `docs/FILES.md`: outputs, number format, and
 //! the error contract (exit 2, one line naming file and row or field, no
 //! panic, no partial output file).
 

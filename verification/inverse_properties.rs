@@ -90,7 +90,7 @@ proptest! {
 
 }
 
-/// The hand example of SPEC 2.1: `w = (1, 1)`, `r = (0, 1)` has slopes 1 then
+/// The hand example of `docs/MATHEMATICS.md` §2.1: `w = (1, 1)`, `r = (0, 1)` has slopes 1 then
 /// 2; its inverse has `r' = (0, 1)`, `w' = (1, −1/2)`, slopes 1 then 1/2.
 #[test]
 fn hand_example_of_spec_2_1() {

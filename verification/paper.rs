@@ -11,7 +11,7 @@ use mfcbeam::operators::nominal::{nominal_model_file, SAMPLE_TIME};
 use mfcbeam::prelude::*;
 use mfcbeam::suite::signal::Staircase;
 
-/// `golden/nominal_model.json` is the nominal model of SPEC section 8, bit for
+/// `golden/nominal_model.json` is the nominal model (`docs/MATHEMATICS.md` §8), bit for
 /// bit (regenerate with `mfcbeam nominal --output golden/nominal_model.json`).
 #[test]
 fn golden_nominal_model_file_is_spec_section_8() {

@@ -1,5 +1,5 @@
 //! The MFC-actuated cantilever, equations (26)–(27): parameters, the beam file
-//! of SPEC section 11, and the piecewise coefficients of the patched beam.
+//! of `docs/FILES.md`, and the piecewise coefficients of the patched beam.
 //!
 //! ```text
 //! μ ∂²w/∂t² + γ_e ∂w/∂t + ∂²/∂x² ( Λ ∂²w/∂x² + γ_i ∂³w/∂t∂x² ) = 2 u Γ_p ∂²Ω/∂x²
@@ -60,7 +60,7 @@ pub struct PatchData {
     pub input_gain: f64,
 }
 
-/// A beam file (JSON, SI units), SPEC section 11.
+/// A beam file (JSON, SI units), see `docs/FILES.md`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BeamParameters {
@@ -110,7 +110,7 @@ pub struct Segment {
 }
 
 impl BeamParameters {
-    /// The nominal beam of SPEC section 8 (f₁ ≈ 12 Hz).
+    /// The nominal beam (`docs/MATHEMATICS.md` §8) (f₁ ≈ 12 Hz).
     pub fn nominal() -> Self {
         Self {
             length: 0.22,

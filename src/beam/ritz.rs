@@ -22,10 +22,10 @@
 //! the quadrature is exact to rounding for the highest mode.
 //!
 //! Because the stiffness jumps at the patch ends while every basis function is
-//! smooth, this model converges only like `1/n` (SPEC section 6): at `n = 15`
+//! smooth, this model converges only like `1/n`: at `n = 15`
 //! its f₁ is about 4 % and its static gain about 6 % above the converged
 //! values. It is the paper's model, kept for reproduction; the default is the
-//! converged [`crate::fe`] model.
+//! converged [`crate::beam::fe`] model.
 
 use faer::Mat;
 

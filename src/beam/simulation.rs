@@ -1,5 +1,5 @@
 //! Time-discrete simulation of the beam and of the Hammerstein plant
-//! `u → W → beam → y` (SPEC section 6, the paper's Fig. 7).
+//! `u → W → beam → y` (`docs/MATHEMATICS.md` §6, the paper's Fig. 7).
 //!
 //! State space `x = (η, η̇)` of a [`ModalModel`]:
 //! `ẋ = A x + B u`, `A = [[0, I], [−Ω², −D]]`, `B = [0; b]`, `y = [cᵀ, 0] x`.
@@ -16,7 +16,7 @@
 //! `e^{λT_s} − 1` is evaluated without cancellation
 //! (`expm1(Re) cos(Im) − 2 sin²(Im/2) + i e^{Re} sin(Im)`).
 //!
-//! Conventions (SPEC section 6): row `k` of a trace holds `u_k` and the output
+//! Conventions (`docs/MATHEMATICS.md` §6): row `k` of a trace holds `u_k` and the output
 //! *before* `u_k` acts, `y_k = C x_k`; a simulation starts at rest in the
 //! equilibrium of its first input.
 

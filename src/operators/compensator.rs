@@ -34,7 +34,7 @@ pub struct CompensatorSettings {
 }
 
 impl Default for CompensatorSettings {
-    /// The balanced supply range of SPEC section 1: `[−1000, 1000]` V.
+    /// The balanced supply range: `[−1000, 1000]` V.
     fn default() -> Self {
         Self {
             lower_limit: -1000.0,

@@ -1,5 +1,5 @@
 //! The hysteresis and creep model `W = H + C`, equations (4) and (6), and its
-//! file form (SPEC section 11).
+//! file form (`docs/FILES.md`).
 //!
 //! `W[v]_k = H[v]_k + C[v]_k`: `W` maps the balanced patch voltage `u` (V) to
 //! the effective voltage (V) that drives the linear beam. `creep` may be absent

@@ -1,4 +1,4 @@
-//! The nominal hysteresis and creep model of SPEC section 8 (reconstructed: the
+//! The nominal hysteresis and creep model (`docs/MATHEMATICS.md` §8; reconstructed: the
 //! paper does not print its identified weights).
 
 use crate::operators::creep::CreepOperator;
@@ -8,12 +8,12 @@ use crate::operators::model::{HysteresisCreepModel, ModelFile};
 /// Sample time of the paper's real-time board: 0.2 ms.
 pub const SAMPLE_TIME: f64 = 2e-4;
 
-/// Hysteresis weights, SPEC section 8.
+/// Hysteresis weights (reconstructed).
 pub const HYSTERESIS_WEIGHTS: [f64; 12] = [
     0.45, 0.0963, 0.0773, 0.062, 0.0498, 0.0399, 0.0321, 0.0257, 0.0206, 0.0166, 0.0133, -0.01,
 ];
 
-/// Creep weights, SPEC section 8.
+/// Creep weights (reconstructed).
 pub const CREEP_WEIGHTS: [f64; 12] = [
     0.08, 0.006, 0.005, 0.004, 0.003, 0.002, 0.002, 0.001, 0.001, 0.001, 0.001, 0.001,
 ];

@@ -25,7 +25,7 @@ pub struct Supply {
 }
 
 impl Default for Supply {
-    /// The MFC range of SPEC section 1: `[−500, 1500]` V.
+    /// The MFC range: `[−500, 1500]` V.
     fn default() -> Self {
         Self {
             u_min: -500.0,

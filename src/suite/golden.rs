@@ -1,4 +1,4 @@
-//! Golden traces: the scenarios of [`crate::scenarios`] stored in `golden/`
+//! Golden traces: the scenarios of [`crate::suite::scenarios`] stored in `golden/`
 //! with a manifest, and the comparison that `mfcbeam verify` and the golden
 //! regression test apply.
 //!

@@ -1,5 +1,5 @@
 //! The verification suite as a library: naive reference implementations
-//! ([`reference`]), the property checks any implementation can be run
+//! ([`reference`](mod@reference)), the property checks any implementation can be run
 //! through ([`conformance`]), test signals ([`signal`]) and — with the
 //! `suite` feature — the paper's scenarios ([`scenarios`]), their golden
 //! traces ([`golden`]), figures ([`plots`]) and claims ([`reproduce`]).

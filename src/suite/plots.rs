@@ -181,7 +181,11 @@ pub fn write_figure(fig: &Figure, stem: &Path) -> Result<Vec<PathBuf>, String> {
     let png = stem.with_extension("png");
     draw(SVGBackend::new(&svg, (1000, h)).into_drawing_area(), fig, 2)
         .map_err(|e| format!("{}: {e}", svg.display()))?;
-    draw(BitMapBackend::new(&png, (1000, h)).into_drawing_area(), fig, 1)
-        .map_err(|e| format!("{}: {e}", png.display()))?;
+    draw(
+        BitMapBackend::new(&png, (1000, h)).into_drawing_area(),
+        fig,
+        1,
+    )
+    .map_err(|e| format!("{}: {e}", png.display()))?;
     Ok(vec![svg, png])
 }

@@ -4,7 +4,7 @@
 //! file, the saturation flags and the recovery after saturation.
 
 use super::cases::{random_input, random_model, reach, with_state_after, ModelShape, Rng};
-use super::{compare, fail, refused, tolerance, Case, ConformanceReport, ConformanceSettings};
+use super::{compare, fail, refused, tolerance, two, Case, ConformanceReport, ConformanceSettings};
 use super::{CompensatorFactory, Outcome, Property};
 use crate::error::ModelError;
 use crate::operators::compensator::CompensatorSettings;
@@ -214,9 +214,9 @@ fn odd_symmetry(case: &Case, factory: &CompensatorFactory, s: &ConformanceSettin
         let l = lo.abs().min(hi.abs());
         virgin.limits = Some((-l, l));
     }
-    let (mut a, mut b) = match (build(factory, &virgin), build(factory, &virgin)) {
-        (Ok(a), Ok(b)) => (a, b),
-        (Err(o), _) | (_, Err(o)) => return o,
+    let (mut a, mut b) = match two(|| build(factory, &virgin)) {
+        Ok(pair) => pair,
+        Err(o) => return o,
     };
     let neg: Vec<f64> = case.input.iter().map(|x| -x).collect();
     let expected: Vec<f64> = outputs(&a.compensate_all(&case.input))

@@ -4,7 +4,7 @@
 //! state semantics of the model file.
 
 use super::cases::{random_input, random_model, reach, refine, with_state_after, ModelShape, Rng};
-use super::{compare, refused, tolerance, Case, ConformanceReport, ConformanceSettings};
+use super::{compare, refused, tolerance, two, Case, ConformanceReport, ConformanceSettings};
 use super::{InverseHysteresisFactory, Outcome, Property};
 use crate::error::ModelError;
 use crate::operators::traits::{InverseHysteresis, Operator};
@@ -172,9 +172,9 @@ fn odd_symmetry(
 ) -> Outcome {
     let mut virgin = case.clone();
     virgin.model.hysteresis.state = None;
-    let (mut a, mut b) = match (build(factory, &virgin), build(factory, &virgin)) {
-        (Ok(a), Ok(b)) => (a, b),
-        (Err(o), _) | (_, Err(o)) => return o,
+    let (mut a, mut b) = match two(|| build(factory, &virgin)) {
+        Ok(pair) => pair,
+        Err(o) => return o,
     };
     let neg: Vec<f64> = case.input.iter().map(|x| -x).collect();
     let expected: Vec<f64> = a.run(&case.input).iter().map(|v| -v).collect();
@@ -191,9 +191,9 @@ fn rate_independence(
     if case.input.len() < 2 {
         return Outcome::Skipped;
     }
-    let (mut a, mut b) = match (build(factory, case), build(factory, case)) {
-        (Ok(a), Ok(b)) => (a, b),
-        (Err(o), _) | (_, Err(o)) => return o,
+    let (mut a, mut b) = match two(|| build(factory, case)) {
+        Ok(pair) => pair,
+        Err(o) => return o,
     };
     let k = 3;
     let fine = refine(&case.input, k);

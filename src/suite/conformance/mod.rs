@@ -250,6 +250,11 @@ pub fn fail(
     }))
 }
 
+/// Two fresh candidates (for properties that compare two runs).
+pub(crate) fn two<T>(build: impl Fn() -> Result<T, Outcome>) -> Result<(T, T), Outcome> {
+    Ok((build()?, build()?))
+}
+
 /// The candidate refused a valid model.
 pub fn refused(e: ModelError) -> Outcome {
     fail(

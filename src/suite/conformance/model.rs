@@ -9,7 +9,7 @@ use super::cases::{
     nested_extrema, path, random_input, random_model, reach, refine, segment, valid_extrema,
     with_state_after, ModelShape, Rng,
 };
-use super::{compare, fail, refused, tolerance, Case, ConformanceReport, ConformanceSettings};
+use super::{compare, fail, refused, tolerance, two, Case, ConformanceReport, ConformanceSettings};
 use super::{ModelFactory, Outcome, Property};
 use crate::error::ModelError;
 use crate::operators::nominal::nominal_model_file;
@@ -67,8 +67,9 @@ fn input_len(rng: &mut Rng, settings: &ConformanceSettings) -> usize {
     rng.int(4, settings.max_samples)
 }
 
-fn any_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
-    let model = random_model(rng, s.max_plays, ModelShape::Any);
+/// A random model of `shape` and a random input reaching beyond its thresholds.
+fn signal_case(rng: &mut Rng, s: &ConformanceSettings, shape: ModelShape) -> Case {
+    let model = random_model(rng, s.max_plays, shape);
     let n = input_len(rng, s);
     let input = random_input(rng, n, 1.2 * reach(&model));
     Case {
@@ -76,28 +77,18 @@ fn any_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
         input,
         limits: None,
     }
+}
+
+fn any_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
+    signal_case(rng, s, ModelShape::Any)
 }
 
 fn virgin_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
-    let model = random_model(rng, s.max_plays, ModelShape::Virgin);
-    let n = input_len(rng, s);
-    let input = random_input(rng, n, 1.2 * reach(&model));
-    Case {
-        model,
-        input,
-        limits: None,
-    }
+    signal_case(rng, s, ModelShape::Virgin)
 }
 
 fn hysteresis_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
-    let model = random_model(rng, s.max_plays, ModelShape::HysteresisOnly);
-    let n = input_len(rng, s);
-    let input = random_input(rng, n, 1.2 * reach(&model));
-    Case {
-        model,
-        input,
-        limits: None,
-    }
+    signal_case(rng, s, ModelShape::HysteresisOnly)
 }
 
 fn extrema_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
@@ -172,9 +163,9 @@ fn odd_symmetry(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) ->
         model,
         ..case.clone()
     };
-    let (mut a, mut b) = match (build(factory, &virgin), build(factory, &virgin)) {
-        (Ok(a), Ok(b)) => (a, b),
-        (Err(o), _) | (_, Err(o)) => return o,
+    let (mut a, mut b) = match two(|| build(factory, &virgin)) {
+        Ok(pair) => pair,
+        Err(o) => return o,
     };
     let neg: Vec<f64> = case.input.iter().map(|x| -x).collect();
     let expected: Vec<f64> = a.run(&case.input).iter().map(|y| -y).collect();
@@ -217,9 +208,9 @@ fn rate_independence(case: &Case, factory: &ModelFactory, s: &ConformanceSetting
     if !hysteresis_only(case) || case.input.len() < 2 {
         return Outcome::Skipped;
     }
-    let (mut a, mut b) = match (build(factory, case), build(factory, case)) {
-        (Ok(a), Ok(b)) => (a, b),
-        (Err(o), _) | (_, Err(o)) => return o,
+    let (mut a, mut b) = match two(|| build(factory, case)) {
+        Ok(pair) => pair,
+        Err(o) => return o,
     };
     let k = 3;
     let fine = refine(&case.input, k);
@@ -275,9 +266,9 @@ fn lipschitz(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Ou
     if !hysteresis_only(case) || case.input.len() < 2 {
         return Outcome::Skipped;
     }
-    let (mut a, mut b) = match (build(factory, case), build(factory, case)) {
-        (Ok(a), Ok(b)) => (a, b),
-        (Err(o), _) | (_, Err(o)) => return o,
+    let (mut a, mut b) = match two(|| build(factory, case)) {
+        Ok(pair) => pair,
+        Err(o) => return o,
     };
     // a perturbation of alternating sign, 1 % of the reach
     let d = 0.01 * reach(&case.model);
@@ -330,9 +321,9 @@ fn madelung_i(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> O
     looped.extend([e[1] + g * (e[2] - e[1]), e[1]]);
     looped.extend_from_slice(&e[2..]);
     let tail = segment(e[k], e[k - 1], 7);
-    let (mut a, mut b) = match (build(factory, case), build(factory, case)) {
-        (Ok(a), Ok(b)) => (a, b),
-        (Err(o), _) | (_, Err(o)) => return o,
+    let (mut a, mut b) = match two(|| build(factory, case)) {
+        Ok(pair) => pair,
+        Err(o) => return o,
     };
     a.run(&path(e, SUB));
     let signal = [path(&looped, SUB), tail.clone()].concat();
@@ -380,9 +371,9 @@ fn madelung_iii(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) ->
     let p2 = p1 + g * (e[k - 1] - p1);
     let dir = (p1 - e[k - 1]).signum();
     let onward = segment(p1, p1 + dir * 0.5 * reach(&case.model), 9);
-    let (mut a, mut b) = match (build(factory, case), build(factory, case)) {
-        (Ok(a), Ok(b)) => (a, b),
-        (Err(o), _) | (_, Err(o)) => return o,
+    let (mut a, mut b) = match two(|| build(factory, case)) {
+        Ok(pair) => pair,
+        Err(o) => return o,
     };
     a.run(&path(e, SUB));
     let expected = a.run(&onward);

@@ -323,7 +323,7 @@ pub fn run_all(ctx: &ScenarioContext) -> Result<Traces, ScenarioError> {
 }
 
 /// `t_k = k T_s`.
-pub(crate) fn time_axis(len: usize) -> Vec<f64> {
+pub fn time_axis(len: usize) -> Vec<f64> {
     (0..len).map(|k| k as f64 * SAMPLE_TIME).collect()
 }
 

@@ -1,0 +1,93 @@
+//! Every implementation of a kind, timed through the same trait object on the
+//! same input: the project's fast operators, the naive references of
+//! `mfcbeam::suite::reference`, and for the compensator a numerical inverse
+//! (bisection on `W` every sample, the way a hysteresis model without an
+//! analytic inverse must be inverted) — the contrast the paper draws for the
+//! analytic PI inverse (22). Nominal model, paper's order.
+
+use std::hint::black_box;
+
+mod common;
+
+use common::test_input;
+use criterion::{criterion_group, criterion_main, Criterion};
+use mfcbeam::operators::nominal::nominal_model_file;
+use mfcbeam::prelude::*;
+use mfcbeam::suite::conformance::{
+    bisection_compensator, fast_compensator, fast_inverse_hysteresis, fast_model,
+    reference_compensator, reference_inverse_hysteresis, reference_model, CompensatorFactory,
+    InverseHysteresisFactory, ModelFactory,
+};
+
+const LEN: usize = 4096;
+
+fn models(c: &mut Criterion) {
+    let input = test_input(LEN);
+    let file = nominal_model_file();
+    let mut g = c.benchmark_group("model_w_step");
+    let candidates: [(&str, &ModelFactory); 2] =
+        [("fast", &fast_model), ("naive_reference", &reference_model)];
+    for (name, factory) in candidates {
+        let mut w = factory(&file).unwrap();
+        let w: &mut dyn ActuatorModel = w.as_mut();
+        let mut k = 0usize;
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                k = (k + 1) & (LEN - 1);
+                w.step(black_box(input[k]))
+            })
+        });
+    }
+    g.finish();
+}
+
+fn compensators(c: &mut Criterion) {
+    let file = nominal_model_file();
+    // reachable targets: W of the test input
+    let targets = fast_model(&file).unwrap().run(&test_input(LEN));
+    let mut g = c.benchmark_group("compensator_step");
+    let candidates: [(&str, &CompensatorFactory); 3] = [
+        ("fast", &fast_compensator),
+        ("naive_reference", &reference_compensator),
+        ("bisection", &bisection_compensator),
+    ];
+    for (name, factory) in candidates {
+        let mut comp = factory(&file, CompensatorSettings::default()).unwrap();
+        let comp: &mut dyn ActuatorCompensator = comp.as_mut();
+        let mut k = 0usize;
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                k = (k + 1) & (LEN - 1);
+                comp.compensate(black_box(targets[k]))
+            })
+        });
+    }
+    g.finish();
+}
+
+fn inverse_hysteresis(c: &mut Criterion) {
+    let file = nominal_model_file();
+    let mut h = file.clone();
+    h.creep = None;
+    let targets = fast_model(&h).unwrap().run(&test_input(LEN));
+    let mut g = c.benchmark_group("inverse_hysteresis_step");
+    let candidates: [(&str, &InverseHysteresisFactory); 2] = [
+        ("fast", &fast_inverse_hysteresis),
+        ("naive_reference", &reference_inverse_hysteresis),
+    ];
+    for (name, factory) in candidates {
+        let mut inv = factory(&file).unwrap();
+        let inv: &mut dyn InverseHysteresis = inv.as_mut();
+        let mut k = 0usize;
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                k = (k + 1) & (LEN - 1);
+                inv.step(black_box(targets[k]))
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, models, compensators, inverse_hysteresis);
+criterion_main!(benches);
