@@ -12,6 +12,7 @@ use mfcbeam::beam::step_response_fit::BeamModelKind;
 use mfcbeam::feedforward::FeedforwardSettings;
 use mfcbeam::identification::IdentificationSettings;
 use mfcbeam::operators::nominal::SAMPLE_TIME;
+use mfcbeam::suite::conformance::ConformanceSettings;
 
 #[derive(Debug, Parser)]
 #[command(
@@ -48,6 +49,9 @@ pub enum Command {
     Scenario(ScenarioArgs),
     /// Regenerate (--write) or check (--check) the golden traces and manifest.
     Golden(GoldenArgs),
+    /// Run the conformance properties on a program in any language that
+    /// follows the file contract; writes shrunk counterexamples.
+    Conform(ConformArgs),
     /// Compare a candidate trace from any implementation with a golden trace.
     Verify(VerifyArgs),
     /// Write the nominal model of the paper (reconstructed) (virgin state) as a model file.
@@ -190,6 +194,42 @@ pub struct GoldenArgs {
     /// Recompute every trace and compare with the stored ones (exit 1 on a difference).
     #[arg(long)]
     pub check: bool,
+}
+
+/// What a `conform` candidate implements.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ConformKind {
+    /// `W`: reads column `u`, writes `y` (as `mfcbeam simulate`).
+    Model,
+    /// `W⁻¹`: reads column `y_d`, writes `u` and `saturated` (as `mfcbeam compensate`).
+    Compensator,
+}
+
+#[derive(Debug, Args)]
+pub struct ConformArgs {
+    /// What the candidate implements.
+    #[arg(long, value_enum)]
+    pub kind: ConformKind,
+    /// The candidate's command line, e.g. 'mfcbeam simulate' or
+    /// 'python3 my_model.py'; it is run as `CMD ARGS… --model M.json --input
+    /// IN.csv --output OUT.csv`, a compensator also with `--limits=LO,HI`.
+    #[arg(long, value_name = "CMD ARGS…", allow_hyphen_values = true)]
+    pub exec: String,
+    /// Random cases in all, spread evenly over the properties.
+    #[arg(long, default_value_t = 200)]
+    pub cases: usize,
+    /// Seed of the case generator.
+    #[arg(long, default_value_t = ConformanceSettings::default().seed)]
+    pub seed: u64,
+    /// Factor on every tolerance, for lower-precision candidates (f32: 536870912 = 2^29).
+    #[arg(long, default_value_t = ConformanceSettings::default().tolerance_scale, allow_hyphen_values = true)]
+    pub tolerance_scale: f64,
+    /// Directory for the counterexamples (one subdirectory per failing property).
+    #[arg(long, default_value = "conform")]
+    pub out: PathBuf,
+    /// Longest a single run of the candidate may take (s) before it is killed.
+    #[arg(long, default_value_t = 20.0, allow_hyphen_values = true)]
+    pub timeout: f64,
 }
 
 #[derive(Debug, Args)]

@@ -33,6 +33,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Reproduce(a) => reproduce(&a),
         Command::Scenario(a) => scenario(&a),
         Command::Golden(a) => golden(&a),
+        Command::Conform(a) => super::conform::conform(&a),
         Command::Verify(a) => verify(&a),
         Command::Nominal(a) => nominal(&a),
         Command::Signal(a) => signal(&a),

@@ -23,6 +23,16 @@ pub fn check_compensator(
     super::run_properties("compensator", &properties(), factory, settings)
 }
 
+/// Rerun property `name` on one case (`None`: no such property).
+pub fn recheck_compensator(
+    name: &str,
+    case: &Case,
+    factory: &CompensatorFactory<'_>,
+    settings: &ConformanceSettings,
+) -> Option<Outcome> {
+    super::recheck(&properties(), name, case, factory, settings)
+}
+
 fn properties<'a>() -> Vec<Property<CompensatorFactory<'a>>> {
     let p = |name, description, max_cases, generate, check: Check<'a>| Property {
         name,
@@ -275,8 +285,9 @@ fn saturation_flags(case: &Case, factory: &CompensatorFactory, s: &ConformanceSe
     let tol = s.tolerance_scale
         * tolerance::compensator(&case.model, hi.abs().max(lo.abs()), max_abs(&case.input));
     let mut any = false;
-    for (k, &t) in case.input.iter().enumerate() {
-        let c = cand.compensate(t);
+    // the candidate's whole run first (an external candidate runs once)
+    let found = cand.compensate_all(&case.input);
+    for (k, (&t, c)) in case.input.iter().zip(&found).enumerate() {
         let r = reference.compensate(t);
         any |= r.saturated;
         if !(c.u >= lo && c.u <= hi) {
@@ -334,8 +345,7 @@ fn saturation_recovery(
     };
     let mut p = plant(case);
     let mut any = false;
-    for &t in &case.input {
-        let c = cand.compensate(t);
+    for c in cand.compensate_all(&case.input) {
         // at a limit, flagged or not: the flags are another property's business
         any |= c.saturated || c.u <= lo || c.u >= hi;
         p.step(c.u.clamp(lo, hi));

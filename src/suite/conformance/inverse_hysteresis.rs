@@ -20,6 +20,16 @@ pub fn check_inverse_hysteresis(
     super::run_properties("inverse hysteresis", &properties(), factory, settings)
 }
 
+/// Rerun property `name` on one case (`None`: no such property).
+pub fn recheck_inverse_hysteresis(
+    name: &str,
+    case: &Case,
+    factory: &InverseHysteresisFactory<'_>,
+    settings: &ConformanceSettings,
+) -> Option<Outcome> {
+    super::recheck(&properties(), name, case, factory, settings)
+}
+
 fn properties<'a>() -> Vec<Property<InverseHysteresisFactory<'a>>> {
     let p = |name, description, generate, check: Check<'a>| Property {
         name,

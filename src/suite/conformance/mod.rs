@@ -30,6 +30,8 @@
 
 mod cases;
 mod compensator;
+#[cfg(feature = "suite")]
+pub mod external;
 mod inverse_hysteresis;
 mod model;
 pub mod tolerance;
@@ -45,20 +47,23 @@ pub use cases::{
     nested_extrema, path, random_input, random_model, refine, segment, with_state_after,
     ModelShape, Rng,
 };
-pub use compensator::check_compensator;
-pub use inverse_hysteresis::check_inverse_hysteresis;
-pub use model::check_model;
+pub use compensator::{check_compensator, recheck_compensator};
+pub use inverse_hysteresis::{check_inverse_hysteresis, recheck_inverse_hysteresis};
+pub use model::{check_model, recheck_model};
 
-/// Builds an implementation of `W` from a model file (starting from its `state`).
-pub type ModelFactory<'a> = dyn Fn(&ModelFile) -> Result<Box<dyn ActuatorModel>, ModelError> + 'a;
+/// Builds an implementation of `W` from a model file (starting from its
+/// `state`). `Sync`: properties run in parallel.
+pub type ModelFactory<'a> =
+    dyn Fn(&ModelFile) -> Result<Box<dyn ActuatorModel>, ModelError> + Sync + 'a;
 
 /// Builds a compensator `W⁻¹` from a model file (matched to its `state`) and limits.
 pub type CompensatorFactory<'a> = dyn Fn(&ModelFile, CompensatorSettings) -> Result<Box<dyn ActuatorCompensator>, ModelError>
+    + Sync
     + 'a;
 
 /// Builds `H⁻¹` of a model file's hysteresis part, its state transformed by (22).
 pub type InverseHysteresisFactory<'a> =
-    dyn Fn(&ModelFile) -> Result<Box<dyn InverseHysteresis>, ModelError> + 'a;
+    dyn Fn(&ModelFile) -> Result<Box<dyn InverseHysteresis>, ModelError> + Sync + 'a;
 
 /// How many cases, from which seed, at which precision.
 #[derive(Debug, Clone, PartialEq)]
@@ -77,6 +82,8 @@ pub struct ConformanceSettings {
     pub max_samples: usize,
     /// Try to shrink a failing case (default true).
     pub shrink: bool,
+    /// Property evaluations one shrink may spend (default 1500).
+    pub shrink_budget: usize,
     /// Check the properties that hold exactly in real arithmetic (odd
     /// symmetry, rate independence, Madelung (i)–(iii): the candidate against
     /// itself) bit for bit, with tolerance 0 (default false). The project's
@@ -94,6 +101,7 @@ impl Default for ConformanceSettings {
             max_plays: 12,
             max_samples: 300,
             shrink: true,
+            shrink_budget: 1500,
             exact: false,
         }
     }
@@ -386,82 +394,132 @@ pub(crate) struct Property<F: ?Sized> {
     pub check: fn(&Case, &F, &ConformanceSettings) -> Outcome,
 }
 
-/// Run every property on `factory`.
-pub(crate) fn run_properties<F: ?Sized>(
+/// Run every property on `factory`, the properties spread over the
+/// available cores (each has its own seeded generator, so the result does
+/// not depend on the scheduling).
+pub(crate) fn run_properties<F: ?Sized + Sync>(
     kind: &'static str,
     properties: &[Property<F>],
     factory: &F,
     settings: &ConformanceSettings,
 ) -> Result<ConformanceReport, ModelError> {
     settings.validate()?;
-    let mut out = Vec::new();
-    for (pi, p) in properties.iter().enumerate() {
-        let mut rng = Rng::new(settings.seed ^ (0x9e37_79b9 * (pi as u64 + 1)));
-        let mut result = PropertyResult {
-            name: p.name,
-            description: p.description,
-            cases: 0,
-            failures: 0,
-            worst_ratio: 0.0,
-            worst_error: 0.0,
-            tolerance: 0.0,
-            counterexample: None,
-        };
-        for i in 0..settings.cases.min(p.max_cases) {
-            let case = (p.generate)(&mut rng, settings, i);
-            let outcome = (p.check)(&case, factory, settings);
-            let (error, tolerance) = match &outcome {
-                Outcome::Skipped => continue,
-                Outcome::Held { error, tolerance } => (*error, *tolerance),
-                Outcome::Failed(f) => (f.error, f.tolerance),
-            };
-            result.cases += 1;
-            let ratio = if error == 0.0 {
-                0.0
-            } else if tolerance > 0.0 {
-                error / tolerance
-            } else {
-                f64::INFINITY
-            };
-            if ratio > result.worst_ratio || result.cases == 1 {
-                result.worst_ratio = ratio;
-                result.worst_error = error;
-                result.tolerance = tolerance;
-            }
-            if let Outcome::Failed(failure) = outcome {
-                result.failures += 1;
-                if result.counterexample.is_none() {
-                    let (case, failure) = if settings.shrink {
-                        shrink(case, *failure, |c| (p.check)(c, factory, settings))
-                    } else {
-                        (case, *failure)
-                    };
-                    result.counterexample = Some(Counterexample {
-                        case_index: i,
-                        case,
-                        failure,
-                    });
-                }
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(properties.len())
+        .max(1);
+    let mut results: Vec<Option<PropertyResult>> = vec![None; properties.len()];
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..threads)
+            .map(|t| {
+                scope.spawn(move || {
+                    (t..properties.len())
+                        .step_by(threads)
+                        .map(|pi| (pi, run_property(pi, &properties[pi], factory, settings)))
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        for h in handles {
+            for (pi, r) in h.join().expect("a property check panicked") {
+                results[pi] = Some(r);
             }
         }
-        out.push(result);
-    }
+    });
     Ok(ConformanceReport {
         kind,
-        properties: out,
+        properties: results
+            .into_iter()
+            .map(|r| r.expect("every property ran"))
+            .collect(),
     })
 }
 
-/// Budget of property evaluations spent on shrinking one failure.
-const SHRINK_BUDGET: usize = 1500;
+/// Rerun property `name` on one case (to reproduce a counterexample).
+pub(crate) fn recheck<F: ?Sized>(
+    properties: &[Property<F>],
+    name: &str,
+    case: &Case,
+    factory: &F,
+    settings: &ConformanceSettings,
+) -> Option<Outcome> {
+    properties
+        .iter()
+        .find(|p| p.name == name)
+        .map(|p| (p.check)(case, factory, settings))
+}
+
+fn run_property<F: ?Sized>(
+    pi: usize,
+    p: &Property<F>,
+    factory: &F,
+    settings: &ConformanceSettings,
+) -> PropertyResult {
+    let mut rng = Rng::new(settings.seed ^ (0x9e37_79b9 * (pi as u64 + 1)));
+    let mut result = PropertyResult {
+        name: p.name,
+        description: p.description,
+        cases: 0,
+        failures: 0,
+        worst_ratio: 0.0,
+        worst_error: 0.0,
+        tolerance: 0.0,
+        counterexample: None,
+    };
+    for i in 0..settings.cases.min(p.max_cases) {
+        let case = (p.generate)(&mut rng, settings, i);
+        let outcome = (p.check)(&case, factory, settings);
+        let (error, tolerance) = match &outcome {
+            Outcome::Skipped => continue,
+            Outcome::Held { error, tolerance } => (*error, *tolerance),
+            Outcome::Failed(f) => (f.error, f.tolerance),
+        };
+        result.cases += 1;
+        let ratio = if error == 0.0 {
+            0.0
+        } else if tolerance > 0.0 {
+            error / tolerance
+        } else {
+            f64::INFINITY
+        };
+        if ratio > result.worst_ratio || result.cases == 1 {
+            result.worst_ratio = ratio;
+            result.worst_error = error;
+            result.tolerance = tolerance;
+        }
+        if let Outcome::Failed(failure) = outcome {
+            result.failures += 1;
+            if result.counterexample.is_none() {
+                let (case, failure) = if settings.shrink {
+                    shrink(case, *failure, settings.shrink_budget, |c| {
+                        (p.check)(c, factory, settings)
+                    })
+                } else {
+                    (case, *failure)
+                };
+                result.counterexample = Some(Counterexample {
+                    case_index: i,
+                    case,
+                    failure,
+                });
+            }
+        }
+    }
+    result
+}
 
 /// Make a failing case smaller while it still fails: a shorter input (cut
 /// after the failing sample, then chunks and single samples removed), a
 /// smaller model (state, creep, eigenvalues, thresholds dropped), rounder
 /// numbers.
-pub fn shrink(case: Case, failure: Failure, check: impl Fn(&Case) -> Outcome) -> (Case, Failure) {
+pub fn shrink(
+    case: Case,
+    failure: Failure,
+    budget: usize,
+    check: impl Fn(&Case) -> Outcome,
+) -> (Case, Failure) {
     let mut best = (case, failure);
-    let mut budget = SHRINK_BUDGET;
+    let mut budget = budget;
     let attempt = |c: Case, best: &mut (Case, Failure), budget: &mut usize| -> bool {
         if *budget == 0 || HysteresisCreepModel::from_file(&c.model).is_err() {
             return false;

@@ -1,0 +1,268 @@
+//! `mfcbeam conform`: the conformance properties of
+//! `mfcbeam::suite::conformance`, run on a program in any language through the
+//! file contract, with shrunk counterexamples written to disk.
+
+use std::fs;
+use std::path::Path;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context, Result};
+
+use mfcbeam::io::{format_f64, write_atomic, Trace};
+use mfcbeam::operators::nominal::nominal_model_file;
+use mfcbeam::prelude::*;
+use mfcbeam::suite::conformance::external::{
+    ExternalCandidate, ExternalCompensator, ExternalModel, Invocation, WIDE_LIMITS,
+};
+use mfcbeam::suite::conformance::{
+    check_compensator, check_model, recheck_compensator, recheck_model, ConformanceSettings,
+    Counterexample, Outcome,
+};
+
+use super::args::{ConformArgs, ConformKind};
+
+/// Properties per kind (for spreading `--cases`).
+const MODEL_PROPERTIES: usize = 12;
+const COMPENSATOR_PROPERTIES: usize = 8;
+
+/// Shrink budget for a candidate that runs as a process (each evaluation
+/// starts it a few times).
+const EXTERNAL_SHRINK_BUDGET: usize = 300;
+
+pub fn conform(a: &ConformArgs) -> Result<()> {
+    if a.cases == 0 {
+        bail!("--cases: must be at least 1");
+    }
+    if !(a.tolerance_scale.is_finite() && a.tolerance_scale >= 1.0) {
+        bail!(
+            "--tolerance-scale: must be a finite number >= 1, found {}",
+            a.tolerance_scale
+        );
+    }
+    if !(a.timeout.is_finite() && a.timeout > 0.0) {
+        bail!(
+            "--timeout: must be a finite number > 0, found {}",
+            a.timeout
+        );
+    }
+    let candidate = Arc::new(
+        ExternalCandidate::new(&a.exec, Duration::from_secs_f64(a.timeout))
+            .with_context(|| format!("--exec '{}'", a.exec))?,
+    );
+    smoke_test(&candidate, a.kind).with_context(|| {
+        format!(
+            "--exec '{}': the candidate is unusable on a first, simple case",
+            a.exec
+        )
+    })?;
+
+    let per_property = a
+        .cases
+        .div_ceil(match a.kind {
+            ConformKind::Model => MODEL_PROPERTIES,
+            ConformKind::Compensator => COMPENSATOR_PROPERTIES,
+        })
+        .max(1);
+    let settings = ConformanceSettings {
+        cases: per_property,
+        seed: a.seed,
+        tolerance_scale: a.tolerance_scale,
+        shrink_budget: EXTERNAL_SHRINK_BUDGET,
+        ..ConformanceSettings::default()
+    };
+    let start = Instant::now();
+    let progress = Progress::start(&candidate);
+    let cand = candidate.clone();
+    let model_factory = move |f: &ModelFile| -> Result<Box<dyn ActuatorModel>, ModelError> {
+        Ok(Box::new(ExternalModel::new(cand.clone(), f)))
+    };
+    let cand = candidate.clone();
+    let compensator_factory = move |f: &ModelFile,
+                                    s: CompensatorSettings|
+          -> Result<Box<dyn ActuatorCompensator>, ModelError> {
+        Ok(Box::new(ExternalCompensator::new(cand.clone(), f, s)))
+    };
+    let report = match a.kind {
+        ConformKind::Model => check_model(&model_factory, &settings)?,
+        ConformKind::Compensator => check_compensator(&compensator_factory, &settings)?,
+    };
+    progress.finish();
+    let runs = candidate.runs.load(Ordering::Relaxed);
+    let total_cases: usize = report.properties.iter().map(|p| p.cases).sum();
+    println!("{report}");
+    println!(
+        "{total_cases} cases, {runs} runs of the candidate in {:.1} s",
+        start.elapsed().as_secs_f64()
+    );
+    if report.passed() {
+        return Ok(());
+    }
+    if let Some(e) = candidate.first_error() {
+        println!("the candidate failed on some run: {e}");
+    }
+    for p in report.failed() {
+        if let Some(c) = &p.counterexample {
+            let dir = a.out.join(format!("{}-{}", p.name, c.case_index));
+            let recheck = |case: &mfcbeam::suite::conformance::Case| match a.kind {
+                ConformKind::Model => recheck_model(p.name, case, &model_factory, &settings),
+                ConformKind::Compensator => {
+                    recheck_compensator(p.name, case, &compensator_factory, &settings)
+                }
+            };
+            write_counterexample(&candidate, &dir, p.name, p.description, c, recheck)
+                .with_context(|| dir.display().to_string())?;
+            println!(
+                "{}: counterexample in {} ({} samples, {} plays): cd there and run the command in command.txt",
+                p.name,
+                dir.display(),
+                c.failure.signal.len(),
+                c.case.model.hysteresis.thresholds.len()
+            );
+        }
+    }
+    std::process::exit(1);
+}
+
+/// One run on the nominal model and a short ramp: the command starts,
+/// follows the protocol and writes finite numbers in the expected columns.
+fn smoke_test(candidate: &ExternalCandidate, kind: ConformKind) -> Result<()> {
+    let file = nominal_model_file();
+    let input: Vec<f64> = (0..50).map(|k| 10.0 * k as f64).collect();
+    let out = match kind {
+        ConformKind::Model => candidate.simulate(&file, &input)?,
+        ConformKind::Compensator => candidate
+            .compensate(&file, WIDE_LIMITS, &input)?
+            .into_iter()
+            .map(|c| c.u)
+            .collect(),
+    };
+    if let Some(k) = out.iter().position(|v| !v.is_finite()) {
+        bail!("row {}: a non-finite output", k + 1);
+    }
+    candidate.clear_log();
+    Ok(())
+}
+
+/// Write `DIR/model.json`, `input.csv`, `candidate.csv` (the candidate's
+/// output, rerun), `expected.csv` (what the property required at the compared
+/// samples), `command.txt` (the one-line command that reproduces it) and
+/// `failure.txt`.
+fn write_counterexample(
+    candidate: &ExternalCandidate,
+    dir: &Path,
+    name: &str,
+    description: &str,
+    c: &Counterexample,
+    recheck: impl Fn(&mfcbeam::suite::conformance::Case) -> Option<Outcome>,
+) -> Result<()> {
+    fs::create_dir_all(dir)?;
+    candidate.clear_log();
+    let outcome = recheck(&c.case);
+    let log = candidate.log();
+    // the run whose input ends with the failing signal, else the last one
+    let signal = &c.failure.signal;
+    let run: Option<&Invocation> = log
+        .iter()
+        .rev()
+        .find(|i| !signal.is_empty() && i.input.ends_with(signal))
+        .or(log.last());
+    let Some(run) = run else {
+        bail!("the property did not run the candidate again");
+    };
+    let column = if run.limits.is_some() { "y_d" } else { "u" };
+    // model.json, input.csv and candidate.csv, by running it once more here
+    let _ = candidate.run_in(dir, &run.model, column, &run.input, run.limits);
+    let _ = fs::remove_file(dir.join("stderr.txt"));
+    let f = &c.failure;
+    let k: Vec<f64> = (0..f.expected.len()).map(|k| k as f64).collect();
+    let n = f.expected.len().min(f.found.len());
+    Trace::from_columns(
+        &dir.join("expected.csv"),
+        &[
+            ("compared", &k[..n]),
+            ("expected", &f.expected[..n]),
+            ("candidate", &f.found[..n]),
+        ],
+    )
+    .write(&dir.join("expected.csv"))?;
+    let quote = |w: &str| {
+        if w.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./=,".contains(c))
+        {
+            w.to_string()
+        } else {
+            format!("'{}'", w.replace('\'', "'\\''"))
+        }
+    };
+    let mut words: Vec<String> = candidate.command().iter().map(|w| quote(w)).collect();
+    words.extend(ExternalCandidate::file_arguments(
+        Path::new("model.json"),
+        Path::new("input.csv"),
+        Path::new("candidate.csv"),
+        run.limits,
+    ));
+    write_atomic(
+        &dir.join("command.txt"),
+        format!("{}\n", words.join(" ")).as_bytes(),
+    )?;
+    let still = matches!(outcome, Some(Outcome::Failed(_)));
+    let text = format!(
+        "property: {name}\n{description}\n{}\nsample {}: error {}, tolerance {}\n{}\n",
+        f.message,
+        f.sample,
+        format_f64(f.error),
+        format_f64(f.tolerance),
+        if still {
+            "reproduced: the property fails again on this case"
+        } else {
+            "NOT reproduced on rerun: the candidate is not deterministic?"
+        }
+    );
+    write_atomic(&dir.join("failure.txt"), text.as_bytes())?;
+    Ok(())
+}
+
+/// A progress line on stderr while the candidate runs (hidden when stderr is
+/// not a terminal).
+struct Progress {
+    bar: indicatif::ProgressBar,
+    stop: Arc<std::sync::atomic::AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Progress {
+    fn start(candidate: &Arc<ExternalCandidate>) -> Self {
+        let bar = indicatif::ProgressBar::new_spinner();
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+        );
+        let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let (b, s, c) = (bar.clone(), stop.clone(), candidate.clone());
+        let thread = std::thread::spawn(move || {
+            while !s.load(Ordering::Relaxed) {
+                b.set_message(format!(
+                    "{} runs of the candidate",
+                    c.runs.load(Ordering::Relaxed)
+                ));
+                b.tick();
+                std::thread::sleep(Duration::from_millis(100));
+            }
+        });
+        Self {
+            bar,
+            stop,
+            thread: Some(thread),
+        }
+    }
+
+    fn finish(mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+        self.bar.finish_and_clear();
+    }
+}

@@ -1,0 +1,478 @@
+//! A candidate in any language, run through the file contract
+//! (`docs/FILES.md`): for each run the model file and an input trace are
+//! written to a temporary directory and the candidate's command is run as
+//!
+//! ```text
+//! CMD ARGS… --model M.json --input IN.csv --output OUT.csv [--limits=LO,HI]
+//! ```
+//!
+//! (`--limits` always for a compensator: wide limits where a case wants
+//! none). A model reads column `u` and writes the input's columns plus `y`; a
+//! compensator reads `y_d` and writes `u` and `saturated`.
+//!
+//! [`ExternalModel`] and [`ExternalCompensator`] adapt such a command to the
+//! traits the conformance checks take. A process cannot keep its state
+//! between runs, so each adapter keeps the whole input it has been given and
+//! reruns the candidate on all of it, returning the new part: for a
+//! deterministic candidate that is the same as continuing.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use thiserror::Error;
+
+use crate::io::{format_f64, Trace};
+use crate::operators::compensator::CompensatorSettings;
+use crate::operators::model::ModelFile;
+use crate::operators::traits::{ActuatorCompensator, ActuatorModel, Compensated, Operator};
+
+/// Limits passed to a compensator where a case wants none.
+pub const WIDE_LIMITS: (f64, f64) = (-1e300, 1e300);
+
+/// What went wrong running a candidate.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
+pub enum ExternalError {
+    #[error("the command is empty")]
+    EmptyCommand,
+    #[error("'{program}' is not an executable file (nor found on PATH)")]
+    NotExecutable { program: String },
+    #[error("could not start '{program}': {reason}")]
+    Spawn { program: String, reason: String },
+    #[error("the candidate exceeded the timeout of {seconds} s and was killed")]
+    Timeout { seconds: f64 },
+    #[error("the candidate exited with {status}: {stderr}")]
+    Failed { status: String, stderr: String },
+    #[error("the candidate's output: {reason}")]
+    BadOutput { reason: String },
+    #[error("{path}: {reason}")]
+    Io { path: String, reason: String },
+}
+
+/// One run of the candidate, kept so that a failing case can be written out.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Invocation {
+    pub model: ModelFile,
+    /// The input column (`u` or `y_d`).
+    pub input: Vec<f64>,
+    /// `--limits` given to a compensator.
+    pub limits: Option<(f64, f64)>,
+}
+
+/// Split a command line into words: whitespace separates, single and double
+/// quotes group, a backslash escapes the next character.
+pub fn split_command(line: &str) -> Vec<String> {
+    let mut words = Vec::new();
+    let mut word = String::new();
+    let mut in_word = false;
+    let mut quote: Option<char> = None;
+    let mut chars = line.chars();
+    while let Some(c) = chars.next() {
+        match (quote, c) {
+            (Some(q), c) if c == q => quote = None,
+            (None, '\'' | '"') => {
+                quote = Some(c);
+                in_word = true;
+            }
+            (_, '\\') => {
+                if let Some(n) = chars.next() {
+                    word.push(n);
+                    in_word = true;
+                }
+            }
+            (None, c) if c.is_whitespace() => {
+                if in_word {
+                    words.push(std::mem::take(&mut word));
+                    in_word = false;
+                }
+            }
+            (_, c) => {
+                word.push(c);
+                in_word = true;
+            }
+        }
+    }
+    if in_word {
+        words.push(word);
+    }
+    words
+}
+
+fn executable(path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        fs::metadata(path).is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0)
+    }
+    #[cfg(not(unix))]
+    {
+        path.is_file()
+    }
+}
+
+/// Where `program` would be run from: a path as given, or the first
+/// executable match on `PATH`.
+fn resolve(program: &str) -> Option<PathBuf> {
+    if program.contains('/') {
+        let p = PathBuf::from(program);
+        return executable(&p).then_some(p);
+    }
+    std::env::var_os("PATH").and_then(|paths| {
+        std::env::split_paths(&paths)
+            .map(|d| d.join(program))
+            .find(|p| executable(p))
+    })
+}
+
+/// A command that follows the file contract.
+#[derive(Debug)]
+pub struct ExternalCandidate {
+    words: Vec<String>,
+    timeout: Duration,
+    dir: PathBuf,
+    counter: AtomicUsize,
+    /// Runs so far (for progress display).
+    pub runs: AtomicUsize,
+    log: Mutex<Vec<Invocation>>,
+    first_error: Mutex<Option<ExternalError>>,
+}
+
+impl ExternalCandidate {
+    /// A candidate from a command line (`CMD ARGS…`); each run may take at
+    /// most `timeout`. Refuses a command whose program is not executable.
+    pub fn new(command: &str, timeout: Duration) -> Result<Self, ExternalError> {
+        let words = split_command(command);
+        let program = words.first().ok_or(ExternalError::EmptyCommand)?;
+        if resolve(program).is_none() {
+            return Err(ExternalError::NotExecutable {
+                program: program.clone(),
+            });
+        }
+        let dir = std::env::temp_dir().join(format!(
+            "mfcbeam-conform-{}-{}",
+            std::process::id(),
+            Instant::now().elapsed().as_nanos()
+        ));
+        fs::create_dir_all(&dir).map_err(|e| ExternalError::Io {
+            path: dir.display().to_string(),
+            reason: e.to_string(),
+        })?;
+        Ok(Self {
+            words,
+            timeout,
+            dir,
+            counter: AtomicUsize::new(0),
+            runs: AtomicUsize::new(0),
+            log: Mutex::new(Vec::new()),
+            first_error: Mutex::new(None),
+        })
+    }
+
+    /// The command words.
+    pub fn command(&self) -> &[String] {
+        &self.words
+    }
+
+    /// The first error any run met, if any.
+    pub fn first_error(&self) -> Option<ExternalError> {
+        self.first_error.lock().expect("not poisoned").clone()
+    }
+
+    /// Forget the logged runs.
+    pub fn clear_log(&self) {
+        self.log.lock().expect("not poisoned").clear();
+    }
+
+    /// The runs since the log was last cleared.
+    pub fn log(&self) -> Vec<Invocation> {
+        self.log.lock().expect("not poisoned").clone()
+    }
+
+    fn note(&self, e: &ExternalError) {
+        let mut first = self.first_error.lock().expect("not poisoned");
+        if first.is_none() {
+            *first = Some(e.clone());
+        }
+    }
+
+    /// The arguments after `CMD ARGS…` for a run.
+    pub fn file_arguments(
+        model: &Path,
+        input: &Path,
+        output: &Path,
+        limits: Option<(f64, f64)>,
+    ) -> Vec<String> {
+        let mut args = vec![
+            "--model".to_string(),
+            model.display().to_string(),
+            "--input".to_string(),
+            input.display().to_string(),
+            "--output".to_string(),
+            output.display().to_string(),
+        ];
+        if let Some((lo, hi)) = limits {
+            args.push(format!("--limits={},{}", format_f64(lo), format_f64(hi)));
+        }
+        args
+    }
+
+    /// Run the candidate on `model` and the input column `column` (with a
+    /// time column `t = k T_s`) in `dir`; return the output trace.
+    pub fn run_in(
+        &self,
+        dir: &Path,
+        model: &ModelFile,
+        column: &str,
+        input: &[f64],
+        limits: Option<(f64, f64)>,
+    ) -> Result<Trace, ExternalError> {
+        let io = |path: &Path, e: &dyn std::fmt::Display| ExternalError::Io {
+            path: path.display().to_string(),
+            reason: e.to_string(),
+        };
+        let (m, i, o) = (
+            dir.join("model.json"),
+            dir.join("input.csv"),
+            dir.join("candidate.csv"),
+        );
+        let json = serde_json::to_string_pretty(model).map_err(|e| io(&m, &e))?;
+        fs::write(&m, json).map_err(|e| io(&m, &e))?;
+        let t: Vec<f64> = (0..input.len())
+            .map(|k| k as f64 * model.sample_time)
+            .collect();
+        Trace::from_columns(&i, &[("t", &t), (column, input)])
+            .write(&i)
+            .map_err(|e| io(&i, &e))?;
+        let _ = fs::remove_file(&o);
+        let stderr_path = dir.join("stderr.txt");
+        let stderr = fs::File::create(&stderr_path).map_err(|e| io(&stderr_path, &e))?;
+        self.runs.fetch_add(1, Ordering::Relaxed);
+        let mut child = Command::new(&self.words[0])
+            .args(&self.words[1..])
+            .args(Self::file_arguments(&m, &i, &o, limits))
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(stderr)
+            .spawn()
+            .map_err(|e| ExternalError::Spawn {
+                program: self.words[0].clone(),
+                reason: e.to_string(),
+            })?;
+        let start = Instant::now();
+        let status = loop {
+            match child.try_wait() {
+                Ok(Some(status)) => break status,
+                Ok(None) if start.elapsed() > self.timeout => {
+                    let _ = child.kill();
+                    let _ = child.wait();
+                    return Err(ExternalError::Timeout {
+                        seconds: self.timeout.as_secs_f64(),
+                    });
+                }
+                Ok(None) => std::thread::sleep(Duration::from_micros(200)),
+                Err(e) => return Err(io(&o, &e)),
+            }
+        };
+        if !status.success() {
+            let text = fs::read_to_string(&stderr_path).unwrap_or_default();
+            return Err(ExternalError::Failed {
+                status: status.to_string(),
+                stderr: text.lines().next().unwrap_or("").to_string(),
+            });
+        }
+        Trace::read(&o).map_err(|e| ExternalError::BadOutput {
+            reason: e.to_string(),
+        })
+    }
+
+    /// A fresh scratch directory for one run.
+    fn scratch(&self) -> Result<PathBuf, ExternalError> {
+        let d = self
+            .dir
+            .join(self.counter.fetch_add(1, Ordering::Relaxed).to_string());
+        fs::create_dir_all(&d).map_err(|e| ExternalError::Io {
+            path: d.display().to_string(),
+            reason: e.to_string(),
+        })?;
+        Ok(d)
+    }
+
+    fn finish<T>(
+        &self,
+        dir: PathBuf,
+        result: Result<T, ExternalError>,
+    ) -> Result<T, ExternalError> {
+        let _ = fs::remove_dir_all(dir);
+        if let Err(e) = &result {
+            self.note(e);
+        }
+        result
+    }
+
+    /// `y = W[u]` from the candidate (`simulate` kind).
+    pub fn simulate(&self, model: &ModelFile, u: &[f64]) -> Result<Vec<f64>, ExternalError> {
+        self.log.lock().expect("not poisoned").push(Invocation {
+            model: model.clone(),
+            input: u.to_vec(),
+            limits: None,
+        });
+        let dir = self.scratch()?;
+        let result = self.run_in(&dir, model, "u", u, None).and_then(|t| {
+            let y = t.column("y").map_err(|e| ExternalError::BadOutput {
+                reason: e.to_string(),
+            })?;
+            check_rows(y.len(), u.len())?;
+            Ok(y)
+        });
+        self.finish(dir, result)
+    }
+
+    /// `(u, saturated) = W⁻¹[y_d]` from the candidate (`compensate` kind).
+    pub fn compensate(
+        &self,
+        model: &ModelFile,
+        limits: (f64, f64),
+        targets: &[f64],
+    ) -> Result<Vec<Compensated>, ExternalError> {
+        self.log.lock().expect("not poisoned").push(Invocation {
+            model: model.clone(),
+            input: targets.to_vec(),
+            limits: Some(limits),
+        });
+        let dir = self.scratch()?;
+        let result = self
+            .run_in(&dir, model, "y_d", targets, Some(limits))
+            .and_then(|t| {
+                let bad = |e: crate::io::FileError| ExternalError::BadOutput {
+                    reason: e.to_string(),
+                };
+                let u = t.column("u").map_err(bad)?;
+                let s = t.column("saturated").map_err(bad)?;
+                check_rows(u.len(), targets.len())?;
+                Ok(u.into_iter()
+                    .zip(s)
+                    .map(|(u, s)| Compensated {
+                        u,
+                        saturated: s != 0.0,
+                    })
+                    .collect())
+            });
+        self.finish(dir, result)
+    }
+}
+
+fn check_rows(found: usize, expected: usize) -> Result<(), ExternalError> {
+    if found == expected {
+        Ok(())
+    } else {
+        Err(ExternalError::BadOutput {
+            reason: format!("{found} rows for {expected} input rows"),
+        })
+    }
+}
+
+impl Drop for ExternalCandidate {
+    fn drop(&mut self) {
+        let _ = fs::remove_dir_all(&self.dir);
+    }
+}
+
+/// `W` of an external candidate.
+pub struct ExternalModel {
+    candidate: Arc<ExternalCandidate>,
+    file: ModelFile,
+    history: Vec<f64>,
+}
+
+impl ExternalModel {
+    /// The candidate configured by `file`.
+    pub fn new(candidate: Arc<ExternalCandidate>, file: &ModelFile) -> Self {
+        Self {
+            candidate,
+            file: file.clone(),
+            history: Vec::new(),
+        }
+    }
+}
+
+impl Operator for ExternalModel {
+    fn step(&mut self, v: f64) -> f64 {
+        self.run(&[v])[0]
+    }
+
+    fn reset(&mut self) {
+        self.history.clear();
+    }
+
+    /// The whole history through the candidate; the part for `input` is
+    /// returned (NaN where the candidate failed: every property then fails).
+    fn run(&mut self, input: &[f64]) -> Vec<f64> {
+        self.history.extend_from_slice(input);
+        match self.candidate.simulate(&self.file, &self.history) {
+            Ok(y) => y[y.len() - input.len()..].to_vec(),
+            Err(_) => vec![f64::NAN; input.len()],
+        }
+    }
+}
+
+impl ActuatorModel for ExternalModel {}
+
+/// `W⁻¹` of an external candidate.
+pub struct ExternalCompensator {
+    candidate: Arc<ExternalCandidate>,
+    file: ModelFile,
+    limits: (f64, f64),
+    history: Vec<f64>,
+}
+
+impl ExternalCompensator {
+    /// The candidate configured by `file` with `settings`' limits (wide
+    /// limits for none).
+    pub fn new(
+        candidate: Arc<ExternalCandidate>,
+        file: &ModelFile,
+        settings: CompensatorSettings,
+    ) -> Self {
+        let limits = (
+            settings.lower_limit.max(WIDE_LIMITS.0),
+            settings.upper_limit.min(WIDE_LIMITS.1),
+        );
+        Self {
+            candidate,
+            file: file.clone(),
+            limits,
+            history: Vec::new(),
+        }
+    }
+}
+
+impl ActuatorCompensator for ExternalCompensator {
+    fn compensate(&mut self, target: f64) -> Compensated {
+        self.compensate_all(&[target])[0]
+    }
+
+    fn reset(&mut self) {
+        self.history.clear();
+    }
+
+    fn compensate_all(&mut self, targets: &[f64]) -> Vec<Compensated> {
+        self.history.extend_from_slice(targets);
+        match self
+            .candidate
+            .compensate(&self.file, self.limits, &self.history)
+        {
+            Ok(c) => c[c.len() - targets.len()..].to_vec(),
+            Err(_) => vec![
+                Compensated {
+                    u: f64::NAN,
+                    saturated: false,
+                };
+                targets.len()
+            ],
+        }
+    }
+}

@@ -1,0 +1,176 @@
+//! `mfcbeam conform`: the conformance properties through the file contract.
+//! `mfcbeam simulate`/`compensate` and the independent Python and C examples
+//! pass; faulty variants of the Python example fail with a shrunk
+//! counterexample on disk; unusable candidates and bad options exit 2 with
+//! one line.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use mfcbeam::io::Trace;
+
+const BIN: &str = env!("CARGO_BIN_EXE_mfcbeam");
+const PYTHON: &str = "examples/conformance/python/candidate.py";
+
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(name: &str) -> Self {
+        let p = std::env::temp_dir().join(format!("mfcbeam-conform-{}-{name}", std::process::id()));
+        let _ = fs::remove_dir_all(&p);
+        fs::create_dir_all(&p).unwrap();
+        TempDir(p)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = fs::remove_dir_all(&self.0);
+    }
+}
+
+fn conform(kind: &str, exec: &str, cases: usize, out: &Path) -> Output {
+    Command::new(BIN)
+        .args([
+            "conform",
+            "--kind",
+            kind,
+            "--exec",
+            exec,
+            "--cases",
+            &cases.to_string(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap()
+}
+
+fn passes(kind: &str, exec: &str, cases: usize) {
+    let d = TempDir::new(&format!("pass-{kind}-{}", exec.len()));
+    let out = conform(kind, exec, cases, &d.0);
+    let text = String::from_utf8_lossy(&out.stdout);
+    eprintln!(
+        "{exec} ({kind}):\n{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(out.status.code(), Some(0), "{exec} should conform");
+    assert!(!text.contains("FAILS"));
+}
+
+#[test]
+fn mfcbeam_itself_conforms_as_model_and_compensator() {
+    passes("model", &format!("{BIN} simulate"), 60);
+    passes("compensator", &format!("{BIN} compensate"), 40);
+}
+
+#[test]
+fn the_python_example_conforms() {
+    passes("model", &format!("python3 {PYTHON} simulate"), 36);
+    passes("compensator", &format!("python3 {PYTHON} compensate"), 24);
+}
+
+#[test]
+fn the_c_example_conforms() {
+    let d = TempDir::new("c-build");
+    let exe = d.0.join("candidate");
+    let cc = Command::new("cc")
+        .args([
+            "-O2",
+            "-o",
+            exe.to_str().unwrap(),
+            "examples/conformance/c/candidate.c",
+            "-lm",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        cc.status.success(),
+        "{}",
+        String::from_utf8_lossy(&cc.stderr)
+    );
+    passes("model", &format!("{} simulate", exe.display()), 60);
+    passes("compensator", &format!("{} compensate", exe.display()), 40);
+}
+
+/// Each fault of the Python example is caught, and every counterexample
+/// written is small and complete.
+#[test]
+fn faulty_variants_fail_with_small_counterexamples() {
+    let faults = [
+        ("model", "simulate", "creep-vk"),
+        ("model", "simulate", "threshold"),
+        ("model", "simulate", "sign"),
+        ("model", "simulate", "delay"),
+        ("model", "simulate", "ignore-state"),
+        ("compensator", "compensate", "no-flag"),
+        ("compensator", "compensate", "ignore-state"),
+    ];
+    for (kind, command, fault) in faults {
+        let d = TempDir::new(&format!("fault-{fault}-{kind}"));
+        let exec = format!("python3 {PYTHON} {command} --fault {fault}");
+        let out = conform(kind, &exec, 24, &d.0);
+        let text = String::from_utf8_lossy(&out.stdout);
+        eprintln!("{fault} ({kind}):\n{text}");
+        assert_eq!(out.status.code(), Some(1), "{fault} should be caught");
+        let dirs: Vec<PathBuf> = fs::read_dir(&d.0)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        assert!(!dirs.is_empty(), "{fault}: no counterexample written");
+        for dir in dirs {
+            for f in [
+                "model.json",
+                "input.csv",
+                "expected.csv",
+                "candidate.csv",
+                "command.txt",
+                "failure.txt",
+            ] {
+                assert!(dir.join(f).exists(), "{}: {f} missing", dir.display());
+            }
+            let rows = Trace::read(&dir.join("input.csv")).unwrap().len();
+            assert!(rows <= 50, "{fault}: {} has {rows} samples", dir.display());
+            let failure = fs::read_to_string(dir.join("failure.txt")).unwrap();
+            assert!(failure.contains("reproduced"), "{failure}");
+        }
+    }
+}
+
+fn assert_exit_2(out: &Output, needle: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "stderr: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    assert!(err.contains(needle), "'{needle}' missing from: {err}");
+}
+
+#[test]
+fn unusable_candidates_and_bad_options_exit_2_with_one_line() {
+    let d = TempDir::new("bad");
+    let run = |args: &[&str]| Command::new(BIN).args(args).output().unwrap();
+    assert_exit_2(
+        &run(&["conform", "--kind", "plant", "--exec", "true"]),
+        "plant",
+    );
+    assert_exit_2(
+        &conform("model", "/nonexistent/candidate", 10, &d.0),
+        "not an executable",
+    );
+    assert_exit_2(
+        &conform("model", &format!("{BIN} simulate"), 0, &d.0),
+        "--cases",
+    );
+    // a compensator that writes `y` instead of `u` and `saturated`
+    assert_exit_2(
+        &conform(
+            "compensator",
+            &format!("python3 {PYTHON} simulate"),
+            10,
+            &d.0,
+        ),
+        "unusable",
+    );
+    // a command that crashes
+    assert_exit_2(&conform("model", "false", 10, &d.0), "unusable");
+}
