@@ -337,7 +337,7 @@ fn error_contract_bad_inputs() {
     let out = run(m, &d.write("time.csv", "t,u\n0,0\n0.0002,1\n0.0005,2\n"));
     assert_clean_failure(
         &out,
-        &["time.csv", "row 3", "'t'", "sample time"],
+        &["time.csv", "row 3", "'t'", "mean step"],
         Some(&output),
     );
     // output column already present
@@ -520,7 +520,7 @@ fn identify_error_contract() {
     );
     assert_clean_failure(
         &run(&uneven, &[]),
-        &["uneven.csv", "'t'", "sample time"],
+        &["uneven.csv", "'t'", "mean step"],
         Some(&output),
     );
     let nan = d.write(

@@ -15,7 +15,7 @@ use thiserror::Error;
 #[cfg(feature = "suite")]
 mod trace;
 #[cfg(feature = "suite")]
-pub use trace::Trace;
+pub use trace::{TimeAxis, Trace, MAX_JITTER, SAMPLE_TIME_AGREEMENT};
 
 #[cfg(feature = "beam")]
 use crate::beam::{BeamError, BeamParameters};

@@ -6,6 +6,21 @@ use std::path::{Path, PathBuf};
 
 use super::{format_f64, write_atomic, FileError};
 
+/// The largest accepted jitter of a time column: 1 % of the mean step.
+pub const MAX_JITTER: f64 = 0.01;
+
+/// How closely a time column's mean step must agree with a given sample time.
+pub const SAMPLE_TIME_AGREEMENT: f64 = 1e-3;
+
+/// The sample time and jitter of a time column.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimeAxis {
+    /// The mean step (s).
+    pub sample_time: f64,
+    /// The largest relative deviation of a step from the mean.
+    pub jitter: f64,
+}
+
 /// A CSV trace held as text, so that input columns pass through unchanged.
 #[derive(Debug, Clone)]
 pub struct Trace {
@@ -34,6 +49,19 @@ impl Trace {
             .iter()
             .map(str::to_owned)
             .collect();
+        if let Some((k, name)) = header
+            .iter()
+            .enumerate()
+            .find(|(k, h)| header[..*k].contains(h))
+        {
+            return Err(FileError::BadValue {
+                path: path.to_path_buf(),
+                row: 0,
+                line: 1,
+                column: name.clone(),
+                message: format!("column {} repeats the name of an earlier column", k + 1),
+            });
+        }
         let mut rows = Vec::new();
         for record in reader.records() {
             let record = record.map_err(csv_err)?;
@@ -125,31 +153,13 @@ impl Trace {
             .collect()
     }
 
-    /// Check the `t` column, if present, against the sample time `ts`: uniform
-    /// steps of `ts` to 1e-6 relative.
-    pub fn check_time_column(&self, ts: f64) -> Result<(), FileError> {
-        if !self.has_column("t") {
-            return Ok(());
-        }
-        let t = self.column("t")?;
-        for k in 1..t.len() {
-            let dt = t[k] - t[k - 1];
-            if (dt - ts).abs() > 1e-6 * ts {
-                return Err(FileError::BadValue {
-                    path: self.path.clone(),
-                    row: k + 1,
-                    line: k + 2,
-                    column: "t".into(),
-                    message: format!("time step {dt:?} s differs from the sample time {ts:?} s"),
-                });
-            }
-        }
-        Ok(())
-    }
-
-    /// The sample time from the `t` column: `(t_last − t_first)/(N − 1)`,
-    /// which must be positive and every step equal to it to 1e-6 relative.
-    pub fn sample_time_from_t(&self) -> Result<f64, FileError> {
+    /// The time axis of the `t` column: strictly increasing timestamps, the
+    /// sample time as the mean step `(t_last − t_first)/(N − 1)`, and the
+    /// jitter, the largest relative deviation of a step from it. A logger's
+    /// own clock jitters; beyond [`MAX_JITTER`] the zero-order-hold creep
+    /// discretization (20) no longer describes the data and the trace is
+    /// refused, naming the row.
+    pub fn time_axis(&self) -> Result<TimeAxis, FileError> {
         let t = self.column("t")?;
         let bad = |k: usize, message: String| FileError::BadValue {
             path: self.path.clone(),
@@ -164,19 +174,85 @@ impl Trace {
                 "at least two samples are needed for a sample time".into(),
             ));
         }
-        let ts = (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64;
-        if ts.is_nan() || ts <= 0.0 {
+        if let Some(k) = (1..t.len()).find(|&k| t[k] <= t[k - 1]) {
             return Err(bad(
-                t.len() - 1,
-                format!("time does not increase (sample time {ts:?} s)"),
+                k,
+                format!(
+                    "time does not increase ({:?} s after {:?} s)",
+                    t[k],
+                    t[k - 1]
+                ),
             ));
         }
-        self.check_time_column(ts)?;
-        Ok(ts)
+        let mean = (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64;
+        let (mut jitter, mut worst) = (0.0f64, 1);
+        for k in 1..t.len() {
+            let j = ((t[k] - t[k - 1]) - mean).abs() / mean;
+            if j > jitter {
+                jitter = j;
+                worst = k;
+            }
+        }
+        if jitter > MAX_JITTER {
+            return Err(bad(
+                worst,
+                format!(
+                    "time step {:?} s deviates {:.2} % from the mean step {mean:?} s (at most {} % of jitter is accepted)",
+                    t[worst] - t[worst - 1],
+                    100.0 * jitter,
+                    100.0 * MAX_JITTER
+                ),
+            ));
+        }
+        Ok(TimeAxis {
+            sample_time: mean,
+            jitter,
+        })
     }
 
-    /// Append a numeric column; refuses a name already present.
+    /// Check the `t` column, if present, against the sample time `ts`: its
+    /// mean step must equal `ts` to [`SAMPLE_TIME_AGREEMENT`] relative.
+    pub fn check_time_column(&self, ts: f64) -> Result<(), FileError> {
+        // one row has no step to check
+        if !self.has_column("t") || self.len() < 2 {
+            return Ok(());
+        }
+        let axis = self.time_axis()?;
+        if (axis.sample_time - ts).abs() > SAMPLE_TIME_AGREEMENT * ts {
+            return Err(FileError::BadValue {
+                path: self.path.clone(),
+                row: self.len(),
+                line: self.len() + 1,
+                column: "t".into(),
+                message: format!(
+                    "the mean time step {:?} s differs from the sample time {ts:?} s by more than {} relative",
+                    axis.sample_time, SAMPLE_TIME_AGREEMENT
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// The sample time from the `t` column: its mean step.
+    pub fn sample_time_from_t(&self) -> Result<f64, FileError> {
+        Ok(self.time_axis()?.sample_time)
+    }
+
+    /// Append a numeric column; refuses a name already present and a
+    /// non-finite value (naming its row): no command writes one.
     pub fn push_column(&mut self, name: &str, values: &[f64]) -> Result<(), FileError> {
+        if let Some(k) = values.iter().position(|v| !v.is_finite()) {
+            return Err(FileError::BadValue {
+                path: self.path.clone(),
+                row: k + 1,
+                line: k + 2,
+                column: name.to_string(),
+                message: format!(
+                    "the computed value is {:?}; refusing to write a non-finite number",
+                    values[k]
+                ),
+            });
+        }
         self.push_text_column(name, values.iter().map(|&v| format_f64(v)))
     }
 

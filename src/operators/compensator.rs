@@ -7,6 +7,9 @@
 //! hysteresis state (from the transformation rules (22)), so that from matched
 //! states `W[W⁻¹[ς]] = ς` and `W⁻¹[W[v]] = v` hold to rounding.
 //!
+//! A non-finite target never enters the state: the previous output is held
+//! and the sample flagged as a fault ([`Compensated::fault`]).
+//!
 //! Saturation: the output is clipped to the configured limits (default: the
 //! balanced supply range `[−1000, 1000]` V of (1)) and every clipped sample is
 //! flagged. The compensator also advances the *forward* plays with the value
@@ -97,6 +100,8 @@ pub struct Compensator {
     /// Play states of the plant's `H`, advanced with the emitted (clipped) value.
     forward_state: Vec<f64>,
     creep: Option<CreepOperator>,
+    /// The model's output offset, subtracted from every target.
+    offset: f64,
 }
 
 impl Compensator {
@@ -116,6 +121,7 @@ impl Compensator {
             forward_sums: h.partial_sums(),
             forward_state: h.play_states().to_vec(),
             creep: model.creep().cloned(),
+            offset: model.offset(),
         })
     }
 
@@ -133,11 +139,14 @@ impl Compensator {
     /// to the limits. Allocation-free, no I/O.
     #[inline]
     pub fn compensate(&mut self, target: f64) -> Compensated {
+        if !target.is_finite() {
+            return self.hold();
+        }
         let c = match &self.creep {
             Some(op) => op.output(),
             None => 0.0,
         };
-        let v = self.inverse.step(target - c);
+        let v = self.inverse.step(target - self.offset - c);
         let (u, saturated) = if v < self.settings.lower_limit {
             (self.settings.lower_limit, true)
         } else if v > self.settings.upper_limit {
@@ -159,7 +168,28 @@ impl Compensator {
         if let Some(op) = &mut self.creep {
             op.advance(u);
         }
-        Compensated { u, saturated }
+        Compensated {
+            u,
+            saturated,
+            fault: false,
+        }
+    }
+
+    /// A non-finite target: emit the previous output again. The plays see
+    /// the same input (no change); the creep advances with it, as the
+    /// plant's does.
+    #[cold]
+    fn hold(&mut self) -> Compensated {
+        // the play with r_0 = 0 holds the last emitted value
+        let u = self.forward_state[0];
+        if let Some(op) = &mut self.creep {
+            op.advance(u);
+        }
+        Compensated {
+            u,
+            saturated: false,
+            fault: true,
+        }
     }
 
     /// Return to the virgin state (forward plays, inverse plays and creep).

@@ -209,6 +209,8 @@ pub struct CreepOperator {
     flat_weights: Vec<f64>,
     /// The output the current state produces, kept so `output()` is O(1).
     output: f64,
+    /// The last finite input, held in place of a non-finite one.
+    last_input: f64,
 }
 
 impl CreepOperator {
@@ -252,6 +254,7 @@ impl CreepOperator {
             sample_time,
             chi: vec![0.0; n * m],
             output: 0.0,
+            last_input: 0.0,
         })
     }
 
@@ -300,9 +303,12 @@ impl CreepOperator {
     }
 
     /// Advance the state with input `v_k` (`χ_k → χ_{k+1}`) and return the
-    /// next output `C_{k+1}`. Allocation-free.
+    /// next output `C_{k+1}`. Allocation-free. A non-finite input is taken as
+    /// the last finite one held: it never enters the state.
     #[inline]
     pub fn advance(&mut self, v: f64) -> f64 {
+        let v = if v.is_finite() { v } else { self.last_input };
+        self.last_input = v;
         // One flat pass over all (n+1)·m elementary operators: long enough to
         // vectorize well, unlike m short rows of n+1.
         for ((chi, &r), &g) in self

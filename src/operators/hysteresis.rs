@@ -123,8 +123,12 @@ impl HysteresisOperator {
 }
 
 impl Operator for HysteresisOperator {
+    /// A non-finite input is taken as the previous one held: the state
+    /// does not change and the last output is returned.
     #[inline]
     fn step(&mut self, v: f64) -> f64 {
+        // the play with r_0 = 0 holds the last input
+        let v = if v.is_finite() { v } else { self.state[0] };
         let mut y = 0.0;
         for ((x, &r), &w) in self
             .state

@@ -1,7 +1,8 @@
 //! The hysteresis and creep model `W = H + C`, equations (4) and (6), and its
 //! file form (`docs/FILES.md`).
 //!
-//! `W[v]_k = H[v]_k + C[v]_k`: `W` maps the balanced patch voltage `u` (V) to
+//! `W[v]_k = H[v]_k + C[v]_k` (plus an optional constant output offset, a
+//! measurement's sensor offset): `W` maps the balanced patch voltage `u` (V) to
 //! the effective voltage (V) that drives the linear beam. `creep` may be absent
 //! (pure hysteresis).
 
@@ -43,6 +44,10 @@ pub struct ModelFile {
     pub hysteresis: HysteresisData,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub creep: Option<CreepData>,
+    /// Constant output offset (unit of the output): `y = W[u] + offset`.
+    /// Absent means 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset: Option<f64>,
 }
 
 impl ModelFile {
@@ -67,6 +72,7 @@ pub struct ModelState {
 #[derive(Debug, Clone, PartialEq)]
 pub struct HysteresisCreepModel {
     sample_time: f64,
+    offset: f64,
     hysteresis: HysteresisOperator,
     creep: Option<CreepOperator>,
 }
@@ -96,6 +102,7 @@ impl HysteresisCreepModel {
         }
         Ok(Self {
             sample_time,
+            offset: 0.0,
             hysteresis,
             creep,
         })
@@ -128,7 +135,26 @@ impl HysteresisCreepModel {
                 Some(op)
             }
         };
-        Self::new(file.sample_time, hysteresis, creep)
+        let offset = file.offset.unwrap_or(0.0);
+        if !offset.is_finite() {
+            return Err(ModelError::NonFinite {
+                field: "offset".into(),
+                index: 0,
+                value: offset,
+            });
+        }
+        Ok(Self::new(file.sample_time, hysteresis, creep)?.with_offset(offset))
+    }
+
+    /// The same model with output offset `offset`: `y = W[u] + offset`.
+    pub fn with_offset(mut self, offset: f64) -> Self {
+        self.offset = offset;
+        self
+    }
+
+    /// The output offset.
+    pub fn offset(&self) -> f64 {
+        self.offset
     }
 
     /// The model file of this model, with its current state.
@@ -146,6 +172,7 @@ impl HysteresisCreepModel {
                 eigenvalues: c.eigenvalues().to_vec(),
                 state: Some(c.state()),
             }),
+            offset: (self.offset != 0.0).then_some(self.offset),
         }
     }
 
@@ -166,13 +193,21 @@ impl HysteresisCreepModel {
 }
 
 impl Operator for HysteresisCreepModel {
+    /// A non-finite input is taken as the previous input held: the plays do
+    /// not move, the creep advances with the held value.
     #[inline]
     fn step(&mut self, v: f64) -> f64 {
+        let v = if v.is_finite() {
+            v
+        } else {
+            self.hysteresis.play_states()[0]
+        };
         let h = self.hysteresis.step(v);
-        match &mut self.creep {
+        let w = match &mut self.creep {
             Some(c) => h + c.step(v),
             None => h,
-        }
+        };
+        w + self.offset
     }
 
     fn reset(&mut self) {

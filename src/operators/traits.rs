@@ -65,7 +65,9 @@ pub trait Snapshot {
 
 /// The actuator model `W = H + C` (6): balanced voltage in, effective voltage
 /// out. `step` returns `W[v]_k` for the input `v_k`; the creep part uses
-/// `v_{k−1}` (the one-sample delay of (20)).
+/// `v_{k−1}` (the one-sample delay of (20)). A non-finite input is taken as
+/// the previous input held (what a zero-order hold does with a lost sample):
+/// it never enters the state.
 pub trait ActuatorModel: Operator {}
 
 /// The inverse Prandtl–Ishlinskii operator `H⁻¹` (22): `step(y)` returns the
@@ -79,6 +81,10 @@ pub struct Compensated {
     pub u: f64,
     /// Whether `u_k` was clipped to a limit.
     pub saturated: bool,
+    /// Whether the target was not a finite number: the previous output is
+    /// held (and the state advances as the plant's does when it receives
+    /// it), so the identity resumes with the next finite target.
+    pub fault: bool,
 }
 
 /// The compensator `W⁻¹` (21): for a target effective voltage, the balanced

@@ -159,27 +159,40 @@ pub struct NaiveModel {
     pub hysteresis: NaiveHysteresis,
     /// `C`, if the model has creep.
     pub creep: Option<NaiveCreep>,
+    /// Output offset.
+    pub offset: f64,
 }
 
 impl NaiveModel {
     /// From a model file (validated), starting from its `state`.
     pub fn from_file(file: &ModelFile) -> Result<Self, ModelError> {
         let (hysteresis, creep) = naive_parts(file)?;
-        Ok(Self { hysteresis, creep })
+        Ok(Self {
+            hysteresis,
+            creep,
+            offset: file.offset.unwrap_or(0.0),
+        })
     }
 }
 
 impl Operator for NaiveModel {
     fn step(&mut self, v: f64) -> f64 {
+        // a non-finite input: the previous input held
+        let v = if v.is_finite() {
+            v
+        } else {
+            self.hysteresis.x[0]
+        };
         let h = self.hysteresis.step(v);
-        match &mut self.creep {
+        let w = match &mut self.creep {
             Some(c) => {
                 let out = c.output();
                 c.advance(v);
                 h + out
             }
             None => h,
-        }
+        };
+        w + self.offset
     }
 
     fn reset(&mut self) {
@@ -219,6 +232,7 @@ pub struct NaiveCompensator {
     forward: NaiveHysteresis,
     inverse: NaiveHysteresis,
     creep: Option<NaiveCreep>,
+    offset: f64,
     last_request: f64,
 }
 
@@ -238,6 +252,7 @@ impl NaiveCompensator {
             initial: (forward.clone(), creep.clone()),
             forward,
             creep,
+            offset: file.offset.unwrap_or(0.0),
             last_request: 0.0,
         })
     }
@@ -245,8 +260,20 @@ impl NaiveCompensator {
 
 impl ActuatorCompensator for NaiveCompensator {
     fn compensate(&mut self, target: f64) -> Compensated {
+        if !target.is_finite() {
+            // hold the previous output; the creep advances with it
+            let u = self.forward.x[0];
+            if let Some(cr) = &mut self.creep {
+                cr.advance(u);
+            }
+            return Compensated {
+                u,
+                saturated: false,
+                fault: true,
+            };
+        }
         let c = self.creep.as_ref().map_or(0.0, NaiveCreep::output);
-        let v = self.inverse.step(target - c);
+        let v = self.inverse.step(target - self.offset - c);
         self.last_request = v;
         let (u, saturated) = clip(v, &self.settings);
         self.forward.step(u);
@@ -256,7 +283,11 @@ impl ActuatorCompensator for NaiveCompensator {
         if let Some(cr) = &mut self.creep {
             cr.advance(u);
         }
-        Compensated { u, saturated }
+        Compensated {
+            u,
+            saturated,
+            fault: false,
+        }
     }
 
     fn reset(&mut self) {
@@ -301,8 +332,17 @@ impl BisectionCompensator {
 
 impl ActuatorCompensator for BisectionCompensator {
     fn compensate(&mut self, target: f64) -> Compensated {
+        if !target.is_finite() {
+            let u = self.model.hysteresis.x[0];
+            self.model.step(u);
+            return Compensated {
+                u,
+                saturated: false,
+                fault: true,
+            };
+        }
         let c = self.model.creep.as_ref().map_or(0.0, NaiveCreep::output);
-        let goal = target - c;
+        let goal = target - self.model.offset - c;
         let h = &self.model.hysteresis;
         // A bracket: the limits, or where they are infinite, doubling steps
         // away from the last input (the state of the play with r = 0).
@@ -349,7 +389,11 @@ impl ActuatorCompensator for BisectionCompensator {
             }
         };
         self.model.step(u);
-        Compensated { u, saturated }
+        Compensated {
+            u,
+            saturated,
+            fault: false,
+        }
     }
 
     fn reset(&mut self) {

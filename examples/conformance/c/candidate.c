@@ -9,7 +9,7 @@
  * `simulate` reads column `u` and appends `y = W[u]`; `compensate` reads
  * column `y_d` and appends `u = W^-1[y_d]` and `saturated`. The model file's
  * `state` is honoured: x_init of (8) for the plays, chi at the first sample
- * for creep. Numbers are written with %.17g, which reads back bit-identically.
+ * for creep; its `offset` is added to the output (subtracted from a target). Numbers are written with %.17g, which reads back bit-identically.
  */
 #include <math.h>
 #include <stdio.h>
@@ -217,6 +217,8 @@ int main(int argc, char **argv) {
     char *text = slurp(model);
     parse(text, &root);
     const Json *ts = get(&root, "sample_time"), *hj = get(&root, "hysteresis"), *cj = get(&root, "creep");
+    const Json *off = get(&root, "offset");
+    double offset = off && off->kind == 1 ? off->num : 0.0;
     if (!ts || !hj) die("model file", "needs sample_time and hysteresis");
     Pi h;
     size_t nw;
@@ -263,7 +265,7 @@ int main(int argc, char **argv) {
         if (!p) die("short row in", input);
         double v = strtod(p, NULL);
         if (simulate) {
-            double y = pi_step(&h, v);
+            double y = pi_step(&h, v) + offset;
             if (c.n) {
                 y += creep_output(&c);
                 creep_advance(&c, v);
@@ -271,7 +273,7 @@ int main(int argc, char **argv) {
             fprintf(out, "%s,%.17g\n", line, y);
         } else {
             double cr = c.n ? creep_output(&c) : 0.0;
-            double want_v = pi_step(&inv, v - cr);
+            double want_v = pi_step(&inv, v - offset - cr);
             double u = fmin(fmax(want_v, lo), hi);
             int saturated = u != want_v;
             pi_step(&h, u);

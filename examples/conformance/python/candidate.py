@@ -8,7 +8,8 @@ contract, written for `mfcbeam conform` (Python standard library only).
 `simulate` reads column `u` and appends `y = W[u]`; `compensate` reads column
 `y_d` and appends `u = W^-1[y_d]` and `saturated` (0/1). The model file's
 `state` is honoured as the contract says: the hysteresis state is x_init of
-(8), the creep state is chi at the first sample.
+(8), the creep state is chi at the first sample; its `offset` is added to the
+output (and subtracted from a compensator's target).
 
 `--fault NAME` injects a known fault, so that the conformance test can show
 each one is caught: creep-vk, threshold, sign, no-flag, delay, ignore-state.
@@ -109,25 +110,25 @@ def load(path, fault):
         if chi is None:
             chi = [[0.0] * len(c["eigenvalues"]) for _ in c["thresholds"]]
         creep = Creep(c["thresholds"], c["weights"], c["eigenvalues"], ts, chi, fault)
-    return hyst, creep
+    return hyst, creep, m.get("offset", 0.0)
 
 
-def simulate(hyst, creep, u, fault):
+def simulate(hyst, creep, offset, u, fault):
     y, last = [], 0.0
     for v in u:
-        out = hyst.step(v) + (creep.step(v) if creep else 0.0)
+        out = hyst.step(v) + (creep.step(v) if creep else 0.0) + offset
         if fault == "delay":
             out, last = last, out
         y.append(out)
     return y
 
 
-def compensate(hyst, creep, targets, lo, hi, fault):
+def compensate(hyst, creep, offset, targets, lo, hi, fault):
     inverse = hyst.inverse()
     us, flags, last = [], [], 0.0
     for t in targets:
         c = creep.output() if creep else 0.0
-        v = inverse.step(t - c)
+        v = inverse.step(t - offset - c)
         u = min(max(v, lo), hi)
         saturated = u != v
         hyst.step(u)
@@ -165,7 +166,7 @@ def main(argv):
     fault = opts.get("fault")
     if fault is not None and fault not in FAULTS:
         fail(f"unknown fault {fault} (one of {', '.join(FAULTS)})")
-    hyst, creep = load(opts["model"], fault)
+    hyst, creep, offset = load(opts["model"], fault)
     with open(opts["input"], newline="") as f:
         rows = list(csv.reader(f))
     header, body = rows[0], rows[1:]
@@ -175,10 +176,10 @@ def main(argv):
     values = [float(row[header.index(column)]) for row in body]
     if kind == "simulate":
         extra = ["y"]
-        cols = [[repr(y)] for y in simulate(hyst, creep, values, fault)]
+        cols = [[repr(y)] for y in simulate(hyst, creep, offset, values, fault)]
     else:
         lo, hi = (float(x) for x in opts.get("limits", "-inf,inf").split(","))
-        us, flags = compensate(hyst, creep, values, lo, hi, fault)
+        us, flags = compensate(hyst, creep, offset, values, lo, hi, fault)
         extra = ["u", "saturated"]
         cols = [[repr(u), "1" if s else "0"] for u, s in zip(us, flags)]
     with open(opts["output"], "w", newline="") as f:

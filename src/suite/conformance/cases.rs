@@ -59,8 +59,9 @@ pub enum ModelShape {
 /// in `[5, 100]` V, partial sums in `[0.05, 1]` (single weights often
 /// negative), with probability 0.7 a creep part (`1..=max_plays` thresholds,
 /// partial sums in `[0, 0.1]`, 1 to 6 eigenvalues log-uniform in
-/// `[0.01, 1000]` s⁻¹), and for [`ModelShape::Any`] with probability 0.5 a
-/// non-virgin state reached by a random history.
+/// `[0.01, 1000]` s⁻¹), and for [`ModelShape::Any`] with probability 0.3 an
+/// output offset and with probability 0.5 a non-virgin state reached by a
+/// random history.
 pub fn random_model(rng: &mut Rng, max_plays: usize, shape: ModelShape) -> ModelFile {
     let sample_time = if rng.chance(0.5) {
         2e-4
@@ -88,7 +89,14 @@ pub fn random_model(rng: &mut Rng, max_plays: usize, shape: ModelShape) -> Model
             state: None,
         },
         creep,
+        offset: None,
     };
+    let mut file = file;
+    // a sensor offset, as in a measurement (it breaks odd symmetry, so only
+    // where a property does not need it)
+    if shape == ModelShape::Any && rng.chance(0.3) {
+        file.offset = Some(rng.uniform(-0.2, 0.2) * reach(&file));
+    }
     if shape == ModelShape::Any && rng.chance(0.5) {
         let reach = reach(&file);
         let len = rng.int(1, 60);

@@ -358,6 +358,7 @@ impl ExternalCandidate {
                     .map(|(u, s)| Compensated {
                         u,
                         saturated: s != 0.0,
+                        fault: false,
                     })
                     .collect())
             });
@@ -470,6 +471,7 @@ impl ActuatorCompensator for ExternalCompensator {
                 Compensated {
                     u: f64::NAN,
                     saturated: false,
+                    fault: false,
                 };
                 targets.len()
             ],

@@ -69,7 +69,12 @@ pub fn creep_sum(file: &ModelFile, v_max: f64) -> f64 {
 
 /// Two implementations of `W` on inputs up to `v_max`.
 pub fn model(file: &ModelFile, v_max: f64) -> f64 {
-    2.0 * (hysteresis_sum(file, v_max) + creep_sum(file, v_max))
+    2.0 * (hysteresis_sum(file, v_max) + creep_sum(file, v_max) + offset(file))
+}
+
+/// Rounding of adding (or subtracting) the output offset.
+fn offset(file: &ModelFile) -> f64 {
+    2.0 * EPS * file.offset.unwrap_or(0.0).abs()
 }
 
 /// Parameters of `H⁻¹` as the direct sums of (22) give them: `(r', w', x')`.
@@ -115,5 +120,12 @@ pub fn compensator(file: &ModelFile, v_max: f64, y_max: f64) -> f64 {
         .creep
         .as_ref()
         .map_or(0.0, |c| abs_sum(&c.weights) * state_bound(file, v_max));
-    2.0 * (inverse(file, v_max, y_max + creep_out) + 2.0 * creep / min_slope(file) + creep)
+    let off = offset(file);
+    2.0 * (inverse(
+        file,
+        v_max,
+        y_max + creep_out + file.offset.unwrap_or(0.0).abs(),
+    ) + 2.0 * (creep + off) / min_slope(file)
+        + creep
+        + off)
 }
