@@ -68,7 +68,7 @@ fn noise_free_data_recover_the_nominal_weights() {
     }
     assert!(id.report.active_constraints.is_empty());
     assert!(id.report.unexcited.is_empty());
-    assert!(id.report.rms_error <= 1e-9 * id.report.output_range);
+    assert!(id.report.fit.rms <= 1e-9 * id.report.fit.output_range);
     // the identified model inverts: W[W⁻¹[ς]] = ς
     let mut comp = Compensator::new(w, CompensatorSettings::default()).unwrap();
     let mut plant = w.clone();
@@ -150,7 +150,7 @@ fn partial_excitation_names_the_unexcited_operators() {
         .iter()
         .all(|&w| w == 0.0));
     // on the excited range the model reproduces the data
-    assert!(id.report.max_error <= 1e-8 * id.report.output_range);
+    assert!(id.report.fit.max <= 1e-8 * id.report.fit.output_range);
     assert!(Compensator::new(&id.model, CompensatorSettings::default()).is_ok());
 }
 
@@ -358,11 +358,14 @@ fn constrained_optimum_matches_brute_force_active_set_enumeration() {
             }
         }
     }
+    // the reference fits every sample from the virgin state, without offset
     let settings = IdentificationSettings {
         hysteresis_operators: nh,
         creep_operators: nc,
         creep_eigenvalues: m,
         epsilon_h: Some(eps_h),
+        fit_offset: false,
+        fit_from: Some(0),
         ..Default::default()
     };
     let id = identify(&u, &y, ts, &settings).unwrap();

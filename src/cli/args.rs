@@ -131,6 +131,26 @@ pub struct IdentifyArgs {
     /// Explicit creep eigenvalues (1/s) instead of (24).
     #[arg(long, value_delimiter = ',', num_args = 1..)]
     pub eigenvalues: Option<Vec<f64>>,
+    /// Fix the output offset at 0 instead of fitting it.
+    #[arg(long)]
+    pub no_offset: bool,
+    /// First sample to fit (0: assume the virgin state at the first sample);
+    /// default: where |u| first reaches max|u|, from where every play's
+    /// state is fixed by the input.
+    #[arg(long, value_name = "SAMPLE")]
+    pub fit_from: Option<usize>,
+    /// Leave this fraction of the data at the end out of the fit and report
+    /// the errors on it.
+    #[arg(long, value_name = "FRACTION", allow_hyphen_values = true)]
+    pub holdout: Option<f64>,
+    /// Another measurement (columns `u`, `y`) to report the identified model's
+    /// errors on.
+    #[arg(long, value_name = "OTHER.csv")]
+    pub validate: Option<PathBuf>,
+    /// Draw measured and model output over the input, and the residual over
+    /// time (`.png` or `.svg`).
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]

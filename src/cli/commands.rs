@@ -101,9 +101,35 @@ fn invert(a: &InvertArgs) -> Result<()> {
 fn identify(a: &IdentifyArgs) -> Result<()> {
     let trace = Trace::read(&a.input)?;
     let ts = trace_sample_time(&trace, a.sample_time, None)?;
+    let jitter = if trace.has_column("t") && trace.len() > 1 {
+        Some(trace.time_axis()?.jitter)
+    } else {
+        None
+    };
     let u = trace.column("u")?;
     let y = trace.column("y")?;
+    let holdout = match a.holdout {
+        None => 0,
+        Some(f) if (0.0..1.0).contains(&f) => (f * u.len() as f64).floor() as usize,
+        Some(f) => bail!("--holdout: must be a fraction in [0, 1), found {f}"),
+    };
+    let validation = match &a.validate {
+        None => None,
+        Some(path) => {
+            let other = Trace::read(path)?;
+            other.check_time_column(ts)?;
+            Some((path, other.column("u")?, other.column("y")?))
+        }
+    };
+    if let Some(p) = &a.plot {
+        if !matches!(p.extension().and_then(|e| e.to_str()), Some("png" | "svg")) {
+            bail!("--plot: {}: name a .png or .svg file", p.display());
+        }
+    }
     let settings = IdentificationSettings {
+        fit_offset: !a.no_offset,
+        fit_from: a.fit_from,
+        holdout,
         hysteresis_operators: a.hysteresis_operators,
         creep_operators: a.creep_operators,
         creep_eigenvalues: a.creep_eigenvalues,
@@ -114,8 +140,40 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
     };
     let id =
         identify_model(&u, &y, ts, &settings).with_context(|| a.input.display().to_string())?;
+    let validated = match &validation {
+        None => None,
+        Some((path, vu, vy)) => Some(
+            mfcbeam::identification::validate(&id.model, vu, vy)
+                .with_context(|| path.display().to_string())?,
+        ),
+    };
+    if let Some(p) = &a.plot {
+        let fit = id.model.clone().run(&u);
+        mfcbeam::suite::plots::write_identification_plot(p, &u, &y, &fit, ts, &id.report.fitted)
+            .map_err(anyhow::Error::msg)?;
+    }
     write_json(&a.output, &id.model.to_file().without_state())?;
+    if let Some(j) = jitter {
+        eprintln!(
+            "sample time          {ts:?} s (mean step of t; jitter {:.2e} of a step)",
+            j
+        );
+    }
     eprint!("{}", id.report);
+    if let (Some((path, ..)), Some(v)) = (&validation, validated) {
+        eprintln!(
+            "validation           {}: {} samples from max|u| on, rms {:.6e} ({:.4} %), max {:.6e} ({:.4} %)",
+            path.display(),
+            v.samples,
+            v.rms,
+            v.rms_percent(),
+            v.max,
+            v.max_percent()
+        );
+    }
+    if let Some(p) = &a.plot {
+        eprintln!("mfcbeam: wrote {}", p.display());
+    }
     eprintln!("mfcbeam: wrote {}", a.output.display());
     Ok(())
 }

@@ -11,22 +11,34 @@
 //! min_w ½ ‖Φ w − ς‖²   s.t.  Σ_{i≤j} w_H,i ≥ ε_H  (j = 0..n_H),   Σ_{i≤j} w_C,i ≥ 0  (j = 0..n_C)
 //! ```
 //!
+//! **Unknown initial state and offset.** A measurement starts from a history
+//! the model does not know, and a sensor adds an offset. Once `|v|` has
+//! reached `max|v|`, every play has been pushed to one side of its band, so
+//! its state is fixed by the input alone (wiping out, Madelung (iii)): by
+//! default only the samples from there on are fitted (the operators still run
+//! from the first sample). The creep states are not wiped out that way; their
+//! unknown initial part decays like `e^{−a t}`. An output offset is fitted as
+//! one more, unconstrained, unknown.
+//!
 //! Solved as follows:
 //!
 //! 1. `Φ` is built in one pass over the input (the plays and creep operators
-//!    are stepped once per sample) and augmented with the measured column
-//!    `ς`; one thin Householder QR of `[Φ | ς]` (faer) gives the triangular
-//!    `R`, `c = Qᵀ ς` and the residual norm, so `‖Φ w − ς‖² = ‖R w − c‖² + ρ²`
-//!    and the QP no longer depends on the number of samples.
-//! 2. The unknowns are the partial sums `S_j` themselves (`w = D S`, `D` the
-//!    difference operator per group), so the constraints are simple bounds
-//!    `S ≥ (ε_H, …, 0, …)`. clarabel solves `min ½‖e‖²` subject to
-//!    `R D S − e = c` (zero cone) and the bounds (non-negative cone).
-//! 3. The active set clarabel finds is polished: the equality-constrained
-//!    least-squares problem on that set is solved exactly by a small QR, and
-//!    kept if it is feasible and its multipliers are non-negative (the KKT
-//!    conditions), so that exact data give exact weights rather than weights
-//!    to the interior-point tolerance.
+//!    are stepped once per sample); the fitted rows of `[1 | Φ | ς]` (offset
+//!    column first) get one thin Householder QR (faer). Eliminating the
+//!    offset leaves `‖Φ w − ς‖² = ‖R w − c‖² + ρ²` with a small triangular
+//!    `R`: the rest no longer depends on the number of samples.
+//! 2. The unknowns become the partial sums shifted by their bounds,
+//!    `x_j = S_j − b_j ≥ 0` (`w = D S`, `D` the difference operator per
+//!    group), a non-negative least-squares problem `min ‖M x − d‖`,
+//!    `M = R D`, solved exactly by the Lawson–Hanson active-set method: it
+//!    ends in finitely many steps at a point that meets the KKT conditions
+//!    (`g = Mᵀ(M x − d)`: `g_j = 0` where `x_j > 0`, `g_j ≥ 0` where
+//!    `x_j = 0`), which the report states as a relative residual.
+//! 3. The numerical rank of `R` comes from its singular values: those below
+//!    [`RANK_TOLERANCE`] times the largest span directions the input does not
+//!    determine; the operators with weight in them are named. Every
+//!    least-squares step takes the minimum-norm solution (in `x`), so the
+//!    returned optimum is the minimum-norm one of its active set.
 //! 4. The weights are rebuilt from the partial sums so that the recomputed
 //!    partial sums satisfy the bounds in floating point: the identified model
 //!    always satisfies (11) and (17), so its inverse (22) exists.
@@ -35,11 +47,6 @@
 //! never excited: their columns are zero. They keep weight 0 (which leaves the
 //! partial sums, and so (11), intact) and are named in the report.
 
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::{
-    DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
-};
-use faer::linalg::solvers::SolveLstsq;
 use faer::Mat;
 use thiserror::Error;
 
@@ -77,9 +84,9 @@ pub enum IdentificationError {
     /// A setting is out of range.
     #[error("{field}: {reason}")]
     InvalidSetting { field: &'static str, reason: String },
-    /// The QP solver did not reach a solution.
-    #[error("the constrained least-squares problem was not solved: clarabel status {status}")]
-    NotSolved { status: String },
+    /// The active-set method did not converge (should not happen).
+    #[error("the constrained least-squares problem was not solved: {reason}")]
+    NotSolved { reason: String },
     /// The identified parameters do not form a valid model (should not happen).
     #[error(transparent)]
     Model(#[from] ModelError),
@@ -104,6 +111,14 @@ pub struct IdentificationSettings {
     /// Margin `ε_H > 0` of the hysteresis partial sums; default
     /// `1e-3 · range(ς) / range(v)`.
     pub epsilon_h: Option<f64>,
+    /// Fit an output offset (default true).
+    pub fit_offset: bool,
+    /// First sample fitted; default: the first at which `|v|` reaches
+    /// `max|v|` (from there every play's state is known). `Some(0)` assumes
+    /// the virgin state at the first sample.
+    pub fit_from: Option<usize>,
+    /// Samples at the end left out of the fit, for validation (default 0).
+    pub holdout: usize,
 }
 
 impl Default for IdentificationSettings {
@@ -117,6 +132,9 @@ impl Default for IdentificationSettings {
             creep_thresholds: None,
             eigenvalues: None,
             epsilon_h: None,
+            fit_offset: true,
+            fit_from: None,
+            holdout: 0,
         }
     }
 }
@@ -182,6 +200,12 @@ pub fn thresholds_23(count: usize, r_max: f64) -> Vec<f64> {
         .collect()
 }
 
+/// Singular values of `R` below this fraction of the largest span directions
+/// of the weights that the input does not determine: a column whose part
+/// independent of the others is below 1e-10 of the largest could be seen
+/// only at a noise level of 1e-10 of the signal.
+pub const RANK_TOLERANCE: f64 = 1e-10;
+
 /// A constraint that holds with equality at the solution.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ActiveConstraint {
@@ -193,44 +217,92 @@ pub struct ActiveConstraint {
     pub bound: f64,
 }
 
-/// An operator the input never excited.
+/// An operator named in the report: never excited, or not determined.
 #[derive(Debug, Clone, PartialEq)]
 pub struct UnexcitedOperator {
     /// `"hysteresis"` or `"creep"`.
     pub group: &'static str,
     /// Index of the operator (its threshold).
     pub index: usize,
-    /// Its threshold, at or above `max |v|`.
+    /// Its threshold.
     pub threshold: f64,
 }
 
-/// How well the identified model fits the data.
-#[derive(Debug, Clone, PartialEq)]
-pub struct FitReport {
-    /// Number of samples.
+/// Errors of a model on a stretch of data.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FitErrors {
+    /// Samples compared.
     pub samples: usize,
     /// RMS of `W[v] − ς`.
-    pub rms_error: f64,
+    pub rms: f64,
     /// Max of `|W[v] − ς|`.
-    pub max_error: f64,
-    /// `max ς − min ς`.
+    pub max: f64,
+    /// `max ς − min ς` over the stretch.
     pub output_range: f64,
+}
+
+impl FitErrors {
+    /// Errors of `fit` against `y` on `range`.
+    pub fn of(fit: &[f64], y: &[f64], range: std::ops::Range<usize>) -> Self {
+        let (mut sq, mut max) = (0.0, 0.0f64);
+        for k in range.clone() {
+            let e = fit[k] - y[k];
+            sq += e * e;
+            max = max.max(e.abs());
+        }
+        let n = range.len().max(1);
+        Self {
+            samples: range.len(),
+            rms: (sq / n as f64).sqrt(),
+            max,
+            output_range: self::range(&y[range]),
+        }
+    }
+
     /// RMS error in % of the output range.
-    pub rms_error_percent: f64,
+    pub fn rms_percent(&self) -> f64 {
+        100.0 * self.rms / self.output_range.max(f64::MIN_POSITIVE)
+    }
+
     /// Max error in % of the output range.
-    pub max_error_percent: f64,
-    /// 2-norm condition number of `Φ` (excited columns).
+    pub fn max_percent(&self) -> f64 {
+        100.0 * self.max / self.output_range.max(f64::MIN_POSITIVE)
+    }
+}
+
+/// How the identification went and how well the model fits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitReport {
+    /// Samples in the record.
+    pub samples: usize,
+    /// The samples fitted, `first..end`.
+    pub fitted: std::ops::Range<usize>,
+    /// Why the samples before `fitted.start` were left out.
+    pub skip_reason: String,
+    /// Errors on the fitted samples.
+    pub fit: FitErrors,
+    /// Errors on the held-out samples at the end, if any.
+    pub holdout: Option<FitErrors>,
+    /// The fitted output offset (0 when not fitted).
+    pub offset: f64,
+    /// 2-norm condition number of the reduced regressor (infinite when rank deficient).
     pub condition_number: f64,
+    /// Numerical rank of the reduced regressor, and its number of columns.
+    pub rank: usize,
+    pub unknowns: usize,
+    /// Operators whose weights this input does not determine (rank deficiency).
+    pub undetermined: Vec<UnexcitedOperator>,
     /// `ε_H` used.
     pub epsilon_h: f64,
-    /// Constraints holding with equality.
+    /// Constraints holding with equality at the optimum.
     pub active_constraints: Vec<ActiveConstraint>,
     /// Operators never excited (weight 0).
     pub unexcited: Vec<UnexcitedOperator>,
-    /// Interior-point iterations of clarabel.
-    pub solver_iterations: u32,
-    /// Whether the active-set polish replaced clarabel's solution.
-    pub polished: bool,
+    /// The worst violation of the KKT conditions of (25), relative to
+    /// `‖M‖ ‖d‖` (0 at the exact optimum; rounding is ~1e-16).
+    pub kkt_residual: f64,
+    /// Steps of the active-set method.
+    pub iterations: usize,
 }
 
 /// A percentage with four significant digits, in exponent form when tiny.
@@ -244,31 +316,58 @@ fn percent(x: f64) -> String {
 
 impl std::fmt::Display for FitReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        writeln!(f, "samples              {}", self.samples)?;
+        writeln!(
+            f,
+            "samples              {} ({} fitted: {}..{})",
+            self.samples,
+            self.fitted.len(),
+            self.fitted.start,
+            self.fitted.end
+        )?;
+        if self.fitted.start > 0 {
+            writeln!(
+                f,
+                "skipped              the first {} samples: {}",
+                self.fitted.start, self.skip_reason
+            )?;
+        }
+        let e = &self.fit;
         writeln!(
             f,
             "rms error            {:.6e} ({} of the output range {:.6e})",
-            self.rms_error,
-            percent(self.rms_error_percent),
-            self.output_range
+            e.rms,
+            percent(e.rms_percent()),
+            e.output_range
         )?;
         writeln!(
             f,
             "max error            {:.6e} ({})",
-            self.max_error,
-            percent(self.max_error_percent)
+            e.max,
+            percent(e.max_percent())
         )?;
+        if let Some(h) = &self.holdout {
+            writeln!(
+                f,
+                "held out             {} samples: rms {:.6e} ({}), max {:.6e} ({})",
+                h.samples,
+                h.rms,
+                percent(h.rms_percent()),
+                h.max,
+                percent(h.max_percent())
+            )?;
+        }
+        writeln!(f, "offset               {:.6e}", self.offset)?;
         writeln!(f, "cond(Phi)            {:.3e}", self.condition_number)?;
+        writeln!(
+            f,
+            "rank                 {} of {} (singular values below {:e} of the largest count as zero)",
+            self.rank, self.unknowns, RANK_TOLERANCE
+        )?;
         writeln!(f, "epsilon_H            {:.6e}", self.epsilon_h)?;
         writeln!(
             f,
-            "solver               clarabel, {} iterations{}",
-            self.solver_iterations,
-            if self.polished {
-                ", active set polished"
-            } else {
-                ""
-            }
+            "solver               Lawson-Hanson active set, {} steps, KKT residual {:.1e}",
+            self.iterations, self.kkt_residual
         )?;
         if self.active_constraints.is_empty() {
             writeln!(f, "active constraints   none")?;
@@ -288,11 +387,23 @@ impl std::fmt::Display for FitReport {
                 u.group, u.index, u.threshold
             )?;
         }
+        if !self.undetermined.is_empty() {
+            let names: Vec<String> = self
+                .undetermined
+                .iter()
+                .map(|u| format!("{} {} (r = {})", u.group, u.index, u.threshold))
+                .collect();
+            writeln!(
+                f,
+                "warning: the input does not determine the weights of {}; the minimum-norm optimum is returned",
+                names.join(", ")
+            )?;
+        }
         Ok(())
     }
 }
 
-/// The identified model (virgin state) and its fit report.
+/// The identified model (virgin state, fitted offset) and its fit report.
 #[derive(Debug, Clone)]
 pub struct Identification {
     pub model: HysteresisCreepModel,
@@ -310,8 +421,16 @@ fn check_finite(signal: &'static str, x: &[f64]) -> Result<(), IdentificationErr
     }
 }
 
+/// The first sample at which `|v|` reaches `max|v|`.
+pub fn first_at_max(v: &[f64]) -> usize {
+    let m = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    v.iter().position(|x| x.abs() == m).unwrap_or(0)
+}
+
 /// Identify a model from input `u` (V) and measured output `y`, sampled at
-/// `sample_time`, starting from the virgin state.
+/// `sample_time`. The operators start from the virgin state at the first
+/// sample; the fit uses the samples from `settings.fit_from` (default: where
+/// `|u|` first reaches `max|u|`) to the end less `settings.holdout`.
 pub fn identify(
     u: &[f64],
     y: &[f64],
@@ -337,6 +456,22 @@ pub fn identify(
             value: u.first().copied().unwrap_or(0.0),
         });
     }
+    let (first, skip_reason) = match settings.fit_from {
+        Some(k) => (k, "--fit-from".to_string()),
+        None => (
+            first_at_max(u),
+            format!(
+                "before |u| first reaches max|u| = {r_max} the play states depend on the unknown history"
+            ),
+        ),
+    };
+    let end = n.saturating_sub(settings.holdout);
+    if first >= end {
+        return Err(IdentificationError::InvalidSetting {
+            field: "fit_from",
+            reason: format!("sample {first} leaves nothing to fit before sample {end}"),
+        });
+    }
 
     let r_h = settings
         .hysteresis_thresholds
@@ -350,11 +485,11 @@ pub fn identify(
         .eigenvalues
         .clone()
         .unwrap_or_else(|| log_spaced_eigenvalues(settings.creep_eigenvalues, sample_time));
-    let unknowns = r_h.len() + r_c.len();
+    let unknowns = r_h.len() + r_c.len() + usize::from(settings.fit_offset);
     let needed = 2 * unknowns + 1;
-    if n < needed {
+    if end - first < needed {
         return Err(IdentificationError::TooFewSamples {
-            found: n,
+            found: end - first,
             needed,
             unknowns,
         });
@@ -374,14 +509,15 @@ pub fn identify(
         }
     }
 
-    let y_range = range(y);
+    let y_range = range(&y[first..end]);
     let u_range = range(u);
     let epsilon_h = settings
         .epsilon_h
         .unwrap_or(1e-3 * y_range.max(f64::MIN_POSITIVE) / u_range);
 
-    // 1. Φ (excited columns) with ς appended, one pass; then QR.
+    // 1. [1 | Φ | ς] on the fitted rows, one pass; then QR.
     let p = nh + nc;
+    let q = usize::from(settings.fit_offset);
     let creep_state = if nc > 0 {
         Some(CreepOperator::new(
             r_c[..nc].to_vec(),
@@ -392,13 +528,44 @@ pub fn identify(
     } else {
         None
     };
-    let mut phi = build_regressor(u, y, &r_h[..nh], creep_state);
+    let mut phi = build_regressor(
+        u,
+        y,
+        first..end,
+        settings.fit_offset,
+        &r_h[..nh],
+        creep_state,
+    );
     let r_aug = thin_r(&mut phi);
-    let r = Mat::from_fn(p, p, |i, j| r_aug[(i, j)]);
-    let c: Vec<f64> = (0..p).map(|i| r_aug[(i, p)]).collect();
-    let condition_number = condition_number(&r);
+    // eliminating the offset (the first column) leaves the rows below it
+    let r = Mat::from_fn(p, p, |i, j| r_aug[(q + i, q + j)]);
+    let c: Vec<f64> = (0..p).map(|i| r_aug[(q + i, q + p)]).collect();
+    let sv = singular_values(&r);
+    let smax = sv.first().copied().unwrap_or(0.0);
+    let rank = sv.iter().filter(|&&s| s > RANK_TOLERANCE * smax).count();
+    let condition_number = if rank < p || smax == 0.0 {
+        f64::INFINITY
+    } else {
+        smax / sv[p - 1]
+    };
+    let name = |j: usize| {
+        if j < nh {
+            UnexcitedOperator {
+                group: "hysteresis",
+                index: j,
+                threshold: r_h[j],
+            }
+        } else {
+            UnexcitedOperator {
+                group: "creep",
+                index: j - nh,
+                threshold: r_c[j - nh],
+            }
+        }
+    };
+    let undetermined = null_space_members(&r, rank).into_iter().map(name).collect();
 
-    // 2. The QP in partial sums: w = D S, bounds S ≥ (ε_H…, 0…).
+    // 2. Non-negative least squares in x = S − b.
     let bounds: Vec<f64> = (0..p)
         .map(|j| if j < nh { epsilon_h } else { 0.0 })
         .collect();
@@ -408,23 +575,13 @@ pub fn identify(
         let same_group = (j < nh && next < nh) || (j >= nh && next < p);
         r[(i, j)] - if same_group { r[(i, next)] } else { 0.0 }
     });
-    let qp = solve_qp(&m, &c, &bounds)?;
-    let iterations = qp.iterations;
-
-    // 3. Polish on the active set.
-    let (sums, polished) = match polish(&m, &c, &bounds, &qp.active) {
-        Some(s) => (s, true),
-        None => (
-            qp.sums
-                .iter()
-                .zip(&bounds)
-                .map(|(s, b)| s.max(*b))
-                .collect(),
-            false,
-        ),
-    };
+    let d: Vec<f64> = (0..p)
+        .map(|i| c[i] - (0..p).map(|j| m[(i, j)] * bounds[j]).sum::<f64>())
+        .collect();
+    let solution = nnls(&m, &d)?;
+    let sums: Vec<f64> = (0..p).map(|j| bounds[j] + solution.x[j]).collect();
     let active_constraints = (0..p)
-        .filter(|&j| sums[j] <= bounds[j])
+        .filter(|&j| solution.x[j] == 0.0)
         .map(|j| ActiveConstraint {
             group: if j < nh { "hysteresis" } else { "creep" },
             index: if j < nh { j } else { j - nh },
@@ -432,11 +589,20 @@ pub fn identify(
         })
         .collect();
 
-    // 4. Weights from partial sums, such that the recomputed sums hold.
+    // 3. Weights from partial sums, such that the recomputed sums hold.
     let mut w_h = weights_from_sums(&sums[..nh], epsilon_h);
     w_h.resize(r_h.len(), 0.0);
     let mut w_c = weights_from_sums(&sums[nh..], 0.0);
     w_c.resize(r_c.len(), 0.0);
+    // the offset from the first row of R: r_00 o + r_0j w_j = c_0
+    let offset = if settings.fit_offset && r_aug[(0, 0)] != 0.0 {
+        let mut w_all = w_h[..nh].to_vec();
+        w_all.extend_from_slice(&w_c[..nc]);
+        let dot: f64 = (0..p).map(|j| r_aug[(0, 1 + j)] * w_all[j]).sum();
+        (r_aug[(0, p + 1)] - dot) / r_aug[(0, 0)]
+    } else {
+        0.0
+    };
 
     let hysteresis = HysteresisOperator::new(r_h, w_h)?;
     let creep = if r_c.is_empty() {
@@ -444,33 +610,49 @@ pub fn identify(
     } else {
         Some(CreepOperator::new(r_c, w_c, eig, sample_time)?)
     };
-    let model = HysteresisCreepModel::new(sample_time, hysteresis, creep)?;
+    let model = HysteresisCreepModel::new(sample_time, hysteresis, creep)?.with_offset(offset);
 
-    // Fit of the model as it will be used.
+    // Fit of the model as it will be used, from the virgin state.
     let fit = model.clone().run(u);
-    let (mut sq, mut max_error) = (0.0, 0.0f64);
-    for (a, b) in fit.iter().zip(y) {
-        let e = a - b;
-        sq += e * e;
-        max_error = max_error.max(e.abs());
-    }
-    let rms_error = (sq / n as f64).sqrt();
-    let pct = |e: f64| 100.0 * e / y_range.max(f64::MIN_POSITIVE);
     let report = FitReport {
         samples: n,
-        rms_error,
-        max_error,
-        output_range: y_range,
-        rms_error_percent: pct(rms_error),
-        max_error_percent: pct(max_error),
+        fitted: first..end,
+        skip_reason,
+        fit: FitErrors::of(&fit, y, first..end),
+        holdout: (end < n).then(|| FitErrors::of(&fit, y, end..n)),
+        offset,
         condition_number,
+        rank,
+        unknowns: p,
+        undetermined,
         epsilon_h,
         active_constraints,
         unexcited,
-        solver_iterations: iterations,
-        polished,
+        kkt_residual: solution.kkt_residual,
+        iterations: solution.iterations,
     };
     Ok(Identification { model, report })
+}
+
+/// Errors of `model` (run from the virgin state over the whole record) on a
+/// validation record, from the first sample at which `|u|` reaches `max|u|`.
+pub fn validate(
+    model: &HysteresisCreepModel,
+    u: &[f64],
+    y: &[f64],
+) -> Result<FitErrors, IdentificationError> {
+    if u.len() != y.len() {
+        return Err(IdentificationError::LengthMismatch {
+            u: u.len(),
+            y: y.len(),
+        });
+    }
+    check_finite("u", u)?;
+    check_finite("y", y)?;
+    let mut m = model.clone();
+    m.reset();
+    let fit = m.run(u);
+    Ok(FitErrors::of(&fit, y, first_at_max(u)..u.len()))
 }
 
 fn range(x: &[f64]) -> f64 {
@@ -482,24 +664,31 @@ fn range(x: &[f64]) -> f64 {
     hi - lo
 }
 
-/// `[Φ | ς]`: play outputs, log(t)-creep outputs (before the update with
-/// `v_k`: the one-sample delay of (20)) and the measurement, column-major.
+/// `[1 | Φ | ς]` on the samples `rows` (the `1` column only with `offset`):
+/// play outputs, log(t)-creep outputs (before the update with `v_k`: the
+/// one-sample delay of (20)) and the measurement, column-major. The
+/// operators run from the first sample; only the rows in `rows` are kept.
 fn build_regressor(
     u: &[f64],
     y: &[f64],
+    rows: std::ops::Range<usize>,
+    offset: bool,
     r_h: &[f64],
     mut creep: Option<CreepOperator>,
 ) -> Mat<f64> {
     const BLOCK: usize = 256;
-    let n = u.len();
     let nh = r_h.len();
     let nc = creep.as_ref().map_or(0, |c| c.thresholds().len());
     let p = nh + nc;
-    let mut phi = Mat::<f64>::zeros(n, p + 1);
+    let q = usize::from(offset);
+    let mut phi = Mat::<f64>::zeros(rows.len(), q + p + 1);
+    if offset {
+        phi.col_as_slice_mut(0).fill(1.0);
+    }
     let mut x = vec![0.0; nh];
     let mut block = vec![0.0; BLOCK * p];
-    for k0 in (0..n).step_by(BLOCK) {
-        let len = BLOCK.min(n - k0);
+    for k0 in (0..rows.end).step_by(BLOCK) {
+        let len = BLOCK.min(rows.end - k0);
         for (row, &v) in block.chunks_exact_mut(p).zip(&u[k0..k0 + len]) {
             for ((xi, &r), out) in x.iter_mut().zip(r_h).zip(row.iter_mut()) {
                 *xi = play(v, r, *xi);
@@ -510,13 +699,19 @@ fn build_regressor(
                 c.advance(v);
             }
         }
+        // the part of this block inside `rows`
+        let from = rows.start.max(k0);
+        if from >= k0 + len {
+            continue;
+        }
+        let (dst0, src0, count) = (from - rows.start, from - k0, k0 + len - from);
         for j in 0..p {
-            let col = &mut phi.col_as_slice_mut(j)[k0..k0 + len];
-            for (dst, row) in col.iter_mut().zip(block.chunks_exact(p)) {
-                *dst = row[j];
+            let col = &mut phi.col_as_slice_mut(q + j)[dst0..dst0 + count];
+            for (dst, r) in col.iter_mut().zip(block.chunks_exact(p).skip(src0)) {
+                *dst = r[j];
             }
         }
-        phi.col_as_slice_mut(p)[k0..k0 + len].copy_from_slice(&y[k0..k0 + len]);
+        phi.col_as_slice_mut(q + p)[dst0..dst0 + count].copy_from_slice(&y[from..from + count]);
     }
     phi
 }
@@ -548,155 +743,152 @@ fn thin_r(a: &mut Mat<f64>) -> Mat<f64> {
     Mat::from_fn(size, ncols, |i, j| if i <= j { a[(i, j)] } else { 0.0 })
 }
 
-/// `σ_max / σ_min` of `R` (the same as of `Φ`).
-fn condition_number(r: &Mat<f64>) -> f64 {
-    match r.singular_values() {
-        Ok(s) if !s.is_empty() => {
-            let (max, min) = (s[0], s[s.len() - 1]);
-            if min > 0.0 {
-                max / min
-            } else {
-                f64::INFINITY
-            }
-        }
-        _ => f64::NAN,
+/// The singular values of a small square matrix, descending.
+fn singular_values(a: &Mat<f64>) -> Vec<f64> {
+    if a.nrows() == 0 {
+        return Vec::new();
+    }
+    match a.singular_values() {
+        Ok(s) => s,
+        Err(_) => vec![f64::NAN; a.nrows()],
     }
 }
 
-/// clarabel: `min ½‖e‖²` s.t. `M S − e = c`, `S ≥ bounds`. Returns `S`.
-///
-/// Solved in scaled variables `S̃_j = ‖M_j‖ S_j / ‖c‖` (unit columns, unit
-/// right-hand side) so that the interior-point method sees a problem of
-/// order one whatever the units of `u` and `ς`.
-fn solve_qp(m: &Mat<f64>, c: &[f64], bounds: &[f64]) -> Result<QpSolution, IdentificationError> {
-    let p = c.len();
-    let c_norm = c
-        .iter()
-        .map(|x| x * x)
+/// The columns (operators) with a large share in the null space of `r`
+/// beyond its numerical `rank`: those whose weights the data do not fix.
+fn null_space_members(r: &Mat<f64>, rank: usize) -> Vec<usize> {
+    let p = r.ncols();
+    if rank >= p {
+        return Vec::new();
+    }
+    let Ok(svd) = r.svd() else {
+        return Vec::new();
+    };
+    let v = svd.V();
+    // per column: its weight in the null space (the rows of V beyond rank)
+    let share: Vec<f64> = (0..p)
+        .map(|j| (rank..p).map(|k| v[(j, k)] * v[(j, k)]).sum::<f64>().sqrt())
+        .collect();
+    let big = share.iter().fold(0.0f64, |m, x| m.max(*x));
+    (0..p).filter(|&j| share[j] > 0.1 * big).collect()
+}
+
+/// The result of [`nnls`].
+struct NnlsSolution {
+    x: Vec<f64>,
+    kkt_residual: f64,
+    iterations: usize,
+}
+
+/// Minimum-norm least squares `min ‖A_P z − d‖` on the columns `P` of `a`,
+/// through the SVD with the rank cut of [`RANK_TOLERANCE`].
+fn least_squares(a: &Mat<f64>, cols: &[usize], d: &[f64]) -> Vec<f64> {
+    let rows = a.nrows();
+    let sub = Mat::from_fn(rows, cols.len(), |i, k| a[(i, cols[k])]);
+    let Ok(svd) = sub.thin_svd() else {
+        return vec![0.0; cols.len()];
+    };
+    let (u, s, v) = (svd.U(), svd.S(), svd.V());
+    let smax = (0..s.dim()).map(|k| s[k]).fold(0.0f64, f64::max);
+    let mut z = vec![0.0; cols.len()];
+    for k in 0..s.dim() {
+        if s[k] <= RANK_TOLERANCE * smax || s[k] == 0.0 {
+            continue;
+        }
+        let coef = (0..rows).map(|i| u[(i, k)] * d[i]).sum::<f64>() / s[k];
+        for (j, zj) in z.iter_mut().enumerate() {
+            *zj += coef * v[(j, k)];
+        }
+    }
+    z
+}
+
+/// `min ‖a x − d‖` subject to `x ≥ 0`: the Lawson–Hanson active-set method
+/// (Lawson & Hanson, *Solving Least Squares Problems*, 1974, ch. 23). It
+/// moves one variable at a time into the passive (free) set where the
+/// gradient says the cost falls, solves the least-squares problem on the
+/// passive set, and steps back along the segment where a passive variable
+/// would turn negative; it ends at the exact optimum.
+fn nnls(a: &Mat<f64>, d: &[f64]) -> Result<NnlsSolution, IdentificationError> {
+    let (rows, p) = (a.nrows(), a.ncols());
+    let a_norm = (0..rows)
+        .flat_map(|i| (0..p).map(move |j| (i, j)))
+        .map(|(i, j)| a[(i, j)] * a[(i, j)])
         .sum::<f64>()
-        .sqrt()
-        .max(f64::MIN_POSITIVE);
-    let col: Vec<f64> = (0..p)
+        .sqrt();
+    let d_norm = d.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let scale = (a_norm * d_norm).max(f64::MIN_POSITIVE);
+    let tol = 10.0 * p.max(1) as f64 * f64::EPSILON * scale;
+    // gradient of −½‖a x − d‖²: aᵀ(d − a x)
+    let descent = |x: &[f64]| -> Vec<f64> {
+        let r: Vec<f64> = (0..rows)
+            .map(|i| d[i] - (0..p).map(|j| a[(i, j)] * x[j]).sum::<f64>())
+            .collect();
+        (0..p)
+            .map(|j| (0..rows).map(|i| a[(i, j)] * r[i]).sum())
+            .collect()
+    };
+    let mut x = vec![0.0; p];
+    let mut passive = vec![false; p];
+    let mut iterations = 0;
+    let limit = 30 * (p + 1);
+    loop {
+        let w = descent(&x);
+        let candidate = (0..p)
+            .filter(|&j| !passive[j] && w[j] > tol)
+            .max_by(|&i, &j| w[i].total_cmp(&w[j]));
+        let Some(t) = candidate else { break };
+        passive[t] = true;
+        loop {
+            iterations += 1;
+            if iterations > limit {
+                return Err(IdentificationError::NotSolved {
+                    reason: format!("no convergence in {limit} active-set steps"),
+                });
+            }
+            let cols: Vec<usize> = (0..p).filter(|&j| passive[j]).collect();
+            let zp = least_squares(a, &cols, d);
+            let mut z = vec![0.0; p];
+            for (k, &j) in cols.iter().enumerate() {
+                z[j] = zp[k];
+            }
+            if cols.iter().all(|&j| z[j] > 0.0) {
+                x = z;
+                break;
+            }
+            // step from x toward z until the first passive variable hits 0
+            let alpha = cols
+                .iter()
+                .filter(|&&j| z[j] <= 0.0)
+                .map(|&j| x[j] / (x[j] - z[j]))
+                .fold(f64::INFINITY, f64::min);
+            for j in 0..p {
+                x[j] += alpha * (z[j] - x[j]);
+            }
+            for &j in &cols {
+                if x[j] <= 0.0 || (z[j] <= 0.0 && x[j] <= 1e-15 * (1.0 + x[j].abs())) {
+                    x[j] = 0.0;
+                    passive[j] = false;
+                }
+            }
+        }
+    }
+    // KKT: descent direction zero on the free variables, ≤ 0 on the bound ones
+    let w = descent(&x);
+    let kkt = (0..p)
         .map(|j| {
-            let n = (0..p).map(|i| m[(i, j)] * m[(i, j)]).sum::<f64>().sqrt();
-            if n > 0.0 {
-                n
+            if x[j] > 0.0 {
+                w[j].abs()
             } else {
-                1.0
+                w[j].max(0.0)
             }
         })
-        .collect();
-    // variables x = (S̃, e); P = diag(0, I)
-    let mut p_rows = Vec::with_capacity(2 * p);
-    for i in 0..2 * p {
-        let mut row = vec![0.0; 2 * p];
-        if i >= p {
-            row[i] = 1.0;
-        }
-        p_rows.push(row);
-    }
-    let p_mat = CscMatrix::from(p_rows.iter().map(|r| r.iter()));
-    let q = vec![0.0; 2 * p];
-    // rows 0..p: [M̃, −I] x = c̃ (zero cone); rows p..2p: [−I, 0] x + s = −b̃.
-    let mut a_rows = Vec::with_capacity(2 * p);
-    for i in 0..p {
-        let mut row = vec![0.0; 2 * p];
-        for j in 0..p {
-            row[j] = m[(i, j)] / col[j];
-        }
-        row[p + i] = -1.0;
-        a_rows.push(row);
-    }
-    for i in 0..p {
-        let mut row = vec![0.0; 2 * p];
-        row[i] = -1.0;
-        a_rows.push(row);
-    }
-    let a_mat = CscMatrix::from(a_rows.iter().map(|r| r.iter()));
-    let mut b: Vec<f64> = c.iter().map(|x| x / c_norm).collect();
-    b.extend(bounds.iter().zip(&col).map(|(x, s)| -x * s / c_norm));
-    let cones = [
-        SupportedConeT::ZeroConeT(p),
-        SupportedConeT::NonnegativeConeT(p),
-    ];
-    let settings = DefaultSettingsBuilder::default()
-        .verbose(false)
-        .max_iter(200)
-        .build()
-        .map_err(|e| IdentificationError::NotSolved {
-            status: format!("settings: {e}"),
-        })?;
-    let mut solver = DefaultSolver::new(&p_mat, &q, &a_mat, &b, &cones, settings).map_err(|e| {
-        IdentificationError::NotSolved {
-            status: format!("setup: {e}"),
-        }
-    })?;
-    solver.solve();
-    let status = solver.solution.status;
-    if status != SolverStatus::Solved {
-        return Err(IdentificationError::NotSolved {
-            status: format!("{status:?}"),
-        });
-    }
-    let sol = &solver.solution;
-    Ok(QpSolution {
-        sums: (0..p).map(|j| sol.x[j] * c_norm / col[j]).collect(),
-        // strict complementarity: a bound is active where its dual exceeds its slack
-        active: (0..p).map(|j| sol.z[p + j] > sol.s[p + j]).collect(),
-        iterations: sol.iterations,
+        .fold(0.0f64, f64::max);
+    Ok(NnlsSolution {
+        x,
+        kkt_residual: kkt / scale,
+        iterations,
     })
-}
-
-/// Partial sums, the active bounds and the iteration count of the QP.
-struct QpSolution {
-    sums: Vec<f64>,
-    active: Vec<bool>,
-    iterations: u32,
-}
-
-/// Equality-constrained least squares on the active set: `S_A = bounds_A`,
-/// `S_F` minimizing `‖M_F S_F − (c − M_A b_A)‖`. Accepted if `S_F ≥ bounds_F`
-/// and the multipliers `g_A = (Mᵀ(M S − c))_A` are non-negative (KKT).
-fn polish(m: &Mat<f64>, c: &[f64], bounds: &[f64], active: &[bool]) -> Option<Vec<f64>> {
-    let p = c.len();
-    let free: Vec<usize> = (0..p).filter(|&j| !active[j]).collect();
-    let mut s: Vec<f64> = (0..p)
-        .map(|j| if active[j] { bounds[j] } else { 0.0 })
-        .collect();
-    if !free.is_empty() {
-        let mf = Mat::from_fn(p, free.len(), |i, k| m[(i, free[k])]);
-        let rhs = Mat::from_fn(p, 1, |i, _| {
-            c[i] - (0..p)
-                .filter(|&j| active[j])
-                .map(|j| m[(i, j)] * bounds[j])
-                .sum::<f64>()
-        });
-        let sol = mf.qr().solve_lstsq(&rhs);
-        for (k, &j) in free.iter().enumerate() {
-            s[j] = sol[(k, 0)];
-        }
-    }
-    let scale = s.iter().fold(0.0f64, |a, x| a.max(x.abs())).max(1e-300);
-    if free.iter().any(|&j| s[j] < bounds[j] - 1e-12 * scale) || s.iter().any(|x| !x.is_finite()) {
-        return None;
-    }
-    // residual and gradient g = Mᵀ (M S − c)
-    let res: Vec<f64> = (0..p)
-        .map(|i| (0..p).map(|j| m[(i, j)] * s[j]).sum::<f64>() - c[i])
-        .collect();
-    let g_scale: f64 = (0..p)
-        .map(|j| (0..p).map(|i| m[(i, j)].abs() * c[i].abs()).sum::<f64>())
-        .fold(0.0, f64::max);
-    for j in (0..p).filter(|&j| active[j]) {
-        let g: f64 = (0..p).map(|i| m[(i, j)] * res[i]).sum();
-        if g < -1e-9 * g_scale {
-            return None;
-        }
-    }
-    for j in free {
-        s[j] = s[j].max(bounds[j]);
-    }
-    Some(s)
 }
 
 /// `w_0 = S_0`, `w_j = S_j − S_{j−1}`, nudged up by ulps where needed so that

@@ -189,3 +189,60 @@ pub fn write_figure(fig: &Figure, stem: &Path) -> Result<Vec<PathBuf>, String> {
     .map_err(|e| format!("{}: {e}", png.display()))?;
     Ok(vec![svg, png])
 }
+
+/// Write `fig` to `path`, SVG or PNG by its extension.
+pub fn write_figure_file(fig: &Figure, path: &Path) -> Result<(), String> {
+    register();
+    let h = 330 * fig.panels.len() as u32 + 50;
+    let result = match path.extension().and_then(|e| e.to_str()) {
+        Some("svg") => draw(SVGBackend::new(path, (1000, h)).into_drawing_area(), fig, 2),
+        Some("png") => draw(
+            BitMapBackend::new(path, (1000, h)).into_drawing_area(),
+            fig,
+            1,
+        ),
+        _ => Err("name a .png or .svg file".into()),
+    };
+    result.map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// The identification figure: measured and model output over the input
+/// (the loops), and the residual over time, with the fitted samples marked.
+pub fn write_identification_plot(
+    path: &Path,
+    u: &[f64],
+    y: &[f64],
+    fit: &[f64],
+    sample_time: f64,
+    fitted: &std::ops::Range<usize>,
+) -> Result<(), String> {
+    let t: Vec<f64> = (0..u.len()).map(|k| k as f64 * sample_time).collect();
+    let r = fitted.clone();
+    let e: Vec<f64> = fit.iter().zip(y).map(|(a, b)| a - b).collect();
+    let fig = Figure {
+        title: "identification: measurement and identified model".into(),
+        panels: vec![
+            panel(
+                "output over input (fitted samples)",
+                "u",
+                "y",
+                vec![
+                    series("measured", &u[r.clone()], &y[r.clone()], COLORS[0]),
+                    series(
+                        "identified model",
+                        &u[r.clone()],
+                        &fit[r.clone()],
+                        COLORS[1],
+                    ),
+                ],
+            ),
+            panel(
+                "residual (model - measured) over time",
+                "t (s)",
+                "residual",
+                vec![series("residual", &t, &e, COLORS[2])],
+            ),
+        ],
+    };
+    write_figure_file(&fig, path)
+}
