@@ -323,6 +323,22 @@ impl CreepOperator {
         self.output
     }
 
+    /// Advance the state with `v_k` like [`CreepOperator::advance`], without
+    /// computing the output (for callers that read the log(t) outputs).
+    #[inline]
+    pub(crate) fn advance_state(&mut self, v: f64) {
+        let v = if v.is_finite() { v } else { self.last_input };
+        self.last_input = v;
+        for ((chi, &r), &g) in self
+            .chi
+            .iter_mut()
+            .zip(&self.flat_thresholds)
+            .zip(&self.flat_gains)
+        {
+            *chi += g * dead_zone(v - *chi, r);
+        }
+    }
+
     fn refresh_output(&mut self) {
         self.output = weighted_sum(&self.flat_weights, &self.chi);
     }
