@@ -332,3 +332,108 @@ fn non_identifiable_subset_is_refused_with_its_parameters_named() {
         .to_string();
     assert!(e.contains("unknown parameter 'colour'"), "{e}");
 }
+
+/// The measured-record model with the step time on a sample and no offset
+/// is the discrete simulation: the closed-form continuous step response and
+/// the exact ZOH agree at the samples (the fit of a simulated record then
+/// lands on the step time and a zero offset).
+#[test]
+fn the_continuous_step_model_matches_the_zoh_simulation_at_the_samples() {
+    let (truth, kind, u, y) = fit_setup();
+    let params = [FitParameter::around(&truth, "youngs_modulus").unwrap()];
+    let fit = fit_step_response_with(
+        &truth,
+        &params,
+        kind,
+        2e-4,
+        &u,
+        &y,
+        StepFitOptions::default(),
+    )
+    .unwrap();
+    let stroke = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!(fit.rms_residual <= 1e-9 * stroke, "{}", fit.rms_residual);
+    let (offset, _) = fit.offset.unwrap();
+    let (t_s, _) = fit.step_time.unwrap();
+    assert!(offset.abs() <= 1e-9 * stroke, "{offset}");
+    assert!((t_s - 50.0 * 2e-4).abs() <= 1e-9, "{t_s}");
+}
+
+/// A measured record: the step falls between two samples (at 0.3 of a
+/// sample after the logged switch), the sensor has an offset, there is
+/// noise. The fit finds the parameters, the offset and the step time within
+/// three standard errors.
+#[test]
+fn a_measured_step_with_offset_and_unknown_step_time_is_fitted() {
+    let (truth, kind, u, _) = fit_setup();
+    let ts = 2e-4;
+    // the true response: the continuous step at (50 + 0.3) Ts (the logged
+    // switch is at sample 50), plus an offset
+    let t_true = 50.3 * ts;
+    let modal = modal_model(&truth, kind).unwrap();
+    let form = mfcbeam::beam::simulation::DiagonalForm::new(&modal).unwrap();
+    let g = |t: f64| -> f64 {
+        if t <= 0.0 {
+            return 0.0;
+        }
+        (0..form.poles.len())
+            .map(|j| {
+                let l = form.poles[j];
+                let r = form.output[j] * form.input[j] * form.weight(j);
+                (r * ((l * t).exp() - 1.0) / l).re
+            })
+            .sum()
+    };
+    let offset = 3e-5;
+    let clean: Vec<f64> = (0..u.len())
+        .map(|k| offset + 100.0 * g(k as f64 * ts - t_true))
+        .collect();
+    let stroke = clean.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let mut rng = Lcg(77);
+    let y: Vec<f64> = clean
+        .iter()
+        .map(|v| {
+            let (a, b) = (rng.next_f64().max(1e-300), rng.next_f64());
+            v + 0.005 * stroke * (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
+        })
+        .collect();
+    let start = perturbed(&truth);
+    let params: Vec<FitParameter> = FIT
+        .iter()
+        .map(|n| FitParameter::around(&start, n).unwrap())
+        .collect();
+    let fit = fit_step_response_with(&start, &params, kind, ts, &u, &y, StepFitOptions::default())
+        .unwrap();
+    for (i, n) in FIT.iter().enumerate() {
+        let t = parameter(&truth, n).unwrap();
+        let se = fit.standard_errors[i];
+        assert!(
+            (fit.values[i] - t).abs() <= 3.0 * se,
+            "{n}: {} vs {t} (se {se:e})",
+            fit.values[i]
+        );
+    }
+    let (o, o_se) = fit.offset.unwrap();
+    assert!(
+        (o - offset).abs() <= 3.0 * o_se,
+        "offset {o} vs {offset} (se {o_se:e})"
+    );
+    let (t, t_se) = fit.step_time.unwrap();
+    assert!(
+        (t - t_true).abs() <= 3.0 * t_se,
+        "step time {t} vs {t_true} (se {t_se:e})"
+    );
+    assert!(
+        t_se < 0.1 * ts,
+        "the step time is found to a tenth of a sample: se {t_se:e}"
+    );
+    assert!((fit.rms_residual / (0.005 * stroke) - 1.0).abs() < 0.1);
+    // without the step time and offset the same record fits much worse
+    let plain = fit_step_response(&start, &params, kind, ts, &u, &y).unwrap();
+    assert!(
+        plain.rms_residual > 1.5 * fit.rms_residual,
+        "{} vs {}",
+        plain.rms_residual,
+        fit.rms_residual
+    );
+}

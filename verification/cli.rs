@@ -914,3 +914,112 @@ fn reproduce_writes_traces_plots_and_a_summary_where_every_claim_holds() {
         .unwrap()
         .contains("holds"));
 }
+
+/// Lab data: a jittered time column is accepted (its mean step is the sample
+/// time); a non-increasing one, a repeated column name, a computed
+/// non-finite output and bad identify options each end in exit 2 and one
+/// line naming the file, row or option — and no output file.
+#[test]
+fn lab_data_inputs_are_accepted_or_refused_with_one_line() {
+    let d = TempDir::new("lab-inputs");
+    let output = d.path("out.csv");
+    // jitter of up to 2e-4 of a step: accepted
+    let jittered: String = std::iter::once("t,u".to_string())
+        .chain((0..100).map(|k| {
+            let jitter = if k % 2 == 0 { 2e-8 } else { -2e-8 };
+            format!("{:?},{}", k as f64 * 2e-4 + jitter, k)
+        }))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let input = d.write("jitter.csv", &jittered);
+    let out = mfcbeam(&[
+        "simulate",
+        "--model",
+        MODEL,
+        "--input",
+        s(&input),
+        "--output",
+        s(&output),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    fs::remove_file(&output).unwrap();
+    // time going backwards
+    let back = d.write("back.csv", "t,u\n0,0\n0.0002,1\n0.0001,2\n0.0003,3\n");
+    let out = mfcbeam(&[
+        "simulate",
+        "--model",
+        MODEL,
+        "--input",
+        s(&back),
+        "--output",
+        s(&output),
+    ]);
+    assert_clean_failure(
+        &out,
+        &["back.csv", "row 3", "'t'", "does not increase"],
+        Some(&output),
+    );
+    // a repeated column name
+    let dup = d.write("dupcol.csv", "u,x,u\n1,2,3\n");
+    let out = mfcbeam(&[
+        "simulate",
+        "--model",
+        MODEL,
+        "--input",
+        s(&dup),
+        "--output",
+        s(&output),
+    ]);
+    assert_clean_failure(&out, &["dupcol.csv", "'u'", "repeats"], Some(&output));
+    // targets no voltage can reach without limits: the output would not be finite
+    let huge = d.write("huge.csv", "y_d\n0\n1e308\n-1e308\n");
+    let out = mfcbeam(&[
+        "compensate",
+        "--model",
+        MODEL,
+        "--input",
+        s(&huge),
+        "--output",
+        s(&output),
+        "--no-limits",
+    ]);
+    assert_clean_failure(&out, &["row 2", "'u'", "non-finite"], Some(&output));
+    // identify options
+    let sig = d.path("sig.csv");
+    assert!(mfcbeam(&[
+        "signal",
+        "--output",
+        s(&sig),
+        "--periods",
+        "2",
+        "--plateau",
+        "0.05"
+    ])
+    .status
+    .success());
+    let lab = d.path("lab.csv");
+    let sim = mfcbeam(&[
+        "simulate",
+        "--model",
+        MODEL,
+        "--input",
+        s(&sig),
+        "--output",
+        s(&lab),
+    ]);
+    assert!(sim.status.success());
+    let model_out = d.path("m.json");
+    for (args, needle) in [
+        (vec!["--holdout", "1.5"], "--holdout"),
+        (vec!["--plot", "fit.txt"], "--plot"),
+        (vec!["--fit-from", "99999999"], "fit_from"),
+    ] {
+        let mut all = vec!["identify", "--input", s(&lab), "--output", s(&model_out)];
+        all.extend(args);
+        assert_clean_failure(&mfcbeam(&all), &[needle], Some(&model_out));
+    }
+}

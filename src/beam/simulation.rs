@@ -140,7 +140,7 @@ pub struct DiscreteBeam {
 }
 
 /// `e^{s} − 1` for complex `s` without cancellation.
-fn cexpm1(s: c64) -> c64 {
+pub(crate) fn cexpm1(s: c64) -> c64 {
     let (sin, cos) = s.im.sin_cos();
     let half = (0.5 * s.im).sin();
     c64::new(s.re.exp_m1() * cos - 2.0 * half * half, s.re.exp() * sin)

@@ -1,13 +1,20 @@
 //! Identification of beam parameters from a step response (the paper's
-//! section 4.2): Levenberg–Marquardt on the mean square error between a
-//! measured and a simulated tip response, over a chosen subset of the
-//! physical parameters.
+//! section 4.2): least squares between a measured and a simulated tip
+//! response over a chosen subset of the physical parameters, by
+//! Levenberg–Marquardt (the `levenberg-marquardt` crate, on nalgebra).
 //!
 //! Parameters are fitted in log coordinates `p = ln θ` (they are all
 //! positive, and relative steps suit quantities spanning many decades),
-//! clamped to their bounds. The Jacobian is formed by central differences
-//! (relative step 1e-4); the damped normal equations
-//! `(JᵀJ + λ diag JᵀJ) δ = −Jᵀ r` are solved with a Cholesky factor.
+//! clamped to their bounds. Their Jacobian columns are central differences
+//! (step 1e-4 in `ln θ`).
+//!
+//! A measured record ([`fit_step_response_with`]) has two more unknowns: the
+//! sensor's offset, and the time of the step, which a logger does not place
+//! on a sample. For a single step `u_0 → u_1` at time `t_s` the response is
+//! `y_k = offset + G(0) u_0 + (u_1 − u_0) s(k T_s − t_s)` with `s` the beam's
+//! exact continuous unit step response from the modal form, so `t_s` is a
+//! continuous parameter; the Jacobian columns of the offset (1) and of `t_s`
+//! (minus the impulse response) are exact.
 //!
 //! From one tip response not every parameter is identifiable: scaling
 //! `μ, Λ, γ_e, γ_i, Γ_p` together changes nothing. Before fitting, the
@@ -18,11 +25,13 @@
 
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
 
 use crate::beam::fe::FiniteElementModel;
 use crate::beam::modal::ModalModel;
 use crate::beam::ritz::RitzModel;
-use crate::beam::simulation::DiscreteBeam;
+use crate::beam::simulation::{cexpm1, DiagonalForm, DiscreteBeam};
 use crate::beam::{BeamError, BeamParameters};
 
 /// Central-difference step in log coordinates: truncation error `~h² ≈ 1e-8`,
@@ -154,7 +163,11 @@ pub struct BeamFit {
     pub rms_residual: f64,
     /// RMS of the residual at the start (m).
     pub initial_rms_residual: f64,
-    /// Levenberg–Marquardt iterations.
+    /// Fitted output offset (m) and its standard error, if fitted.
+    pub offset: Option<(f64, f64)>,
+    /// Fitted step time (s) and its standard error, if fitted.
+    pub step_time: Option<(f64, f64)>,
+    /// Residual evaluations of Levenberg–Marquardt.
     pub iterations: usize,
 }
 
@@ -169,8 +182,205 @@ pub fn simulate_response(
     Ok(DiscreteBeam::new(&modal, sample_time)?.simulate(u))
 }
 
+/// What else a measured step record needs besides the beam's parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StepFitOptions {
+    /// Fit a constant output offset (a sensor's zero), in metres.
+    pub offset: bool,
+    /// Fit the time of the step (continuous, not a sample index): the input
+    /// must then be a single step, `u_0` before and `u_1` after.
+    pub step_time: bool,
+}
+
+impl Default for StepFitOptions {
+    /// A measured record: both.
+    fn default() -> Self {
+        Self {
+            offset: true,
+            step_time: true,
+        }
+    }
+}
+
+/// A single step in an input trace: the sample where it switches and the
+/// levels before and after.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepInput {
+    pub sample: usize,
+    pub before: f64,
+    pub after: f64,
+}
+
+impl StepInput {
+    /// The step in `u`: the largest jump between samples, with `u` constant
+    /// (to 1e-3 of the jump) on both sides.
+    pub fn detect(u: &[f64]) -> Result<Self, BeamError> {
+        let bad = |reason: String| BeamError::InvalidSetting {
+            field: "input",
+            reason,
+        };
+        let k = (1..u.len())
+            .max_by(|&a, &b| (u[a] - u[a - 1]).abs().total_cmp(&(u[b] - u[b - 1]).abs()))
+            .ok_or_else(|| bad("a step needs at least two samples".into()))?;
+        let (before, after) = (u[k - 1], u[k]);
+        let jump = (after - before).abs();
+        let flat = |part: &[f64], level: f64| part.iter().all(|v| (v - level).abs() <= 1e-3 * jump);
+        if jump == 0.0 || !flat(&u[..k], before) || !flat(&u[k..], after) {
+            return Err(bad(
+                "column u is not a single step (constant before and after); fit without the step time".into(),
+            ));
+        }
+        Ok(Self {
+            sample: k,
+            before,
+            after,
+        })
+    }
+}
+
+/// The exact continuous response of `form` at `t` to a unit step at time 0
+/// from rest (0 for `t ≤ 0`), and its derivative (the impulse response):
+/// `s(t) = Σ_j w_j Re[(CV)_j (V⁻¹B)_j (e^{λ_j t} − 1)/λ_j]`.
+fn unit_step(form: &DiagonalForm, t: f64) -> (f64, f64) {
+    if t <= 0.0 {
+        return (0.0, 0.0);
+    }
+    let (mut s, mut h) = (0.0, 0.0);
+    for j in 0..form.poles.len() {
+        let l = form.poles[j];
+        let r = form.output[j] * form.input[j] * form.weight(j);
+        s += (r * cexpm1(l * t) / l).re;
+        h += (r * (l * t).exp()).re;
+    }
+    (s, h)
+}
+
+/// A step-response fit as a least-squares problem for the
+/// `levenberg-marquardt` crate: parameters `[ln θ…, offset?, t_s?]`.
+struct StepProblem<'a> {
+    start: &'a BeamParameters,
+    parameters: &'a [FitParameter],
+    lo: Vec<f64>,
+    hi: Vec<f64>,
+    kind: BeamModelKind,
+    sample_time: f64,
+    u: &'a [f64],
+    y: &'a [f64],
+    step: Option<StepInput>,
+    options: StepFitOptions,
+    x: DVector<f64>,
+}
+
+impl StepProblem<'_> {
+    fn beam(&self, x: &DVector<f64>) -> BeamParameters {
+        let mut b = self.start.clone();
+        for (k, fp) in self.parameters.iter().enumerate() {
+            *field_mut(&mut b, &fp.name).expect("checked") = x[k].exp();
+        }
+        b
+    }
+
+    fn offset(&self, x: &DVector<f64>) -> f64 {
+        if self.options.offset {
+            x[self.parameters.len()]
+        } else {
+            0.0
+        }
+    }
+
+    fn step_time(&self, x: &DVector<f64>) -> Option<f64> {
+        self.options
+            .step_time
+            .then(|| x[self.parameters.len() + usize::from(self.options.offset)])
+    }
+
+    /// The model response and, for a step, `∂y/∂t_s`.
+    fn response(&self, x: &DVector<f64>) -> Result<(Vec<f64>, Vec<f64>), BeamError> {
+        let beam = self.beam(x);
+        let offset = self.offset(x);
+        match (self.step, self.step_time(x)) {
+            (Some(step), Some(t_s)) => {
+                let form = DiagonalForm::new(&modal_model(&beam, self.kind)?)?;
+                let g0 = form.static_gain();
+                let du = step.after - step.before;
+                let mut y = Vec::with_capacity(self.u.len());
+                let mut dy = Vec::with_capacity(self.u.len());
+                for k in 0..self.u.len() {
+                    let (s, h) = unit_step(&form, k as f64 * self.sample_time - t_s);
+                    y.push(offset + g0 * step.before + du * s);
+                    dy.push(-du * h);
+                }
+                Ok((y, dy))
+            }
+            _ => {
+                let y = simulate_response(&beam, self.kind, self.sample_time, self.u)?;
+                Ok((y.iter().map(|v| v + offset).collect(), Vec::new()))
+            }
+        }
+    }
+
+    fn residual_vec(&self, x: &DVector<f64>) -> Option<Vec<f64>> {
+        let (y, _) = self.response(x).ok()?;
+        Some(y.iter().zip(self.y).map(|(a, b)| a - b).collect())
+    }
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for StepProblem<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    /// Log parameters are kept inside their bounds.
+    fn set_params(&mut self, x: &DVector<f64>) {
+        self.x = x.clone();
+        for k in 0..self.parameters.len() {
+            self.x[k] = self.x[k].clamp(self.lo[k], self.hi[k]);
+        }
+    }
+
+    fn params(&self) -> DVector<f64> {
+        self.x.clone()
+    }
+
+    fn residuals(&self) -> Option<DVector<f64>> {
+        self.residual_vec(&self.x).map(DVector::from_vec)
+    }
+
+    /// Central differences in the log parameters; the offset's column is 1
+    /// and the step time's the (negated, scaled) impulse response.
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        let n = self.u.len();
+        let p = self.parameters.len();
+        let cols = self.x.len();
+        let mut j = DMatrix::<f64>::zeros(n, cols);
+        for k in 0..p {
+            let (mut a, mut b) = (self.x.clone(), self.x.clone());
+            a[k] += FD_STEP;
+            b[k] -= FD_STEP;
+            let (ra, rb) = (self.residual_vec(&a)?, self.residual_vec(&b)?);
+            for i in 0..n {
+                j[(i, k)] = (ra[i] - rb[i]) / (2.0 * FD_STEP);
+            }
+        }
+        let mut c = p;
+        if self.options.offset {
+            j.column_mut(c).fill(1.0);
+            c += 1;
+        }
+        if self.step.is_some() && self.options.step_time {
+            let (_, dy) = self.response(&self.x).ok()?;
+            for i in 0..n {
+                j[(i, c)] = dy[i];
+            }
+        }
+        Some(j)
+    }
+}
+
 /// Fit `parameters` of `start` so that the simulated response to `u` matches
-/// `y` in the least-squares sense.
+/// `y` in the least-squares sense, from a record simulated from rest (no
+/// offset, the step where `u` has it). See [`fit_step_response_with`] for a
+/// measured record.
 pub fn fit_step_response(
     start: &BeamParameters,
     parameters: &[FitParameter],
@@ -178,6 +388,27 @@ pub fn fit_step_response(
     sample_time: f64,
     u: &[f64],
     y: &[f64],
+) -> Result<BeamFit, BeamError> {
+    let options = StepFitOptions {
+        offset: false,
+        step_time: false,
+    };
+    fit_step_response_with(start, parameters, kind, sample_time, u, y, options)
+}
+
+/// Fit `parameters` of `start` to a measured tip response `y` to the input
+/// `u`, with an output offset and a continuous step time as `options` say,
+/// by Levenberg–Marquardt (the `levenberg-marquardt` crate) in log
+/// coordinates within the parameters' bounds. A subset the response cannot
+/// identify is refused first, naming the parameters.
+pub fn fit_step_response_with(
+    start: &BeamParameters,
+    parameters: &[FitParameter],
+    kind: BeamModelKind,
+    sample_time: f64,
+    u: &[f64],
+    y: &[f64],
+    options: StepFitOptions,
 ) -> Result<BeamFit, BeamError> {
     start.validate()?;
     let p = parameters.len();
@@ -187,7 +418,8 @@ pub fn fit_step_response(
             reason: "name at least one parameter".into(),
         });
     }
-    if u.len() != y.len() || u.len() <= p {
+    let extra = usize::from(options.offset) + usize::from(options.step_time);
+    if u.len() != y.len() || u.len() <= p + extra {
         return Err(BeamError::InvalidSetting {
             field: "input",
             reason: format!(
@@ -215,131 +447,127 @@ pub fn fit_step_response(
             });
         }
     }
-    let lo: Vec<f64> = parameters.iter().map(|f| f.lower.ln()).collect();
-    let hi: Vec<f64> = parameters.iter().map(|f| f.upper.ln()).collect();
-    let with = |logp: &[f64]| -> BeamParameters {
-        let mut b = start.clone();
-        for (fp, &l) in parameters.iter().zip(logp) {
-            *field_mut(&mut b, &fp.name).expect("checked above") = l.exp();
-        }
-        b
+    let step = if options.step_time {
+        Some(StepInput::detect(u)?)
+    } else {
+        None
     };
-    let residual = |logp: &[f64]| -> Result<Vec<f64>, BeamError> {
-        let sim = simulate_response(&with(logp), kind, sample_time, u)?;
-        Ok(sim.iter().zip(y).map(|(a, b)| a - b).collect())
-    };
-    let cost = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
-    let jacobian = |logp: &[f64]| -> Result<Mat<f64>, BeamError> {
-        let h = FD_STEP;
-        let mut j = Mat::<f64>::zeros(u.len(), p);
-        for k in 0..p {
-            let mut a = logp.to_vec();
-            let mut b = logp.to_vec();
-            a[k] += h;
-            b[k] -= h;
-            let (ra, rb) = (residual(&a)?, residual(&b)?);
-            for i in 0..u.len() {
-                j[(i, k)] = (ra[i] - rb[i]) / (2.0 * h);
-            }
-        }
-        Ok(j)
-    };
-
-    let mut logp: Vec<f64> = parameters
+    let mut x0: Vec<f64> = parameters
         .iter()
-        .map(|f| parameter(start, &f.name).unwrap().ln())
+        .map(|f| parameter(start, &f.name).expect("checked").ln())
         .collect();
-    let mut r = residual(&logp)?;
-    let initial_rms = (cost(&r) / r.len() as f64).sqrt();
-    let mut j = jacobian(&logp)?;
-    check_identifiable(&j, parameters)?;
-
-    let mut lambda = 1e-3;
-    let mut iterations = 0;
-    for _ in 0..100 {
-        iterations += 1;
-        let jtj = j.transpose() * &j;
-        let jtr: Vec<f64> = (0..p)
-            .map(|k| (0..r.len()).map(|i| j[(i, k)] * r[i]).sum())
-            .collect();
-        let c0 = cost(&r);
-        let mut improved = false;
-        for _ in 0..30 {
-            let a = Mat::from_fn(p, p, |i, k| {
-                jtj[(i, k)]
-                    + if i == k {
-                        lambda * jtj[(i, i)].max(1e-300)
-                    } else {
-                        0.0
-                    }
-            });
-            let rhs = Mat::from_fn(p, 1, |i, _| -jtr[i]);
-            let Ok(llt) = a.llt(Side::Lower) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let delta = llt.solve(&rhs);
-            let trial: Vec<f64> = (0..p)
-                .map(|k| (logp[k] + delta[(k, 0)]).clamp(lo[k], hi[k]))
-                .collect();
-            let rt = residual(&trial)?;
-            if cost(&rt) < c0 {
-                let step: f64 = (0..p)
-                    .map(|k| (trial[k] - logp[k]).abs())
-                    .fold(0.0, f64::max);
-                let rel = (c0 - cost(&rt)) / c0.max(f64::MIN_POSITIVE);
-                logp = trial;
-                r = rt;
-                lambda = (lambda / 10.0).max(1e-12);
-                improved = true;
-                if step < 1e-12 || rel < 1e-14 {
-                    return finish(
-                        &with(&logp),
-                        &logp,
-                        &r,
-                        &jacobian(&logp)?,
-                        initial_rms,
-                        iterations,
-                    );
-                }
-                break;
-            }
-            lambda *= 10.0;
-        }
-        if !improved {
-            break;
-        }
-        j = jacobian(&logp)?;
+    if options.offset {
+        // the mean before the step (or at the start) less the model's rest value
+        x0.push(0.0);
     }
-    // `j` is the Jacobian at `logp` here: it is refreshed after every accepted step
-    finish(&with(&logp), &logp, &r, &j, initial_rms, iterations)
+    if let Some(s) = step {
+        x0.push(s.sample as f64 * sample_time);
+    }
+    let mut problem = StepProblem {
+        start,
+        parameters,
+        lo: parameters.iter().map(|f| f.lower.ln()).collect(),
+        hi: parameters.iter().map(|f| f.upper.ln()).collect(),
+        kind,
+        sample_time,
+        u,
+        y,
+        step,
+        options,
+        x: DVector::from_vec(x0),
+    };
+    if options.offset {
+        // start the offset where the data say: mean residual of the start model
+        let r = problem
+            .residual_vec(&problem.x)
+            .ok_or_else(|| BeamError::Numerical("the starting model does not simulate".into()))?;
+        let k = p;
+        problem.x[k] = -r.iter().sum::<f64>() / r.len() as f64;
+    }
+    let r0 = problem
+        .residual_vec(&problem.x)
+        .ok_or_else(|| BeamError::Numerical("the starting model does not simulate".into()))?;
+    let initial_rms = (r0.iter().map(|v| v * v).sum::<f64>() / r0.len() as f64).sqrt();
+    let j0 = problem
+        .jacobian()
+        .ok_or_else(|| BeamError::Numerical("the Jacobian could not be formed".into()))?;
+    let mut names: Vec<String> = parameters.iter().map(|f| f.name.clone()).collect();
+    if options.offset {
+        names.push("offset".into());
+    }
+    if options.step_time {
+        names.push("step_time".into());
+    }
+    check_identifiable(&to_faer(&j0), &names)?;
+
+    let (problem, report) = LevenbergMarquardt::new()
+        .with_patience(200)
+        .minimize(problem);
+    if !report.termination.was_successful() {
+        return Err(BeamError::Numerical(format!(
+            "Levenberg-Marquardt stopped: {:?}",
+            report.termination
+        )));
+    }
+    let x = problem.x.clone();
+    let r = problem
+        .residual_vec(&x)
+        .ok_or_else(|| BeamError::Numerical("the fitted model does not simulate".into()))?;
+    let j = problem
+        .jacobian()
+        .ok_or_else(|| BeamError::Numerical("the Jacobian could not be formed".into()))?;
+    finish(
+        &problem.beam(&x),
+        x.as_slice(),
+        p,
+        options,
+        &r,
+        &to_faer(&j),
+        initial_rms,
+        report.number_of_evaluations,
+    )
 }
 
+fn to_faer(j: &DMatrix<f64>) -> Mat<f64> {
+    Mat::from_fn(j.nrows(), j.ncols(), |i, k| j[(i, k)])
+}
+
+#[allow(clippy::too_many_arguments)]
 fn finish(
     beam: &BeamParameters,
-    logp: &[f64],
+    x: &[f64],
+    p: usize,
+    options: StepFitOptions,
     r: &[f64],
     j: &Mat<f64>,
     initial_rms_residual: f64,
     iterations: usize,
 ) -> Result<BeamFit, BeamError> {
-    let p = logp.len();
+    let cols = x.len();
     let n = r.len();
     let ss: f64 = r.iter().map(|x| x * x).sum();
-    let sigma2 = ss / (n - p) as f64;
+    let sigma2 = ss / (n - cols) as f64;
     let jtj = j.transpose() * j;
     let inv = jtj
         .llt(Side::Lower)
-        .map(|l| l.solve(&Mat::<f64>::identity(p, p)))
+        .map(|l| l.solve(&Mat::<f64>::identity(cols, cols)))
         .map_err(|_| BeamError::Numerical("JᵀJ is singular at the solution".into()))?;
-    let values: Vec<f64> = logp.iter().map(|l| l.exp()).collect();
-    let standard_errors = (0..p)
-        .map(|k| values[k] * (sigma2 * inv[(k, k)]).max(0.0).sqrt())
-        .collect();
+    let se = |k: usize| (sigma2 * inv[(k, k)]).max(0.0).sqrt();
+    let values: Vec<f64> = x[..p].iter().map(|l| l.exp()).collect();
+    // log coordinates: d θ = θ d ln θ
+    let standard_errors = (0..p).map(|k| values[k] * se(k)).collect();
+    let mut c = p;
+    let offset = options.offset.then(|| {
+        c += 1;
+        (x[c - 1], se(c - 1))
+    });
+    let step_time = options.step_time.then(|| (x[c], se(c)));
     Ok(BeamFit {
         beam: beam.clone(),
         values,
         standard_errors,
+        offset,
+        step_time,
         rms_residual: (ss / n as f64).sqrt(),
         initial_rms_residual,
         iterations,
@@ -348,7 +576,7 @@ fn finish(
 
 /// Refuse a rank-deficient Jacobian, naming the parameters of its null
 /// direction.
-fn check_identifiable(j: &Mat<f64>, parameters: &[FitParameter]) -> Result<(), BeamError> {
+fn check_identifiable(j: &Mat<f64>, names: &[String]) -> Result<(), BeamError> {
     let p = j.ncols();
     let norms: Vec<f64> = (0..p)
         .map(|k| {
@@ -363,7 +591,7 @@ fn check_identifiable(j: &Mat<f64>, parameters: &[FitParameter]) -> Result<(), B
             field: "fit",
             reason: format!(
                 "parameter '{}' is not identifiable: the response does not depend on it",
-                parameters[k].name
+                names[k]
             ),
         });
     }
@@ -380,7 +608,7 @@ fn check_identifiable(j: &Mat<f64>, parameters: &[FitParameter]) -> Result<(), B
         let big = dir.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         let names: Vec<&str> = (0..p)
             .filter(|&k| dir[k].abs() > 0.1 * big)
-            .map(|k| parameters[k].name.as_str())
+            .map(|k| names[k].as_str())
             .collect();
         return Err(BeamError::InvalidSetting {
             field: "fit",

@@ -354,6 +354,13 @@ pub struct BeamIdentifyArgs {
     /// with a `t` column, the two must agree.
     #[arg(long, allow_hyphen_values = true)]
     pub sample_time: Option<f64>,
+    /// Fix the output offset at 0 instead of fitting it.
+    #[arg(long)]
+    pub no_offset: bool,
+    /// Do not fit the time of the step (it is fitted, continuously, when
+    /// column `u` is a single step).
+    #[arg(long)]
+    pub no_step_time: bool,
 }
 
 #[derive(Debug, Args)]

@@ -6,9 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 
-use mfcbeam::beam::step_response_fit::{
-    fit_step_response, modal_model, simulate_response, FitParameter,
-};
+use mfcbeam::beam::step_response_fit::{modal_model, simulate_response, FitParameter};
 use mfcbeam::beam::BeamParameters;
 use mfcbeam::identification::{identify as identify_model, IdentificationSettings};
 use mfcbeam::io::{read_beam, read_model, write_atomic, write_json, Trace};
@@ -454,7 +452,13 @@ fn beam_identify(a: &BeamIdentifyArgs) -> Result<()> {
         .map(|n| FitParameter::around(&beam, n.trim()))
         .collect::<std::result::Result<Vec<_>, _>>()
         .context("--fit")?;
-    let fit = fit_step_response(&beam, &params, a.model.kind(), ts, &u, &y)
+    use mfcbeam::beam::step_response_fit::{fit_step_response_with, StepFitOptions, StepInput};
+    let step = StepInput::detect(&u).ok();
+    let options = StepFitOptions {
+        offset: !a.no_offset,
+        step_time: !a.no_step_time && step.is_some(),
+    };
+    let fit = fit_step_response_with(&beam, &params, a.model.kind(), ts, &u, &y, options)
         .with_context(|| a.input.display().to_string())?;
     write_json(&a.output, &fit.beam)?;
     eprintln!("parameter                       start            fitted           std. error");
@@ -467,8 +471,19 @@ fn beam_identify(a: &BeamIdentifyArgs) -> Result<()> {
             fit.standard_errors[i]
         );
     }
+    if let Some((o, se)) = fit.offset {
+        eprintln!("{:<30} {:<16} {:<16.9e} {:.3e}", "offset (m)", "-", o, se);
+    }
+    if let Some((t, se)) = fit.step_time {
+        eprintln!(
+            "{:<30} {:<16} {:<16.9e} {:.3e}",
+            "step time (s)", "-", t, se
+        );
+    } else if !a.no_step_time {
+        eprintln!("(column u is not a single step: the step time is not fitted)");
+    }
     eprintln!(
-        "rms residual {:.4e} m (start {:.4e} m), {} iterations",
+        "rms residual {:.4e} m (start {:.4e} m), {} evaluations (Levenberg-Marquardt)",
         fit.rms_residual, fit.initial_rms_residual, fit.iterations
     );
     eprintln!("mfcbeam: wrote {}", a.output.display());
