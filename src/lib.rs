@@ -31,7 +31,8 @@
 //!   discrete creep operator has a one-sample delay
 //!   ([`operators::compensator`]), with saturation to the supply limits.
 //! * **Identification** (23)–(25): weights by constrained least squares,
-//!   faer QR and a clarabel QP (`identification`, feature `identification`).
+//!   a streamed faer QR and an exact active-set solve, with an offset and an
+//!   unknown initial state (`identification`, feature `identification`).
 //! * **Beam** (26)–(27): the paper's Ritz model and a converged finite-element
 //!   model, both in modal form, exact zero-order-hold simulation, the
 //!   Hammerstein plant and step-response fits (`beam`, feature `beam`).
@@ -49,7 +50,7 @@
 //! The operator core — [`operators`], [`io`] (model files),
 //! [`suite::reference`], [`suite::conformance`] — needs only `serde`,
 //! `serde_json` and `thiserror`: `default-features = false`. The features
-//! `identification` (faer, clarabel), `beam` (faer), `feedforward`, `suite`
+//! `identification` (faer), `beam` (faer, nalgebra, levenberg-marquardt), `feedforward`, `suite`
 //! (scenarios, golden traces, plots, CSV traces) and `cli` (the binary; the
 //! default) add the rest.
 //!

@@ -326,6 +326,7 @@ impl CreepOperator {
     /// Advance the state with `v_k` like [`CreepOperator::advance`], without
     /// computing the output (for callers that read the log(t) outputs).
     #[inline]
+    #[cfg_attr(not(feature = "identification"), allow(dead_code))]
     pub(crate) fn advance_state(&mut self, v: f64) {
         let v = if v.is_finite() { v } else { self.last_input };
         self.last_input = v;
