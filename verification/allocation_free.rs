@@ -60,6 +60,11 @@ fn steps_and_in_place_runs_allocate_nothing() {
     // limits well inside the input range, so the saturated path runs too
     let mut comp =
         Compensator::new(&model, CompensatorSettings::with_limits(-300.0, 300.0)).unwrap();
+    let mut bisection = mfcbeam::suite::reference::BisectionCompensator::from_file(
+        &model.to_file(),
+        CompensatorSettings::with_limits(-300.0, 300.0),
+    )
+    .unwrap();
 
     let n = allocations_during(|| {
         for &v in &input {
@@ -71,7 +76,11 @@ fn steps_and_in_place_runs_allocate_nothing() {
             std::hint::black_box(el.step(v));
             std::hint::black_box(w.step(v));
             std::hint::black_box(comp.compensate(v));
+            std::hint::black_box(bisection.compensate(v));
         }
+        // non-finite samples take the held path
+        std::hint::black_box(comp.compensate(f64::NAN));
+        std::hint::black_box(w.step(f64::INFINITY));
         w.run_into(&input, &mut out).unwrap();
         let saturated = comp.compensate_into(&input, &mut out, &mut sat).unwrap();
         assert!(saturated > 0);

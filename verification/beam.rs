@@ -274,14 +274,8 @@ fn step_response_fit_recovers_noise_free_parameters() {
 fn step_response_fit_with_noise_lands_within_three_standard_errors() {
     let (truth, kind, u, y) = fit_setup();
     let stroke = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let mut rng = Lcg(4242);
-    let noisy: Vec<f64> = y
-        .iter()
-        .map(|v| {
-            let (a, b) = (rng.next_f64().max(1e-300), rng.next_f64());
-            v + 0.01 * stroke * (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
-        })
-        .collect();
+    let noise = gaussian(&mut Lcg(4242), y.len(), 0.01 * stroke);
+    let noisy: Vec<f64> = y.iter().zip(&noise).map(|(v, e)| v + e).collect();
     let start = perturbed(&truth);
     let params: Vec<FitParameter> = FIT
         .iter()
@@ -389,14 +383,8 @@ fn a_measured_step_with_offset_and_unknown_step_time_is_fitted() {
         .map(|k| offset + 100.0 * g(k as f64 * ts - t_true))
         .collect();
     let stroke = clean.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let mut rng = Lcg(77);
-    let y: Vec<f64> = clean
-        .iter()
-        .map(|v| {
-            let (a, b) = (rng.next_f64().max(1e-300), rng.next_f64());
-            v + 0.005 * stroke * (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
-        })
-        .collect();
+    let noise = gaussian(&mut Lcg(77), clean.len(), 0.005 * stroke);
+    let y: Vec<f64> = clean.iter().zip(&noise).map(|(v, e)| v + e).collect();
     let start = perturbed(&truth);
     let params: Vec<FitParameter> = FIT
         .iter()

@@ -988,6 +988,14 @@ fn lab_data_inputs_are_accepted_or_refused_with_one_line() {
         "--no-limits",
     ]);
     assert_clean_failure(&out, &["row 2", "'u'", "non-finite"], Some(&output));
+    // invert shows the model's offset, which the compensator subtracts
+    let mut file: ModelFile = serde_json::from_str(&fs::read_to_string(MODEL).unwrap()).unwrap();
+    file.offset = Some(12.5);
+    let with_offset = d.write("offset.json", &serde_json::to_string(&file).unwrap());
+    let out = mfcbeam(&["invert", "--model", s(&with_offset)]);
+    assert!(out.status.success());
+    let inv: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(inv["offset"], 12.5);
     // identify options
     let sig = d.path("sig.csv");
     assert!(mfcbeam(&[

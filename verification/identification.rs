@@ -20,16 +20,6 @@ fn staircase_input(amplitude: f64, duration: f64) -> Vec<f64> {
     Staircase::shrinking_loops(amplitude, 4, 3, 0.1, duration / segments - 0.1).sample(SAMPLE_TIME)
 }
 
-/// Gaussian noise from the seeded LCG (Box–Muller).
-fn gaussian(rng: &mut Lcg, len: usize, sigma: f64) -> Vec<f64> {
-    (0..len)
-        .map(|_| {
-            let (a, b) = (rng.next_f64().max(1e-300), rng.next_f64());
-            sigma * (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
-        })
-        .collect()
-}
-
 fn rms(x: &[f64]) -> f64 {
     (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt()
 }

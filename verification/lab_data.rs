@@ -19,16 +19,6 @@ use mfcbeam::operators::nominal::SAMPLE_TIME;
 use mfcbeam::prelude::*;
 use mfcbeam::suite::signal::Staircase;
 
-/// Gaussian noise from the seeded LCG (Box–Muller).
-fn gaussian(rng: &mut Lcg, len: usize, sigma: f64) -> Vec<f64> {
-    (0..len)
-        .map(|_| {
-            let (a, b) = (rng.next_f64().max(1e-300), rng.next_f64());
-            sigma * (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
-        })
-        .collect()
-}
-
 const OFFSET: f64 = 37.5;
 
 /// The "true" actuator: the nominal model with a sensor offset.

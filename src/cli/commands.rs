@@ -83,6 +83,10 @@ struct InverseJson<'a> {
     thresholds: &'a [f64],
     weights: &'a [f64],
     state: &'a [f64],
+    /// The model's output offset: the compensator applies `H⁻¹` to
+    /// `target − offset − C`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    offset: Option<f64>,
 }
 
 fn invert(a: &InvertArgs) -> Result<()> {
@@ -92,6 +96,7 @@ fn invert(a: &InvertArgs) -> Result<()> {
         thresholds: inv.thresholds(),
         weights: inv.weights(),
         state: inv.play_states(),
+        offset: (model.offset() != 0.0).then_some(model.offset()),
     })?;
     print_stdout(&json)
 }

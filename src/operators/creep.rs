@@ -307,18 +307,7 @@ impl CreepOperator {
     /// the last finite one held: it never enters the state.
     #[inline]
     pub fn advance(&mut self, v: f64) -> f64 {
-        let v = if v.is_finite() { v } else { self.last_input };
-        self.last_input = v;
-        // One flat pass over all (n+1)·m elementary operators: long enough to
-        // vectorize well, unlike m short rows of n+1.
-        for ((chi, &r), &g) in self
-            .chi
-            .iter_mut()
-            .zip(&self.flat_thresholds)
-            .zip(&self.flat_gains)
-        {
-            *chi += g * dead_zone(v - *chi, r);
-        }
+        self.advance_state(v);
         self.output = weighted_sum(&self.flat_weights, &self.chi);
         self.output
     }
@@ -326,8 +315,9 @@ impl CreepOperator {
     /// Advance the state with `v_k` like [`CreepOperator::advance`], without
     /// computing the output (for callers that read the log(t) outputs).
     #[inline]
-    #[cfg_attr(not(feature = "identification"), allow(dead_code))]
     pub(crate) fn advance_state(&mut self, v: f64) {
+        // One flat pass over all (n+1)·m elementary operators: long enough to
+        // vectorize well, unlike m short rows of n+1.
         let v = if v.is_finite() { v } else { self.last_input };
         self.last_input = v;
         for ((chi, &r), &g) in self

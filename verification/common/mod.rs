@@ -41,6 +41,17 @@ impl Lcg {
     }
 }
 
+/// Gaussian noise of standard deviation `sigma` from the seeded LCG
+/// (Box–Muller).
+pub fn gaussian(rng: &mut Lcg, len: usize, sigma: f64) -> Vec<f64> {
+    (0..len)
+        .map(|_| {
+            let (a, b) = (rng.next_f64().max(1e-300), rng.next_f64());
+            sigma * (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
+        })
+        .collect()
+}
+
 /// Thresholds `0 = r_0 < r_1 < …` from positive increments.
 pub fn thresholds_from_increments(inc: &[f64]) -> Vec<f64> {
     let mut r = vec![0.0];
