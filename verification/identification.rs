@@ -50,6 +50,18 @@ fn noise_free_data_recover_the_nominal_weights() {
         w.hysteresis().thresholds(),
         thresholds_23(12, 1000.0).as_slice()
     );
+    let worst = w
+        .hysteresis()
+        .weights()
+        .iter()
+        .zip(HYSTERESIS_WEIGHTS)
+        .chain(w.creep().unwrap().weights().iter().zip(CREEP_WEIGHTS))
+        .map(|(a, b)| ((a - b) / b).abs())
+        .fold(0.0, f64::max);
+    eprintln!(
+        "worst relative weight error {worst:e}, offset {:e}",
+        id.report.offset
+    );
     for (a, b) in w.hysteresis().weights().iter().zip(HYSTERESIS_WEIGHTS) {
         assert!(((a - b) / b).abs() <= 1e-6, "hysteresis weight {a} vs {b}");
     }
