@@ -173,4 +173,25 @@ fn unusable_candidates_and_bad_options_exit_2_with_one_line() {
     );
     // a command that crashes
     assert_exit_2(&conform("model", "false", 10, &d.0), "unusable");
+    // a command that hangs is killed after the per-run timeout
+    let start = std::time::Instant::now();
+    let out = Command::new(BIN)
+        .args([
+            "conform",
+            "--kind",
+            "model",
+            "--exec",
+            "python3 -c 'import time; time.sleep(60)'",
+            "--timeout",
+            "1",
+            "--out",
+            d.0.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert_exit_2(&out, "timeout");
+    assert!(
+        start.elapsed().as_secs() < 30,
+        "the runner waited for the hanging candidate"
+    );
 }
