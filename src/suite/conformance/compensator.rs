@@ -3,6 +3,7 @@
 //! compensated staircase, odd symmetry, the state semantics of the model
 //! file, the saturation flags and the recovery after saturation.
 
+use super::candidate;
 use super::cases::{random_input, random_model, reach, with_state_after, ModelShape, Rng};
 use super::{compare, fail, refused, tolerance, two, Case, ConformanceReport, ConformanceSettings};
 use super::{CompensatorFactory, Outcome, Property};
@@ -146,10 +147,7 @@ fn saturating_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
 }
 
 fn agreement(case: &Case, factory: &CompensatorFactory, s: &ConformanceSettings) -> Outcome {
-    let mut cand = match build(factory, case) {
-        Ok(c) => c,
-        Err(o) => return o,
-    };
+    let mut cand = candidate!(build(factory, case));
     let mut reference =
         NaiveCompensator::from_file(&case.model, settings_of(case)).expect("valid case");
     let expected = outputs(&reference.compensate_all(&case.input));
@@ -164,23 +162,14 @@ fn model_after_compensator(
     factory: &CompensatorFactory,
     s: &ConformanceSettings,
 ) -> Outcome {
-    let mut cand = match build(factory, case) {
-        Ok(c) => c,
-        Err(o) => return o,
-    };
+    let mut cand = candidate!(build(factory, case));
     let out = cand.compensate_all(&case.input);
     if let Some(k) = out.iter().position(|c| c.saturated) {
-        if case.limits.is_none() {
-            return fail(
-                &case.input,
-                &[0.0],
-                &[1.0],
-                k,
-                f64::INFINITY,
-                0.0,
-                format!("sample {k} flagged saturated without limits"),
-            );
-        }
+        let why = if case.limits.is_none() {
+            "flagged saturated without limits"
+        } else {
+            "saturated on a reachable target"
+        };
         return fail(
             &case.input,
             &[0.0],
@@ -188,7 +177,7 @@ fn model_after_compensator(
             k,
             f64::INFINITY,
             0.0,
-            format!("sample {k} saturated on a reachable target"),
+            format!("sample {k} {why}"),
         );
     }
     let u = outputs(&out);
@@ -203,10 +192,7 @@ fn compensator_after_model(
     factory: &CompensatorFactory,
     s: &ConformanceSettings,
 ) -> Outcome {
-    let mut cand = match build(factory, case) {
-        Ok(c) => c,
-        Err(o) => return o,
-    };
+    let mut cand = candidate!(build(factory, case));
     let targets = plant(case).run(&case.input);
     let found = outputs(&cand.compensate_all(&targets));
     let tol = s.tolerance_scale
@@ -224,10 +210,7 @@ fn odd_symmetry(case: &Case, factory: &CompensatorFactory, s: &ConformanceSettin
         let l = lo.abs().min(hi.abs());
         virgin.limits = Some((-l, l));
     }
-    let (mut a, mut b) = match two(|| build(factory, &virgin)) {
-        Ok(pair) => pair,
-        Err(o) => return o,
-    };
+    let (mut a, mut b) = candidate!(two(|| build(factory, &virgin)));
     let neg: Vec<f64> = case.input.iter().map(|x| -x).collect();
     let expected: Vec<f64> = outputs(&a.compensate_all(&case.input))
         .iter()
@@ -256,10 +239,7 @@ fn split_and_resume(case: &Case, factory: &CompensatorFactory, s: &ConformanceSe
         input: targets.clone(),
         limits: None,
     };
-    let mut cand = match build(factory, &resumed) {
-        Ok(c) => c,
-        Err(o) => return o,
-    };
+    let mut cand = candidate!(build(factory, &resumed));
     let found = outputs(&cand.compensate_all(&targets));
     let tol = s.tolerance_scale
         * tolerance::compensator(&case.model, max_abs(&case.input), max_abs(&targets));
@@ -276,10 +256,7 @@ fn saturation_flags(case: &Case, factory: &CompensatorFactory, s: &ConformanceSe
     let Some((lo, hi)) = case.limits else {
         return Outcome::Skipped;
     };
-    let mut cand = match build(factory, case) {
-        Ok(c) => c,
-        Err(o) => return o,
-    };
+    let mut cand = candidate!(build(factory, case));
     let mut reference =
         NaiveCompensator::from_file(&case.model, settings_of(case)).expect("valid case");
     let tol = s.tolerance_scale
@@ -339,10 +316,7 @@ fn saturation_recovery(
     let Some((lo, hi)) = case.limits else {
         return Outcome::Skipped;
     };
-    let mut cand = match build(factory, case) {
-        Ok(c) => c,
-        Err(o) => return o,
-    };
+    let mut cand = candidate!(build(factory, case));
     let mut p = plant(case);
     let mut any = false;
     for c in cand.compensate_all(&case.input) {

@@ -152,10 +152,12 @@ impl ExternalCandidate {
                 program: program.clone(),
             });
         }
+        // unique per process and per candidate: each removes its own on drop
+        static CANDIDATES: AtomicUsize = AtomicUsize::new(0);
         let dir = std::env::temp_dir().join(format!(
             "mfcbeam-conform-{}-{}",
             std::process::id(),
-            Instant::now().elapsed().as_nanos()
+            CANDIDATES.fetch_add(1, Ordering::Relaxed)
         ));
         fs::create_dir_all(&dir).map_err(|e| ExternalError::Io {
             path: dir.display().to_string(),

@@ -3,6 +3,7 @@
 //! from matched admissible states, odd symmetry, rate independence and the
 //! state semantics of the model file.
 
+use super::candidate;
 use super::cases::{random_input, random_model, reach, refine, with_state_after, ModelShape, Rng};
 use super::{compare, refused, tolerance, two, Case, ConformanceReport, ConformanceSettings};
 use super::{InverseHysteresisFactory, Outcome, Property};
@@ -133,10 +134,7 @@ fn y_bound(case: &Case, y: &[f64], v: &[f64]) -> f64 {
 }
 
 fn agreement(case: &Case, factory: &InverseHysteresisFactory, s: &ConformanceSettings) -> Outcome {
-    let mut cand = match build(factory, case) {
-        Ok(c) => c,
-        Err(o) => return o,
-    };
+    let mut cand = candidate!(build(factory, case));
     let expected = naive_inverse_hysteresis(&case.model)
         .expect("valid case")
         .run(&case.input);
@@ -150,10 +148,7 @@ fn forward_after_inverse(
     factory: &InverseHysteresisFactory,
     s: &ConformanceSettings,
 ) -> Outcome {
-    let mut cand = match build(factory, case) {
-        Ok(c) => c,
-        Err(o) => return o,
-    };
+    let mut cand = candidate!(build(factory, case));
     let v = cand.run(&case.input);
     let y = forward(case).run(&v);
     let tol = s.tolerance_scale * y_bound(case, &case.input, &v);
@@ -165,10 +160,7 @@ fn inverse_after_forward(
     factory: &InverseHysteresisFactory,
     s: &ConformanceSettings,
 ) -> Outcome {
-    let mut cand = match build(factory, case) {
-        Ok(c) => c,
-        Err(o) => return o,
-    };
+    let mut cand = candidate!(build(factory, case));
     let y = forward(case).run(&case.input);
     let found = cand.run(&y);
     let tol = s.tolerance_scale * y_bound(case, &y, &case.input);
@@ -182,10 +174,7 @@ fn odd_symmetry(
 ) -> Outcome {
     let mut virgin = case.clone();
     virgin.model.hysteresis.state = None;
-    let (mut a, mut b) = match two(|| build(factory, &virgin)) {
-        Ok(pair) => pair,
-        Err(o) => return o,
-    };
+    let (mut a, mut b) = candidate!(two(|| build(factory, &virgin)));
     let neg: Vec<f64> = case.input.iter().map(|x| -x).collect();
     let expected: Vec<f64> = a.run(&case.input).iter().map(|v| -v).collect();
     let found = b.run(&neg);
@@ -201,10 +190,7 @@ fn rate_independence(
     if case.input.len() < 2 {
         return Outcome::Skipped;
     }
-    let (mut a, mut b) = match two(|| build(factory, case)) {
-        Ok(pair) => pair,
-        Err(o) => return o,
-    };
+    let (mut a, mut b) = candidate!(two(|| build(factory, case)));
     let k = 3;
     let fine = refine(&case.input, k);
     let expected = a.run(&case.input);
@@ -236,10 +222,7 @@ fn split_and_resume(
         input: y.clone(),
         limits: None,
     };
-    let mut cand = match build(factory, &resumed) {
-        Ok(c) => c,
-        Err(o) => return o,
-    };
+    let mut cand = candidate!(build(factory, &resumed));
     let found = cand.run(&y);
     let tol = s.tolerance_scale * y_bound(case, &y, &case.input);
     compare(

@@ -258,6 +258,18 @@ pub fn fail(
     }))
 }
 
+/// The candidate a factory built, or — if it refused a valid model — that
+/// refusal as the property's outcome.
+macro_rules! candidate {
+    ($build:expr) => {
+        match $build {
+            Ok(c) => c,
+            Err(o) => return o,
+        }
+    };
+}
+pub(crate) use candidate;
+
 /// Two fresh candidates (for properties that compare two runs).
 pub(crate) fn two<T>(build: impl Fn() -> Result<T, Outcome>) -> Result<(T, T), Outcome> {
     Ok((build()?, build()?))

@@ -5,6 +5,7 @@
 //! bound, the Madelung rules (i)–(iii), the Masing rule and the intersection
 //! property.
 
+use super::candidate;
 use super::cases::{
     nested_extrema, path, random_input, random_model, reach, refine, segment, valid_extrema,
     with_state_after, ModelShape, Rng,
@@ -154,10 +155,7 @@ fn nominal_hysteresis_case(_: &mut Rng, _: &ConformanceSettings, _: usize) -> Ca
 }
 
 fn agreement(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
-    let mut cand = match build(factory, case) {
-        Ok(c) => c,
-        Err(o) => return o,
-    };
+    let mut cand = candidate!(build(factory, case));
     let expected = reference(case).run(&case.input);
     let found = cand.run(&case.input);
     let tol = s.tolerance_scale * tolerance::model(&case.model, max_abs(&case.input));
@@ -174,10 +172,7 @@ fn odd_symmetry(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) ->
         model,
         ..case.clone()
     };
-    let (mut a, mut b) = match two(|| build(factory, &virgin)) {
-        Ok(pair) => pair,
-        Err(o) => return o,
-    };
+    let (mut a, mut b) = candidate!(two(|| build(factory, &virgin)));
     let neg: Vec<f64> = case.input.iter().map(|x| -x).collect();
     let expected: Vec<f64> = a.run(&case.input).iter().map(|y| -y).collect();
     let found = b.run(&neg);
@@ -196,10 +191,7 @@ fn split_and_resume(case: &Case, factory: &ModelFactory, s: &ConformanceSettings
         input: case.input[k..].to_vec(),
         limits: None,
     };
-    let mut cand = match build(factory, &resumed) {
-        Ok(c) => c,
-        Err(o) => return o,
-    };
+    let mut cand = candidate!(build(factory, &resumed));
     let found = cand.run(&resumed.input);
     let tol = s.tolerance_scale * tolerance::model(&case.model, max_abs(&case.input));
     compare(
@@ -219,10 +211,7 @@ fn rate_independence(case: &Case, factory: &ModelFactory, s: &ConformanceSetting
     if !hysteresis_only(case) || case.input.len() < 2 {
         return Outcome::Skipped;
     }
-    let (mut a, mut b) = match two(|| build(factory, case)) {
-        Ok(pair) => pair,
-        Err(o) => return o,
-    };
+    let (mut a, mut b) = candidate!(two(|| build(factory, case)));
     let k = 3;
     let fine = refine(&case.input, k);
     let expected = a.run(&case.input);
@@ -241,10 +230,7 @@ fn monotonicity(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) ->
     if !hysteresis_only(case) || case.input.is_empty() {
         return Outcome::Skipped;
     }
-    let mut cand = match build(factory, case) {
-        Ok(c) => c,
-        Err(o) => return o,
-    };
+    let mut cand = candidate!(build(factory, case));
     // the input as a history, then a monotone ramp in the direction of its sign
     let r = reach(&case.model);
     let start = case.input[case.input.len() - 1];
@@ -277,10 +263,7 @@ fn lipschitz(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Ou
     if !hysteresis_only(case) || case.input.len() < 2 {
         return Outcome::Skipped;
     }
-    let (mut a, mut b) = match two(|| build(factory, case)) {
-        Ok(pair) => pair,
-        Err(o) => return o,
-    };
+    let (mut a, mut b) = candidate!(two(|| build(factory, case)));
     // a perturbation of alternating sign, 1 % of the reach
     let d = 0.01 * reach(&case.model);
     let v: Vec<f64> = case
@@ -332,10 +315,7 @@ fn madelung_i(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> O
     looped.extend([e[1] + g * (e[2] - e[1]), e[1]]);
     looped.extend_from_slice(&e[2..]);
     let tail = segment(e[k], e[k - 1], 7);
-    let (mut a, mut b) = match two(|| build(factory, case)) {
-        Ok(pair) => pair,
-        Err(o) => return o,
-    };
+    let (mut a, mut b) = candidate!(two(|| build(factory, case)));
     a.run(&path(e, SUB));
     let signal = [path(&looped, SUB), tail.clone()].concat();
     b.run(&path(&looped, SUB));
@@ -358,10 +338,7 @@ fn madelung_ii(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> 
     let k = e.len() - 1;
     let p1 = e[k];
     let p2 = p1 + g * (e[k - 1] - p1);
-    let mut cand = match build(factory, case) {
-        Ok(c) => c,
-        Err(o) => return o,
-    };
+    let mut cand = candidate!(build(factory, case));
     let first = path(e, SUB);
     let y_p1 = *cand.run(&first).last().expect("a path has samples");
     let out = segment(p1, p2, SUB);
@@ -382,10 +359,7 @@ fn madelung_iii(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) ->
     let p2 = p1 + g * (e[k - 1] - p1);
     let dir = (p1 - e[k - 1]).signum();
     let onward = segment(p1, p1 + dir * 0.5 * reach(&case.model), 9);
-    let (mut a, mut b) = match two(|| build(factory, case)) {
-        Ok(pair) => pair,
-        Err(o) => return o,
-    };
+    let (mut a, mut b) = candidate!(two(|| build(factory, case)));
     a.run(&path(e, SUB));
     let expected = a.run(&onward);
     let signal = [
@@ -448,10 +422,7 @@ fn intersection(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) ->
     let (u_star, tops) = (case.input[0], &case.input[1..]);
     let run =
         |signal: &[f64]| -> Result<Vec<f64>, Outcome> { Ok(build(factory, case)?.run(signal)) };
-    let virgin = match run(&[segment(0.0, u_star, 5), vec![u_star + 1.0]].concat()) {
-        Ok(y) => y,
-        Err(o) => return o,
-    };
+    let virgin = candidate!(run(&[segment(0.0, u_star, 5), vec![u_star + 1.0]].concat()));
     let y_star = virgin[virgin.len() - 2];
     let mut slopes = vec![virgin[virgin.len() - 1] - y_star];
     let tol = s.tolerance_scale * (tolerance::model(&case.model, 1000.0) + 1e-9 * y_star.abs());
@@ -470,10 +441,7 @@ fn intersection(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) ->
         // 50 halvings of ~1000 V: the reversal to 1e-12 V
         for _ in 0..50 {
             let mid = 0.5 * (lo + hi);
-            let y = match run(&branch(mid)) {
-                Ok(y) => y,
-                Err(o) => return o,
-            };
+            let y = candidate!(run(&branch(mid)));
             if y[y.len() - 2] < y_star {
                 lo = mid;
             } else {
@@ -481,10 +449,7 @@ fn intersection(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) ->
             }
         }
         let signal = branch(hi);
-        let y = match run(&signal) {
-            Ok(y) => y,
-            Err(o) => return o,
-        };
+        let y = candidate!(run(&signal));
         let y_at = y[y.len() - 2];
         if (y_at - y_star).abs() > tol {
             return fail(
