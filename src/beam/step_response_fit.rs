@@ -457,8 +457,7 @@ pub fn fit_step_response_with(
         .map(|f| parameter(start, &f.name).expect("checked").ln())
         .collect();
     if options.offset {
-        // the mean before the step (or at the start) less the model's rest value
-        x0.push(0.0);
+        x0.push(0.0); // set from the starting residual below
     }
     if let Some(s) = step {
         x0.push(s.sample as f64 * sample_time);
@@ -476,17 +475,15 @@ pub fn fit_step_response_with(
         options,
         x: DVector::from_vec(x0),
     };
-    if options.offset {
-        // start the offset where the data say: mean residual of the start model
-        let r = problem
-            .residual_vec(&problem.x)
-            .ok_or_else(|| BeamError::Numerical("the starting model does not simulate".into()))?;
-        let k = p;
-        problem.x[k] = -r.iter().sum::<f64>() / r.len() as f64;
-    }
-    let r0 = problem
+    let mut r0 = problem
         .residual_vec(&problem.x)
         .ok_or_else(|| BeamError::Numerical("the starting model does not simulate".into()))?;
+    if options.offset {
+        // start the offset where the data say; the residual is linear in it
+        let mean = r0.iter().sum::<f64>() / r0.len() as f64;
+        problem.x[p] = -mean;
+        r0.iter_mut().for_each(|r| *r -= mean);
+    }
     let initial_rms = (r0.iter().map(|v| v * v).sum::<f64>() / r0.len() as f64).sqrt();
     let j0 = problem
         .jacobian()

@@ -173,7 +173,7 @@ fn write_counterexample(
     };
     let column = if run.limits.is_some() { "y_d" } else { "u" };
     // model.json, input.csv and candidate.csv, by running it once more here
-    let _ = candidate.run_in(dir, &run.model, column, &run.input, run.limits);
+    let rerun = candidate.run_in(dir, &run.model, column, &run.input, run.limits);
     let _ = fs::remove_file(dir.join("stderr.txt"));
     let f = &c.failure;
     let k: Vec<f64> = (0..f.expected.len()).map(|k| k as f64).collect();
@@ -209,7 +209,7 @@ fn write_counterexample(
     )?;
     let still = matches!(outcome, Some(Outcome::Failed(_)));
     let text = format!(
-        "property: {name}\n{description}\n{}\nsample {}: error {}, tolerance {}\n{}\n",
+        "property: {name}\n{description}\n{}\nsample {}: error {}, tolerance {}\n{}\n{}",
         f.message,
         f.sample,
         format_f64(f.error),
@@ -218,6 +218,10 @@ fn write_counterexample(
             "reproduced: the property fails again on this case"
         } else {
             "NOT reproduced on rerun: the candidate is not deterministic?"
+        },
+        match rerun {
+            Ok(_) => String::new(),
+            Err(e) => format!("the rerun that writes candidate.csv failed: {e}\n"),
         }
     );
     write_atomic(&dir.join("failure.txt"), text.as_bytes())?;

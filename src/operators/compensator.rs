@@ -7,6 +7,8 @@
 //! hysteresis state (from the transformation rules (22)), so that from matched
 //! states `W[W⁻¹[ς]] = ς` and `W⁻¹[W[v]] = v` hold to rounding.
 //!
+//! With a model offset (`y = W[v] + offset`) the target is `ς_k − offset`.
+//!
 //! A non-finite target never enters the state: the previous output is held
 //! and the sample flagged as a fault ([`Compensated::fault`]).
 //!
