@@ -5,6 +5,8 @@
 
 use thiserror::Error;
 
+use crate::realtime::ParameterError;
+
 /// What is wrong with the parameters or the state of an operator, model or
 /// compensator.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -79,6 +81,107 @@ pub enum ModelError {
     /// Two operators that must share a sample time do not.
     #[error("{field}: {reason}")]
     Inconsistent { field: String, reason: String },
+    /// More values than a fixed-capacity operator holds.
+    #[error("{field}: {found} values exceed the capacity of {capacity} fixed at compile time")]
+    ExceedsCapacity {
+        field: String,
+        capacity: usize,
+        found: usize,
+    },
+}
+
+impl From<ParameterError> for ModelError {
+    fn from(e: ParameterError) -> Self {
+        e.named("")
+    }
+}
+
+impl ParameterError {
+    /// The same error as a [`ModelError`], about `field` (or, if `field` is
+    /// empty, the field it names itself).
+    pub fn named(self, field: &str) -> ModelError {
+        use ParameterError as P;
+        let name = |own: &'static str| -> String {
+            if field.is_empty() { own } else { field }.to_string()
+        };
+        match self {
+            P::Empty { field } => ModelError::Empty { field: name(field) },
+            P::NonFinite {
+                field,
+                index,
+                value,
+            } => ModelError::NonFinite {
+                field: name(field),
+                index,
+                value,
+            },
+            P::FirstThresholdNotZero { field, value } => ModelError::FirstThresholdNotZero {
+                field: name(field),
+                value,
+            },
+            P::ThresholdsNotIncreasing {
+                field,
+                index,
+                previous,
+                value,
+            } => ModelError::ThresholdsNotIncreasing {
+                field: name(field),
+                index,
+                previous,
+                value,
+            },
+            P::LengthMismatch {
+                field,
+                expected,
+                found,
+            } => ModelError::LengthMismatch {
+                field: name(field),
+                expected,
+                found,
+            },
+            P::PartialSumNotPositive { field, index, sum } => ModelError::PartialSumNotPositive {
+                field: name(field),
+                index,
+                sum,
+            },
+            P::PartialSumNegative { field, index, sum } => ModelError::PartialSumNegative {
+                field: name(field),
+                index,
+                sum,
+            },
+            P::NonPositiveEigenvalue {
+                field,
+                index,
+                value,
+            } => ModelError::NonPositiveEigenvalue {
+                field: name(field),
+                index,
+                value,
+            },
+            P::NonPositiveSampleTime { value } => ModelError::NonPositiveSampleTime { value },
+            P::InadmissibleState {
+                field,
+                index,
+                gap,
+                allowed,
+            } => ModelError::InadmissibleState {
+                field: name(field),
+                index,
+                gap,
+                allowed,
+            },
+            P::InvalidLimits { lower, upper } => ModelError::InvalidLimits { lower, upper },
+            P::ExceedsCapacity {
+                field,
+                capacity,
+                found,
+            } => ModelError::ExceedsCapacity {
+                field: name(field),
+                capacity,
+                found,
+            },
+        }
+    }
 }
 
 /// A balanced voltage that the asymmetric supply (1) cannot produce.

@@ -79,9 +79,17 @@
 //! }
 //! ```
 
+#![cfg_attr(not(feature = "std"), no_std)]
+
+pub mod realtime;
+
+#[cfg(feature = "std")]
 pub mod error;
+#[cfg(feature = "std")]
 pub mod io;
+#[cfg(feature = "std")]
 pub mod operators;
+#[cfg(feature = "std")]
 pub mod suite;
 
 #[cfg(feature = "beam")]
@@ -92,6 +100,7 @@ pub mod feedforward;
 pub mod identification;
 
 /// The types most programs need.
+#[cfg(feature = "std")]
 pub mod prelude {
     pub use crate::error::{ModelError, SupplyError};
     pub use crate::operators::compensator::{Compensator, CompensatorSettings};

@@ -8,9 +8,15 @@ use mfcbeam::operators::hysteresis::HysteresisOperator;
 use mfcbeam::prelude::*;
 use mfcbeam::suite::conformance::{
     bisection_compensator, check_compensator, check_inverse_hysteresis, check_model,
-    fast_compensator, fast_inverse_hysteresis, fast_model, reference_compensator,
-    reference_inverse_hysteresis, reference_model, ConformanceReport, ConformanceSettings,
+    fast_compensator, fast_inverse_hysteresis, fast_model, fixed_compensator,
+    fixed_inverse_hysteresis, fixed_model, reference_compensator, reference_inverse_hysteresis,
+    reference_model, ConformanceReport, ConformanceSettings, F32_TOLERANCE_SCALE,
 };
+
+/// Capacity for the random cases: `max_plays` = 12 thresholds, up to 6
+/// eigenvalues.
+const N: usize = 12;
+const K: usize = 72;
 
 fn settings() -> ConformanceSettings {
     ConformanceSettings {
@@ -69,6 +75,46 @@ fn the_bisection_compensator_conforms() {
     assert_passes(
         &check_compensator(&bisection_compensator, &settings()).unwrap(),
         "bisection W⁻¹",
+    );
+}
+
+/// The real-time core in `f64` runs the same kernels with the same
+/// parameter transformations: bit for bit the fast operators' results.
+#[test]
+fn the_fixed_f64_core_conforms_exactly() {
+    assert_passes(
+        &check_model(&fixed_model::<f64, N, K>, &exact()).unwrap(),
+        "fixed f64 W",
+    );
+    assert_passes(
+        &check_compensator(&fixed_compensator::<f64, N, K>, &exact()).unwrap(),
+        "fixed f64 W⁻¹",
+    );
+    assert_passes(
+        &check_inverse_hysteresis(&fixed_inverse_hysteresis::<f64, N>, &exact()).unwrap(),
+        "fixed f64 H⁻¹",
+    );
+}
+
+/// The `f32` core against the `f64` reference, every tolerance scaled by
+/// `ε₃₂/ε₆₄` (see `F32_TOLERANCE_SCALE`).
+#[test]
+fn the_fixed_f32_core_conforms_at_f32_tolerances() {
+    let f32_settings = ConformanceSettings {
+        tolerance_scale: F32_TOLERANCE_SCALE,
+        ..settings()
+    };
+    assert_passes(
+        &check_model(&fixed_model::<f32, N, K>, &f32_settings).unwrap(),
+        "fixed f32 W",
+    );
+    assert_passes(
+        &check_compensator(&fixed_compensator::<f32, N, K>, &f32_settings).unwrap(),
+        "fixed f32 W⁻¹",
+    );
+    assert_passes(
+        &check_inverse_hysteresis(&fixed_inverse_hysteresis::<f32, N>, &f32_settings).unwrap(),
+        "fixed f32 H⁻¹",
     );
 }
 

@@ -24,10 +24,9 @@ use crate::operators::creep::CreepOperator;
 use crate::operators::hysteresis::{
     check_admissible, check_finite, check_length, HysteresisOperator,
 };
-use crate::operators::inverse::inverse_state_into;
 use crate::operators::model::HysteresisCreepModel;
-use crate::operators::play::play;
 use crate::operators::traits::{ActuatorCompensator, Operator, Snapshot};
+use crate::realtime::compensator::{invert_saturating, HysteresisPair};
 
 /// Saturation limits of the compensator output (balanced voltage, V).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -148,25 +147,21 @@ impl Compensator {
             Some(op) => op.output(),
             None => 0.0,
         };
-        let v = self.inverse.step(target - self.offset - c);
-        let (u, saturated) = if v < self.settings.lower_limit {
-            (self.settings.lower_limit, true)
-        } else if v > self.settings.upper_limit {
-            (self.settings.upper_limit, true)
-        } else {
-            (v, false)
-        };
-        for (x, &r) in self.forward_state.iter_mut().zip(&self.forward_thresholds) {
-            *x = play(u, r, *x);
-        }
-        if saturated {
-            inverse_state_into(
-                &self.forward_weights,
-                &self.forward_sums,
-                &self.forward_state,
-                self.inverse.play_states_mut(),
-            );
-        }
+        let (inv_thresholds, inv_weights, inv_state) = self.inverse.parts_mut();
+        let (u, saturated) = invert_saturating(
+            HysteresisPair {
+                inv_thresholds,
+                inv_weights,
+                inv_state,
+                thresholds: &self.forward_thresholds,
+                weights: &self.forward_weights,
+                sums: &self.forward_sums,
+                state: &mut self.forward_state,
+            },
+            target - self.offset - c,
+            self.settings.lower_limit,
+            self.settings.upper_limit,
+        );
         if let Some(op) = &mut self.creep {
             op.advance(u);
         }

@@ -20,17 +20,13 @@
 //! is `χ` at the next sample.
 
 use crate::error::ModelError;
-use crate::operators::hysteresis::{
-    check_finite, check_length, check_thresholds, partial_sums, weighted_sum,
-};
+use crate::operators::hysteresis::{check_finite, check_length, check_thresholds, weighted_sum};
 use crate::operators::play::dead_zone;
 use crate::operators::traits::{Operator, Snapshot};
+use crate::realtime;
+use crate::realtime::parameters;
 
-/// `1 − e^{−a T_s}` without cancellation.
-#[inline]
-pub fn creep_gain(eigenvalue: f64, sample_time: f64) -> f64 {
-    -(-eigenvalue * sample_time).exp_m1()
-}
+pub use crate::realtime::creep::creep_gain;
 
 /// (24): eigenvalues `a_j = 1 / (10^j T_s)`, `j = 1..m`.
 pub fn log_spaced_eigenvalues(m: usize, sample_time: f64) -> Vec<f64> {
@@ -40,29 +36,11 @@ pub fn log_spaced_eigenvalues(m: usize, sample_time: f64) -> Vec<f64> {
 }
 
 fn check_sample_time(ts: f64) -> Result<(), ModelError> {
-    if ts.is_finite() && ts > 0.0 {
-        Ok(())
-    } else {
-        Err(ModelError::NonPositiveSampleTime { value: ts })
-    }
+    Ok(parameters::check_sample_time(ts)?)
 }
 
 fn check_eigenvalues(field: &str, a: &[f64]) -> Result<(), ModelError> {
-    if a.is_empty() {
-        return Err(ModelError::Empty {
-            field: field.into(),
-        });
-    }
-    for (index, &value) in a.iter().enumerate() {
-        if !(value.is_finite() && value > 0.0) {
-            return Err(ModelError::NonPositiveEigenvalue {
-                field: field.into(),
-                index,
-                value,
-            });
-        }
-    }
-    Ok(())
+    parameters::check_eigenvalues("", a).map_err(|e| e.named(field))
 }
 
 /// The elementary creep operator `K_{r,a}` (13)–(14).
@@ -225,15 +203,7 @@ impl CreepOperator {
         check_thresholds("creep.thresholds", &thresholds)?;
         check_finite("creep.weights", &weights)?;
         check_length("creep.weights", thresholds.len(), weights.len())?;
-        for (index, sum) in partial_sums(&weights).into_iter().enumerate() {
-            if sum < 0.0 {
-                return Err(ModelError::PartialSumNegative {
-                    field: "creep.weights".into(),
-                    index,
-                    sum,
-                });
-            }
-        }
+        parameters::check_partial_sums("creep.weights", &weights, false)?;
         check_eigenvalues("creep.eigenvalues", &eigenvalues)?;
         check_sample_time(sample_time)?;
         let n = thresholds.len();
@@ -318,16 +288,13 @@ impl CreepOperator {
     pub(crate) fn advance_state(&mut self, v: f64) {
         // One flat pass over all (n+1)·m elementary operators: long enough to
         // vectorize well, unlike m short rows of n+1.
-        let v = if v.is_finite() { v } else { self.last_input };
-        self.last_input = v;
-        for ((chi, &r), &g) in self
-            .chi
-            .iter_mut()
-            .zip(&self.flat_thresholds)
-            .zip(&self.flat_gains)
-        {
-            *chi += g * dead_zone(v - *chi, r);
-        }
+        realtime::creep::advance(
+            &mut self.chi,
+            &self.flat_thresholds,
+            &self.flat_gains,
+            v,
+            &mut self.last_input,
+        );
     }
 
     fn refresh_output(&mut self) {
@@ -345,6 +312,7 @@ impl Operator for CreepOperator {
 
     fn reset(&mut self) {
         self.chi.fill(0.0);
+        self.last_input = 0.0;
         self.refresh_output();
     }
 }

@@ -13,8 +13,9 @@
 //! outside are checked.
 
 use crate::error::ModelError;
-use crate::operators::play::play;
 use crate::operators::traits::{InverseHysteresis, Operator, Snapshot};
+use crate::realtime;
+use crate::realtime::parameters;
 
 /// The Prandtl–Ishlinskii hysteresis operator `H` (10).
 #[derive(Debug, Clone, PartialEq)]
@@ -93,9 +94,10 @@ impl HysteresisOperator {
         &self.state
     }
 
-    /// Mutable access for the compensator, which rebuilds states by (22).
-    pub(crate) fn play_states_mut(&mut self) -> &mut [f64] {
-        &mut self.state
+    /// Thresholds, weights and the mutable play states (the compensator's view).
+    #[inline(always)]
+    pub(crate) fn parts_mut(&mut self) -> (&[f64], &[f64], &mut [f64]) {
+        (&self.thresholds, &self.weights, &mut self.state)
     }
 
     /// Partial sums `s_j = Σ_{i≤j} w_i`: the branch slopes, all positive by (11).
@@ -128,18 +130,7 @@ impl Operator for HysteresisOperator {
     #[inline]
     fn step(&mut self, v: f64) -> f64 {
         // the play with r_0 = 0 holds the last input
-        let v = if v.is_finite() { v } else { self.state[0] };
-        let mut y = 0.0;
-        for ((x, &r), &w) in self
-            .state
-            .iter_mut()
-            .zip(&self.thresholds)
-            .zip(&self.weights)
-        {
-            *x = play(v, r, *x);
-            y += w * *x;
-        }
-        y
+        realtime::hysteresis::step(&mut self.state, &self.thresholds, &self.weights, v)
     }
 
     fn reset(&mut self) {
@@ -166,26 +157,7 @@ impl Snapshot for HysteresisOperator {
 /// A PI operator built by (22) is the inverse of another.
 impl InverseHysteresis for HysteresisOperator {}
 
-/// `Σ w_i x_i` in four interleaved partial sums, `(a_0 + a_1) + (a_2 + a_3)`
-/// with `a_l = Σ_{i ≡ l mod 4} w_i x_i`: the order every operator here uses.
-/// Four independent chains instead of one cut the latency of the dot product
-/// that ends every step.
-#[inline(always)]
-pub(crate) fn weighted_sum(w: &[f64], x: &[f64]) -> f64 {
-    let mut a = [0.0f64; 4];
-    let wc = w.chunks_exact(4);
-    let xc = x.chunks_exact(4);
-    let (wr, xr) = (wc.remainder(), xc.remainder());
-    for (w4, x4) in wc.zip(xc) {
-        for l in 0..4 {
-            a[l] += w4[l] * x4[l];
-        }
-    }
-    for l in 0..wr.len() {
-        a[l] += wr[l] * xr[l];
-    }
-    (a[0] + a[1]) + (a[2] + a[3])
-}
+pub(crate) use crate::realtime::hysteresis::weighted_sum;
 
 /// Partial sums `s_j = Σ_{i≤j} w_i`.
 pub fn partial_sums(weights: &[f64]) -> Vec<f64> {
@@ -199,89 +171,29 @@ pub fn partial_sums(weights: &[f64]) -> Vec<f64> {
         .collect()
 }
 
+// The conditions live in the real-time core; these keep the `String` field
+// names the heap operators build (`creep.state[3]`).
 pub(crate) fn check_finite(field: &str, values: &[f64]) -> Result<(), ModelError> {
-    match values.iter().position(|v| !v.is_finite()) {
-        Some(index) => Err(ModelError::NonFinite {
-            field: field.into(),
-            index,
-            value: values[index],
-        }),
-        None => Ok(()),
-    }
+    parameters::check_finite("", values).map_err(|e| e.named(field))
 }
 
 pub(crate) fn check_length(field: &str, expected: usize, found: usize) -> Result<(), ModelError> {
-    if expected == found {
-        Ok(())
-    } else {
-        Err(ModelError::LengthMismatch {
-            field: field.into(),
-            expected,
-            found,
-        })
-    }
+    parameters::check_length("", expected, found).map_err(|e| e.named(field))
 }
 
 /// (12)/(18): finite, `r_0 = 0`, strictly increasing.
 pub(crate) fn check_thresholds(field: &str, r: &[f64]) -> Result<(), ModelError> {
-    if r.is_empty() {
-        return Err(ModelError::Empty {
-            field: field.into(),
-        });
-    }
-    check_finite(field, r)?;
-    if r[0] != 0.0 {
-        return Err(ModelError::FirstThresholdNotZero {
-            field: field.into(),
-            value: r[0],
-        });
-    }
-    for i in 1..r.len() {
-        if r[i] <= r[i - 1] {
-            return Err(ModelError::ThresholdsNotIncreasing {
-                field: field.into(),
-                index: i,
-                previous: r[i - 1],
-                value: r[i],
-            });
-        }
-    }
-    Ok(())
+    parameters::check_thresholds("", r).map_err(|e| e.named(field))
 }
 
 /// (11): every partial sum strictly positive.
 pub(crate) fn check_partial_sums_positive(field: &str, w: &[f64]) -> Result<(), ModelError> {
-    for (index, sum) in partial_sums(w).into_iter().enumerate() {
-        if sum <= 0.0 {
-            return Err(ModelError::PartialSumNotPositive {
-                field: field.into(),
-                index,
-                sum,
-            });
-        }
-    }
-    Ok(())
+    parameters::check_partial_sums("", w, true).map_err(|e| e.named(field))
 }
 
-/// Admissibility `|x_i − x_{i−1}| ≤ r_i − r_{i−1}`, allowing rounding of the
-/// size the clamps and (22) make: `8 (n+1) ε (max|x| + r_n)`.
+/// Admissibility `|x_i − x_{i−1}| ≤ r_i − r_{i−1}` up to rounding.
 pub(crate) fn check_admissible(field: &str, r: &[f64], x: &[f64]) -> Result<(), ModelError> {
-    let n = r.len();
-    let scale = x.iter().fold(0.0f64, |m, v| m.max(v.abs())) + r[n - 1];
-    let tol = 8.0 * n as f64 * f64::EPSILON * scale;
-    for i in 1..n {
-        let gap = (x[i] - x[i - 1]).abs();
-        let allowed = r[i] - r[i - 1];
-        if gap > allowed + tol {
-            return Err(ModelError::InadmissibleState {
-                field: field.into(),
-                index: i,
-                gap,
-                allowed,
-            });
-        }
-    }
-    Ok(())
+    parameters::check_admissible("", r, x, f64::EPSILON).map_err(|e| e.named(field))
 }
 
 #[cfg(test)]

@@ -17,38 +17,7 @@
 
 use crate::operators::hysteresis::{partial_sums, HysteresisOperator};
 
-/// Thresholds and weights of `H⁻¹` by (22), written into caller buffers.
-pub fn inverse_parameters_into(
-    thresholds: &[f64],
-    weights: &[f64],
-    inv_thresholds: &mut [f64],
-    inv_weights: &mut [f64],
-) {
-    let n = thresholds.len();
-    assert!(weights.len() == n && inv_thresholds.len() == n && inv_weights.len() == n);
-    let mut s_prev = weights[0];
-    inv_thresholds[0] = 0.0;
-    inv_weights[0] = 1.0 / weights[0];
-    for j in 1..n {
-        let s = s_prev + weights[j];
-        inv_thresholds[j] = inv_thresholds[j - 1] + s_prev * (thresholds[j] - thresholds[j - 1]);
-        inv_weights[j] = -weights[j] / (s * s_prev);
-        s_prev = s;
-    }
-}
-
-/// Initial states of `H⁻¹` by (22), `x'_j = s_j x_j + Σ_{i>j} w_i x_i`, from
-/// the forward play states `x` and the partial sums `s`. Allocation-free, O(n).
-#[inline]
-pub fn inverse_state_into(weights: &[f64], sums: &[f64], x: &[f64], inv_state: &mut [f64]) {
-    let n = x.len();
-    debug_assert!(weights.len() == n && sums.len() == n && inv_state.len() == n);
-    let mut tail = 0.0;
-    for j in (0..n).rev() {
-        inv_state[j] = sums[j] * x[j] + tail;
-        tail += weights[j] * x[j];
-    }
-}
+pub use crate::realtime::inverse::{inverse_parameters_into, inverse_state_into};
 
 impl HysteresisOperator {
     /// The inverse operator `H⁻¹` with its transformed state, by (22).

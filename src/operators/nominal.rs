@@ -5,25 +5,13 @@ use crate::operators::creep::CreepOperator;
 use crate::operators::hysteresis::HysteresisOperator;
 use crate::operators::model::{HysteresisCreepModel, ModelFile};
 
-/// Sample time of the paper's real-time board: 0.2 ms.
-pub const SAMPLE_TIME: f64 = 2e-4;
-
-/// Hysteresis weights (reconstructed).
-pub const HYSTERESIS_WEIGHTS: [f64; 12] = [
-    0.45, 0.0963, 0.0773, 0.062, 0.0498, 0.0399, 0.0321, 0.0257, 0.0206, 0.0166, 0.0133, -0.01,
-];
-
-/// Creep weights (reconstructed).
-pub const CREEP_WEIGHTS: [f64; 12] = [
-    0.08, 0.006, 0.005, 0.004, 0.003, 0.002, 0.002, 0.001, 0.001, 0.001, 0.001, 0.001,
-];
-
-/// Creep eigenvalues (s⁻¹), (24) with `m = 5`.
-pub const CREEP_EIGENVALUES: [f64; 5] = [500.0, 50.0, 5.0, 0.5, 0.05];
+pub use crate::realtime::nominal::{
+    CREEP_EIGENVALUES, CREEP_WEIGHTS, HYSTERESIS_WEIGHTS, SAMPLE_TIME,
+};
 
 /// `r_i = (i · 1000) / 12`, `i = 0..11`: (23) with `r_max = 1000` V.
 pub fn nominal_thresholds() -> Vec<f64> {
-    (0..12).map(|i| (i as f64 * 1000.0) / 12.0).collect()
+    crate::realtime::nominal::THRESHOLDS.to_vec()
 }
 
 /// The nominal model `W = H + C` in the virgin state.

@@ -11,28 +11,10 @@
 use crate::error::ModelError;
 use crate::operators::traits::{Operator, Snapshot};
 
-/// One play (backlash) step: `max(v − r, min(v + r, x))`.
-///
-/// Written with comparisons so that it compiles to `minsd`/`maxsd` and is
-/// exactly odd: `play(−v, r, −x) == −play(v, r, x)` bit for bit.
-#[inline(always)]
-pub fn play(v: f64, r: f64, x: f64) -> f64 {
-    let upper = v + r;
-    let lower = v - r;
-    let t = if x < upper { x } else { upper };
-    if t > lower {
-        t
-    } else {
-        lower
-    }
-}
-
-/// The dead zone `d_r(z) = max(z − r, min(z + r, 0))`: the play with state 0
-/// applied to a value. It drives the creep operators (14).
-#[inline(always)]
-pub fn dead_zone(z: f64, r: f64) -> f64 {
-    play(z, r, 0.0)
-}
+/// One step of the play (20), for `f32` or `f64`; exactly odd:
+/// `play(−v, r, −x) == −play(v, r, x)` bit for bit. The dead zone of (14) is
+/// the play from the zero state.
+pub use crate::realtime::play::{dead_zone, play};
 
 /// The play operator `P_r` with threshold `r ≥ 0` and state `x`.
 #[derive(Debug, Clone, PartialEq)]

@@ -74,18 +74,7 @@ pub trait ActuatorModel: Operator {}
 /// `v` for which the forward operator, from the matched state, outputs `y`.
 pub trait InverseHysteresis: Operator {}
 
-/// One compensator output sample.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Compensated {
-    /// The (clipped) balanced voltage `u_k`.
-    pub u: f64,
-    /// Whether `u_k` was clipped to a limit.
-    pub saturated: bool,
-    /// Whether the target was not a finite number: the previous output is
-    /// held (and the state advances as the plant's does when it receives
-    /// it), so the identity resumes with the next finite target.
-    pub fault: bool,
-}
+pub use crate::realtime::Compensated;
 
 /// The compensator `W⁻¹` (21): for a target effective voltage, the balanced
 /// voltage that makes `W` produce it, clipped to the limits, and whether it

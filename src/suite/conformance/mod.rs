@@ -42,6 +42,7 @@ use crate::error::ModelError;
 use crate::operators::compensator::CompensatorSettings;
 use crate::operators::model::{HysteresisCreepModel, ModelFile};
 use crate::operators::traits::{ActuatorCompensator, ActuatorModel, InverseHysteresis};
+use crate::realtime::{FixedCompensator, FixedHysteresis, FixedModel, Real};
 
 pub use cases::{
     nested_extrema, path, random_input, random_model, refine, segment, with_state_after,
@@ -693,6 +694,42 @@ fn round_case(c: &mut Case, digits: i32) {
             *a = round_to(*a, digits.max(1));
         }
     }
+}
+
+/// `ε₃₂/ε₆₄ = 2²⁹`: the [`ConformanceSettings::tolerance_scale`] of an `f32`
+/// implementation. Every tolerance is a sum of terms linear in `ε` (first-order
+/// rounding analysis), so moving to binary32 scales each by this ratio; the
+/// `f64` parameters rounded once to `f32` are relative perturbations of
+/// `ε₃₂/2`, inside the same terms.
+pub const F32_TOLERANCE_SCALE: f64 = (f32::EPSILON as f64) / f64::EPSILON;
+
+/// Factory of the real-time core's `W` in `T` with capacity `N` plays and `K`
+/// elementary creep operators.
+pub fn fixed_model<T: Real, const N: usize, const K: usize>(
+    file: &ModelFile,
+) -> Result<Box<dyn ActuatorModel>, ModelError> {
+    Ok(Box::new(FixedModel::<T, N, K>::from_file(file)?))
+}
+
+/// Factory of the real-time core's compensator in `T`.
+pub fn fixed_compensator<T: Real, const N: usize, const K: usize>(
+    file: &ModelFile,
+    settings: CompensatorSettings,
+) -> Result<Box<dyn ActuatorCompensator>, ModelError> {
+    settings.validate()?;
+    Ok(Box::new(FixedCompensator::<T, N, K>::from_file(
+        file,
+        settings.lower_limit,
+        settings.upper_limit,
+    )?))
+}
+
+/// Factory of the real-time core's `H⁻¹` in `T`.
+pub fn fixed_inverse_hysteresis<T: Real, const N: usize>(
+    file: &ModelFile,
+) -> Result<Box<dyn InverseHysteresis>, ModelError> {
+    HysteresisCreepModel::from_file(file)?;
+    Ok(Box::new(FixedHysteresis::<T, N>::inverse_from_file(file)?))
 }
 
 /// Factory of the project's model `W` (for tests and examples).

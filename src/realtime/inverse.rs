@@ -1,0 +1,45 @@
+//! The Krejčí–Kuhnen transformation rules (22): `H⁻¹` is another PI operator
+//!
+//! * `r'_j = Σ_{i<j} w_i (r_j − r_i)`, computed as
+//!   `r'_j = r'_{j−1} + s_{j−1} (r_j − r_{j−1})`,
+//! * `w'_0 = 1/w_0`, `w'_j = −w_j / (s_j s_{j−1})`,
+//! * `x'_j = Σ_i w_i x_{min(i,j)} = s_j x_j + Σ_{i>j} w_i x_i`,
+//!
+//! with the partial sums `s_j = Σ_{i≤j} w_i` of (11).
+
+use crate::realtime::real::Real;
+
+/// Thresholds and weights of `H⁻¹` from those of `H` (all slices of one
+/// length `n + 1 ≥ 1`).
+pub fn inverse_parameters_into<T: Real>(
+    thresholds: &[T],
+    weights: &[T],
+    inv_thresholds: &mut [T],
+    inv_weights: &mut [T],
+) {
+    let n = thresholds.len();
+    assert!(weights.len() == n && inv_thresholds.len() == n && inv_weights.len() == n);
+    let mut s_prev = weights[0];
+    inv_thresholds[0] = T::ZERO;
+    inv_weights[0] = T::ONE / weights[0];
+    for j in 1..n {
+        let s = s_prev + weights[j];
+        inv_thresholds[j] = inv_thresholds[j - 1] + s_prev * (thresholds[j] - thresholds[j - 1]);
+        inv_weights[j] = -weights[j] / (s * s_prev);
+        s_prev = s;
+    }
+}
+
+/// The play states of `H⁻¹` matching the states `x` of `H` (22), given the
+/// weights and their partial sums. Allocation-free: the compensator calls it
+/// on saturation.
+#[inline]
+pub fn inverse_state_into<T: Real>(weights: &[T], sums: &[T], x: &[T], inv_state: &mut [T]) {
+    let n = x.len();
+    debug_assert!(weights.len() == n && sums.len() == n && inv_state.len() == n);
+    let mut tail = T::ZERO;
+    for j in (0..n).rev() {
+        inv_state[j] = sums[j] * x[j] + tail;
+        tail += weights[j] * x[j];
+    }
+}

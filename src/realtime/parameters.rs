@@ -1,0 +1,215 @@
+//! The parameters of `W = H + C` (4), (6), borrowed from the caller, and the
+//! admissibility conditions (11), (12), (17), (18) every constructor checks
+//! (the `std` operators use the same checks).
+
+use crate::realtime::error::ParameterError;
+
+/// `H` (10): thresholds `0 = r_0 < … < r_n` (12), weights with positive
+/// partial sums (11).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HysteresisParameters<'a> {
+    pub thresholds: &'a [f64],
+    pub weights: &'a [f64],
+}
+
+/// `C` (16): thresholds as (18), weights with non-negative partial sums (17),
+/// eigenvalues `a_j > 0` (s⁻¹) of the log(t)-creep operators (15).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CreepParameters<'a> {
+    pub thresholds: &'a [f64],
+    pub weights: &'a [f64],
+    pub eigenvalues: &'a [f64],
+}
+
+/// The model `W[v] = H[v] + C[v] + offset` at sample time `T_s`, in the
+/// virgin state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModelParameters<'a> {
+    pub sample_time: f64,
+    pub hysteresis: HysteresisParameters<'a>,
+    pub creep: Option<CreepParameters<'a>>,
+    pub offset: f64,
+}
+
+impl HysteresisParameters<'_> {
+    pub fn validate(&self) -> Result<(), ParameterError> {
+        check_thresholds("hysteresis.thresholds", self.thresholds)?;
+        check_finite("hysteresis.weights", self.weights)?;
+        check_length(
+            "hysteresis.weights",
+            self.thresholds.len(),
+            self.weights.len(),
+        )?;
+        check_partial_sums("hysteresis.weights", self.weights, true)
+    }
+}
+
+impl CreepParameters<'_> {
+    pub fn validate(&self, sample_time: f64) -> Result<(), ParameterError> {
+        check_thresholds("creep.thresholds", self.thresholds)?;
+        check_finite("creep.weights", self.weights)?;
+        check_length("creep.weights", self.thresholds.len(), self.weights.len())?;
+        check_partial_sums("creep.weights", self.weights, false)?;
+        check_eigenvalues("creep.eigenvalues", self.eigenvalues)?;
+        check_sample_time(sample_time)
+    }
+}
+
+impl ModelParameters<'_> {
+    /// Every condition on the parameters, the first one broken named.
+    pub fn validate(&self) -> Result<(), ParameterError> {
+        check_sample_time(self.sample_time)?;
+        self.hysteresis.validate()?;
+        if let Some(c) = &self.creep {
+            c.validate(self.sample_time)?;
+        }
+        check_finite("offset", core::slice::from_ref(&self.offset))
+    }
+}
+
+pub fn check_finite(field: &'static str, values: &[f64]) -> Result<(), ParameterError> {
+    match values.iter().position(|v| !v.is_finite()) {
+        Some(index) => Err(ParameterError::NonFinite {
+            field,
+            index,
+            value: values[index],
+        }),
+        None => Ok(()),
+    }
+}
+
+pub fn check_length(
+    field: &'static str,
+    expected: usize,
+    found: usize,
+) -> Result<(), ParameterError> {
+    if expected == found {
+        Ok(())
+    } else {
+        Err(ParameterError::LengthMismatch {
+            field,
+            expected,
+            found,
+        })
+    }
+}
+
+pub fn check_capacity(
+    field: &'static str,
+    capacity: usize,
+    found: usize,
+) -> Result<(), ParameterError> {
+    if found <= capacity {
+        Ok(())
+    } else {
+        Err(ParameterError::ExceedsCapacity {
+            field,
+            capacity,
+            found,
+        })
+    }
+}
+
+/// (12)/(18): not empty, finite, `r_0 = 0`, strictly increasing.
+pub fn check_thresholds(field: &'static str, r: &[f64]) -> Result<(), ParameterError> {
+    if r.is_empty() {
+        return Err(ParameterError::Empty { field });
+    }
+    check_finite(field, r)?;
+    if r[0] != 0.0 {
+        return Err(ParameterError::FirstThresholdNotZero { field, value: r[0] });
+    }
+    for i in 1..r.len() {
+        if r[i] <= r[i - 1] {
+            return Err(ParameterError::ThresholdsNotIncreasing {
+                field,
+                index: i,
+                previous: r[i - 1],
+                value: r[i],
+            });
+        }
+    }
+    Ok(())
+}
+
+/// (11) when `strict` (every partial sum `> 0`), else (17) (`≥ 0`).
+pub fn check_partial_sums(
+    field: &'static str,
+    w: &[f64],
+    strict: bool,
+) -> Result<(), ParameterError> {
+    let mut sum = 0.0;
+    for (index, &wi) in w.iter().enumerate() {
+        sum += wi;
+        if strict && sum <= 0.0 {
+            return Err(ParameterError::PartialSumNotPositive { field, index, sum });
+        }
+        if !strict && sum < 0.0 {
+            return Err(ParameterError::PartialSumNegative { field, index, sum });
+        }
+    }
+    Ok(())
+}
+
+/// Creep eigenvalues: at least one, each finite and `> 0`.
+pub fn check_eigenvalues(field: &'static str, a: &[f64]) -> Result<(), ParameterError> {
+    if a.is_empty() {
+        return Err(ParameterError::Empty { field });
+    }
+    for (index, &value) in a.iter().enumerate() {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(ParameterError::NonPositiveEigenvalue {
+                field,
+                index,
+                value,
+            });
+        }
+    }
+    Ok(())
+}
+
+pub fn check_sample_time(sample_time: f64) -> Result<(), ParameterError> {
+    if sample_time.is_finite() && sample_time > 0.0 {
+        Ok(())
+    } else {
+        Err(ParameterError::NonPositiveSampleTime { value: sample_time })
+    }
+}
+
+/// Saturation limits `lower < upper` (either may be infinite, neither NaN).
+pub fn check_limits(lower: f64, upper: f64) -> Result<(), ParameterError> {
+    if lower < upper {
+        Ok(())
+    } else {
+        Err(ParameterError::InvalidLimits { lower, upper })
+    }
+}
+
+/// A play state `x` reachable from the virgin state:
+/// `|x_i − x_{i−1}| ≤ r_i − r_{i−1}`, allowing the rounding the clamps and
+/// (22) make, `8 (n+1) ε (max|x| + r_n)` with the `ε` of the precision `r`
+/// was stored in (thresholds rounded to `f32` move by `ε₃₂/2` relative).
+/// Lengths must already agree.
+pub fn check_admissible(
+    field: &'static str,
+    r: &[f64],
+    x: &[f64],
+    eps: f64,
+) -> Result<(), ParameterError> {
+    let n = r.len();
+    let scale = x.iter().fold(0.0f64, |m, v| m.max(v.abs())) + r[n - 1];
+    let tol = 8.0 * n as f64 * eps * scale;
+    for i in 1..n {
+        let gap = (x[i] - x[i - 1]).abs();
+        let allowed = r[i] - r[i - 1];
+        if gap > allowed + tol {
+            return Err(ParameterError::InadmissibleState {
+                field,
+                index: i,
+                gap,
+                allowed,
+            });
+        }
+    }
+    Ok(())
+}

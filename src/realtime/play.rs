@@ -1,0 +1,26 @@
+//! The time-discrete play (20) and the dead zone of the creep operators (14),
+//! for any [`Real`].
+
+use crate::realtime::real::Real;
+
+/// One step of the play (20): `x_k = max(v_k − r, min(v_k + r, x_{k−1}))`.
+/// Written with comparisons so that it compiles to `min`/`max` instructions
+/// and is exactly odd: `play(−v, r, −x) == −play(v, r, x)` bit for bit.
+#[inline(always)]
+pub fn play<T: Real>(v: T, r: T, x: T) -> T {
+    let upper = v + r;
+    let lower = v - r;
+    let t = if x < upper { x } else { upper };
+    if t > lower {
+        t
+    } else {
+        lower
+    }
+}
+
+/// The dead zone `d_r(z) = max(z − r, min(z + r, 0))` of (14): the play from
+/// the zero state.
+#[inline(always)]
+pub fn dead_zone<T: Real>(z: T, r: T) -> T {
+    play(z, r, T::ZERO)
+}

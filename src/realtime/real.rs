@@ -1,0 +1,113 @@
+//! The number type of the real-time core: `f32` or `f64`.
+//!
+//! One implementation of every operator is written against [`Real`] and
+//! instantiated twice. Parameters are validated and transformed (the inverse
+//! rules (22), the creep gains `1 − e^{−aT_s}`) in `f64` and rounded once to
+//! `T`; only the per-sample steps run in `T`.
+
+use core::fmt::Debug;
+use core::ops::{Add, AddAssign, Div, Mul, Neg, Sub, SubAssign};
+
+mod sealed {
+    pub trait Sealed {}
+    impl Sealed for f32 {}
+    impl Sealed for f64 {}
+}
+
+/// `f32` or `f64` (sealed: the rounding analysis of the conformance
+/// tolerances assumes IEEE 754 binary32 or binary64).
+pub trait Real:
+    Copy
+    + Default
+    + Debug
+    + PartialOrd
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+    + AddAssign
+    + SubAssign
+    + Send
+    + Sync
+    + sealed::Sealed
+    + 'static
+{
+    const ZERO: Self;
+    const ONE: Self;
+    /// Machine epsilon: the spacing of the numbers just above 1.
+    const EPSILON: Self;
+    const INFINITY: Self;
+    const NEG_INFINITY: Self;
+    /// Name as in C and Rust (`"f32"`, `"f64"`).
+    const NAME: &'static str;
+
+    /// Round an `f64` to the nearest `Self`.
+    fn from_f64(x: f64) -> Self;
+    /// Exact widening (or identity) to `f64`.
+    fn to_f64(self) -> f64;
+    fn is_finite(self) -> bool;
+    /// The least `Self` greater than `self`.
+    fn next_up(self) -> Self;
+    /// The greatest `Self` less than `self`.
+    fn next_down(self) -> Self;
+
+    /// `x` rounded to a `Self` not below it (a lower limit stays a bound).
+    fn from_f64_up(x: f64) -> Self {
+        let y = Self::from_f64(x);
+        if y.to_f64() < x {
+            y.next_up()
+        } else {
+            y
+        }
+    }
+
+    /// `x` rounded to a `Self` not above it (an upper limit stays a bound).
+    fn from_f64_down(x: f64) -> Self {
+        let y = Self::from_f64(x);
+        if y.to_f64() > x {
+            y.next_down()
+        } else {
+            y
+        }
+    }
+}
+
+macro_rules! real {
+    ($t:ident) => {
+        impl Real for $t {
+            const ZERO: Self = 0.0;
+            const ONE: Self = 1.0;
+            const EPSILON: Self = $t::EPSILON;
+            const INFINITY: Self = $t::INFINITY;
+            const NEG_INFINITY: Self = $t::NEG_INFINITY;
+            const NAME: &'static str = stringify!($t);
+
+            #[inline(always)]
+            fn from_f64(x: f64) -> Self {
+                x as $t
+            }
+
+            #[inline(always)]
+            fn to_f64(self) -> f64 {
+                self as f64
+            }
+
+            #[inline(always)]
+            fn is_finite(self) -> bool {
+                $t::is_finite(self)
+            }
+
+            fn next_up(self) -> Self {
+                $t::next_up(self)
+            }
+
+            fn next_down(self) -> Self {
+                $t::next_down(self)
+            }
+        }
+    };
+}
+
+real!(f32);
+real!(f64);

@@ -1,0 +1,152 @@
+//! Rounding bounds of the operators, from first-order error analysis: how
+//! far two correct implementations (or one and exact arithmetic) can differ.
+//! The conformance checks use them as tolerances; firmware uses them to judge
+//! its own `W[W⁻¹[y]] = y` on the target.
+//!
+//! * A sum of `n` products `Σ w_i x_i` in floating point differs from the
+//!   exact one by at most `n ε Σ|w_i| max|x_i|` (Higham, Thm. 3.1, first
+//!   order); a play output is one of `x`, `v − r`, `v + r`, so
+//!   `|x_i| ≤ max|v| + r_n`. Two implementations that both round that way
+//!   differ by twice that; a constant 4 covers the clamps and a different
+//!   summation order.
+//! * An inverse amplifies an error in its argument by its steepest slope
+//!   `1/s_min` (the partial sums `s_j` of (11) are the forward slopes).
+//! * A creep update `χ ← χ + g d_r(v − χ)`, `g = 1 − e^{−aT_s}`, is
+//!   non-expansive and contracts by `1 − g` where it moves: a rounding error
+//!   `δ ≤ ε|χ|/2` per sample accumulates to at most `δ/g`. That is what an
+//!   implementation rounding differently shows, and what `f32` shows when a
+//!   slow operator's increment drops below half an ulp of `χ` and it stalls:
+//!   the bound carries `Σ_j (1/g_j + 2)` per threshold.
+//!
+//! Every bound is linear in `ε`: for another precision, pass its `ε`.
+
+use crate::realtime::creep::creep_gain;
+use crate::realtime::parameters::ModelParameters;
+
+/// The bounds of one model at precision `eps`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RoundingBounds<'a> {
+    pub parameters: ModelParameters<'a>,
+    /// The largest `|x|` of any initial play or creep state (0 if virgin).
+    pub state_max: f64,
+    /// Unit roundoff times two: `f64::EPSILON` or `f32::EPSILON`.
+    pub eps: f64,
+}
+
+fn abs_sum(w: &[f64]) -> f64 {
+    w.iter().map(|x| x.abs()).sum()
+}
+
+fn last(r: &[f64]) -> f64 {
+    r.last().copied().unwrap_or(0.0)
+}
+
+impl RoundingBounds<'_> {
+    /// Smallest partial sum `s_min` of the hysteresis weights.
+    pub fn min_slope(&self) -> f64 {
+        let mut s = 0.0;
+        let mut min = f64::INFINITY;
+        for w in self.parameters.hysteresis.weights {
+            s += w;
+            min = min.min(s);
+        }
+        min
+    }
+
+    /// Largest `|x|` any play or creep state can hold for inputs up to `v_max`.
+    fn state_bound(&self, v_max: f64) -> f64 {
+        let p = &self.parameters;
+        let mut x = (v_max + last(p.hysteresis.thresholds)).max(self.state_max);
+        if let Some(c) = &p.creep {
+            x = x.max(v_max + last(c.thresholds));
+        }
+        x
+    }
+
+    /// The hysteresis sum `Σ w_i x_i` for inputs up to `v_max`.
+    pub fn hysteresis_sum(&self, v_max: f64) -> f64 {
+        let h = &self.parameters.hysteresis;
+        let n = h.weights.len() as f64 + 1.0;
+        4.0 * n * self.eps * abs_sum(h.weights) * self.state_bound(v_max)
+    }
+
+    /// The creep sum `Σ_i w_i (1/m) Σ_j χ_ij` and its updates.
+    pub fn creep_sum(&self, v_max: f64) -> f64 {
+        match &self.parameters.creep {
+            None => 0.0,
+            Some(c) => {
+                let n = (c.weights.len() * c.eigenvalues.len()) as f64 + 1.0;
+                let m = c.eigenvalues.len() as f64;
+                let ts = self.parameters.sample_time;
+                let drift = c
+                    .eigenvalues
+                    .iter()
+                    .map(|&a| 1.0 / creep_gain(a, ts) + 2.0)
+                    .sum::<f64>()
+                    / m;
+                self.eps * abs_sum(c.weights) * self.state_bound(v_max) * (8.0 * n + drift)
+            }
+        }
+    }
+
+    /// Adding (or subtracting) the output offset.
+    fn offset(&self) -> f64 {
+        2.0 * self.eps * self.parameters.offset.abs()
+    }
+
+    /// Two implementations of `W` on inputs up to `v_max`.
+    pub fn model(&self, v_max: f64) -> f64 {
+        2.0 * (self.hysteresis_sum(v_max) + self.creep_sum(v_max) + self.offset())
+    }
+
+    /// `Σ_j |r'_j|`-scale and `Σ|w'_j|` of `H⁻¹` as (22) gives them.
+    fn inverse_scale(&self) -> (f64, f64) {
+        let h = &self.parameters.hysteresis;
+        let (mut s, mut r_inv, mut w_inv) = (0.0, 0.0f64, 0.0);
+        for (j, &w) in h.weights.iter().enumerate() {
+            let prev = s;
+            s += w;
+            if j == 0 {
+                w_inv += 1.0 / w.abs();
+            } else {
+                r_inv += prev * (h.thresholds[j] - h.thresholds[j - 1]);
+                w_inv += (w / (s * prev)).abs();
+            }
+        }
+        (r_inv, w_inv)
+    }
+
+    /// `H⁻¹∘H`, `H∘H⁻¹` or two implementations of `H⁻¹`, for inputs of `H`
+    /// up to `v_max` and of `H⁻¹` up to `y_max`: the forward sum's rounding
+    /// amplified by `1/s_min`, the inverse sum's own, and the rounding of the
+    /// transformed parameters (relative `n ε` each, amplified the same way).
+    pub fn inverse(&self, v_max: f64, y_max: f64) -> f64 {
+        let h = &self.parameters.hysteresis;
+        let n = h.weights.len() as f64 + 1.0;
+        let s_min = self.min_slope();
+        let forward = self.hysteresis_sum(v_max);
+        let (r_inv, w_inv) = self.inverse_scale();
+        let x_inv = y_max + r_inv + abs_sum(h.weights) * self.state_bound(v_max);
+        let inverse_sum = 4.0 * n * self.eps * w_inv * x_inv;
+        let parameters = 4.0 * n * n * self.eps * (v_max + r_inv + x_inv / s_min);
+        2.0 * (forward / s_min + inverse_sum + forward + parameters)
+    }
+
+    /// The compensator `W⁻¹` against `W` (either order) or against another
+    /// compensator: the inverse bound with the creep sum's rounding carried
+    /// through `1/s_min`, twice (the creep states follow slightly different
+    /// inputs, a contraction, so once more at most).
+    pub fn compensator(&self, v_max: f64, y_max: f64) -> f64 {
+        let p = &self.parameters;
+        let creep = self.creep_sum(v_max);
+        let creep_out = p
+            .creep
+            .as_ref()
+            .map_or(0.0, |c| abs_sum(c.weights) * self.state_bound(v_max));
+        let off = self.offset();
+        2.0 * (self.inverse(v_max, y_max + creep_out + p.offset.abs())
+            + 2.0 * (creep + off) / self.min_slope()
+            + creep
+            + off)
+    }
+}
