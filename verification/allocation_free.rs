@@ -66,6 +66,11 @@ fn steps_and_in_place_runs_allocate_nothing() {
     )
     .unwrap();
 
+    use mfcbeam::realtime::{nominal, PaperCompensator, PaperModel};
+    let mut fixed32 = PaperCompensator::<f32>::new(&nominal::PARAMETERS, -300.0, 300.0).unwrap();
+    let mut fixed64 = PaperCompensator::<f64>::new(&nominal::PARAMETERS, -300.0, 300.0).unwrap();
+    let mut plant32 = PaperModel::<f32>::new(&nominal::PARAMETERS).unwrap();
+
     let n = allocations_during(|| {
         for &v in &input {
             std::hint::black_box(play.step(v));
@@ -77,7 +82,10 @@ fn steps_and_in_place_runs_allocate_nothing() {
             std::hint::black_box(w.step(v));
             std::hint::black_box(comp.compensate(v));
             std::hint::black_box(bisection.compensate(v));
+            std::hint::black_box(plant32.step(fixed32.compensate(v as f32).u));
+            std::hint::black_box(fixed64.compensate(v));
         }
+        std::hint::black_box(fixed32.compensate(f32::NAN));
         // non-finite samples take the held path
         std::hint::black_box(comp.compensate(f64::NAN));
         std::hint::black_box(w.step(f64::INFINITY));

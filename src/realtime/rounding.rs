@@ -132,6 +132,22 @@ impl RoundingBounds<'_> {
         2.0 * (forward / s_min + inverse_sum + forward + parameters)
     }
 
+    /// `W[W⁻¹[y]] − y` when the plant's creep runs the compensator's own
+    /// arithmetic (this crate's `FixedModel` after its `FixedCompensator`, in
+    /// one precision): both creep outputs agree bit for bit, which leaves
+    /// `H[H⁻¹[z]] − z` for `z = y − offset − C` and the roundings of forming
+    /// `z` and `H + C + offset` (an error in `z` comes back through `H∘H⁻¹`
+    /// with slope 1).
+    pub fn identity(&self, v_max: f64, y_max: f64) -> f64 {
+        let p = &self.parameters;
+        let creep_out = p
+            .creep
+            .as_ref()
+            .map_or(0.0, |c| abs_sum(c.weights) * self.state_bound(v_max));
+        let z = y_max + creep_out + p.offset.abs();
+        self.inverse(v_max, z) + 4.0 * self.eps * z
+    }
+
     /// The compensator `W⁻¹` against `W` (either order) or against another
     /// compensator: the inverse bound with the creep sum's rounding carried
     /// through `1/s_min`, twice (the creep states follow slightly different
