@@ -1,0 +1,454 @@
+//! Compensators and models in storage the caller owns (a static, a stack
+//! variable, a struct member): no allocator needed, `f32` or `f64`.
+//!
+//! Each storage type is a block of `uint64_t` words sized at compile time
+//! for `MFCBEAM_MAX_PLAYS` plays and `MFCBEAM_MAX_CREEP` elementary creep
+//! operators; `*_init` writes a checked compensator or model into it and
+//! marks it initialised, a failed `*_init` marks it uninitialised, and every
+//! step refuses storage not so marked (zeroed storage included).
+
+use std::ffi::{c_char, c_int};
+use std::mem::{align_of, size_of};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use mfcbeam_rs::realtime::{FixedCompensator, FixedModel, Real};
+
+use crate::error::{flags_of, set_flags, write_error, MFCBEAM_FLAG_INVALID_HANDLE};
+use crate::heap::model_file;
+use crate::parameters::MfcbeamParameters;
+
+/// Plays (hysteresis thresholds) the caller-owned storage holds.
+pub const MFCBEAM_MAX_PLAYS: usize = 24;
+/// Elementary creep operators (creep thresholds × eigenvalues) it holds.
+pub const MFCBEAM_MAX_CREEP: usize = 144;
+
+/// Words of `MfcbeamCompensatorF32`.
+pub const MFCBEAM_COMPENSATOR_F32_WORDS: usize = 380;
+/// Words of `MfcbeamCompensatorF64`.
+pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 754;
+/// Words of `MfcbeamModelF32`.
+pub const MFCBEAM_MODEL_F32_WORDS: usize = 331;
+/// Words of `MfcbeamModelF64`.
+pub const MFCBEAM_MODEL_F64_WORDS: usize = 656;
+
+type CompensatorF32 = FixedCompensator<f32, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>;
+type CompensatorF64 = FixedCompensator<f64, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>;
+type ModelF32 = FixedModel<f32, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>;
+type ModelF64 = FixedModel<f64, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>;
+
+/// Storage for a compensator in `f32` (declare it, then `*_init` it).
+#[repr(C)]
+pub struct MfcbeamCompensatorF32 {
+    pub words: [u64; MFCBEAM_COMPENSATOR_F32_WORDS],
+}
+
+/// Storage for a compensator in `f64`.
+#[repr(C)]
+pub struct MfcbeamCompensatorF64 {
+    pub words: [u64; MFCBEAM_COMPENSATOR_F64_WORDS],
+}
+
+/// Storage for a model `W` in `f32`.
+#[repr(C)]
+pub struct MfcbeamModelF32 {
+    pub words: [u64; MFCBEAM_MODEL_F32_WORDS],
+}
+
+/// Storage for a model `W` in `f64`.
+#[repr(C)]
+pub struct MfcbeamModelF64 {
+    pub words: [u64; MFCBEAM_MODEL_F64_WORDS],
+}
+
+/// What the storage holds: a tag, then the value.
+#[repr(C)]
+pub(crate) struct Slot<T> {
+    tag: u64,
+    value: T,
+}
+
+const INITIALISED: u64 = u64::from_le_bytes(*b"mfcbeam1");
+
+/// Words a `Slot<T>` needs.
+pub(crate) const fn words<T>() -> usize {
+    size_of::<Slot<T>>().div_ceil(8)
+}
+
+const _: () = {
+    assert!(words::<CompensatorF32>() <= MFCBEAM_COMPENSATOR_F32_WORDS);
+    assert!(words::<CompensatorF64>() <= MFCBEAM_COMPENSATOR_F64_WORDS);
+    assert!(words::<ModelF32>() <= MFCBEAM_MODEL_F32_WORDS);
+    assert!(words::<ModelF64>() <= MFCBEAM_MODEL_F64_WORDS);
+    assert!(align_of::<Slot<CompensatorF64>>() <= align_of::<u64>());
+    assert!(align_of::<Slot<ModelF64>>() <= align_of::<u64>());
+};
+
+/// The value in initialised storage, or None.
+///
+/// # Safety
+/// `storage` is NULL or points to storage sized for `Slot<T>`.
+unsafe fn value<'a, S, T>(storage: *mut S) -> Option<&'a mut T> {
+    let slot = storage.cast::<Slot<T>>();
+    // SAFETY: NULL checked; sized storage by contract; the tag is a plain word.
+    unsafe {
+        if slot.is_null() || (*slot).tag != INITIALISED {
+            None
+        } else {
+            Some(&mut (*slot).value)
+        }
+    }
+}
+
+/// Build a value into `storage`: 0 on success; -1, the reason in `err` and
+/// the storage marked uninitialised otherwise.
+///
+/// # Safety
+/// `storage` is NULL or sized for `Slot<T>`; `err` NULL or `err_len` bytes.
+unsafe fn init<S, T>(
+    storage: *mut S,
+    err: *mut c_char,
+    err_len: usize,
+    make: impl FnOnce() -> Result<T, String>,
+) -> c_int {
+    // SAFETY: forwarded from the caller.
+    unsafe {
+        if storage.is_null() {
+            write_error(err, err_len, "storage: NULL pointer");
+            return -1;
+        }
+        let slot = storage.cast::<Slot<T>>();
+        (*slot).tag = 0;
+        let result = catch_unwind(AssertUnwindSafe(make))
+            .unwrap_or_else(|_| Err("internal error (please report it)".into()));
+        match result {
+            Ok(value) => {
+                std::ptr::addr_of_mut!((*slot).value).write(value);
+                (*slot).tag = INITIALISED;
+                0
+            }
+            Err(message) => {
+                write_error(err, err_len, &message);
+                -1
+            }
+        }
+    }
+}
+
+/// # Safety
+/// `parameters` is NULL or valid, its arrays as their lengths say.
+unsafe fn compensator_from<T: Real>(
+    parameters: *const MfcbeamParameters,
+    lower: f64,
+    upper: f64,
+) -> Result<FixedCompensator<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>, String> {
+    // SAFETY: forwarded from the caller.
+    let p = unsafe { parameters.as_ref() }.ok_or("parameters: NULL pointer")?;
+    // SAFETY: forwarded from the caller.
+    let model = unsafe { p.model() }?;
+    FixedCompensator::new(&model, lower, upper).map_err(|e| e.to_string())
+}
+
+/// # Safety
+/// As [`compensator_from`].
+unsafe fn model_from<T: Real>(
+    parameters: *const MfcbeamParameters,
+) -> Result<FixedModel<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>, String> {
+    // SAFETY: forwarded from the caller.
+    let p = unsafe { parameters.as_ref() }.ok_or("parameters: NULL pointer")?;
+    // SAFETY: forwarded from the caller.
+    let model = unsafe { p.model() }?;
+    FixedModel::new(&model).map_err(|e| e.to_string())
+}
+
+/// # Safety
+/// `json` is NULL or NUL-terminated.
+unsafe fn compensator_from_json<T: Real>(
+    json: *const c_char,
+    lower: f64,
+    upper: f64,
+) -> Result<FixedCompensator<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>, String> {
+    // SAFETY: forwarded from the caller.
+    let file = unsafe { model_file(json) }?;
+    FixedCompensator::from_file(&file, lower, upper).map_err(|e| e.to_string())
+}
+
+/// # Safety
+/// `json` is NULL or NUL-terminated.
+unsafe fn model_from_json<T: Real>(
+    json: *const c_char,
+) -> Result<FixedModel<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>, String> {
+    // SAFETY: forwarded from the caller.
+    let file = unsafe { model_file(json) }?;
+    FixedModel::from_file(&file).map_err(|e| e.to_string())
+}
+
+/// One compensator step on storage.
+///
+/// # Safety
+/// `storage` NULL or sized for the compensator; `flags` NULL or writable.
+unsafe fn compensate<S, T: Real>(storage: *mut S, target: T, flags: *mut c_int) -> T {
+    // SAFETY: forwarded from the caller.
+    unsafe {
+        match value::<S, FixedCompensator<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>(storage) {
+            Some(c) => {
+                let out = c.compensate(target);
+                set_flags(flags, flags_of(out.saturated, out.fault));
+                out.u
+            }
+            None => {
+                set_flags(flags, MFCBEAM_FLAG_INVALID_HANDLE);
+                T::from_f64(f64::NAN)
+            }
+        }
+    }
+}
+
+/// A compensator of the model `parameters` (virgin state) with limits
+/// `lower < upper` in `storage`, computing in `f32`. No allocation. 0, or -1
+/// and the reason in `err`.
+///
+/// # Safety
+/// `storage` NULL or an `MfcbeamCompensatorF32`; `parameters` NULL or valid
+/// with arrays of the lengths it states; `err` NULL or `err_len` bytes.
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_compensator_f32_init(
+    storage: *mut MfcbeamCompensatorF32,
+    parameters: *const MfcbeamParameters,
+    lower: f64,
+    upper: f64,
+    err: *mut c_char,
+    err_len: usize,
+) -> c_int {
+    // SAFETY: forwarded from the caller.
+    unsafe {
+        init(storage, err, err_len, || {
+            compensator_from::<f32>(parameters, lower, upper)
+        })
+    }
+}
+
+/// As [`mfcbeam_compensator_f32_init`], from a model file (JSON, its
+/// `state` honoured). Parsing the JSON uses the heap; the result does not.
+///
+/// # Safety
+/// As [`mfcbeam_compensator_f32_init`]; `json` NULL or NUL-terminated.
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_compensator_f32_init_json(
+    storage: *mut MfcbeamCompensatorF32,
+    json: *const c_char,
+    lower: f64,
+    upper: f64,
+    err: *mut c_char,
+    err_len: usize,
+) -> c_int {
+    // SAFETY: forwarded from the caller.
+    unsafe {
+        init(storage, err, err_len, || {
+            compensator_from_json::<f32>(json, lower, upper)
+        })
+    }
+}
+
+/// The voltage for `target`, in `f32`; flags as `mfcbeam_compensate`.
+///
+/// # Safety
+/// `storage` NULL or an `MfcbeamCompensatorF32`; `flags` NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_compensate_f32(
+    storage: *mut MfcbeamCompensatorF32,
+    target: f32,
+    flags: *mut c_int,
+) -> f32 {
+    // SAFETY: forwarded from the caller.
+    unsafe { compensate(storage, target, flags) }
+}
+
+/// Back to the virgin state. Nothing for NULL or uninitialised storage.
+///
+/// # Safety
+/// `storage` NULL or an `MfcbeamCompensatorF32`.
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_compensator_f32_reset(storage: *mut MfcbeamCompensatorF32) {
+    // SAFETY: forwarded from the caller.
+    if let Some(c) = unsafe { value::<_, CompensatorF32>(storage) } {
+        c.reset();
+    }
+}
+
+/// As [`mfcbeam_compensator_f32_init`], computing in `f64`.
+///
+/// # Safety
+/// As [`mfcbeam_compensator_f32_init`], for an `MfcbeamCompensatorF64`.
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_compensator_f64_init(
+    storage: *mut MfcbeamCompensatorF64,
+    parameters: *const MfcbeamParameters,
+    lower: f64,
+    upper: f64,
+    err: *mut c_char,
+    err_len: usize,
+) -> c_int {
+    // SAFETY: forwarded from the caller.
+    unsafe {
+        init(storage, err, err_len, || {
+            compensator_from::<f64>(parameters, lower, upper)
+        })
+    }
+}
+
+/// As [`mfcbeam_compensator_f32_init_json`], computing in `f64`.
+///
+/// # Safety
+/// As [`mfcbeam_compensator_f32_init_json`], for an `MfcbeamCompensatorF64`.
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_compensator_f64_init_json(
+    storage: *mut MfcbeamCompensatorF64,
+    json: *const c_char,
+    lower: f64,
+    upper: f64,
+    err: *mut c_char,
+    err_len: usize,
+) -> c_int {
+    // SAFETY: forwarded from the caller.
+    unsafe {
+        init(storage, err, err_len, || {
+            compensator_from_json::<f64>(json, lower, upper)
+        })
+    }
+}
+
+/// The voltage for `target`, in `f64`; flags as `mfcbeam_compensate`.
+///
+/// # Safety
+/// `storage` NULL or an `MfcbeamCompensatorF64`; `flags` NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_compensate_f64(
+    storage: *mut MfcbeamCompensatorF64,
+    target: f64,
+    flags: *mut c_int,
+) -> f64 {
+    // SAFETY: forwarded from the caller.
+    unsafe { compensate(storage, target, flags) }
+}
+
+/// Back to the virgin state. Nothing for NULL or uninitialised storage.
+///
+/// # Safety
+/// `storage` NULL or an `MfcbeamCompensatorF64`.
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_compensator_f64_reset(storage: *mut MfcbeamCompensatorF64) {
+    // SAFETY: forwarded from the caller.
+    if let Some(c) = unsafe { value::<_, CompensatorF64>(storage) } {
+        c.reset();
+    }
+}
+
+/// The model `W` of `parameters` (virgin state) in `storage`, in `f32`.
+/// 0, or -1 and the reason in `err`.
+///
+/// # Safety
+/// `storage` NULL or an `MfcbeamModelF32`; otherwise as
+/// [`mfcbeam_compensator_f32_init`].
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_model_f32_init(
+    storage: *mut MfcbeamModelF32,
+    parameters: *const MfcbeamParameters,
+    err: *mut c_char,
+    err_len: usize,
+) -> c_int {
+    // SAFETY: forwarded from the caller.
+    unsafe { init(storage, err, err_len, || model_from::<f32>(parameters)) }
+}
+
+/// As [`mfcbeam_model_f32_init`], from a model file (its `state` honoured).
+///
+/// # Safety
+/// As [`mfcbeam_model_f32_init`]; `json` NULL or NUL-terminated.
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_model_f32_init_json(
+    storage: *mut MfcbeamModelF32,
+    json: *const c_char,
+    err: *mut c_char,
+    err_len: usize,
+) -> c_int {
+    // SAFETY: forwarded from the caller.
+    unsafe { init(storage, err, err_len, || model_from_json::<f32>(json)) }
+}
+
+/// One sample `W[u]` in `f32`; NaN for NULL or uninitialised storage.
+///
+/// # Safety
+/// `storage` NULL or an `MfcbeamModelF32`.
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_model_f32_step(storage: *mut MfcbeamModelF32, u: f32) -> f32 {
+    // SAFETY: forwarded from the caller.
+    match unsafe { value::<_, ModelF32>(storage) } {
+        Some(m) => m.step(u),
+        None => f32::NAN,
+    }
+}
+
+/// As [`mfcbeam_model_f32_init`], in `f64`.
+///
+/// # Safety
+/// As [`mfcbeam_model_f32_init`], for an `MfcbeamModelF64`.
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_model_f64_init(
+    storage: *mut MfcbeamModelF64,
+    parameters: *const MfcbeamParameters,
+    err: *mut c_char,
+    err_len: usize,
+) -> c_int {
+    // SAFETY: forwarded from the caller.
+    unsafe { init(storage, err, err_len, || model_from::<f64>(parameters)) }
+}
+
+/// As [`mfcbeam_model_f32_init_json`], in `f64`.
+///
+/// # Safety
+/// As [`mfcbeam_model_f32_init_json`], for an `MfcbeamModelF64`.
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_model_f64_init_json(
+    storage: *mut MfcbeamModelF64,
+    json: *const c_char,
+    err: *mut c_char,
+    err_len: usize,
+) -> c_int {
+    // SAFETY: forwarded from the caller.
+    unsafe { init(storage, err, err_len, || model_from_json::<f64>(json)) }
+}
+
+/// One sample `W[u]` in `f64`; NaN for NULL or uninitialised storage.
+///
+/// # Safety
+/// `storage` NULL or an `MfcbeamModelF64`.
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_model_f64_step(storage: *mut MfcbeamModelF64, u: f64) -> f64 {
+    // SAFETY: forwarded from the caller.
+    match unsafe { value::<_, ModelF64>(storage) } {
+        Some(m) => m.step(u),
+        None => f64::NAN,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The storage is exactly as large as it must be on a 64-bit host (on a
+    /// 32-bit target `usize` is smaller, and it is a few words too large).
+    #[test]
+    fn storage_words_are_exact_on_64_bit() {
+        let sizes = [
+            (words::<CompensatorF32>(), MFCBEAM_COMPENSATOR_F32_WORDS),
+            (words::<CompensatorF64>(), MFCBEAM_COMPENSATOR_F64_WORDS),
+            (words::<ModelF32>(), MFCBEAM_MODEL_F32_WORDS),
+            (words::<ModelF64>(), MFCBEAM_MODEL_F64_WORDS),
+        ];
+        if cfg!(target_pointer_width = "64") {
+            for (needed, declared) in sizes {
+                assert_eq!(needed, declared);
+            }
+        }
+    }
+}

@@ -1,0 +1,81 @@
+//! Model parameters as C arrays.
+
+use mfcbeam_rs::realtime::{CreepParameters, HysteresisParameters, ModelParameters};
+
+/// The model `W = H + C + offset`: hysteresis thresholds `0 = r_0 < … < r_n`
+/// and weights with positive partial sums (`hysteresis_len` each); creep
+/// thresholds and weights (`creep_len` each; 0 for no creep) and
+/// `eigenvalue_count` eigenvalues `a_j > 0` (1/s); the sample time (s) and
+/// an output offset (V). The arrays are read during `*_init` only.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct MfcbeamParameters {
+    pub sample_time: f64,
+    pub hysteresis_thresholds: *const f64,
+    pub hysteresis_weights: *const f64,
+    pub hysteresis_len: usize,
+    pub creep_thresholds: *const f64,
+    pub creep_weights: *const f64,
+    pub creep_len: usize,
+    pub creep_eigenvalues: *const f64,
+    pub eigenvalue_count: usize,
+    pub offset: f64,
+}
+
+/// `len` values at `ptr`, refusing a NULL pointer with a non-zero length.
+///
+/// # Safety
+/// `ptr` is NULL or points to `len` readable `f64`.
+unsafe fn slice<'a>(ptr: *const f64, len: usize, field: &str) -> Result<&'a [f64], String> {
+    if len == 0 {
+        return Ok(&[]);
+    }
+    if ptr.is_null() {
+        return Err(format!("{field}: NULL pointer for {len} values"));
+    }
+    // SAFETY: non-null, and the caller guarantees len readable values.
+    Ok(unsafe { std::slice::from_raw_parts(ptr, len) })
+}
+
+impl MfcbeamParameters {
+    /// The parameters as the real-time core takes them (not yet validated).
+    ///
+    /// # Safety
+    /// Every pointer is NULL or points to its length's readable values.
+    pub(crate) unsafe fn model(&self) -> Result<ModelParameters<'_>, String> {
+        // SAFETY: forwarded from the caller.
+        unsafe {
+            let hysteresis = HysteresisParameters {
+                thresholds: slice(
+                    self.hysteresis_thresholds,
+                    self.hysteresis_len,
+                    "hysteresis_thresholds",
+                )?,
+                weights: slice(
+                    self.hysteresis_weights,
+                    self.hysteresis_len,
+                    "hysteresis_weights",
+                )?,
+            };
+            let creep = if self.creep_len == 0 {
+                None
+            } else {
+                Some(CreepParameters {
+                    thresholds: slice(self.creep_thresholds, self.creep_len, "creep_thresholds")?,
+                    weights: slice(self.creep_weights, self.creep_len, "creep_weights")?,
+                    eigenvalues: slice(
+                        self.creep_eigenvalues,
+                        self.eigenvalue_count,
+                        "creep_eigenvalues",
+                    )?,
+                })
+            };
+            Ok(ModelParameters {
+                sample_time: self.sample_time,
+                hysteresis,
+                creep,
+                offset: self.offset,
+            })
+        }
+    }
+}

@@ -1,0 +1,159 @@
+//! The C side of the library, from C: `examples/c/api_errors.c` feeds the
+//! API malformed JSON, inadmissible parameters and NULL or uninitialised
+//! handles; `examples/c/mfcbeam_run.c`, linked against `libmfcbeam.a`,
+//! follows the file contract and goes through `mfcbeam conform` as a model
+//! and as a compensator, in `f64` (heap handles) and in `f32`
+//! (caller-owned storage, tolerances scaled by `ε₃₂/ε₆₄ = 2²⁹`).
+//!
+//! The static library and the `mfcbeam` binary are built by a nested cargo
+//! into the same target directory (a no-op when `cargo test --workspace`
+//! has built them already).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+/// `target/<profile>` of this test executable.
+fn profile_dir() -> PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    exe.parent().unwrap().parent().unwrap().to_path_buf()
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn cargo_build(args: &[&str]) {
+    let target_dir = profile_dir().parent().unwrap().to_path_buf();
+    let mut cmd = Command::new(env!("CARGO"));
+    cmd.arg("build")
+        .args(args)
+        .arg("--target-dir")
+        .arg(&target_dir)
+        .current_dir(root());
+    if profile_dir().file_name().unwrap() == "release" {
+        cmd.arg("--release");
+    }
+    let out = cmd.output().unwrap();
+    assert!(
+        out.status.success(),
+        "cargo build {args:?}:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Compile the C examples once: (mfcbeam_run, api_errors).
+fn programs() -> &'static (PathBuf, PathBuf) {
+    static BUILT: OnceLock<(PathBuf, PathBuf)> = OnceLock::new();
+    BUILT.get_or_init(|| {
+        cargo_build(&["-p", "mfcbeam-capi", "--lib"]);
+        cargo_build(&["-p", "mfcbeam", "--bin", "mfcbeam"]);
+        let lib = profile_dir().join("libmfcbeam.a");
+        let dir = profile_dir().join("c-examples");
+        std::fs::create_dir_all(&dir).unwrap();
+        let build = |name: &str| {
+            let exe = dir.join(name);
+            let out = Command::new("cc")
+                .args([
+                    "-std=c99",
+                    "-D_POSIX_C_SOURCE=200809L",
+                    "-Wall",
+                    "-Wextra",
+                    "-Werror",
+                    "-O2",
+                    "-I",
+                ])
+                .arg(root().join("include"))
+                .arg("-o")
+                .arg(&exe)
+                .arg(root().join(format!("examples/c/{name}.c")))
+                .arg(&lib)
+                .args(["-lpthread", "-ldl", "-lm"])
+                .output()
+                .unwrap();
+            assert!(
+                out.status.success(),
+                "cc {name}.c:\n{}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            exe
+        };
+        (build("mfcbeam_run"), build("api_errors"))
+    })
+}
+
+#[test]
+fn the_c_api_refuses_bad_input_cleanly() {
+    let out = Command::new(&programs().1).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{text}");
+    assert_eq!(out.status.code(), Some(0), "{text}");
+    assert!(text.ends_with("0 failed\n"));
+    assert!(!text.contains("FAILED"));
+    // every check printed its line
+    assert!(text.lines().filter(|l| l.starts_with("ok: ")).count() >= 25);
+}
+
+fn conform(kind: &str, exec: &str, cases: usize, scale: Option<&str>) -> Output {
+    let out_dir = profile_dir().join(format!("c-conform-{kind}-{}", exec.len()));
+    let mut cmd = Command::new(profile_dir().join("mfcbeam"));
+    cmd.args(["conform", "--kind", kind, "--exec", exec])
+        .args(["--cases", &cases.to_string()])
+        .arg("--out")
+        .arg(&out_dir);
+    if let Some(s) = scale {
+        cmd.args(["--tolerance-scale", s]);
+    }
+    let out = cmd.output().unwrap();
+    eprintln!(
+        "{exec} ({kind}):\n{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let _ = std::fs::remove_dir_all(out_dir);
+    out
+}
+
+#[test]
+fn the_c_example_conforms_in_f64() {
+    let run = programs().0.display().to_string();
+    for (kind, command) in [("model", "simulate"), ("compensator", "compensate")] {
+        let out = conform(kind, &format!("{run} {command}"), 80, None);
+        assert_eq!(out.status.code(), Some(0), "{kind} should conform");
+    }
+}
+
+#[test]
+fn the_c_example_conforms_in_f32_at_f32_tolerances() {
+    let run = programs().0.display().to_string();
+    let scale = ((f32::EPSILON as f64) / f64::EPSILON).to_string();
+    assert_eq!(scale, "536870912");
+    for (kind, command) in [("model", "simulate"), ("compensator", "compensate")] {
+        let out = conform(kind, &format!("{run} {command} --f32"), 80, Some(&scale));
+        assert_eq!(out.status.code(), Some(0), "{kind} in f32 should conform");
+    }
+}
+
+/// The file contract's errors: one line, exit 2, no output file.
+#[test]
+fn a_bad_model_file_is_one_line_and_no_output() {
+    let dir = profile_dir().join("c-bad-model");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("m.json"), "{\"sample_time\": 1e-3}").unwrap();
+    std::fs::write(dir.join("in.csv"), "u\n1.0\n").unwrap();
+    let out = Command::new(&programs().0)
+        .args(["simulate", "--model"])
+        .arg(dir.join("m.json"))
+        .arg("--input")
+        .arg(dir.join("in.csv"))
+        .arg("--output")
+        .arg(dir.join("out.csv"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("hysteresis"), "{err}");
+    assert!(!dir.join("out.csv").exists());
+    std::fs::remove_dir_all(dir).unwrap();
+}

@@ -1,0 +1,131 @@
+/*
+ * The C API refuses bad input cleanly: malformed JSON, inadmissible
+ * parameters, bad limits, NULL and uninitialised handles, capacity. Each
+ * check prints one line; the exit code is the number of failed checks.
+ *
+ *     cc -I include -o api_errors examples/c/api_errors.c \
+ *        target/debug/libmfcbeam.a -lpthread -ldl -lm && ./api_errors
+ */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "mfcbeam.h"
+
+static int failed = 0;
+
+static void check(int ok, const char *what, const char *detail) {
+    printf("%s: %s%s%s\n", ok ? "ok" : "FAILED", what, detail ? " -- " : "", detail ? detail : "");
+    failed += !ok;
+}
+
+static const char *GOOD =
+    "{\"sample_time\": 0.0002, \"hysteresis\": {\"thresholds\": [0, 100], \"weights\": [0.5, 0.25]}}";
+
+int main(void) {
+    char err[256];
+
+    /* JSON constructors: NULL and the reason */
+    err[0] = 0;
+    MfcbeamModel *m = mfcbeam_model_from_json("{\"sample_time\": 0.0002, \"hysteresis\": [", err, sizeof err);
+    check(!m && strstr(err, "malformed"), "malformed JSON", err);
+    err[0] = 0;
+    m = mfcbeam_model_from_json(
+        "{\"sample_time\": 0.0002, \"hysteresis\": {\"thresholds\": [0, 2, 1], \"weights\": [1, 1, 1]}}", err,
+        sizeof err);
+    check(!m && strstr(err, "hysteresis.thresholds"), "thresholds not increasing", err);
+    err[0] = 0;
+    m = mfcbeam_model_from_json(
+        "{\"sample_time\": 0.0002, \"hysteresis\": {\"thresholds\": [0, 1], \"weights\": [1, -2]}}", err, sizeof err);
+    check(!m && strstr(err, "(11)"), "partial sum not positive", err);
+    err[0] = 0;
+    m = mfcbeam_model_from_json("{\"sample_time\": -1, \"hysteresis\": {\"thresholds\": [0], \"weights\": [1]}}",
+                                err, sizeof err);
+    check(!m && strstr(err, "sample_time"), "negative sample time", err);
+    err[0] = 0;
+    m = mfcbeam_model_from_json(NULL, err, sizeof err);
+    check(!m && strstr(err, "NULL"), "NULL JSON", err);
+    err[0] = 0;
+    MfcbeamCompensator *c = mfcbeam_compensator_from_json(GOOD, 10.0, -10.0, err, sizeof err);
+    check(!c && strstr(err, "limits"), "lower limit above upper", err);
+    c = mfcbeam_compensator_from_json(GOOD, NAN, 10.0, err, sizeof err);
+    check(!c, "NaN limit", err);
+    m = mfcbeam_model_from_json("not json", NULL, 0);
+    check(!m, "no error buffer", NULL);
+    char tiny[8];
+    m = mfcbeam_model_from_json("not json", tiny, sizeof tiny);
+    check(!m && strlen(tiny) == 7, "error truncated to the buffer", tiny);
+
+    /* NULL handles are refused, not dereferenced */
+    int flags = 0;
+    check(isnan(mfcbeam_model_step(NULL, 1.0)), "model step on NULL", NULL);
+    double u = mfcbeam_compensate(NULL, 1.0, &flags);
+    check(isnan(u) && flags == MFCBEAM_FLAG_INVALID_HANDLE, "compensate on NULL", NULL);
+    mfcbeam_model_reset(NULL);
+    mfcbeam_model_free(NULL);
+    mfcbeam_compensator_reset(NULL);
+    mfcbeam_compensator_free(NULL);
+    check(1, "reset and free of NULL", NULL);
+
+    /* caller-owned storage */
+    static MfcbeamCompensatorF32 zeroed;
+    float v = mfcbeam_compensate_f32(&zeroed, 1.0f, &flags);
+    check(isnan(v) && flags == MFCBEAM_FLAG_INVALID_HANDLE, "uninitialised storage", NULL);
+    v = mfcbeam_compensate_f32(NULL, 1.0f, &flags);
+    check(isnan(v) && flags == MFCBEAM_FLAG_INVALID_HANDLE, "NULL storage", NULL);
+
+    const double r[2] = {0.0, 100.0}, w[2] = {0.5, 0.25};
+    const double rc[1] = {0.0}, wc[1] = {0.05}, a[2] = {50.0, 0.5};
+    MfcbeamParameters p = {0.0002, r, w, 2, rc, wc, 1, a, 2, 0.0};
+    static MfcbeamCompensatorF32 comp;
+    static MfcbeamModelF32 plant;
+    err[0] = 0;
+    check(mfcbeam_compensator_f32_init(&comp, &p, -500.0, 500.0, err, sizeof err) == 0, "init from arrays", err);
+    err[0] = 0;
+    check(mfcbeam_model_f32_init(&plant, &p, err, sizeof err) == 0, "model init from arrays", err);
+    double worst = 0.0;
+    for (int k = 0; k < 2000; k++) {
+        float y = (float)(60.0 * sin(k * 0.01));
+        float out = mfcbeam_model_f32_step(&plant, mfcbeam_compensate_f32(&comp, y, &flags));
+        if (fabs(out - y) > worst) worst = fabs(out - y);
+    }
+    char line[64];
+    snprintf(line, sizeof line, "max |W[W^-1[y]] - y| = %.3g V", worst);
+    check(worst < 1e-3 && flags == 0, "f32 identity", line);
+    mfcbeam_compensate_f32(&comp, NAN, &flags);
+    check(flags == MFCBEAM_FLAG_NON_FINITE_TARGET, "NaN target flagged", NULL);
+    mfcbeam_compensate_f32(&comp, 1e6f, &flags);
+    check(flags == MFCBEAM_FLAG_SATURATED, "unreachable target saturates", NULL);
+
+    MfcbeamParameters bad = p;
+    bad.hysteresis_weights = NULL;
+    err[0] = 0;
+    check(mfcbeam_compensator_f32_init(&comp, &bad, -500.0, 500.0, err, sizeof err) == -1 && strstr(err, "NULL"),
+          "NULL array", err);
+    v = mfcbeam_compensate_f32(&comp, 1.0f, &flags);
+    check(isnan(v) && flags == MFCBEAM_FLAG_INVALID_HANDLE, "failed init leaves the storage refused", NULL);
+    err[0] = 0;
+    check(mfcbeam_compensator_f32_init(&comp, NULL, -500.0, 500.0, err, sizeof err) == -1, "NULL parameters", err);
+    err[0] = 0;
+    check(mfcbeam_compensator_f32_init(NULL, &p, -500.0, 500.0, err, sizeof err) == -1, "NULL storage", err);
+    double many[MFCBEAM_MAX_PLAYS + 1], ones[MFCBEAM_MAX_PLAYS + 1];
+    for (int i = 0; i <= MFCBEAM_MAX_PLAYS; i++) many[i] = i, ones[i] = 1.0;
+    MfcbeamParameters big = {0.0002, many, ones, MFCBEAM_MAX_PLAYS + 1, NULL, NULL, 0, NULL, 0, 0.0};
+    static MfcbeamCompensatorF64 comp64;
+    err[0] = 0;
+    check(mfcbeam_compensator_f64_init(&comp64, &big, -1.0, 1.0, err, sizeof err) == -1 && strstr(err, "capacity"),
+          "beyond the capacity", err);
+    MfcbeamParameters unordered = p;
+    const double r_bad[2] = {0.0, -1.0};
+    unordered.hysteresis_thresholds = r_bad;
+    err[0] = 0;
+    check(mfcbeam_compensator_f64_init(&comp64, &unordered, -1.0, 1.0, err, sizeof err) == -1 &&
+              strstr(err, "increase"),
+          "inadmissible arrays", err);
+    err[0] = 0;
+    check(mfcbeam_compensator_f64_init_json(&comp64, "{", -1.0, 1.0, err, sizeof err) == -1, "storage from bad JSON",
+          err);
+
+    printf("%d failed\n", failed);
+    return failed;
+}
