@@ -2,7 +2,8 @@
 //! ([`parameters`]), the paper's Ritz discretization ([`ritz`]), the converged
 //! finite-element model ([`fe`]), the modal form both end in ([`modal`]),
 //! exact zero-order-hold simulation and the Hammerstein plant
-//! ([`simulation`]), and the step-response fit of section 4.2
+//! ([`simulation`]), the state-space matrices in nalgebra ([`state_space`]),
+//! and the step-response fit of section 4.2
 //! ([`step_response_fit`]).
 
 pub mod fe;
@@ -10,6 +11,7 @@ pub mod modal;
 pub mod parameters;
 pub mod ritz;
 pub mod simulation;
+pub mod state_space;
 pub mod step_response_fit;
 
 pub use parameters::*;
