@@ -14,6 +14,9 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#if !defined(MFCBEAM_NO_STD) && !defined(MFCBEAM_STD)
+#define MFCBEAM_STD
+#endif
 
 /**
  * `flags` bit 0: the voltage was clipped to a limit.
@@ -60,15 +63,19 @@
  */
 #define MFCBEAM_MODEL_F64_WORDS 656
 
+#if defined(MFCBEAM_STD)
 /**
  * The compensator `W⁻¹` (opaque).
  */
 typedef struct MfcbeamCompensator MfcbeamCompensator;
+#endif
 
+#if defined(MFCBEAM_STD)
 /**
  * The model `W` (opaque).
  */
 typedef struct MfcbeamModel MfcbeamModel;
+#endif
 
 /**
  * Storage for a compensator in `f32` (declare it, then `*_init` it).
@@ -138,6 +145,7 @@ int mfcbeam_compensator_f32_init(struct MfcbeamCompensatorF32 *storage,
                                  char *err,
                                  size_t err_len);
 
+#if defined(MFCBEAM_STD)
 /**
  * As [`mfcbeam_compensator_f32_init`], from a model file (JSON, its
  * `state` honoured). Parsing the JSON uses the heap; the result does not.
@@ -151,6 +159,7 @@ int mfcbeam_compensator_f32_init_json(struct MfcbeamCompensatorF32 *storage,
                                       double upper,
                                       char *err,
                                       size_t err_len);
+#endif
 
 /**
  * The voltage for `target`, in `f32`; flags as `mfcbeam_compensate`.
@@ -181,6 +190,7 @@ int mfcbeam_compensator_f64_init(struct MfcbeamCompensatorF64 *storage,
                                  char *err,
                                  size_t err_len);
 
+#if defined(MFCBEAM_STD)
 /**
  * As [`mfcbeam_compensator_f32_init_json`], computing in `f64`.
  *
@@ -193,6 +203,7 @@ int mfcbeam_compensator_f64_init_json(struct MfcbeamCompensatorF64 *storage,
                                       double upper,
                                       char *err,
                                       size_t err_len);
+#endif
 
 /**
  * The voltage for `target`, in `f64`; flags as `mfcbeam_compensate`.
@@ -223,6 +234,7 @@ int mfcbeam_model_f32_init(struct MfcbeamModelF32 *storage,
                            char *err,
                            size_t err_len);
 
+#if defined(MFCBEAM_STD)
 /**
  * As [`mfcbeam_model_f32_init`], from a model file (its `state` honoured).
  *
@@ -233,6 +245,7 @@ int mfcbeam_model_f32_init_json(struct MfcbeamModelF32 *storage,
                                 const char *json,
                                 char *err,
                                 size_t err_len);
+#endif
 
 /**
  * One sample `W[u]` in `f32`; NaN for NULL or uninitialised storage.
@@ -253,6 +266,7 @@ int mfcbeam_model_f64_init(struct MfcbeamModelF64 *storage,
                            char *err,
                            size_t err_len);
 
+#if defined(MFCBEAM_STD)
 /**
  * As [`mfcbeam_model_f32_init_json`], in `f64`.
  *
@@ -263,6 +277,7 @@ int mfcbeam_model_f64_init_json(struct MfcbeamModelF64 *storage,
                                 const char *json,
                                 char *err,
                                 size_t err_len);
+#endif
 
 /**
  * One sample `W[u]` in `f64`; NaN for NULL or uninitialised storage.
@@ -272,6 +287,7 @@ int mfcbeam_model_f64_init_json(struct MfcbeamModelF64 *storage,
  */
 double mfcbeam_model_f64_step(struct MfcbeamModelF64 *storage, double u);
 
+#if defined(MFCBEAM_STD)
 /**
  * `W` from a model file (the JSON text), starting from its `state`; NULL
  * and the reason in `err` (at most `err_len` bytes) if it is malformed or
@@ -281,7 +297,9 @@ double mfcbeam_model_f64_step(struct MfcbeamModelF64 *storage, double u);
  * `json` is NULL or NUL-terminated; `err` is NULL or has `err_len` bytes.
  */
 struct MfcbeamModel *mfcbeam_model_from_json(const char *json, char *err, size_t err_len);
+#endif
 
+#if defined(MFCBEAM_STD)
 /**
  * One sample `y_k = W[u]_k`; NaN for a NULL handle. Allocation-free.
  *
@@ -289,7 +307,9 @@ struct MfcbeamModel *mfcbeam_model_from_json(const char *json, char *err, size_t
  * `model` is NULL or from `mfcbeam_model_from_json` and not yet freed.
  */
 double mfcbeam_model_step(struct MfcbeamModel *model, double u);
+#endif
 
+#if defined(MFCBEAM_STD)
 /**
  * Back to the virgin state. Nothing for NULL.
  *
@@ -297,7 +317,9 @@ double mfcbeam_model_step(struct MfcbeamModel *model, double u);
  * As [`mfcbeam_model_step`].
  */
 void mfcbeam_model_reset(struct MfcbeamModel *model);
+#endif
 
+#if defined(MFCBEAM_STD)
 /**
  * Free a model. Nothing for NULL.
  *
@@ -305,7 +327,9 @@ void mfcbeam_model_reset(struct MfcbeamModel *model);
  * `model` is NULL or from `mfcbeam_model_from_json`, freed once.
  */
 void mfcbeam_model_free(struct MfcbeamModel *model);
+#endif
 
+#if defined(MFCBEAM_STD)
 /**
  * The compensator of a model file, matched to its `state`, with output
  * limits `lower < upper` (V; ±INFINITY for none). NULL and the reason in
@@ -319,7 +343,9 @@ struct MfcbeamCompensator *mfcbeam_compensator_from_json(const char *json,
                                                          double upper,
                                                          char *err,
                                                          size_t err_len);
+#endif
 
+#if defined(MFCBEAM_STD)
 /**
  * The voltage for `target` (21). `flags` (may be NULL) gets
  * `MFCBEAM_FLAG_SATURATED` and `MFCBEAM_FLAG_NON_FINITE_TARGET` bits; a
@@ -330,7 +356,9 @@ struct MfcbeamCompensator *mfcbeam_compensator_from_json(const char *json,
  * `comp` is NULL or a live handle; `flags` is NULL or writable.
  */
 double mfcbeam_compensate(struct MfcbeamCompensator *comp, double target, int *flags);
+#endif
 
+#if defined(MFCBEAM_STD)
 /**
  * Back to the virgin state (of the model, not of the file's `state`).
  * Nothing for NULL.
@@ -339,7 +367,9 @@ double mfcbeam_compensate(struct MfcbeamCompensator *comp, double target, int *f
  * As [`mfcbeam_compensate`].
  */
 void mfcbeam_compensator_reset(struct MfcbeamCompensator *comp);
+#endif
 
+#if defined(MFCBEAM_STD)
 /**
  * Free a compensator. Nothing for NULL.
  *
@@ -347,6 +377,7 @@ void mfcbeam_compensator_reset(struct MfcbeamCompensator *comp);
  * `comp` is NULL or from `mfcbeam_compensator_from_json`, freed once.
  */
 void mfcbeam_compensator_free(struct MfcbeamCompensator *comp);
+#endif
 
 #ifdef __cplusplus
 }  // extern "C"

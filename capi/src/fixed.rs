@@ -7,13 +7,13 @@
 //! marks it initialised, a failed `*_init` marks it uninitialised, and every
 //! step refuses storage not so marked (zeroed storage included).
 
-use std::ffi::{c_char, c_int};
-use std::mem::{align_of, size_of};
-use std::panic::{catch_unwind, AssertUnwindSafe};
+use core::ffi::{c_char, c_int};
+use core::mem::{align_of, size_of};
 
 use mfcbeam_rs::realtime::{FixedCompensator, FixedModel, Real};
 
-use crate::error::{flags_of, set_flags, write_error, MFCBEAM_FLAG_INVALID_HANDLE};
+use crate::error::{flags_of, set_flags, write_error, Failure, MFCBEAM_FLAG_INVALID_HANDLE};
+#[cfg(feature = "std")]
 use crate::heap::model_file;
 use crate::parameters::MfcbeamParameters;
 
@@ -108,21 +108,24 @@ unsafe fn init<S, T>(
     storage: *mut S,
     err: *mut c_char,
     err_len: usize,
-    make: impl FnOnce() -> Result<T, String>,
+    make: impl FnOnce() -> Result<T, Failure>,
 ) -> c_int {
     // SAFETY: forwarded from the caller.
     unsafe {
         if storage.is_null() {
-            write_error(err, err_len, "storage: NULL pointer");
+            write_error(err, err_len, &Failure::Null("storage"));
             return -1;
         }
         let slot = storage.cast::<Slot<T>>();
         (*slot).tag = 0;
-        let result = catch_unwind(AssertUnwindSafe(make))
-            .unwrap_or_else(|_| Err("internal error (please report it)".into()));
+        #[cfg(feature = "std")]
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(make))
+            .unwrap_or_else(|_| Err(Failure::Text("internal error (please report it)".into())));
+        #[cfg(not(feature = "std"))]
+        let result = make();
         match result {
             Ok(value) => {
-                std::ptr::addr_of_mut!((*slot).value).write(value);
+                core::ptr::addr_of_mut!((*slot).value).write(value);
                 (*slot).tag = INITIALISED;
                 0
             }
@@ -140,46 +143,48 @@ unsafe fn compensator_from<T: Real>(
     parameters: *const MfcbeamParameters,
     lower: f64,
     upper: f64,
-) -> Result<FixedCompensator<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>, String> {
+) -> Result<FixedCompensator<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>, Failure> {
     // SAFETY: forwarded from the caller.
-    let p = unsafe { parameters.as_ref() }.ok_or("parameters: NULL pointer")?;
+    let p = unsafe { parameters.as_ref() }.ok_or(Failure::Null("parameters"))?;
     // SAFETY: forwarded from the caller.
     let model = unsafe { p.model() }?;
-    FixedCompensator::new(&model, lower, upper).map_err(|e| e.to_string())
+    Ok(FixedCompensator::new(&model, lower, upper)?)
 }
 
 /// # Safety
 /// As [`compensator_from`].
 unsafe fn model_from<T: Real>(
     parameters: *const MfcbeamParameters,
-) -> Result<FixedModel<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>, String> {
+) -> Result<FixedModel<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>, Failure> {
     // SAFETY: forwarded from the caller.
-    let p = unsafe { parameters.as_ref() }.ok_or("parameters: NULL pointer")?;
+    let p = unsafe { parameters.as_ref() }.ok_or(Failure::Null("parameters"))?;
     // SAFETY: forwarded from the caller.
     let model = unsafe { p.model() }?;
-    FixedModel::new(&model).map_err(|e| e.to_string())
+    Ok(FixedModel::new(&model)?)
 }
 
+#[cfg(feature = "std")]
 /// # Safety
 /// `json` is NULL or NUL-terminated.
 unsafe fn compensator_from_json<T: Real>(
     json: *const c_char,
     lower: f64,
     upper: f64,
-) -> Result<FixedCompensator<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>, String> {
+) -> Result<FixedCompensator<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>, Failure> {
     // SAFETY: forwarded from the caller.
     let file = unsafe { model_file(json) }?;
-    FixedCompensator::from_file(&file, lower, upper).map_err(|e| e.to_string())
+    FixedCompensator::from_file(&file, lower, upper).map_err(|e| Failure::Text(e.to_string()))
 }
 
+#[cfg(feature = "std")]
 /// # Safety
 /// `json` is NULL or NUL-terminated.
 unsafe fn model_from_json<T: Real>(
     json: *const c_char,
-) -> Result<FixedModel<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>, String> {
+) -> Result<FixedModel<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>, Failure> {
     // SAFETY: forwarded from the caller.
     let file = unsafe { model_file(json) }?;
-    FixedModel::from_file(&file).map_err(|e| e.to_string())
+    FixedModel::from_file(&file).map_err(|e| Failure::Text(e.to_string()))
 }
 
 /// One compensator step on storage.
@@ -232,6 +237,7 @@ pub unsafe extern "C" fn mfcbeam_compensator_f32_init(
 ///
 /// # Safety
 /// As [`mfcbeam_compensator_f32_init`]; `json` NULL or NUL-terminated.
+#[cfg(feature = "std")]
 #[no_mangle]
 pub unsafe extern "C" fn mfcbeam_compensator_f32_init_json(
     storage: *mut MfcbeamCompensatorF32,
@@ -300,6 +306,7 @@ pub unsafe extern "C" fn mfcbeam_compensator_f64_init(
 ///
 /// # Safety
 /// As [`mfcbeam_compensator_f32_init_json`], for an `MfcbeamCompensatorF64`.
+#[cfg(feature = "std")]
 #[no_mangle]
 pub unsafe extern "C" fn mfcbeam_compensator_f64_init_json(
     storage: *mut MfcbeamCompensatorF64,
@@ -364,6 +371,7 @@ pub unsafe extern "C" fn mfcbeam_model_f32_init(
 ///
 /// # Safety
 /// As [`mfcbeam_model_f32_init`]; `json` NULL or NUL-terminated.
+#[cfg(feature = "std")]
 #[no_mangle]
 pub unsafe extern "C" fn mfcbeam_model_f32_init_json(
     storage: *mut MfcbeamModelF32,
@@ -407,6 +415,7 @@ pub unsafe extern "C" fn mfcbeam_model_f64_init(
 ///
 /// # Safety
 /// As [`mfcbeam_model_f32_init_json`], for an `MfcbeamModelF64`.
+#[cfg(feature = "std")]
 #[no_mangle]
 pub unsafe extern "C" fn mfcbeam_model_f64_init_json(
     storage: *mut MfcbeamModelF64,

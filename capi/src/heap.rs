@@ -7,7 +7,7 @@ use mfcbeam_rs::operators::compensator::{Compensator, CompensatorSettings};
 use mfcbeam_rs::operators::model::{HysteresisCreepModel, ModelFile};
 use mfcbeam_rs::operators::traits::Operator;
 
-use crate::error::{flags_of, set_flags, write_error, MFCBEAM_FLAG_INVALID_HANDLE};
+use crate::error::{flags_of, set_flags, write_error, Failure, MFCBEAM_FLAG_INVALID_HANDLE};
 
 /// The model `W` (opaque).
 pub struct MfcbeamModel {
@@ -23,15 +23,15 @@ pub struct MfcbeamCompensator {
 ///
 /// # Safety
 /// `json` is NULL or a NUL-terminated string.
-pub(crate) unsafe fn model_file(json: *const c_char) -> Result<ModelFile, String> {
+pub(crate) unsafe fn model_file(json: *const c_char) -> Result<ModelFile, Failure> {
     if json.is_null() {
-        return Err("json: NULL pointer".into());
+        return Err(Failure::Null("json"));
     }
     // SAFETY: non-null and NUL-terminated by the caller's contract.
     let text = unsafe { CStr::from_ptr(json) }
         .to_str()
-        .map_err(|e| format!("json: not UTF-8: {e}"))?;
-    serde_json::from_str(text).map_err(|e| format!("malformed model file JSON: {e}"))
+        .map_err(|e| Failure::Text(format!("json: not UTF-8: {e}")))?;
+    serde_json::from_str(text).map_err(|e| Failure::Text(format!("malformed model file JSON: {e}")))
 }
 
 /// Run a constructor; its error (or a panic, which would be a bug) goes to
@@ -42,10 +42,10 @@ pub(crate) unsafe fn model_file(json: *const c_char) -> Result<ModelFile, String
 pub(crate) unsafe fn construct<T>(
     err: *mut c_char,
     err_len: usize,
-    f: impl FnOnce() -> Result<T, String>,
+    f: impl FnOnce() -> Result<T, Failure>,
 ) -> *mut T {
     let result = catch_unwind(AssertUnwindSafe(f))
-        .unwrap_or_else(|_| Err("internal error (please report it)".into()));
+        .unwrap_or_else(|_| Err(Failure::Text("internal error (please report it)".into())));
     match result {
         Ok(value) => Box::into_raw(Box::new(value)),
         Err(message) => {
@@ -72,7 +72,8 @@ pub unsafe extern "C" fn mfcbeam_model_from_json(
     unsafe {
         construct(err, err_len, || {
             let file = model_file(json)?;
-            let inner = HysteresisCreepModel::from_file(&file).map_err(|e| e.to_string())?;
+            let inner =
+                HysteresisCreepModel::from_file(&file).map_err(|e| Failure::Text(e.to_string()))?;
             Ok(MfcbeamModel { inner })
         })
     }
@@ -133,9 +134,11 @@ pub unsafe extern "C" fn mfcbeam_compensator_from_json(
     unsafe {
         construct(err, err_len, || {
             let file = model_file(json)?;
-            let model = HysteresisCreepModel::from_file(&file).map_err(|e| e.to_string())?;
+            let model =
+                HysteresisCreepModel::from_file(&file).map_err(|e| Failure::Text(e.to_string()))?;
             let settings = CompensatorSettings::with_limits(lower, upper);
-            let inner = Compensator::new(&model, settings).map_err(|e| e.to_string())?;
+            let inner =
+                Compensator::new(&model, settings).map_err(|e| Failure::Text(e.to_string()))?;
             Ok(MfcbeamCompensator { inner })
         })
     }

@@ -18,15 +18,37 @@
 //! (the step returns NaN and sets `MFCBEAM_FLAG_INVALID_HANDLE`), never
 //! dereferenced; bad JSON or parameters give `NULL` or `-1` and one line in
 //! `err`, never a crash.
+//!
+//! Without its default feature `std` the library is `no_std` and allocates
+//! nothing at all: only the caller-owned storage and its `*_init` from
+//! parameter arrays remain (the JSON functions need a heap). That is the
+//! build for a microcontroller's C project:
+//! `cargo build --release -p mfcbeam-capi --no-default-features --target thumbv7em-none-eabihf`.
+//! The header declares the `std` functions under `MFCBEAM_STD`, defined
+//! unless the includer defines `MFCBEAM_NO_STD`.
+
+#![cfg_attr(not(feature = "std"), no_std)]
 
 mod error;
 mod fixed;
+#[cfg(feature = "std")]
 mod heap;
 mod parameters;
+
+/// A panic cannot happen in the no_std build's code paths (every input is
+/// checked); should one, the target stops here rather than unwind into C.
+#[cfg(all(not(feature = "std"), not(test)))]
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    loop {
+        core::hint::spin_loop();
+    }
+}
 
 pub use error::{
     MFCBEAM_FLAG_INVALID_HANDLE, MFCBEAM_FLAG_NON_FINITE_TARGET, MFCBEAM_FLAG_SATURATED,
 };
 pub use fixed::*;
+#[cfg(feature = "std")]
 pub use heap::*;
 pub use parameters::MfcbeamParameters;

@@ -2,6 +2,8 @@
 
 use mfcbeam_rs::realtime::{CreepParameters, HysteresisParameters, ModelParameters};
 
+use crate::error::Failure;
+
 /// The model `W = H + C + offset`: hysteresis thresholds `0 = r_0 < … < r_n`
 /// and weights with positive partial sums (`hysteresis_len` each); creep
 /// thresholds and weights (`creep_len` each; 0 for no creep) and
@@ -26,15 +28,19 @@ pub struct MfcbeamParameters {
 ///
 /// # Safety
 /// `ptr` is NULL or points to `len` readable `f64`.
-unsafe fn slice<'a>(ptr: *const f64, len: usize, field: &str) -> Result<&'a [f64], String> {
+unsafe fn slice<'a>(
+    ptr: *const f64,
+    len: usize,
+    field: &'static str,
+) -> Result<&'a [f64], Failure> {
     if len == 0 {
         return Ok(&[]);
     }
     if ptr.is_null() {
-        return Err(format!("{field}: NULL pointer for {len} values"));
+        return Err(Failure::NullArray { field, len });
     }
     // SAFETY: non-null, and the caller guarantees len readable values.
-    Ok(unsafe { std::slice::from_raw_parts(ptr, len) })
+    Ok(unsafe { core::slice::from_raw_parts(ptr, len) })
 }
 
 impl MfcbeamParameters {
@@ -42,7 +48,7 @@ impl MfcbeamParameters {
     ///
     /// # Safety
     /// Every pointer is NULL or points to its length's readable values.
-    pub(crate) unsafe fn model(&self) -> Result<ModelParameters<'_>, String> {
+    pub(crate) unsafe fn model(&self) -> Result<ModelParameters<'_>, Failure> {
         // SAFETY: forwarded from the caller.
         unsafe {
             let hysteresis = HysteresisParameters {

@@ -42,18 +42,19 @@ fn cargo_build(args: &[&str]) {
     );
 }
 
-/// Compile the C examples once: (mfcbeam_run, api_errors).
-fn programs() -> &'static (PathBuf, PathBuf) {
-    static BUILT: OnceLock<(PathBuf, PathBuf)> = OnceLock::new();
+/// Compile the C examples once: (mfcbeam_run, api_errors, no_heap).
+fn programs() -> &'static (PathBuf, PathBuf, PathBuf) {
+    static BUILT: OnceLock<(PathBuf, PathBuf, PathBuf)> = OnceLock::new();
     BUILT.get_or_init(|| {
         cargo_build(&["-p", "mfcbeam-capi", "--lib"]);
         cargo_build(&["-p", "mfcbeam", "--bin", "mfcbeam"]);
         let lib = profile_dir().join("libmfcbeam.a");
         let dir = profile_dir().join("c-examples");
         std::fs::create_dir_all(&dir).unwrap();
-        let build = |name: &str| {
+        let build = |name: &str, defines: &[&str]| {
             let exe = dir.join(name);
             let out = Command::new("cc")
+                .args(defines)
                 .args([
                     "-std=c99",
                     "-D_POSIX_C_SOURCE=200809L",
@@ -78,7 +79,12 @@ fn programs() -> &'static (PathBuf, PathBuf) {
             );
             exe
         };
-        (build("mfcbeam_run"), build("api_errors"))
+        (
+            build("mfcbeam_run", &[]),
+            build("api_errors", &[]),
+            // only the no_std declarations visible
+            build("no_heap", &["-DMFCBEAM_NO_STD"]),
+        )
     })
 }
 
@@ -92,6 +98,15 @@ fn the_c_api_refuses_bad_input_cleanly() {
     assert!(!text.contains("FAILED"));
     // every check printed its line
     assert!(text.lines().filter(|l| l.starts_with("ok: ")).count() >= 25);
+}
+
+#[test]
+fn the_heapless_example_runs_on_caller_owned_storage() {
+    let out = Command::new(&programs().2).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{text}{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(out.status.code(), Some(0), "{text}");
+    assert!(text.contains("0 saturated"));
 }
 
 fn conform(kind: &str, exec: &str, cases: usize, scale: Option<&str>) -> Output {
