@@ -3,7 +3,9 @@
 //! `mfcbeam::suite::reference`, and for the compensator a numerical inverse
 //! (bisection on `W` every sample, the way a hysteresis model without an
 //! analytic inverse must be inverted) — the contrast the paper draws for the
-//! analytic PI inverse (22). Nominal model, paper's order.
+//! analytic PI inverse (22). The real-time core's fixed-capacity operators
+//! (`PaperCompensator`, `PaperModel`) in f64 and f32 beside them. Nominal
+//! model, paper's order.
 
 use std::hint::black_box;
 
@@ -15,9 +17,13 @@ use mfcbeam::operators::nominal::nominal_model_file;
 use mfcbeam::prelude::*;
 use mfcbeam::suite::conformance::{
     bisection_compensator, fast_compensator, fast_inverse_hysteresis, fast_model,
-    reference_compensator, reference_inverse_hysteresis, reference_model, CompensatorFactory,
-    InverseHysteresisFactory, ModelFactory,
+    fixed_compensator, fixed_model, reference_compensator, reference_inverse_hysteresis,
+    reference_model, CompensatorFactory, InverseHysteresisFactory, ModelFactory,
 };
+use mfcbeam::realtime::{PAPER_CREEP, PAPER_PLAYS};
+
+const N: usize = PAPER_PLAYS;
+const K: usize = PAPER_CREEP;
 
 const LEN: usize = 4096;
 
@@ -25,8 +31,12 @@ fn models(c: &mut Criterion) {
     let input = test_input(LEN);
     let file = nominal_model_file();
     let mut g = c.benchmark_group("model_w_step");
-    let candidates: [(&str, &ModelFactory); 2] =
-        [("fast", &fast_model), ("naive_reference", &reference_model)];
+    let candidates: [(&str, &ModelFactory); 4] = [
+        ("fast", &fast_model),
+        ("fixed_f64", &fixed_model::<f64, N, K>),
+        ("fixed_f32", &fixed_model::<f32, N, K>),
+        ("naive_reference", &reference_model),
+    ];
     for (name, factory) in candidates {
         let mut w = factory(&file).unwrap();
         let w: &mut dyn ActuatorModel = w.as_mut();
@@ -46,8 +56,10 @@ fn compensators(c: &mut Criterion) {
     // reachable targets: W of the test input
     let targets = fast_model(&file).unwrap().run(&test_input(LEN));
     let mut g = c.benchmark_group("compensator_step");
-    let candidates: [(&str, &CompensatorFactory); 3] = [
+    let candidates: [(&str, &CompensatorFactory); 5] = [
         ("fast", &fast_compensator),
+        ("fixed_f64", &fixed_compensator::<f64, N, K>),
+        ("fixed_f32", &fixed_compensator::<f32, N, K>),
         ("naive_reference", &reference_compensator),
         ("bisection", &bisection_compensator),
     ];

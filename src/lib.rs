@@ -47,12 +47,15 @@
 //!
 //! ## Features
 //!
-//! The operator core — [`operators`], [`io`] (model files),
-//! [`suite::reference`], [`suite::conformance`] — needs only `serde`,
-//! `serde_json` and `thiserror`: `default-features = false`. The features
-//! `identification` (faer), `beam` (faer, nalgebra, levenberg-marquardt), `feedforward`, `suite`
-//! (scenarios, golden traces, plots, CSV traces) and `cli` (the binary; the
-//! default) add the rest.
+//! Without default features the crate is [`realtime`]: `#![no_std]`, no
+//! allocator, every operator and the compensator in `f32` or `f64` in
+//! storage fixed at compile time (dependencies: `thiserror`, `libm`). The
+//! feature `std` adds the heap operators ([`operators`]), model files
+//! ([`io`]), the naive references and the conformance checks ([`suite`];
+//! `serde`, `serde_json`). `identification` (faer), `beam` (faer, nalgebra,
+//! levenberg-marquardt), `feedforward`, `suite` (scenarios, golden traces,
+//! plots, CSV traces) and `cli` (the binary; the default) add the rest. The C
+//! library is the workspace member `mfcbeam-capi`.
 //!
 //! ## Two tiers
 //!
