@@ -15,12 +15,12 @@ use common::test_input;
 use criterion::{criterion_group, criterion_main, Criterion};
 use mfcbeam::operators::nominal::nominal_model_file;
 use mfcbeam::prelude::*;
+use mfcbeam::realtime::{PAPER_CREEP, PAPER_PLAYS};
 use mfcbeam::suite::conformance::{
     bisection_compensator, fast_compensator, fast_inverse_hysteresis, fast_model,
     fixed_compensator, fixed_model, reference_compensator, reference_inverse_hysteresis,
     reference_model, CompensatorFactory, InverseHysteresisFactory, ModelFactory,
 };
-use mfcbeam::realtime::{PAPER_CREEP, PAPER_PLAYS};
 
 const N: usize = PAPER_PLAYS;
 const K: usize = PAPER_CREEP;
