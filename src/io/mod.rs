@@ -12,10 +12,12 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
+mod time_axis;
 #[cfg(feature = "suite")]
 mod trace;
+pub use time_axis::{TimeAxis, TimeAxisError, MAX_JITTER, SAMPLE_TIME_AGREEMENT};
 #[cfg(feature = "suite")]
-pub use trace::{TimeAxis, Trace, MAX_JITTER, SAMPLE_TIME_AGREEMENT};
+pub use trace::Trace;
 
 #[cfg(feature = "beam")]
 use crate::beam::{BeamError, BeamParameters};

@@ -4,22 +4,9 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use super::{format_f64, write_atomic, FileError};
-
-/// The largest accepted jitter of a time column: 1 % of the mean step.
-pub const MAX_JITTER: f64 = 0.01;
-
-/// How closely a time column's mean step must agree with a given sample time.
-pub const SAMPLE_TIME_AGREEMENT: f64 = 1e-3;
-
-/// The sample time and jitter of a time column.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TimeAxis {
-    /// The mean step (s).
-    pub sample_time: f64,
-    /// The largest relative deviation of a step from the mean.
-    pub jitter: f64,
-}
+#[cfg(doc)]
+use super::SAMPLE_TIME_AGREEMENT;
+use super::{format_f64, write_atomic, FileError, TimeAxis};
 
 /// A CSV trace held as text, so that input columns pass through unchanged.
 #[derive(Debug, Clone)]
@@ -153,60 +140,16 @@ impl Trace {
             .collect()
     }
 
-    /// The time axis of the `t` column: strictly increasing timestamps, the
-    /// sample time as the mean step `(t_last − t_first)/(N − 1)`, and the
-    /// jitter, the largest relative deviation of a step from it. A logger's
-    /// own clock jitters; beyond [`MAX_JITTER`] the zero-order-hold creep
-    /// discretization (20) no longer describes the data and the trace is
-    /// refused, naming the row.
+    /// The time axis of the `t` column ([`TimeAxis::of`]); an error names
+    /// the row.
     pub fn time_axis(&self) -> Result<TimeAxis, FileError> {
         let t = self.column("t")?;
-        let bad = |k: usize, message: String| FileError::BadValue {
+        TimeAxis::of(&t).map_err(|e| FileError::BadValue {
             path: self.path.clone(),
-            row: k + 1,
-            line: k + 2,
+            row: e.index + 1,
+            line: e.index + 2,
             column: "t".into(),
-            message,
-        };
-        if t.len() < 2 {
-            return Err(bad(
-                0,
-                "at least two samples are needed for a sample time".into(),
-            ));
-        }
-        if let Some(k) = (1..t.len()).find(|&k| t[k] <= t[k - 1]) {
-            return Err(bad(
-                k,
-                format!(
-                    "time does not increase ({:?} s after {:?} s)",
-                    t[k],
-                    t[k - 1]
-                ),
-            ));
-        }
-        let mean = (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64;
-        let (mut jitter, mut worst) = (0.0f64, 1);
-        for k in 1..t.len() {
-            let j = ((t[k] - t[k - 1]) - mean).abs() / mean;
-            if j > jitter {
-                jitter = j;
-                worst = k;
-            }
-        }
-        if jitter > MAX_JITTER {
-            return Err(bad(
-                worst,
-                format!(
-                    "time step {:?} s deviates {:.2} % from the mean step {mean:?} s (at most {} % of jitter is accepted)",
-                    t[worst] - t[worst - 1],
-                    100.0 * jitter,
-                    100.0 * MAX_JITTER
-                ),
-            ));
-        }
-        Ok(TimeAxis {
-            sample_time: mean,
-            jitter,
+            message: e.message,
         })
     }
 
@@ -217,20 +160,15 @@ impl Trace {
         if !self.has_column("t") || self.len() < 2 {
             return Ok(());
         }
-        let axis = self.time_axis()?;
-        if (axis.sample_time - ts).abs() > SAMPLE_TIME_AGREEMENT * ts {
-            return Err(FileError::BadValue {
+        self.time_axis()?
+            .check_sample_time(ts)
+            .map_err(|message| FileError::BadValue {
                 path: self.path.clone(),
                 row: self.len(),
                 line: self.len() + 1,
                 column: "t".into(),
-                message: format!(
-                    "the mean time step {:?} s differs from the sample time {ts:?} s by more than {} relative",
-                    axis.sample_time, SAMPLE_TIME_AGREEMENT
-                ),
-            });
-        }
-        Ok(())
+                message,
+            })
     }
 
     /// The sample time from the `t` column: its mean step.

@@ -1,0 +1,201 @@
+"""Type stubs of the compiled module `mfcbeam._mfcbeam` (re-exported by
+`mfcbeam`). The docstrings at run time (`help(mfcbeam.Model)`) come from the
+Rust sources; these stubs give editors and type checkers the signatures."""
+
+from os import PathLike
+from typing import Any, Dict, List, Optional, Sequence, Tuple, TypedDict, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+ArrayLike = npt.ArrayLike
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+StrPath = Union[str, PathLike]
+
+class ModelState(TypedDict):
+    hysteresis: FloatArray
+    """Play states, one per hysteresis threshold."""
+    creep: Optional[FloatArray]
+    """Creep states, shape (creep thresholds, eigenvalues); None without creep."""
+
+class Model:
+    """The hysteresis and creep model W = H + C (plus an output offset): it
+    maps the balanced patch voltage u (V) to the effective voltage y.
+
+    Stateful: `simulate` continues from the current state; `reset()` returns
+    to the virgin state."""
+
+    @staticmethod
+    def from_file(path: StrPath) -> Model:
+        """Read a model file (JSON). Raises ValueError naming file and field."""
+    @staticmethod
+    def from_json(text: str) -> Model:
+        """A model from the text of a model file. Raises ValueError naming the field."""
+    @staticmethod
+    def nominal() -> Model:
+        """The paper's nominal model (12 plays, 12 creep operators, 5 eigenvalues, T_s = 0.2 ms)."""
+    def simulate(self, u: ArrayLike) -> FloatArray:
+        """y = W[u] from the current state; non-finite samples are held."""
+    def reset(self) -> None:
+        """Return to the virgin state."""
+    @property
+    def sample_time(self) -> float:
+        """T_s (s)."""
+    @property
+    def offset(self) -> float:
+        """Constant output offset."""
+    @property
+    def state(self) -> ModelState:
+        """The current play and creep states."""
+    def to_json(self) -> str:
+        """The model file (JSON) with the current state."""
+    def to_file(self, path: StrPath) -> None:
+        """Write the model file with the current state (atomically)."""
+    def copy(self) -> Model:
+        """A copy with its own state."""
+    def __copy__(self) -> Model: ...
+    def __deepcopy__(self, memo: Any) -> Model: ...
+
+class Compensator:
+    """The compensator W⁻¹ (analytic inverse of H, creep predicted one
+    sample ahead), clipped to `limits`; starts from the model's state."""
+
+    def __init__(
+        self, model: Model, limits: Optional[Tuple[float, float]] = (-1000.0, 1000.0)
+    ) -> None:
+        """`limits=None`: no saturation. Raises ValueError unless lower < upper."""
+    def compensate(self, y_d: ArrayLike) -> Tuple[FloatArray, BoolArray, BoolArray]:
+        """(u, saturated, fault) for the targets y_d, from the current state."""
+    def reset(self) -> None:
+        """Return to the virgin state."""
+    @property
+    def limits(self) -> Tuple[float, float]:
+        """(lower, upper) in V; infinite without limits."""
+    def copy(self) -> Compensator:
+        """A copy with its own state."""
+    def __copy__(self) -> Compensator: ...
+    def __deepcopy__(self, memo: Any) -> Compensator: ...
+
+class FitErrors(TypedDict):
+    samples: int
+    rms: float
+    rms_percent: float
+    max: float
+    max_percent: float
+    output_range: float
+
+class ActiveConstraint(TypedDict):
+    group: str
+    index: int
+    bound: float
+
+class NamedOperator(TypedDict):
+    group: str
+    index: int
+    threshold: float
+
+class FitReport(TypedDict):
+    sample_time: float
+    jitter: Optional[float]
+    samples: int
+    fitted: Tuple[int, int]
+    skipped: int
+    skip_reason: str
+    rms: float
+    rms_percent: float
+    max: float
+    max_percent: float
+    output_range: float
+    holdout: Optional[FitErrors]
+    validation: Optional[FitErrors]
+    offset: float
+    condition_number: float
+    rank: int
+    unknowns: int
+    epsilon_h: float
+    kkt_residual: float
+    iterations: int
+    active_constraints: List[ActiveConstraint]
+    unexcited: List[NamedOperator]
+    undetermined: List[NamedOperator]
+    text: str
+
+def identify(
+    u: ArrayLike,
+    y: ArrayLike,
+    *,
+    sample_time: Optional[float] = None,
+    t: Optional[ArrayLike] = None,
+    hysteresis_operators: int = 12,
+    creep_operators: int = 12,
+    creep_eigenvalues: int = 5,
+    hysteresis_thresholds: Optional[ArrayLike] = None,
+    creep_thresholds: Optional[ArrayLike] = None,
+    eigenvalues: Optional[ArrayLike] = None,
+    epsilon_h: Optional[float] = None,
+    fit_offset: bool = True,
+    fit_from: Optional[int] = None,
+    holdout: float = 0.0,
+    validate: Optional[Tuple[ArrayLike, ArrayLike]] = None,
+) -> Tuple[Model, FitReport]:
+    """Identify W = H + C from input u (V) and measured y, at `sample_time`
+    (s) or timestamps `t`; returns the model and the fit report."""
+
+class Modes(TypedDict):
+    frequencies_hz: FloatArray
+    damping_ratios: FloatArray
+    static_gain: float
+    model: str
+    modes: int
+
+class Beam:
+    """The MFC-driven cantilever (a beam file, SI units). `beam_model` is
+    "modal" (finite elements reduced to modes) or "ritz" (the paper's)."""
+
+    @staticmethod
+    def from_file(path: StrPath) -> Beam:
+        """Read a beam file (JSON). Raises ValueError naming file and field."""
+    @staticmethod
+    def from_json(text: str) -> Beam:
+        """A beam from the text of a beam file."""
+    @staticmethod
+    def nominal() -> Beam:
+        """The paper's beam (reconstructed)."""
+    def to_json(self) -> str:
+        """The beam file (JSON)."""
+    def to_file(self, path: StrPath) -> None:
+        """Write the beam file (atomically)."""
+    def modes(self, beam_model: str = "modal", *, elements: int = 240) -> Modes:
+        """Natural frequencies, damping ratios and static gain of the modes."""
+    def simulate(
+        self, u: ArrayLike, sample_time: float, *, beam_model: str = "modal", elements: int = 240
+    ) -> FloatArray:
+        """Tip deflection (m) for the effective voltage u (V), exact ZOH, from rest."""
+
+class FeedforwardTrace(TypedDict, total=False):
+    t: FloatArray
+    y_d: FloatArray
+    u_d: FloatArray
+    u: FloatArray
+    u_fs: FloatArray
+    u_bs: FloatArray
+    saturated: BoolArray
+
+def feedforward(
+    beam: Beam,
+    model: Optional[Model] = None,
+    *,
+    start: float = 2.9,
+    duration: float = 0.075,
+    y_final: float = 1e-3,
+    sigma: float = 1.1,
+    end: float = 4.0,
+    sample_time: Optional[float] = None,
+    beam_model: str = "modal",
+    elements: int = 240,
+) -> FeedforwardTrace:
+    """Flatness-based feedforward of a rest-to-rest tip move; with `model`
+    also the compensated voltages u = W⁻¹[u_d], u_fs, u_bs, saturated."""

@@ -1,0 +1,50 @@
+//! NumPy arrays in and out, and errors as `ValueError`.
+
+use numpy::{PyArray1, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// `ValueError` carrying an error's one-line text.
+pub fn value_error(e: impl std::fmt::Display) -> PyErr {
+    PyValueError::new_err(e.to_string().replace(['\n', '\r'], " "))
+}
+
+/// A one-dimensional float64 copy of anything `numpy.asarray` takes (an
+/// array of any dtype, a list, a tuple). It is copied so that the
+/// computation can run without the GIL while other threads keep the array.
+/// Errors name the argument.
+pub fn signal(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+    let py = obj.py();
+    let np = py.import("numpy")?;
+    let kwargs = PyDict::new(py);
+    kwargs.set_item("dtype", "float64")?;
+    let array = np
+        .call_method("asarray", (obj,), Some(&kwargs))
+        .map_err(|e| PyValueError::new_err(format!("{name}: {}", e.value(py))))?;
+    let array = array
+        .cast::<PyArrayDyn<f64>>()
+        .map_err(|_| PyValueError::new_err(format!("{name}: not convertible to float64")))?;
+    if array.ndim() != 1 {
+        return Err(PyValueError::new_err(format!(
+            "{name}: expected a one-dimensional array, found shape ({})",
+            array
+                .shape()
+                .iter()
+                .map(|d| format!("{d},"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        )));
+    }
+    Ok(array.readonly().as_array().iter().copied().collect())
+}
+
+/// An optional [`signal`].
+pub fn optional_signal(name: &str, obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<f64>>> {
+    obj.map(|o| signal(name, o)).transpose()
+}
+
+/// A float64 NumPy array that takes over `v` without copying.
+pub fn to_numpy<'py, T: numpy::Element>(py: Python<'py>, v: Vec<T>) -> Bound<'py, PyArray1<T>> {
+    PyArray1::from_vec(py, v)
+}

@@ -1,0 +1,192 @@
+//! `identify`: weights by constrained least squares, (23)–(25), from a
+//! measured record, and the fit report as a dict.
+
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+use mfcbeam::identification::{
+    identify as identify_model, validate as validate_model, FitErrors, IdentificationSettings,
+    UnexcitedOperator,
+};
+use mfcbeam::io::TimeAxis;
+
+use crate::arrays::{optional_signal, signal, value_error};
+use crate::model::Model;
+
+/// Identify a model W = H + C from the input u (V) and the measured output y
+/// sampled at `sample_time` (s), or at the timestamps `t` (s, mean step;
+/// at most 1 % jitter).
+///
+/// Thresholds follow (23) and creep eigenvalues (24) unless given; the
+/// weights solve the constrained least-squares problem (25), so the model
+/// always has an inverse. The operators start virgin at the first sample;
+/// by default the fit starts where |u| first reaches max|u| (every play's
+/// state is known from there), and an output offset is fitted.
+///
+/// `holdout` is the fraction of the record at the end left out of the fit
+/// and reported; `validate=(u2, y2)` reports the errors on another record.
+///
+/// Returns (model, report): the identified model (virgin state) and a dict
+/// of the figures the command line prints; report["text"] is that text.
+#[pyfunction]
+#[pyo3(signature = (
+    u, y, *, sample_time = None, t = None,
+    hysteresis_operators = 12, creep_operators = 12, creep_eigenvalues = 5,
+    hysteresis_thresholds = None, creep_thresholds = None, eigenvalues = None,
+    epsilon_h = None, fit_offset = true, fit_from = None, holdout = 0.0, validate = None
+))]
+#[allow(clippy::too_many_arguments)]
+pub fn identify<'py>(
+    py: Python<'py>,
+    u: &Bound<'py, PyAny>,
+    y: &Bound<'py, PyAny>,
+    sample_time: Option<f64>,
+    t: Option<&Bound<'py, PyAny>>,
+    hysteresis_operators: usize,
+    creep_operators: usize,
+    creep_eigenvalues: usize,
+    hysteresis_thresholds: Option<&Bound<'py, PyAny>>,
+    creep_thresholds: Option<&Bound<'py, PyAny>>,
+    eigenvalues: Option<&Bound<'py, PyAny>>,
+    epsilon_h: Option<f64>,
+    fit_offset: bool,
+    fit_from: Option<usize>,
+    holdout: f64,
+    validate: Option<(Bound<'py, PyAny>, Bound<'py, PyAny>)>,
+) -> PyResult<(Model, Bound<'py, PyDict>)> {
+    let u = signal("u", u)?;
+    let y = signal("y", y)?;
+    let t = optional_signal("t", t)?;
+    let (ts, jitter) = sample_time_of(sample_time, t.as_deref(), u.len())?;
+    if !(0.0..1.0).contains(&holdout) {
+        return Err(PyValueError::new_err(format!(
+            "holdout: must be a fraction in [0, 1), found {holdout}"
+        )));
+    }
+    let validation = match validate {
+        None => None,
+        Some((vu, vy)) => Some((signal("validate[0]", &vu)?, signal("validate[1]", &vy)?)),
+    };
+    let settings = IdentificationSettings {
+        hysteresis_operators,
+        creep_operators,
+        creep_eigenvalues,
+        hysteresis_thresholds: optional_signal("hysteresis_thresholds", hysteresis_thresholds)?,
+        creep_thresholds: optional_signal("creep_thresholds", creep_thresholds)?,
+        eigenvalues: optional_signal("eigenvalues", eigenvalues)?,
+        epsilon_h,
+        fit_offset,
+        fit_from,
+        holdout: (holdout * u.len() as f64).floor() as usize,
+    };
+    let (id, validated) = py
+        .detach(move || {
+            let id = identify_model(&u, &y, ts, &settings)?;
+            let validated = match &validation {
+                None => None,
+                Some((vu, vy)) => Some(validate_model(&id.model, vu, vy).map_err(|e| {
+                    mfcbeam::identification::IdentificationError::InvalidSetting {
+                        field: "validate",
+                        reason: e.to_string(),
+                    }
+                })?),
+            };
+            Ok::<_, mfcbeam::identification::IdentificationError>((id, validated))
+        })
+        .map_err(value_error)?;
+    let r = &id.report;
+    let d = PyDict::new(py);
+    d.set_item("sample_time", ts)?;
+    d.set_item("jitter", jitter)?;
+    d.set_item("samples", r.samples)?;
+    d.set_item("fitted", (r.fitted.start, r.fitted.end))?;
+    d.set_item("skipped", r.fitted.start)?;
+    d.set_item("skip_reason", &r.skip_reason)?;
+    d.set_item("rms", r.fit.rms)?;
+    d.set_item("rms_percent", r.fit.rms_percent())?;
+    d.set_item("max", r.fit.max)?;
+    d.set_item("max_percent", r.fit.max_percent())?;
+    d.set_item("output_range", r.fit.output_range)?;
+    d.set_item("holdout", r.holdout.map(|h| errors(py, &h)).transpose()?)?;
+    d.set_item("validation", validated.map(|v| errors(py, &v)).transpose()?)?;
+    d.set_item("offset", r.offset)?;
+    d.set_item("condition_number", r.condition_number)?;
+    d.set_item("rank", r.rank)?;
+    d.set_item("unknowns", r.unknowns)?;
+    d.set_item("epsilon_h", r.epsilon_h)?;
+    d.set_item("kkt_residual", r.kkt_residual)?;
+    d.set_item("iterations", r.iterations)?;
+    let active = PyList::empty(py);
+    for c in &r.active_constraints {
+        let e = PyDict::new(py);
+        e.set_item("group", c.group)?;
+        e.set_item("index", c.index)?;
+        e.set_item("bound", c.bound)?;
+        active.append(e)?;
+    }
+    d.set_item("active_constraints", active)?;
+    d.set_item("unexcited", operators(py, &r.unexcited)?)?;
+    d.set_item("undetermined", operators(py, &r.undetermined)?)?;
+    d.set_item("text", r.to_string())?;
+    Ok((Model { inner: id.model }, d))
+}
+
+/// The sample time from `sample_time` or the timestamps `t` (both: they must
+/// agree), and the jitter of `t`.
+fn sample_time_of(
+    sample_time: Option<f64>,
+    t: Option<&[f64]>,
+    samples: usize,
+) -> PyResult<(f64, Option<f64>)> {
+    if let Some(ts) = sample_time {
+        if !(ts.is_finite() && ts > 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "sample_time: must be a finite number > 0, found {ts}"
+            )));
+        }
+    }
+    let Some(t) = t else {
+        return match sample_time {
+            Some(ts) => Ok((ts, None)),
+            None => Err(PyValueError::new_err(
+                "sample_time: give the sample time (s) or the timestamps t",
+            )),
+        };
+    };
+    if t.len() != samples {
+        return Err(PyValueError::new_err(format!(
+            "t: expected {samples} samples (as u), found {}",
+            t.len()
+        )));
+    }
+    let axis = TimeAxis::of(t).map_err(value_error)?;
+    if let Some(ts) = sample_time {
+        axis.check_sample_time(ts)
+            .map_err(|m| PyValueError::new_err(format!("t: {m}")))?;
+    }
+    Ok((sample_time.unwrap_or(axis.sample_time), Some(axis.jitter)))
+}
+
+fn errors<'py>(py: Python<'py>, e: &FitErrors) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("samples", e.samples)?;
+    d.set_item("rms", e.rms)?;
+    d.set_item("rms_percent", e.rms_percent())?;
+    d.set_item("max", e.max)?;
+    d.set_item("max_percent", e.max_percent())?;
+    d.set_item("output_range", e.output_range)?;
+    Ok(d)
+}
+
+fn operators<'py>(py: Python<'py>, ops: &[UnexcitedOperator]) -> PyResult<Bound<'py, PyList>> {
+    let list = PyList::empty(py);
+    for o in ops {
+        let e = PyDict::new(py);
+        e.set_item("group", o.group)?;
+        e.set_item("index", o.index)?;
+        e.set_item("threshold", o.threshold)?;
+        list.append(e)?;
+    }
+    Ok(list)
+}
