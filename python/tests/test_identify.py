@@ -1,0 +1,122 @@
+"""identify: bit-for-bit agreement with the command line on a noisy,
+offset, jittered record; statistical accuracy on a record from a known
+model; the report."""
+
+import json
+import re
+
+import numpy as np
+import pytest
+
+import mfcbeam
+from conftest import shrinking_loops
+
+SIGMA = 0.5  # noise of the output (V)
+OFFSET = 3.0  # sensor offset (V)
+
+
+@pytest.fixture(scope="module")
+def record():
+    """A record of the nominal model: shrinking loops with plateaus (the
+    plays and the creep excited), Gaussian noise, an offset and a logger
+    clock with 0.3 % jitter."""
+    rng = np.random.default_rng(20111)
+    model = mfcbeam.Model.nominal()
+    ts = model.sample_time
+    u = shrinking_loops(900.0, 3, 3, ts)
+    clean = model.simulate(u)
+    y = clean + OFFSET + rng.normal(0.0, SIGMA, len(u))
+    t = np.arange(len(u)) * ts + rng.uniform(-0.0015, 0.0015, len(u)) * ts
+    return {"t": t, "u": u, "y": y, "clean": clean, "ts": ts}
+
+
+def nominal_structure():
+    """The nominal model's thresholds and eigenvalues: with them the model
+    class contains the truth, and what remains is the noise."""
+    m = json.loads(mfcbeam.Model.nominal().to_json())
+    return {
+        "hysteresis_thresholds": m["hysteresis"]["thresholds"],
+        "creep_thresholds": m["creep"]["thresholds"],
+        "eigenvalues": m["creep"]["eigenvalues"],
+    }
+
+
+def test_agrees_with_the_cli_bit_for_bit(cli, record):
+    src = cli.write_csv("rec.csv", {k: record[k] for k in ("t", "u", "y")})
+    out = cli.tmp / "m.json"
+    r = cli.run("identify", "--input", src, "--output", out, "--holdout", "0.1")
+    model, report = mfcbeam.identify(record["u"], record["y"], t=record["t"], holdout=0.1)
+    ours = json.loads(model.to_json())
+    # the CLI writes the virgin model without "state"; ours has zero states
+    assert not np.any(ours["hysteresis"].pop("state")) and not np.any(ours["creep"].pop("state"))
+    assert ours == json.loads(out.read_text())
+    assert report["text"] in r.stderr
+    m = re.search(r"sample time +(\S+) s \(mean step of t; jitter (\S+) of a step\)", r.stderr)
+    assert float(m.group(1)) == report["sample_time"]
+    assert float(m.group(2)) == float(f"{report['jitter']:.2e}")
+    # the sample time is the mean step of t, as the CLI takes it
+    t = record["t"]
+    assert report["sample_time"] == (t[-1] - t[0]) / (len(t) - 1)
+
+
+def test_recovers_a_known_model_to_the_noise_level(record):
+    model, report = mfcbeam.identify(
+        record["u"], record["y"], sample_time=record["ts"], **nominal_structure()
+    )
+    # unknowns: the weights, and the offset
+    n, p = report["fitted"][1] - report["fitted"][0], report["unknowns"] + 1
+    # residual rms of least squares: σ·sqrt(1 − p/n), relative spread 1/sqrt(2n)
+    expected = SIGMA * np.sqrt(1 - p / n)
+    assert abs(report["rms"] / expected - 1) < 6 / np.sqrt(2 * n), report["rms"]
+    # the model error left by the noise: σ·sqrt(p/n) rms over the fitted
+    # samples (the average variance of a least-squares prediction); allow 5x
+    pred = model.simulate(record["u"]) - report["offset"]
+    lo, hi = report["fitted"]
+    err = np.sqrt(np.mean((pred[lo:hi] - record["clean"][lo:hi]) ** 2))
+    assert err < 5 * SIGMA * np.sqrt(p / n), err
+    assert abs(report["offset"] - OFFSET) < 0.05
+    assert report["kkt_residual"] < 1e-12
+    assert report["rank"] == report["unknowns"]
+
+
+def test_report_fields(record):
+    model, report = mfcbeam.identify(
+        record["u"], record["y"], sample_time=record["ts"], hysteresis_operators=8,
+        creep_operators=4, creep_eigenvalues=4, holdout=0.2,
+        validate=(record["u"], record["clean"] + OFFSET),
+    )
+    assert report["samples"] == len(record["u"])
+    lo, hi = report["fitted"]
+    assert report["skipped"] == lo > 0 and "max|u|" in report["skip_reason"]
+    assert hi == len(record["u"]) - int(0.2 * len(record["u"]))
+    assert report["holdout"]["samples"] == len(record["u"]) - hi
+    assert report["validation"]["samples"] > 0
+    assert report["unknowns"] == 8 + 4  # the weights (the offset is eliminated first)
+    assert report["jitter"] is None
+    for key in ("rms", "max", "rms_percent", "max_percent", "condition_number", "epsilon_h"):
+        assert np.isfinite(report[key]) and report[key] > 0, key
+    for c in report["active_constraints"]:
+        assert c["group"] in ("hysteresis", "creep") and c["index"] >= 0
+    assert json.loads(model.to_json())["creep"]["eigenvalues"] == [
+        1 / (10.0 ** j * record["ts"]) for j in range(1, 5)
+    ]
+    assert model.state["creep"].shape == (4, 4)
+
+
+def test_compensator_of_the_identified_model(record):
+    """The identified compensator in front of the true plant tracks the
+    target to within the identification error."""
+    model, report = mfcbeam.identify(
+        record["u"], record["y"], sample_time=record["ts"], fit_offset=True, **nominal_structure()
+    )
+    offset_free = json.loads(model.to_json())
+    offset_free["offset"] = 0.0
+    comp = mfcbeam.Compensator(mfcbeam.Model.from_json(json.dumps(offset_free)))
+    y_d = shrinking_loops(500.0, 1, 5, record["ts"])
+    u, saturated, _ = comp.compensate(y_d)
+    assert not saturated.any()
+    y = mfcbeam.Model.nominal().simulate(u)
+    # y − y_d = W[u] − W_identified[u]: the model error, as above
+    n, p = report["fitted"][1] - report["fitted"][0], report["unknowns"] + 1
+    err = np.sqrt(np.mean((y - y_d) ** 2))
+    assert err < 5 * SIGMA * np.sqrt(p / n), err
