@@ -27,13 +27,8 @@ pub fn signal(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
         .map_err(|_| PyValueError::new_err(format!("{name}: not convertible to float64")))?;
     if array.ndim() != 1 {
         return Err(PyValueError::new_err(format!(
-            "{name}: expected a one-dimensional array, found shape ({})",
-            array
-                .shape()
-                .iter()
-                .map(|d| format!("{d},"))
-                .collect::<Vec<_>>()
-                .join(" ")
+            "{name}: expected a one-dimensional array, found shape {}",
+            shape_text(array.shape())
         )));
     }
     Ok(array.readonly().as_array().iter().copied().collect())
@@ -47,4 +42,15 @@ pub fn optional_signal(name: &str, obj: Option<&Bound<'_, PyAny>>) -> PyResult<O
 /// A float64 NumPy array that takes over `v` without copying.
 pub fn to_numpy<'py, T: numpy::Element>(py: Python<'py>, v: Vec<T>) -> Bound<'py, PyArray1<T>> {
     PyArray1::from_vec(py, v)
+}
+
+/// A shape as Python writes it: `()`, `(3,)`, `(2, 2)`.
+fn shape_text(shape: &[usize]) -> String {
+    match shape {
+        [n] => format!("({n},)"),
+        _ => {
+            let dims: Vec<String> = shape.iter().map(usize::to_string).collect();
+            format!("({})", dims.join(", "))
+        }
+    }
 }

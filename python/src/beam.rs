@@ -17,6 +17,9 @@ use mfcbeam::io::{read_beam, write_json};
 use mfcbeam::operators::supply::Supply;
 
 use crate::arrays::{signal, to_numpy, value_error};
+
+// The signatures below spell the default out, so that Python shows it.
+const _: () = assert!(DEFAULT_ELEMENTS == 240);
 use crate::model::Model;
 
 /// The discretization `beam_model` names: "modal" (converged finite elements
@@ -83,7 +86,7 @@ impl Beam {
     /// Undamped natural frequencies (Hz), modal damping ratios and the
     /// static gain (m per effective V) of the model's modes, as a dict with
     /// "frequencies_hz", "damping_ratios", "static_gain", "model", "modes".
-    #[pyo3(signature = (beam_model = "modal", *, elements = DEFAULT_ELEMENTS))]
+    #[pyo3(signature = (beam_model = "modal", *, elements = 240))]
     fn modes<'py>(
         &self,
         py: Python<'py>,
@@ -107,7 +110,7 @@ impl Beam {
     /// Tip deflection y (m) for the effective voltage u (V) sampled at
     /// `sample_time` (s): exact zero-order hold, from rest in equilibrium
     /// with u[0].
-    #[pyo3(signature = (u, sample_time, *, beam_model = "modal", elements = DEFAULT_ELEMENTS))]
+    #[pyo3(signature = (u, sample_time, *, beam_model = "modal", elements = 240))]
     fn simulate<'py>(
         &self,
         py: Python<'py>,
@@ -150,7 +153,7 @@ impl Beam {
 #[pyfunction]
 #[pyo3(signature = (
     beam, model = None, *, start = 2.9, duration = 0.075, y_final = 1e-3, sigma = 1.1,
-    end = 4.0, sample_time = None, beam_model = "modal", elements = DEFAULT_ELEMENTS
+    end = 4.0, sample_time = None, beam_model = "modal", elements = 240
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn feedforward<'py>(

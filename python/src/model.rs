@@ -172,7 +172,10 @@ pub struct Compensator {
 #[pymethods]
 impl Compensator {
     #[new]
-    #[pyo3(signature = (model, limits = Some((-1000.0, 1000.0))))]
+    #[pyo3(
+        signature = (model, limits = Some((-1000.0, 1000.0))),
+        text_signature = "(model, limits=(-1000.0, 1000.0))"
+    )]
     fn new(model: &Model, limits: Option<(f64, f64)>) -> PyResult<Self> {
         let settings = match limits {
             Some((lo, hi)) => CompensatorSettings::with_limits(lo, hi),
