@@ -22,6 +22,7 @@ pub struct TimeAxis {
 
 /// A time column that cannot serve as a time axis, at sample `index`.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 #[error("t[{index}]: {message}")]
 pub struct TimeAxisError {
     pub index: usize,
@@ -91,5 +92,39 @@ impl TimeAxis {
             ));
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_sample_time_is_the_mean_step_and_the_jitter_the_worst_step() {
+        // steps 1.0, 1.005, 0.995, 1.0: mean exactly 1, worst deviation 0.005
+        let axis = TimeAxis::of(&[0.0, 1.0, 2.005, 3.0, 4.0]).unwrap();
+        assert_eq!(axis.sample_time, 1.0);
+        // 2.005 − 1.0 rounds: within a few ulps of 2.005
+        assert!((axis.jitter - 0.005).abs() < 8.0 * f64::EPSILON);
+        assert!(axis.check_sample_time(1.0 + 0.9e-3).is_ok());
+        let e = axis.check_sample_time(1.0 + 1.1e-3).unwrap_err();
+        assert!(e.contains("differs from the sample time"), "{e}");
+    }
+
+    #[test]
+    fn a_bad_time_column_names_its_sample() {
+        let cases: [(&[f64], usize, &str); 5] = [
+            (&[0.0], 0, "at least two samples"),
+            (&[0.0, 1.0, 1.0, 2.0], 2, "time does not increase"),
+            (&[0.0, 1.0, f64::NAN], 2, "not a finite number"),
+            (&[0.0, f64::INFINITY, 2.0], 1, "not a finite number"),
+            (&[0.0, 1.0, 2.02, 3.0, 4.0], 2, "deviates 2.00 %"),
+        ];
+        for (t, index, text) in cases {
+            let e = TimeAxis::of(t).unwrap_err();
+            assert_eq!(e.index, index, "{t:?}: {e}");
+            assert!(e.to_string().starts_with(&format!("t[{index}]: ")), "{e}");
+            assert!(e.to_string().contains(text), "{t:?}: {e}");
+        }
     }
 }
