@@ -5,9 +5,9 @@
 //! and as a compensator, in `f64` (heap handles) and in `f32`
 //! (caller-owned storage, tolerances scaled by `ε₃₂/ε₆₄ = 2²⁹`).
 //!
-//! The static library and the `mfcbeam` binary are built by a nested cargo
-//! into the same target directory (a no-op when `cargo test --workspace`
-//! has built them already).
+//! A nested cargo builds the static library and makes sure the `mfcbeam`
+//! binary is the one `cargo test --workspace` builds (a `cargo build` of the
+//! binary alone resolves other features and would compile it all again).
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -26,8 +26,7 @@ fn root() -> PathBuf {
 fn cargo_build(args: &[&str]) {
     let target_dir = profile_dir().parent().unwrap().to_path_buf();
     let mut cmd = Command::new(env!("CARGO"));
-    cmd.arg("build")
-        .args(args)
+    cmd.args(args)
         .arg("--target-dir")
         .arg(&target_dir)
         .current_dir(root());
@@ -46,8 +45,9 @@ fn cargo_build(args: &[&str]) {
 fn programs() -> &'static (PathBuf, PathBuf, PathBuf) {
     static BUILT: OnceLock<(PathBuf, PathBuf, PathBuf)> = OnceLock::new();
     BUILT.get_or_init(|| {
-        cargo_build(&["-p", "mfcbeam-capi", "--lib"]);
-        cargo_build(&["-p", "mfcbeam", "--bin", "mfcbeam"]);
+        cargo_build(&["build", "-p", "mfcbeam-capi", "--lib"]);
+        // the program as `cargo test --workspace` built it: no rebuild
+        cargo_build(&["test", "--workspace", "--no-run"]);
         let lib = profile_dir().join("libmfcbeam.a");
         let dir = profile_dir().join("c-examples");
         std::fs::create_dir_all(&dir).unwrap();
