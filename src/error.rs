@@ -171,6 +171,10 @@ impl ParameterError {
                 allowed,
             },
             P::InvalidLimits { lower, upper } => ModelError::InvalidLimits { lower, upper },
+            P::ChannelMismatch { .. } => ModelError::Inconsistent {
+                field: name("bank"),
+                reason: self.to_string(),
+            },
             P::ExceedsCapacity {
                 field,
                 capacity,

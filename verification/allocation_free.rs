@@ -1,5 +1,6 @@
-//! The per-sample `step` of every operator and of the compensator allocates
-//! nothing: counted with a global allocator that records every allocation.
+//! The per-sample `step` of every operator, of the compensator and of a
+//! compensator bank allocates nothing: counted with a global allocator that
+//! records every allocation.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -70,6 +71,11 @@ fn steps_and_in_place_runs_allocate_nothing() {
     let mut fixed32 = PaperCompensator::<f32>::new(&nominal::PARAMETERS, -300.0, 300.0).unwrap();
     let mut fixed64 = PaperCompensator::<f64>::new(&nominal::PARAMETERS, -300.0, 300.0).unwrap();
     let mut plant32 = PaperModel::<f32>::new(&nominal::PARAMETERS).unwrap();
+    let mut bank =
+        mfcbeam::realtime::CompensatorBank::<f32>::uniform(&nominal::PARAMETERS, 19, -300.0, 300.0)
+            .unwrap();
+    let mut targets = [0.0f32; 19];
+    let mut bank_out = [mfcbeam::realtime::Compensated::<f32>::default(); 19];
 
     let n = allocations_during(|| {
         for &v in &input {
@@ -84,7 +90,14 @@ fn steps_and_in_place_runs_allocate_nothing() {
             std::hint::black_box(bisection.compensate(v));
             std::hint::black_box(plant32.step(fixed32.compensate(v as f32).u));
             std::hint::black_box(fixed64.compensate(v));
+            for (c, t) in targets.iter_mut().enumerate() {
+                *t = (v as f32) * (1.0 + c as f32 / 19.0);
+            }
+            bank.compensate(&targets, &mut bank_out).unwrap();
         }
+        targets[3] = f32::NAN;
+        bank.compensate(&targets, &mut bank_out).unwrap();
+        assert!(bank_out[3].fault && bank_out.iter().any(|o| o.saturated));
         std::hint::black_box(fixed32.compensate(f32::NAN));
         // non-finite samples take the held path
         std::hint::black_box(comp.compensate(f64::NAN));

@@ -140,6 +140,14 @@ impl Compensator {
     /// to the limits. Allocation-free, no I/O.
     #[inline]
     pub fn compensate(&mut self, target: f64) -> Compensated {
+        crate::realtime::simd::dispatch(|| self.compensate_portable(target))
+    }
+
+    /// [`Compensator::compensate`] compiled for the caller's instruction set,
+    /// without run-time dispatch (the same bits).
+    #[doc(hidden)]
+    #[inline(always)]
+    pub fn compensate_portable(&mut self, target: f64) -> Compensated {
         if !target.is_finite() {
             return self.hold();
         }
@@ -163,7 +171,7 @@ impl Compensator {
             self.settings.upper_limit,
         );
         if let Some(op) = &mut self.creep {
-            op.advance(u);
+            op.advance_portable(u);
         }
         Compensated {
             u,
@@ -218,14 +226,17 @@ impl Compensator {
                 });
             }
         }
-        let mut count = 0;
-        for ((&t, u), s) in targets.iter().zip(u.iter_mut()).zip(saturated.iter_mut()) {
-            let out = self.compensate(t);
-            *u = out.u;
-            *s = out.saturated;
-            count += usize::from(out.saturated);
-        }
-        Ok(count)
+        // one instruction-set dispatch for the whole signal
+        Ok(crate::realtime::simd::dispatch(|| {
+            let mut count = 0;
+            for ((&t, u), s) in targets.iter().zip(u.iter_mut()).zip(saturated.iter_mut()) {
+                let out = self.compensate_portable(t);
+                *u = out.u;
+                *s = out.saturated;
+                count += usize::from(out.saturated);
+            }
+            count
+        }))
     }
 }
 

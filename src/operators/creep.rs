@@ -20,7 +20,7 @@
 //! is `χ` at the next sample.
 
 use crate::error::ModelError;
-use crate::operators::hysteresis::{check_finite, check_length, check_thresholds, weighted_sum};
+use crate::operators::hysteresis::{check_finite, check_length, check_thresholds};
 use crate::operators::play::dead_zone;
 use crate::operators::traits::{Operator, Snapshot};
 use crate::realtime;
@@ -170,9 +170,9 @@ impl Snapshot for LogCreepOperator {
 
 /// The Prandtl–Ishlinskii creep operator `C` (16).
 ///
-/// Output `C_k = Σ_{i,j} (w_i / m) χ_{i,j,k}`, summed over `χ` stored
-/// eigenvalue-major (`j` outer, `i` inner) in the four interleaved partial sums
-/// every operator here uses; the per-sample update is one flat pass.
+/// Output `C_k = Σ_i (w_i / m) Σ_j χ_{i,j,k}`, with `χ` stored
+/// eigenvalue-major (`j` outer, `i` inner); the per-sample update is the
+/// real-time core's blocked pass ([`crate::realtime::creep::advance`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct CreepOperator {
     thresholds: Vec<f64>,
@@ -181,10 +181,9 @@ pub struct CreepOperator {
     sample_time: f64,
     /// `χ[j * n + i]`: eigenvalue `j`, threshold `i`.
     chi: Vec<f64>,
-    /// `r_i`, `1 − e^{−a_j T_s}` and `w_i / m` at the position of `χ_{i,j}`.
-    flat_thresholds: Vec<f64>,
-    flat_gains: Vec<f64>,
-    flat_weights: Vec<f64>,
+    /// `1 − e^{−a_j T_s}` per eigenvalue and `w_i / m` per threshold.
+    gains: Vec<f64>,
+    scaled_weights: Vec<f64>,
     /// The output the current state produces, kept so `output()` is O(1).
     output: f64,
     /// The last finite input, held in place of a non-finite one.
@@ -208,16 +207,12 @@ impl CreepOperator {
         check_sample_time(sample_time)?;
         let n = thresholds.len();
         let m = eigenvalues.len();
-        let flat = |f: &dyn Fn(usize, usize) -> f64| -> Vec<f64> {
-            (0..m)
-                .flat_map(|j| (0..n).map(move |i| (j, i)))
-                .map(|(j, i)| f(i, j))
-                .collect()
-        };
         Ok(Self {
-            flat_thresholds: flat(&|i, _| thresholds[i]),
-            flat_gains: flat(&|_, j| creep_gain(eigenvalues[j], sample_time)),
-            flat_weights: flat(&|i, _| weights[i] / m as f64),
+            gains: eigenvalues
+                .iter()
+                .map(|&a| creep_gain(a, sample_time))
+                .collect(),
+            scaled_weights: weights.iter().map(|&w| w / m as f64).collect(),
             thresholds,
             weights,
             eigenvalues,
@@ -277,8 +272,20 @@ impl CreepOperator {
     /// the last finite one held: it never enters the state.
     #[inline]
     pub fn advance(&mut self, v: f64) -> f64 {
-        self.advance_state(v);
-        self.output = weighted_sum(&self.flat_weights, &self.chi);
+        realtime::simd::dispatch(|| self.advance_portable(v))
+    }
+
+    /// [`CreepOperator::advance`] compiled for the caller's instruction set.
+    #[inline(always)]
+    pub(crate) fn advance_portable(&mut self, v: f64) -> f64 {
+        self.output = realtime::creep::advance(
+            &mut self.chi,
+            &self.thresholds,
+            &self.gains,
+            &self.scaled_weights,
+            v,
+            &mut self.last_input,
+        );
         self.output
     }
 
@@ -286,19 +293,11 @@ impl CreepOperator {
     /// computing the output (for callers that read the log(t) outputs).
     #[inline]
     pub(crate) fn advance_state(&mut self, v: f64) {
-        // One flat pass over all (n+1)·m elementary operators: long enough to
-        // vectorize well, unlike m short rows of n+1.
-        realtime::creep::advance(
-            &mut self.chi,
-            &self.flat_thresholds,
-            &self.flat_gains,
-            v,
-            &mut self.last_input,
-        );
+        self.advance(v);
     }
 
     fn refresh_output(&mut self) {
-        self.output = weighted_sum(&self.flat_weights, &self.chi);
+        self.output = realtime::creep::output(&self.chi, &self.scaled_weights);
     }
 }
 

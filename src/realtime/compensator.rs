@@ -18,9 +18,10 @@ use crate::realtime::parameters::{
 };
 use crate::realtime::play::play;
 use crate::realtime::real::Real;
+use crate::realtime::simd::dispatch;
 
 /// One compensator output sample.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Compensated<T = f64> {
     /// The (clipped) balanced voltage `u_k`.
     pub u: T,
@@ -180,6 +181,14 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
     /// The voltage for the target `target`; allocation-free, O(n + n_C m).
     #[inline]
     pub fn compensate(&mut self, target: T) -> Compensated<T> {
+        dispatch(|| self.compensate_portable(target))
+    }
+
+    /// [`FixedCompensator::compensate`] compiled for the caller's instruction
+    /// set, without run-time dispatch (the same bits; for tests and for
+    /// callers that dispatch a whole loop themselves).
+    #[inline(always)]
+    pub fn compensate_portable(&mut self, target: T) -> Compensated<T> {
         if !target.is_finite() {
             return self.hold();
         }
@@ -204,7 +213,7 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
             self.upper,
         );
         if let Some(op) = &mut self.creep {
-            op.advance(u);
+            op.advance_portable(u);
         }
         Compensated {
             u,

@@ -14,10 +14,10 @@
 //! tolerances carry this `1/g` term (see `suite::conformance::tolerance`).
 
 use crate::realtime::error::ParameterError;
-use crate::realtime::hysteresis::weighted_sum;
 use crate::realtime::parameters::{check_capacity, check_finite, check_length, CreepParameters};
-use crate::realtime::play::dead_zone;
+use crate::realtime::play::clamp;
 use crate::realtime::real::Real;
+use crate::realtime::simd::dispatch;
 
 /// `1 − e^{−a T_s}` without cancellation (`−expm1(−aT_s)`; the literal form
 /// loses five digits at `a = 0.05 s⁻¹`, `T_s = 0.2 ms`).
@@ -30,15 +30,85 @@ pub fn creep_gain(eigenvalue: f64, sample_time: f64) -> f64 {
     -e
 }
 
-/// Advance every elementary operator with `v` (20). A non-finite `v` is
-/// replaced by the last finite input, which `last_input` keeps.
+/// Thresholds per block of the creep pass: the clamp bounds `v ∓ r_i` are
+/// formed once per threshold and reused by every eigenvalue's row, and a
+/// block is one AVX register of `f64` (two SSE2 registers).
+pub const LANES: usize = 4;
+
+/// Advance every elementary operator with `v` (20) and return the new output
+/// `Σ_i (w_i/m) Σ_j χ_ij`. `chi[j * n + i]` (eigenvalue-major); `thresholds`
+/// and `weights` (`w_i/m`) have `n` entries, `gains` one per eigenvalue. A
+/// non-finite `v` is replaced by the last finite input, which `last_input`
+/// keeps.
+///
+/// The update is `χ ← χ + g (P_r[v, χ] − χ)`: the dead zone of (14) as the
+/// play's output minus its state, `d_r(v − χ) = P_r[v, χ] − χ`, so that
+/// `v ∓ r_i` serve all `m` rows. The sums run in a fixed order (lane `l`
+/// of a block adds the thresholds `i ≡ l mod 4`), the same for every
+/// instruction set: the result does not depend on the CPU.
 #[inline(always)]
-pub fn advance<T: Real>(chi: &mut [T], thresholds: &[T], gains: &[T], v: T, last_input: &mut T) {
+pub fn advance<T: Real>(
+    chi: &mut [T],
+    thresholds: &[T],
+    gains: &[T],
+    weights: &[T],
+    v: T,
+    last_input: &mut T,
+) -> T {
     let v = if v.is_finite() { v } else { *last_input };
     *last_input = v;
-    for ((chi, &r), &g) in chi.iter_mut().zip(thresholds).zip(gains) {
-        *chi += g * dead_zone(v - *chi, r);
+    let n = thresholds.len();
+    debug_assert!(weights.len() == n && chi.len() == n * gains.len());
+    let mut acc = [T::ZERO; LANES];
+    let full = n - n % LANES;
+    for i0 in (0..full).step_by(LANES) {
+        let mut lower = [T::ZERO; LANES];
+        let mut upper = [T::ZERO; LANES];
+        for l in 0..LANES {
+            lower[l] = v - thresholds[i0 + l];
+            upper[l] = v + thresholds[i0 + l];
+        }
+        let mut rows = [T::ZERO; LANES];
+        for (j, &g) in gains.iter().enumerate() {
+            let block = &mut chi[j * n + i0..j * n + i0 + LANES];
+            for l in 0..LANES {
+                let x = block[l];
+                let x = x + g * (clamp(x, lower[l], upper[l]) - x);
+                block[l] = x;
+                rows[l] += x;
+            }
+        }
+        for l in 0..LANES {
+            acc[l] += weights[i0 + l] * rows[l];
+        }
     }
+    for i in full..n {
+        let (lower, upper) = (v - thresholds[i], v + thresholds[i]);
+        let mut row = T::ZERO;
+        for (j, &g) in gains.iter().enumerate() {
+            let x = chi[j * n + i];
+            let x = x + g * (clamp(x, lower, upper) - x);
+            chi[j * n + i] = x;
+            row += x;
+        }
+        acc[i - full] += weights[i] * row;
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3])
+}
+
+/// The output `Σ_i (w_i/m) Σ_j χ_ij` of a state, summed in the order
+/// [`advance`] uses (bit for bit what it returns for that state).
+pub fn output<T: Real>(chi: &[T], weights: &[T]) -> T {
+    let n = weights.len();
+    let mut acc = [T::ZERO; LANES];
+    for (i, &w) in weights.iter().enumerate() {
+        let mut row = T::ZERO;
+        for x in chi.iter().skip(i).step_by(n.max(1)) {
+            row += *x;
+        }
+        acc[i % LANES] += w * row;
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3])
 }
 
 /// A PI creep operator (16) with at most `K` elementary operators
@@ -47,9 +117,10 @@ pub fn advance<T: Real>(chi: &mut [T], thresholds: &[T], gains: &[T], v: T, last
 pub struct FixedCreep<T: Real, const K: usize> {
     thresholds: usize,
     eigenvalues: usize,
-    flat_thresholds: [T; K],
-    flat_gains: [T; K],
-    flat_weights: [T; K],
+    /// `r_i` (first `n + 1`), `1 − e^{−a_j T_s}` (first `m`), `w_i / m`.
+    thresholds_r: [T; K],
+    gains: [T; K],
+    weights: [T; K],
     chi: [T; K],
     output: T,
     last_input: T,
@@ -65,20 +136,19 @@ impl<T: Real, const K: usize> FixedCreep<T, K> {
         let mut c = Self {
             thresholds: n,
             eigenvalues: m,
-            flat_thresholds: [T::ZERO; K],
-            flat_gains: [T::ZERO; K],
-            flat_weights: [T::ZERO; K],
+            thresholds_r: [T::ZERO; K],
+            gains: [T::ZERO; K],
+            weights: [T::ZERO; K],
             chi: [T::ZERO; K],
             output: T::ZERO,
             last_input: T::ZERO,
         };
         for (j, &a) in parameters.eigenvalues.iter().enumerate() {
-            let g = T::from_f64(creep_gain(a, sample_time));
-            for i in 0..n {
-                c.flat_thresholds[j * n + i] = T::from_f64(parameters.thresholds[i]);
-                c.flat_gains[j * n + i] = g;
-                c.flat_weights[j * n + i] = T::from_f64(parameters.weights[i] / m as f64);
-            }
+            c.gains[j] = T::from_f64(creep_gain(a, sample_time));
+        }
+        for i in 0..n {
+            c.thresholds_r[i] = T::from_f64(parameters.thresholds[i]);
+            c.weights[i] = T::from_f64(parameters.weights[i] / m as f64);
         }
         Ok(c)
     }
@@ -86,10 +156,6 @@ impl<T: Real, const K: usize> FixedCreep<T, K> {
     /// `(n + 1, m)`: thresholds and eigenvalues.
     pub fn shape(&self) -> (usize, usize) {
         (self.thresholds, self.eigenvalues)
-    }
-
-    fn len(&self) -> usize {
-        self.thresholds * self.eigenvalues
     }
 
     /// Set `χ` from `state[i * m + j]` (threshold `i`, eigenvalue `j`: the
@@ -128,15 +194,22 @@ impl<T: Real, const K: usize> FixedCreep<T, K> {
     /// Advance with `v_k` and return `C_{k+1}`.
     #[inline]
     pub fn advance(&mut self, v: T) -> T {
-        let len = self.len();
-        advance(
-            &mut self.chi[..len],
-            &self.flat_thresholds[..len],
-            &self.flat_gains[..len],
+        dispatch(|| self.advance_portable(v))
+    }
+
+    /// [`FixedCreep::advance`] compiled for the caller's instruction set
+    /// (for a caller that dispatches itself).
+    #[inline(always)]
+    pub fn advance_portable(&mut self, v: T) -> T {
+        let (n, m) = self.shape();
+        self.output = advance(
+            &mut self.chi[..n * m],
+            &self.thresholds_r[..n],
+            &self.gains[..m],
+            &self.weights[..n],
             v,
             &mut self.last_input,
         );
-        self.refresh_output();
         self.output
     }
 
@@ -149,8 +222,8 @@ impl<T: Real, const K: usize> FixedCreep<T, K> {
     }
 
     fn refresh_output(&mut self) {
-        let len = self.len();
-        self.output = weighted_sum(&self.flat_weights[..len], &self.chi[..len]);
+        let (n, m) = self.shape();
+        self.output = output(&self.chi[..n * m], &self.weights[..n]);
     }
 
     pub fn reset(&mut self) {

@@ -63,6 +63,10 @@ pub enum ParameterError {
     },
     #[error("limits: the lower limit {lower} must be below the upper limit {upper}")]
     InvalidLimits { lower: f64, upper: f64 },
+    /// A channel of a compensator bank whose model differs in shape from the
+    /// first channel's.
+    #[error("models[{channel}].{field}: differs from models[0] (every channel of a bank needs the same orders and sample time)")]
+    ChannelMismatch { field: &'static str, channel: usize },
     /// More values than the compile-time capacity holds.
     #[error("{field}: {found} values exceed the capacity of {capacity} fixed at compile time")]
     ExceedsCapacity {

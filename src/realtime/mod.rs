@@ -33,6 +33,8 @@
 
 #[cfg(feature = "std")]
 mod adapters;
+#[cfg(feature = "std")]
+pub mod bank;
 pub mod compensator;
 pub mod creep;
 pub mod error;
@@ -44,9 +46,12 @@ pub mod parameters;
 pub mod play;
 pub mod real;
 pub mod rounding;
+pub mod simd;
 
 #[cfg(feature = "std")]
 pub use adapters::parameters_of;
+#[cfg(feature = "std")]
+pub use bank::CompensatorBank;
 pub use compensator::{Compensated, FixedCompensator};
 pub use creep::FixedCreep;
 pub use error::ParameterError;

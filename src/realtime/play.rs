@@ -8,8 +8,13 @@ use crate::realtime::real::Real;
 /// and is exactly odd: `play(−v, r, −x) == −play(v, r, x)` bit for bit.
 #[inline(always)]
 pub fn play<T: Real>(v: T, r: T, x: T) -> T {
-    let upper = v + r;
-    let lower = v - r;
+    clamp(x, v - r, v + r)
+}
+
+/// `max(lower, min(upper, x))`: the play (20) with its bounds `v ∓ r` formed
+/// by the caller, so that one pair serves several states.
+#[inline(always)]
+pub fn clamp<T: Real>(x: T, lower: T, upper: T) -> T {
     let t = if x < upper { x } else { upper };
     if t > lower {
         t

@@ -1,0 +1,44 @@
+//! A bank of compensators (`realtime::CompensatorBank`) at the paper's order:
+//! one step of 1, 8, 64 and 1024 channels sharing the nominal model, in
+//! `f64` and `f32`. Throughput is in channel-steps per second.
+
+use std::hint::black_box;
+
+mod common;
+
+use common::test_input;
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use mfcbeam::prelude::*;
+use mfcbeam::realtime::{nominal, Compensated, CompensatorBank, Real};
+
+const ROWS: usize = 64;
+
+fn bank<T: Real>(c: &mut Criterion) {
+    // reachable targets: W of the test input, each channel at its own phase
+    let targets = nominal_model().run(&test_input(4096));
+    let mut g = c.benchmark_group(format!("bank_{}", T::NAME));
+    for channels in [1usize, 8, 64, 1024] {
+        let rows: Vec<Vec<T>> = (0..ROWS)
+            .map(|k| {
+                (0..channels)
+                    .map(|ch| T::from_f64(targets[(k * 16 + ch * 37) % targets.len()]))
+                    .collect()
+            })
+            .collect();
+        let mut bank =
+            CompensatorBank::<T>::uniform(&nominal::PARAMETERS, channels, -1000.0, 1000.0).unwrap();
+        let mut out = vec![Compensated::<T>::default(); channels];
+        g.throughput(Throughput::Elements(channels as u64));
+        let mut k = 0usize;
+        g.bench_function(BenchmarkId::from_parameter(channels), |b| {
+            b.iter(|| {
+                k = (k + 1) % ROWS;
+                bank.compensate(black_box(&rows[k]), &mut out).unwrap();
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bank::<f64>, bank::<f32>);
+criterion_main!(benches);

@@ -1,0 +1,199 @@
+//! Worst-case latency of one compensator step: the real-time budget check.
+//!
+//! `cargo bench --bench latency [-- STEPS]` times 10⁷ single steps of the
+//! paper-order compensator (`PaperCompensator`, f64 and f32, and the heap
+//! `Compensator`) under adversarial targets and prints the median, the 99.9th
+//! percentile and the maximum per step, in ns and as a fraction of the
+//! sample time `Ts = 0.2 ms`.
+//!
+//! Adversarial targets: the sign alternates every sample with magnitudes
+//! drawn from [600, 1500] V, so every play of `H⁻¹` and of `H` switches
+//! branch nearly every sample and the compensator saturates (and re-seats its
+//! inverse plays by (22)) about every other sample; every 13th target is NaN
+//! or ±∞ (the hold path). Branch predictors get no pattern to learn.
+//!
+//! Method: each step is bracketed by `lfence; rdtsc` (x86-64; elsewhere
+//! `Instant`), converted to ns with the TSC frequency calibrated against
+//! `Instant` over 200 ms. The thread is pinned to the last CPU
+//! (`sched_setaffinity`) and asks for `SCHED_FIFO` (reported if refused).
+//! The timer's own cost (median of empty brackets) is reported and not
+//! subtracted: the figures are upper bounds.
+
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+use mfcbeam::prelude::*;
+use mfcbeam::realtime::{nominal, simd, Compensated, PaperCompensator, Real};
+
+const TS_NS: f64 = 2e5;
+
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn ticks() -> u64 {
+    use std::arch::x86_64::{_mm_lfence, _rdtsc};
+    // SAFETY: lfence and rdtsc exist on every x86-64 CPU.
+    unsafe {
+        _mm_lfence();
+        let t = _rdtsc();
+        _mm_lfence();
+        t
+    }
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+fn ticks() -> u64 {
+    use std::sync::OnceLock;
+    static START: OnceLock<Instant> = OnceLock::new();
+    START.get_or_init(Instant::now).elapsed().as_nanos() as u64
+}
+
+/// ns per tick.
+fn calibrate() -> f64 {
+    let (t0, c0) = (Instant::now(), ticks());
+    while t0.elapsed() < Duration::from_millis(200) {}
+    let (dt, dc) = (t0.elapsed(), ticks() - c0);
+    dt.as_nanos() as f64 / dc as f64
+}
+
+#[cfg(target_os = "linux")]
+fn pin() -> String {
+    // SAFETY: plain system calls on this thread with initialised arguments.
+    unsafe {
+        let cpus = libc::sysconf(libc::_SC_NPROCESSORS_ONLN).max(1) as usize;
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        libc::CPU_SET(cpus - 1, &mut set);
+        let pinned = libc::sched_setaffinity(0, std::mem::size_of_val(&set), &set) == 0;
+        let param = libc::sched_param {
+            sched_priority: libc::sched_get_priority_max(libc::SCHED_FIFO),
+        };
+        let fifo = libc::sched_setscheduler(0, libc::SCHED_FIFO, &param) == 0;
+        format!(
+            "pinned to CPU {}: {}; SCHED_FIFO: {}",
+            cpus - 1,
+            if pinned { "yes" } else { "refused" },
+            if fifo { "yes" } else { "refused" }
+        )
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn pin() -> String {
+    "not pinned (not Linux)".into()
+}
+
+fn adversarial(len: usize) -> Vec<f64> {
+    let mut state: u64 = 0x2545_F491_4F6C_DD1D;
+    (0..len)
+        .map(|k| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let unit = (state >> 11) as f64 / (1u64 << 53) as f64;
+            let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+            match k % 13 {
+                12 => [f64::NAN, f64::INFINITY, f64::NEG_INFINITY][(state % 3) as usize],
+                _ => sign * (600.0 + 900.0 * unit),
+            }
+        })
+        .collect()
+}
+
+struct Summary {
+    median: f64,
+    p999: f64,
+    max: f64,
+}
+
+fn summarize(samples: &mut [u64], ns_per_tick: f64) -> Summary {
+    samples.sort_unstable();
+    let at =
+        |q: f64| samples[((samples.len() - 1) as f64 * q).round() as usize] as f64 * ns_per_tick;
+    Summary {
+        median: at(0.5),
+        p999: at(0.999),
+        max: at(1.0),
+    }
+}
+
+/// Time `steps` calls of `step` on the cycled `targets`.
+fn measure(
+    steps: usize,
+    targets: &[f64],
+    samples: &mut [u64],
+    mut step: impl FnMut(f64) -> (bool, bool),
+) -> (usize, usize) {
+    let (mut saturated, mut faults) = (0, 0);
+    for (k, s) in samples.iter_mut().enumerate().take(steps) {
+        let t = targets[k % targets.len()];
+        let t0 = ticks();
+        let (sat, fault) = black_box(step(black_box(t)));
+        *s = ticks() - t0;
+        saturated += usize::from(sat);
+        faults += usize::from(fault);
+    }
+    (saturated, faults)
+}
+
+fn fixed<T: Real>(steps: usize, targets: &[f64], samples: &mut [u64]) -> (usize, usize) {
+    let mut c = PaperCompensator::<T>::new(&nominal::PARAMETERS, -1000.0, 1000.0).unwrap();
+    measure(steps, targets, samples, |t| {
+        let Compensated {
+            saturated, fault, ..
+        } = c.compensate(T::from_f64(t));
+        (saturated, fault)
+    })
+}
+
+fn main() {
+    let steps: usize = std::env::args()
+        .skip(1)
+        .find_map(|a| a.parse().ok())
+        .unwrap_or(10_000_000);
+    let placement = pin();
+    let ns_per_tick = calibrate();
+    let targets = adversarial(1 << 16);
+    let mut samples = vec![0u64; steps];
+
+    let mut empty = vec![0u64; 1_000_000];
+    for e in &mut empty {
+        let t0 = ticks();
+        *e = ticks() - t0;
+    }
+    let timer = summarize(&mut empty, ns_per_tick);
+
+    println!("latency of one compensator step, {steps} steps each, adversarial targets");
+    println!(
+        "timer: lfence+rdtsc, {:.3} ns per tick (calibrated against Instant), empty bracket median {:.1} ns (included below); {placement}; AVX2 path: {}",
+        ns_per_tick,
+        timer.median,
+        simd::avx2_in_use()
+    );
+    println!(
+        "{:<28} {:>10} {:>10} {:>10} {:>12} {:>10} {:>8}",
+        "compensator", "median ns", "p99.9 ns", "max ns", "max / Ts", "saturated", "faults"
+    );
+    let report = |name: &str, (sat, faults): (usize, usize), samples: &mut [u64]| {
+        let s = summarize(&mut samples[..steps], ns_per_tick);
+        println!(
+            "{name:<28} {:>10.1} {:>10.1} {:>10.0} {:>11.4}% {:>10} {:>8}",
+            s.median,
+            s.p999,
+            s.max,
+            100.0 * s.max / TS_NS,
+            sat,
+            faults
+        );
+    };
+    let counts = fixed::<f64>(steps, &targets, &mut samples);
+    report("PaperCompensator<f64>", counts, &mut samples);
+    let counts = fixed::<f32>(steps, &targets, &mut samples);
+    report("PaperCompensator<f32>", counts, &mut samples);
+    let model = nominal_model();
+    let mut heap = Compensator::new(&model, CompensatorSettings::default()).unwrap();
+    let counts = measure(steps, &targets, &mut samples, |t| {
+        let c = heap.compensate(t);
+        (c.saturated, c.fault)
+    });
+    report("Compensator (heap, f64)", counts, &mut samples);
+}

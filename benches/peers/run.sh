@@ -1,0 +1,68 @@
+#!/usr/bin/env bash
+# The compensator step against its peers, in one run on this machine: the
+# hand-written C (compensator.c, -O3 -march=native -ffast-math), numba
+# (numba_compensator.py, if numba is installed) and this crate's criterion
+# benches (step/compensator_step: the heap compensator, and the fixed f64
+# and f32 cores). Checks first that the peers compute what mfcbeam does.
+#
+#   benches/peers/run.sh            # criterion: --warm-up-time 1 --measurement-time 3
+#   benches/peers/run.sh --check    # only the agreement checks (CI)
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+out=target/peers
+mkdir -p "$out"
+
+cc -O3 -march=native -ffast-math -Wall -Wextra -Werror -o "$out/compensator" \
+  benches/peers/compensator.c -lm
+cargo build --quiet --release --bin mfcbeam
+./target/release/mfcbeam nominal --output "$out/nominal.json"
+
+# The C peer's targets through mfcbeam: the same voltages up to rounding
+# (both are W⁻¹ of the same model; -ffast-math reassociates the sums).
+"$out/compensator" trace >"$out/c_trace.csv"
+./target/release/mfcbeam compensate --model "$out/nominal.json" \
+  --input "$out/c_trace.csv" --output "$out/c_vs_mfcbeam.csv"
+agree() {
+  python3 - "$1" "$2" <<'EOF'
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+worst = max(abs(float(r["u_peer"]) - float(r["u"])) for r in rows)
+print(f"{sys.argv[2]}: max |u_peer - u_mfcbeam| = {worst:.2e} V over {len(rows)} samples")
+sys.exit(0 if worst < 1e-9 else 1)
+EOF
+}
+agree "$out/c_vs_mfcbeam.csv" "C peer"
+numba=no
+if python3 -c "import numba" 2>/dev/null; then
+  numba=yes
+  python3 benches/peers/numba_compensator.py trace >"$out/numba_trace.csv"
+  ./target/release/mfcbeam compensate --model "$out/nominal.json" \
+    --input "$out/numba_trace.csv" --output "$out/numba_vs_mfcbeam.csv"
+  agree "$out/numba_vs_mfcbeam.csv" "numba peer"
+else
+  echo "numba not installed: its peer is skipped (pip install numba)"
+fi
+[[ "${1:-}" == "--check" ]] && exit 0
+
+c_ns=$("$out/compensator" time)
+nb_ns=$([[ $numba == yes ]] && python3 benches/peers/numba_compensator.py time || echo nan)
+cargo bench --quiet --bench operators -- 'step/compensator_step$' \
+  --warm-up-time 1 --measurement-time 3 >/dev/null
+cargo bench --quiet --bench implementations -- 'compensator_step/fixed_f' \
+  --warm-up-time 1 --measurement-time 3 >/dev/null
+median() {
+  python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['median']['point_estimate'])" \
+    "target/criterion/$1/new/estimates.json"
+}
+python3 - "$c_ns" "$nb_ns" "$(median step/compensator_step)" \
+  "$(median compensator_step/fixed_f64)" "$(median compensator_step/fixed_f32)" <<'EOF'
+import sys
+c, nb, heap, f64, f32 = map(float, sys.argv[1:])
+cpu = next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo") if l.startswith("model name")), "?")
+print(f"CPU: {cpu}")
+print(f"{'implementation':<44} {'ns/step':>8} {'/ C':>6} {'numba /':>8}")
+for name, t in [("C, -O3 -march=native -ffast-math", c), ("numba @njit", nb),
+                ("mfcbeam Compensator (f64)", heap), ("mfcbeam PaperCompensator<f64>", f64),
+                ("mfcbeam PaperCompensator<f32>", f32)]:
+    print(f"{name:<44} {t:>8.1f} {t / c:>6.2f} {nb / t:>8.2f}")
+EOF

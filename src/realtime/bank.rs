@@ -1,0 +1,417 @@
+//! A bank of compensators (21): one per actuator of an array (a deformable
+//! mirror has hundreds to thousands), stepped together.
+//!
+//! Every state and parameter is stored structure-of-arrays, element-major
+//! and channel-minor (`x[i · C + c]`), and a step runs each element over a
+//! block of channels (4 in `f64`, 8 in `f32`: one AVX register), so SIMD goes
+//! across channels and no channel waits for another. Each channel does the
+//! arithmetic of [`FixedCompensator`](crate::realtime::FixedCompensator) in
+//! the same order, so channel `c` of a bank and a single compensator of the
+//! same model give the same bits (`verification/bank.rs`). The channels may
+//! share one model or each have their own; all have the same orders.
+
+use std::vec;
+use std::vec::Vec;
+
+use crate::realtime::compensator::Compensated;
+use crate::realtime::creep::creep_gain;
+use crate::realtime::error::ParameterError;
+use crate::realtime::inverse::inverse_parameters_into;
+use crate::realtime::parameters::{check_limits, ModelParameters};
+use crate::realtime::play::clamp;
+use crate::realtime::real::Real;
+use crate::realtime::simd::dispatch;
+
+/// Channels are padded to a multiple of this (the widest block).
+const PAD: usize = 8;
+
+/// Parameters of every channel, element-major: `p[e · stride + c]`; with one
+/// shared model `stride` is one block and every block reads offset 0.
+#[derive(Debug, Clone, PartialEq)]
+struct Parameters<T> {
+    inv_r: Vec<T>,
+    inv_w: Vec<T>,
+    r: Vec<T>,
+    w: Vec<T>,
+    s: Vec<T>,
+    creep_r: Vec<T>,
+    creep_w: Vec<T>,
+    gains: Vec<T>,
+    offset: Vec<T>,
+    stride: usize,
+    shared: bool,
+}
+
+/// `N` compensators `W⁻¹` stepped together, in `T` (`f32` or `f64`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CompensatorBank<T: Real> {
+    channels: usize,
+    /// `channels` rounded up to a multiple of [`PAD`]: the state stride.
+    padded: usize,
+    plays: usize,
+    creep_thresholds: usize,
+    eigenvalues: usize,
+    p: Parameters<T>,
+    lower: T,
+    upper: T,
+    inv_x: Vec<T>,
+    x: Vec<T>,
+    chi: Vec<T>,
+    creep_out: Vec<T>,
+    creep_last: Vec<T>,
+    io: Io<T>,
+}
+
+impl<T: Real> CompensatorBank<T> {
+    /// `channels` compensators of one model, virgin, with output limits
+    /// `lower < upper`.
+    pub fn uniform(
+        model: &ModelParameters<'_>,
+        channels: usize,
+        lower: f64,
+        upper: f64,
+    ) -> Result<Self, ParameterError> {
+        Self::build(core::slice::from_ref(model), channels, true, lower, upper)
+    }
+
+    /// One compensator per model in `models` (all of the same orders),
+    /// virgin, with output limits `lower < upper`.
+    pub fn new(
+        models: &[ModelParameters<'_>],
+        lower: f64,
+        upper: f64,
+    ) -> Result<Self, ParameterError> {
+        Self::build(models, models.len(), false, lower, upper)
+    }
+
+    fn build(
+        models: &[ModelParameters<'_>],
+        channels: usize,
+        shared: bool,
+        lower: f64,
+        upper: f64,
+    ) -> Result<Self, ParameterError> {
+        check_limits(lower, upper)?;
+        if channels == 0 {
+            return Err(ParameterError::Empty {
+                field: "bank.channels",
+            });
+        }
+        let first = &models[0];
+        let n = first.hysteresis.thresholds.len();
+        let (nc, m) = first
+            .creep
+            .as_ref()
+            .map_or((0, 0), |c| (c.thresholds.len(), c.eigenvalues.len()));
+        for (channel, model) in models.iter().enumerate() {
+            model.validate()?;
+            let (mc, mm) = model
+                .creep
+                .as_ref()
+                .map_or((0, 0), |c| (c.thresholds.len(), c.eigenvalues.len()));
+            let mismatch = |field| ParameterError::ChannelMismatch { field, channel };
+            if model.hysteresis.thresholds.len() != n {
+                return Err(mismatch("hysteresis.thresholds"));
+            }
+            if mc != nc {
+                return Err(mismatch("creep.thresholds"));
+            }
+            if mm != m {
+                return Err(mismatch("creep.eigenvalues"));
+            }
+            if model.sample_time != first.sample_time {
+                return Err(mismatch("sample_time"));
+            }
+        }
+        let padded = channels.div_ceil(PAD) * PAD;
+        let stride = if shared { PAD } else { padded };
+        let param = |len: usize| vec![T::ZERO; len * stride];
+        let mut p = Parameters {
+            inv_r: param(n),
+            inv_w: param(n),
+            r: param(n),
+            w: param(n),
+            s: param(n),
+            creep_r: param(nc),
+            creep_w: param(nc),
+            gains: param(m),
+            offset: param(1),
+            stride,
+            shared,
+        };
+        let mut inv_r = vec![0.0; n];
+        let mut inv_w = vec![0.0; n];
+        for c in 0..stride {
+            // padding lanes repeat the first model: finite, never read out
+            let model = models.get(c).unwrap_or(first);
+            let h = &model.hysteresis;
+            inverse_parameters_into(h.thresholds, h.weights, &mut inv_r, &mut inv_w);
+            let mut s = 0.0;
+            for i in 0..n {
+                s += h.weights[i];
+                p.inv_r[i * stride + c] = T::from_f64(inv_r[i]);
+                p.inv_w[i * stride + c] = T::from_f64(inv_w[i]);
+                p.r[i * stride + c] = T::from_f64(h.thresholds[i]);
+                p.w[i * stride + c] = T::from_f64(h.weights[i]);
+                p.s[i * stride + c] = T::from_f64(s);
+            }
+            if let Some(cp) = &model.creep {
+                for i in 0..nc {
+                    p.creep_r[i * stride + c] = T::from_f64(cp.thresholds[i]);
+                    p.creep_w[i * stride + c] = T::from_f64(cp.weights[i] / m as f64);
+                }
+                for (j, &a) in cp.eigenvalues.iter().enumerate() {
+                    p.gains[j * stride + c] = T::from_f64(creep_gain(a, model.sample_time));
+                }
+            }
+            p.offset[c] = T::from_f64(model.offset);
+        }
+        Ok(Self {
+            channels,
+            padded,
+            plays: n,
+            creep_thresholds: nc,
+            eigenvalues: m,
+            p,
+            lower: T::from_f64_up(lower),
+            upper: T::from_f64_down(upper),
+            inv_x: vec![T::ZERO; n * padded],
+            x: vec![T::ZERO; n * padded],
+            chi: vec![T::ZERO; nc * m * padded],
+            creep_out: vec![T::ZERO; padded],
+            creep_last: vec![T::ZERO; padded],
+            io: Io {
+                targets: vec![T::ZERO; padded],
+                u: vec![T::ZERO; padded],
+                saturated: vec![false; padded],
+                fault: vec![false; padded],
+            },
+        })
+    }
+
+    /// The number of channels.
+    pub fn channels(&self) -> usize {
+        self.channels
+    }
+
+    /// One sample of every channel: `out[c]` is the voltage for
+    /// `targets[c]`, with its flags as [`Compensated`] has them.
+    /// Allocation-free; both slices must have [`Self::channels`] entries.
+    pub fn compensate(
+        &mut self,
+        targets: &[T],
+        out: &mut [Compensated<T>],
+    ) -> Result<(), ParameterError> {
+        check_same("bank.targets", self.channels, targets.len())?;
+        check_same("bank.out", self.channels, out.len())?;
+        self.io.targets[..self.channels].copy_from_slice(targets);
+        dispatch(|| self.step_all());
+        for (c, o) in out.iter_mut().enumerate() {
+            *o = Compensated {
+                u: self.io.u[c],
+                saturated: self.io.saturated[c],
+                fault: self.io.fault[c],
+            };
+        }
+        Ok(())
+    }
+
+    /// [`CompensatorBank::compensate`] compiled for the caller's instruction
+    /// set, without run-time dispatch (the same bits; for tests).
+    #[doc(hidden)]
+    pub fn compensate_portable(
+        &mut self,
+        targets: &[T],
+        out: &mut [Compensated<T>],
+    ) -> Result<(), ParameterError> {
+        check_same("bank.targets", self.channels, targets.len())?;
+        check_same("bank.out", self.channels, out.len())?;
+        self.io.targets[..self.channels].copy_from_slice(targets);
+        self.step_all();
+        for (c, o) in out.iter_mut().enumerate() {
+            *o = Compensated {
+                u: self.io.u[c],
+                saturated: self.io.saturated[c],
+                fault: self.io.fault[c],
+            };
+        }
+        Ok(())
+    }
+
+    /// Back to the virgin state.
+    pub fn reset(&mut self) {
+        for v in [
+            &mut self.inv_x,
+            &mut self.x,
+            &mut self.chi,
+            &mut self.creep_out,
+            &mut self.creep_last,
+        ] {
+            v.fill(T::ZERO);
+        }
+    }
+
+    #[inline(always)]
+    fn step_all(&mut self) {
+        if core::mem::size_of::<T>() == 4 {
+            for c0 in (0..self.padded).step_by(8) {
+                self.step_block::<8>(c0);
+            }
+        } else {
+            for c0 in (0..self.padded).step_by(4) {
+                self.step_block::<4>(c0);
+            }
+        }
+    }
+
+    /// Channels `c0..c0 + W`: what `FixedCompensator::compensate` does, lane
+    /// by lane, in its order of operations.
+    #[inline(always)]
+    fn step_block<const W: usize>(&mut self, c0: usize) {
+        let (n, nc, m) = (self.plays, self.creep_thresholds, self.eigenvalues);
+        let cs = self.padded;
+        let p = &self.p;
+        let (ps, pb) = (p.stride, if p.shared { 0 } else { c0 });
+        let lane = |v: &[T], e: usize| -> [T; W] {
+            let mut a = [T::ZERO; W];
+            a.copy_from_slice(&v[e * ps + pb..e * ps + pb + W]);
+            a
+        };
+
+        let mut fault = [false; W];
+        let mut y = [T::ZERO; W];
+        let offset = lane(&p.offset, 0);
+        for l in 0..W {
+            let t = self.io.targets[c0 + l];
+            fault[l] = !t.is_finite();
+            let y_l = t - offset[l] - self.creep_out[c0 + l];
+            // hysteresis::step holds a non-finite input out
+            y[l] = if y_l.is_finite() {
+                y_l
+            } else {
+                self.inv_x[c0 + l]
+            };
+        }
+
+        // H⁻¹: the plays of (22) and Σ w'_i x'_i
+        let mut v = [T::ZERO; W];
+        for i in 0..n {
+            let (r, w) = (lane(&p.inv_r, i), lane(&p.inv_w, i));
+            let x = &mut self.inv_x[i * cs + c0..i * cs + c0 + W];
+            for l in 0..W {
+                let new = clamp(x[l], y[l] - r[l], y[l] + r[l]);
+                v[l] += w[l] * new;
+                x[l] = if fault[l] { x[l] } else { new };
+            }
+        }
+
+        // clip; a faulted lane holds its last voltage (x_0 of H)
+        let mut u = [T::ZERO; W];
+        let mut saturated = [false; W];
+        for l in 0..W {
+            let (u_l, s_l) = if v[l] < self.lower {
+                (self.lower, true)
+            } else if v[l] > self.upper {
+                (self.upper, true)
+            } else {
+                (v[l], false)
+            };
+            u[l] = if fault[l] { self.x[c0 + l] } else { u_l };
+            saturated[l] = s_l && !fault[l];
+        }
+
+        // the plays of H follow the applied voltage
+        for i in 0..n {
+            let r = lane(&p.r, i);
+            let x = &mut self.x[i * cs + c0..i * cs + c0 + W];
+            for l in 0..W {
+                let new = clamp(x[l], u[l] - r[l], u[l] + r[l]);
+                x[l] = if fault[l] { x[l] } else { new };
+            }
+        }
+        if saturated.iter().any(|&s| s) {
+            self.reseat(c0, &saturated);
+        }
+
+        // creep (20), as creep::advance sums it
+        let p = &self.p;
+        let mut uc = [T::ZERO; W];
+        for l in 0..W {
+            uc[l] = if u[l].is_finite() {
+                u[l]
+            } else {
+                self.creep_last[c0 + l]
+            };
+            self.creep_last[c0 + l] = uc[l];
+        }
+        let mut acc = [[T::ZERO; W]; 4];
+        for i in 0..nc {
+            let r = lane(&p.creep_r, i);
+            let mut lower = [T::ZERO; W];
+            let mut upper = [T::ZERO; W];
+            for l in 0..W {
+                lower[l] = uc[l] - r[l];
+                upper[l] = uc[l] + r[l];
+            }
+            let mut rows = [T::ZERO; W];
+            for j in 0..m {
+                let g = lane(&p.gains, j);
+                let e = (j * nc + i) * cs + c0;
+                let chi = &mut self.chi[e..e + W];
+                for l in 0..W {
+                    let x = chi[l];
+                    let x = x + g[l] * (clamp(x, lower[l], upper[l]) - x);
+                    chi[l] = x;
+                    rows[l] += x;
+                }
+            }
+            let w = lane(&p.creep_w, i);
+            for l in 0..W {
+                acc[i % 4][l] += w[l] * rows[l];
+            }
+        }
+        for l in 0..W {
+            self.creep_out[c0 + l] = (acc[0][l] + acc[1][l]) + (acc[2][l] + acc[3][l]);
+            self.io.u[c0 + l] = u[l];
+            self.io.saturated[c0 + l] = saturated[l];
+            self.io.fault[c0 + l] = fault[l];
+        }
+    }
+
+    /// The inverse plays of the saturated lanes from those of `H` (22).
+    #[cold]
+    fn reseat<const W: usize>(&mut self, c0: usize, saturated: &[bool; W]) {
+        let (n, cs, ps) = (self.plays, self.padded, self.p.stride);
+        for (l, _) in saturated.iter().enumerate().filter(|(_, &s)| s) {
+            let c = c0 + l;
+            let pc = if self.p.shared { l } else { c };
+            let mut tail = T::ZERO;
+            for j in (0..n).rev() {
+                let x = self.x[j * cs + c];
+                self.inv_x[j * cs + c] = self.p.s[j * ps + pc] * x + tail;
+                tail += self.p.w[j * ps + pc] * x;
+            }
+        }
+    }
+}
+
+/// Per-step inputs and outputs, padded.
+#[derive(Debug, Clone, PartialEq)]
+struct Io<T> {
+    targets: Vec<T>,
+    u: Vec<T>,
+    saturated: Vec<bool>,
+    fault: Vec<bool>,
+}
+
+fn check_same(field: &'static str, expected: usize, found: usize) -> Result<(), ParameterError> {
+    if expected == found {
+        Ok(())
+    } else {
+        Err(ParameterError::LengthMismatch {
+            field,
+            expected,
+            found,
+        })
+    }
+}
