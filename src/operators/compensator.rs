@@ -140,7 +140,7 @@ impl Compensator {
     /// to the limits. Allocation-free, no I/O.
     #[inline]
     pub fn compensate(&mut self, target: f64) -> Compensated {
-        crate::realtime::simd::dispatch(|| self.compensate_portable(target))
+        crate::realtime::simd::dispatch(|| self.compensate_with::<true>(target))
     }
 
     /// [`Compensator::compensate`] compiled for the caller's instruction set,
@@ -148,6 +148,11 @@ impl Compensator {
     #[doc(hidden)]
     #[inline(always)]
     pub fn compensate_portable(&mut self, target: f64) -> Compensated {
+        self.compensate_with::<false>(target)
+    }
+
+    #[inline(always)]
+    fn compensate_with<const SIMD: bool>(&mut self, target: f64) -> Compensated {
         if !target.is_finite() {
             return self.hold();
         }
@@ -156,7 +161,7 @@ impl Compensator {
             None => 0.0,
         };
         let (inv_thresholds, inv_weights, inv_state) = self.inverse.parts_mut();
-        let (u, saturated) = invert_saturating(
+        let (u, saturated) = invert_saturating::<f64, SIMD>(
             HysteresisPair {
                 inv_thresholds,
                 inv_weights,
@@ -171,7 +176,7 @@ impl Compensator {
             self.settings.upper_limit,
         );
         if let Some(op) = &mut self.creep {
-            op.advance_portable(u);
+            op.advance_with::<SIMD>(u);
         }
         Compensated {
             u,
@@ -230,7 +235,7 @@ impl Compensator {
         Ok(crate::realtime::simd::dispatch(|| {
             let mut count = 0;
             for ((&t, u), s) in targets.iter().zip(u.iter_mut()).zip(saturated.iter_mut()) {
-                let out = self.compensate_portable(t);
+                let out = self.compensate_with::<true>(t);
                 *u = out.u;
                 *s = out.saturated;
                 count += usize::from(out.saturated);

@@ -272,13 +272,14 @@ impl CreepOperator {
     /// the last finite one held: it never enters the state.
     #[inline]
     pub fn advance(&mut self, v: f64) -> f64 {
-        realtime::simd::dispatch(|| self.advance_portable(v))
+        realtime::simd::dispatch(|| self.advance_with::<true>(v))
     }
 
-    /// [`CreepOperator::advance`] compiled for the caller's instruction set.
+    /// [`CreepOperator::advance`] compiled for the caller's instruction set;
+    /// with `SIMD`, the explicit AVX blocks where the CPU has them.
     #[inline(always)]
-    pub(crate) fn advance_portable(&mut self, v: f64) -> f64 {
-        self.output = realtime::creep::advance(
+    pub(crate) fn advance_with<const SIMD: bool>(&mut self, v: f64) -> f64 {
+        self.output = realtime::creep::advance_fast::<f64, SIMD>(
             &mut self.chi,
             &self.thresholds,
             &self.gains,
@@ -291,6 +292,7 @@ impl CreepOperator {
 
     /// Advance the state with `v_k` like [`CreepOperator::advance`], without
     /// computing the output (for callers that read the log(t) outputs).
+    #[cfg(feature = "identification")]
     #[inline]
     pub(crate) fn advance_state(&mut self, v: f64) {
         self.advance(v);

@@ -16,6 +16,7 @@ use std::vec::Vec;
 use crate::realtime::compensator::Compensated;
 use crate::realtime::creep::creep_gain;
 use crate::realtime::error::ParameterError;
+use crate::realtime::hysteresis::reduce;
 use crate::realtime::inverse::inverse_parameters_into;
 use crate::realtime::parameters::{check_limits, ModelParameters};
 use crate::realtime::play::clamp;
@@ -294,15 +295,19 @@ impl<T: Real> CompensatorBank<T> {
         }
 
         // H⁻¹: the plays of (22) and Σ w'_i x'_i
-        let mut v = [T::ZERO; W];
+        let mut sums = [[T::ZERO; W]; 4];
         for i in 0..n {
             let (r, w) = (lane(&p.inv_r, i), lane(&p.inv_w, i));
             let x = &mut self.inv_x[i * cs + c0..i * cs + c0 + W];
             for l in 0..W {
                 let new = clamp(x[l], y[l] - r[l], y[l] + r[l]);
-                v[l] += w[l] * new;
+                sums[i % 4][l] += w[l] * new;
                 x[l] = if fault[l] { x[l] } else { new };
             }
+        }
+        let mut v = [T::ZERO; W];
+        for l in 0..W {
+            v[l] = reduce([sums[0][l], sums[1][l], sums[2][l], sums[3][l]]);
         }
 
         // clip; a faulted lane holds its last voltage (x_0 of H)
@@ -371,7 +376,7 @@ impl<T: Real> CompensatorBank<T> {
             }
         }
         for l in 0..W {
-            self.creep_out[c0 + l] = (acc[0][l] + acc[1][l]) + (acc[2][l] + acc[3][l]);
+            self.creep_out[c0 + l] = reduce([acc[0][l], acc[1][l], acc[2][l], acc[3][l]]);
             self.io.u[c0 + l] = u[l];
             self.io.saturated[c0 + l] = saturated[l];
             self.io.fault[c0 + l] = fault[l];

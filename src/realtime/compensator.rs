@@ -16,7 +16,6 @@ use crate::realtime::inverse::{inverse_parameters_into, inverse_state_into};
 use crate::realtime::parameters::{
     check_admissible, check_capacity, check_finite, check_length, check_limits, ModelParameters,
 };
-use crate::realtime::play::play;
 use crate::realtime::real::Real;
 use crate::realtime::simd::dispatch;
 
@@ -48,13 +47,13 @@ pub(crate) struct HysteresisPair<'a, T> {
 /// `u = sat(H⁻¹[y])`, the forward plays advanced with `u`, and on saturation
 /// the inverse plays re-seated (22). Returns `(u, saturated)`.
 #[inline(always)]
-pub(crate) fn invert_saturating<T: Real>(
+pub(crate) fn invert_saturating<T: Real, const SIMD: bool>(
     p: HysteresisPair<'_, T>,
     y: T,
     lower: T,
     upper: T,
 ) -> (T, bool) {
-    let v = hysteresis::step(p.inv_state, p.inv_thresholds, p.inv_weights, y);
+    let v = hysteresis::step_fast::<T, SIMD>(p.inv_state, p.inv_thresholds, p.inv_weights, y);
     let (u, saturated) = if v < lower {
         (lower, true)
     } else if v > upper {
@@ -62,9 +61,7 @@ pub(crate) fn invert_saturating<T: Real>(
     } else {
         (v, false)
     };
-    for (x, &r) in p.state.iter_mut().zip(p.thresholds) {
-        *x = play(u, r, *x);
-    }
+    hysteresis::advance_plays::<T, SIMD>(p.state, p.thresholds, u);
     if saturated {
         inverse_state_into(p.weights, p.sums, p.state, p.inv_state);
     }
@@ -181,7 +178,7 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
     /// The voltage for the target `target`; allocation-free, O(n + n_C m).
     #[inline]
     pub fn compensate(&mut self, target: T) -> Compensated<T> {
-        dispatch(|| self.compensate_portable(target))
+        dispatch(|| self.compensate_with::<true>(target))
     }
 
     /// [`FixedCompensator::compensate`] compiled for the caller's instruction
@@ -189,6 +186,11 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
     /// callers that dispatch a whole loop themselves).
     #[inline(always)]
     pub fn compensate_portable(&mut self, target: T) -> Compensated<T> {
+        self.compensate_with::<false>(target)
+    }
+
+    #[inline(always)]
+    fn compensate_with<const SIMD: bool>(&mut self, target: T) -> Compensated<T> {
         if !target.is_finite() {
             return self.hold();
         }
@@ -198,7 +200,7 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
         };
         let n = self.inverse.len();
         let (inv_r, inv_w, inv_x) = self.inverse.parts_mut();
-        let (u, saturated) = invert_saturating(
+        let (u, saturated) = invert_saturating::<T, SIMD>(
             HysteresisPair {
                 inv_thresholds: inv_r,
                 inv_weights: inv_w,
@@ -213,7 +215,7 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
             self.upper,
         );
         if let Some(op) = &mut self.creep {
-            op.advance_portable(u);
+            op.advance_with::<SIMD>(u);
         }
         Compensated {
             u,

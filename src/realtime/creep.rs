@@ -14,6 +14,7 @@
 //! tolerances carry this `1/g` term (see `suite::conformance::tolerance`).
 
 use crate::realtime::error::ParameterError;
+use crate::realtime::hysteresis::reduce;
 use crate::realtime::parameters::{check_capacity, check_finite, check_length, CreepParameters};
 use crate::realtime::play::clamp;
 use crate::realtime::real::Real;
@@ -44,8 +45,9 @@ pub const LANES: usize = 4;
 /// The update is `χ ← χ + g (P_r[v, χ] − χ)`: the dead zone of (14) as the
 /// play's output minus its state, `d_r(v − χ) = P_r[v, χ] − χ`, so that
 /// `v ∓ r_i` serve all `m` rows. The sums run in a fixed order (lane `l`
-/// of a block adds the thresholds `i ≡ l mod 4`), the same for every
-/// instruction set: the result does not depend on the CPU.
+/// of a block adds the thresholds `i ≡ l mod 4`, then
+/// [`reduce`]), the same for every instruction set: the result does not
+/// depend on the CPU.
 #[inline(always)]
 pub fn advance<T: Real>(
     chi: &mut [T],
@@ -62,24 +64,25 @@ pub fn advance<T: Real>(
     let mut acc = [T::ZERO; LANES];
     let full = n - n % LANES;
     for i0 in (0..full).step_by(LANES) {
-        let mut lower = [T::ZERO; LANES];
-        let mut upper = [T::ZERO; LANES];
-        for l in 0..LANES {
-            lower[l] = v - thresholds[i0 + l];
-            upper[l] = v + thresholds[i0 + l];
-        }
+        let r: &[T; LANES] = thresholds[i0..i0 + LANES].try_into().unwrap();
+        let lower = r.map(|r| v - r);
+        let upper = r.map(|r| v + r);
         let mut rows = [T::ZERO; LANES];
         for (j, &g) in gains.iter().enumerate() {
-            let block = &mut chi[j * n + i0..j * n + i0 + LANES];
+            let block: &mut [T; LANES] = (&mut chi[j * n + i0..j * n + i0 + LANES])
+                .try_into()
+                .unwrap();
             for l in 0..LANES {
                 let x = block[l];
-                let x = x + g * (clamp(x, lower[l], upper[l]) - x);
-                block[l] = x;
-                rows[l] += x;
+                block[l] = x + g * (clamp(x, lower[l], upper[l]) - x);
+            }
+            for l in 0..LANES {
+                rows[l] += block[l];
             }
         }
+        let w: &[T; LANES] = weights[i0..i0 + LANES].try_into().unwrap();
         for l in 0..LANES {
-            acc[l] += weights[i0 + l] * rows[l];
+            acc[l] += w[l] * rows[l];
         }
     }
     for i in full..n {
@@ -93,7 +96,101 @@ pub fn advance<T: Real>(
         }
         acc[i - full] += weights[i] * row;
     }
-    (acc[0] + acc[1]) + (acc[2] + acc[3])
+    reduce(acc)
+}
+
+/// [`advance`], with the `f64` blocks in explicit AVX registers when `SIMD`
+/// is set and the CPU has AVX2 (LLVM's own vectorisation of the lane arrays
+/// stays at 128 bits and shuffles). The same operations in the same order:
+/// `vminpd(x, hi)` is `if x < hi { x } else { hi }` and `vmaxpd(t, lo)` is
+/// `if t > lo { t } else { lo }`, so the bits are those of [`advance`]
+/// (`verification/bank.rs` compares them).
+#[inline(always)]
+pub fn advance_fast<T: Real, const SIMD: bool>(
+    chi: &mut [T],
+    thresholds: &[T],
+    gains: &[T],
+    weights: &[T],
+    v: T,
+    last_input: &mut T,
+) -> T {
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    if SIMD
+        && core::any::TypeId::of::<T>() == core::any::TypeId::of::<f64>()
+        && crate::realtime::simd::avx2_in_use()
+    {
+        let v = if v.is_finite() { v } else { *last_input };
+        *last_input = v;
+        let f = |x: &[T]| -> &[f64] {
+            // SAFETY: T is f64 (checked above): same layout.
+            unsafe { &*(x as *const [T] as *const [f64]) }
+        };
+        // SAFETY: as above; the CPU has AVX2 (checked above).
+        let out = unsafe {
+            avx2_f64(
+                &mut *(chi as *mut [T] as *mut [f64]),
+                f(thresholds),
+                f(gains),
+                f(weights),
+                v.to_f64(),
+            )
+        };
+        return T::from_f64(out);
+    }
+    advance(chi, thresholds, gains, weights, v, last_input)
+}
+
+/// The blocks of [`advance`] for `f64` in AVX registers; `v` is finite.
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn avx2_f64(
+    chi: &mut [f64],
+    thresholds: &[f64],
+    gains: &[f64],
+    weights: &[f64],
+    v: f64,
+) -> f64 {
+    use core::arch::x86_64::*;
+    let n = thresholds.len();
+    let m = gains.len();
+    assert!(weights.len() == n && chi.len() == n * m);
+    let full = n - n % LANES;
+    let vv = _mm256_set1_pd(v);
+    let mut acc = _mm256_setzero_pd();
+    let p = chi.as_mut_ptr();
+    for i0 in (0..full).step_by(LANES) {
+        // SAFETY (all pointer accesses): i0 + 4 ≤ n and j < m, so every
+        // block lies inside `chi` (n·m) and the parameter slices (n).
+        let r = _mm256_loadu_pd(thresholds.as_ptr().add(i0));
+        let lower = _mm256_sub_pd(vv, r);
+        let upper = _mm256_add_pd(vv, r);
+        let mut rows = _mm256_setzero_pd();
+        for (j, &g) in gains.iter().enumerate() {
+            let at = p.add(j * n + i0);
+            let x = _mm256_loadu_pd(at);
+            let c = _mm256_max_pd(_mm256_min_pd(x, upper), lower);
+            let x = _mm256_add_pd(x, _mm256_mul_pd(_mm256_set1_pd(g), _mm256_sub_pd(c, x)));
+            _mm256_storeu_pd(at, x);
+            rows = _mm256_add_pd(rows, x);
+        }
+        let w = _mm256_loadu_pd(weights.as_ptr().add(i0));
+        acc = _mm256_add_pd(acc, _mm256_mul_pd(w, rows));
+    }
+    let mut lanes = [0.0f64; LANES];
+    _mm256_storeu_pd(lanes.as_mut_ptr(), acc);
+    for i in full..n {
+        let (lower, upper) = (v - thresholds[i], v + thresholds[i]);
+        let mut row = 0.0;
+        for (j, &g) in gains.iter().enumerate() {
+            let x = chi[j * n + i];
+            let x = x + g * (clamp(x, lower, upper) - x);
+            chi[j * n + i] = x;
+            row += x;
+        }
+        lanes[i - full] += weights[i] * row;
+    }
+    reduce(lanes)
 }
 
 /// The output `Σ_i (w_i/m) Σ_j χ_ij` of a state, summed in the order
@@ -108,7 +205,7 @@ pub fn output<T: Real>(chi: &[T], weights: &[T]) -> T {
         }
         acc[i % LANES] += w * row;
     }
-    (acc[0] + acc[1]) + (acc[2] + acc[3])
+    reduce(acc)
 }
 
 /// A PI creep operator (16) with at most `K` elementary operators
@@ -194,15 +291,21 @@ impl<T: Real, const K: usize> FixedCreep<T, K> {
     /// Advance with `v_k` and return `C_{k+1}`.
     #[inline]
     pub fn advance(&mut self, v: T) -> T {
-        dispatch(|| self.advance_portable(v))
+        dispatch(|| self.advance_with::<true>(v))
     }
 
-    /// [`FixedCreep::advance`] compiled for the caller's instruction set
-    /// (for a caller that dispatches itself).
+    /// [`FixedCreep::advance`] compiled for the caller's instruction set,
+    /// no run-time dispatch (the same bits).
     #[inline(always)]
     pub fn advance_portable(&mut self, v: T) -> T {
+        self.advance_with::<false>(v)
+    }
+
+    /// With `SIMD`, the explicit AVX blocks where the CPU has them.
+    #[inline(always)]
+    pub(crate) fn advance_with<const SIMD: bool>(&mut self, v: T) -> T {
         let (n, m) = self.shape();
-        self.output = advance(
+        self.output = advance_fast::<T, SIMD>(
             &mut self.chi[..n * m],
             &self.thresholds_r[..n],
             &self.gains[..m],

@@ -9,22 +9,150 @@ use crate::realtime::parameters::{
 use crate::realtime::play::play;
 use crate::realtime::real::Real;
 
-/// One sample of `H`: advance every play with `v` and return `Σ w_i x_i`. A
-/// non-finite `v` is replaced by `x_0` (the zero-threshold play holds the
-/// last input), so it never enters the state.
+/// One sample of `H`: advance every play with `v` and return `Σ w_i x_i`
+/// (summed as [`weighted_sum`] sums). A non-finite `v` is replaced by `x_0`
+/// (the zero-threshold play holds the last input), so it never enters the
+/// state.
 #[inline(always)]
 pub fn step<T: Real>(state: &mut [T], thresholds: &[T], weights: &[T], v: T) -> T {
     let v = if v.is_finite() { v } else { state[0] };
-    let mut y = T::ZERO;
-    for ((x, &r), &w) in state.iter_mut().zip(thresholds).zip(weights) {
-        *x = play(v, r, *x);
-        y += w * *x;
+    let n = state.len();
+    debug_assert!(thresholds.len() == n && weights.len() == n);
+    let full = n - n % 4;
+    let mut acc = [T::ZERO; 4];
+    for i0 in (0..full).step_by(4) {
+        let x: &mut [T; 4] = (&mut state[i0..i0 + 4]).try_into().unwrap();
+        let r: &[T; 4] = thresholds[i0..i0 + 4].try_into().unwrap();
+        let w: &[T; 4] = weights[i0..i0 + 4].try_into().unwrap();
+        for l in 0..4 {
+            x[l] = play(v, r[l], x[l]);
+        }
+        for l in 0..4 {
+            acc[l] += w[l] * x[l];
+        }
     }
-    y
+    for i in full..n {
+        state[i] = play(v, thresholds[i], state[i]);
+        acc[i - full] += weights[i] * state[i];
+    }
+    reduce(acc)
 }
 
-/// `Σ w_i x_i` in four interleaved partial sums (vectorizes without
-/// `-ffast-math`-style reassociation of one running sum).
+/// [`step`], with the `f64` blocks in explicit AVX registers when `SIMD` is
+/// set and the CPU has AVX2: the same operations in the same order, so the
+/// same bits (see [`crate::realtime::creep::advance_fast`]).
+#[inline(always)]
+pub fn step_fast<T: Real, const SIMD: bool>(
+    state: &mut [T],
+    thresholds: &[T],
+    weights: &[T],
+    v: T,
+) -> T {
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    if SIMD
+        && core::any::TypeId::of::<T>() == core::any::TypeId::of::<f64>()
+        && crate::realtime::simd::avx2_in_use()
+    {
+        let v = if v.is_finite() { v } else { state[0] };
+        let f = |x: &[T]| -> &[f64] {
+            // SAFETY: T is f64 (checked above): same layout.
+            unsafe { &*(x as *const [T] as *const [f64]) }
+        };
+        // SAFETY: as above; the CPU has AVX2 (checked above).
+        let out = unsafe {
+            avx2_f64(
+                &mut *(state as *mut [T] as *mut [f64]),
+                f(thresholds),
+                f(weights),
+                v.to_f64(),
+            )
+        };
+        return T::from_f64(out);
+    }
+    step(state, thresholds, weights, v)
+}
+
+/// The blocks of [`step`] for `f64` in AVX registers; `v` is finite.
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn avx2_f64(state: &mut [f64], thresholds: &[f64], weights: &[f64], v: f64) -> f64 {
+    use core::arch::x86_64::*;
+    let n = state.len();
+    assert!(thresholds.len() == n && weights.len() == n);
+    let full = n - n % 4;
+    let vv = _mm256_set1_pd(v);
+    let mut acc = _mm256_setzero_pd();
+    for i0 in (0..full).step_by(4) {
+        // SAFETY: i0 + 4 ≤ n for all three slices.
+        let at = state.as_mut_ptr().add(i0);
+        let r = _mm256_loadu_pd(thresholds.as_ptr().add(i0));
+        let x = _mm256_loadu_pd(at);
+        let x = _mm256_max_pd(_mm256_min_pd(x, _mm256_add_pd(vv, r)), _mm256_sub_pd(vv, r));
+        _mm256_storeu_pd(at, x);
+        acc = _mm256_add_pd(
+            acc,
+            _mm256_mul_pd(_mm256_loadu_pd(weights.as_ptr().add(i0)), x),
+        );
+    }
+    let mut lanes = [0.0f64; 4];
+    _mm256_storeu_pd(lanes.as_mut_ptr(), acc);
+    for i in full..n {
+        state[i] = play(v, thresholds[i], state[i]);
+        lanes[i - full] += weights[i] * state[i];
+    }
+    reduce(lanes)
+}
+
+/// Advance the plays with `v` (20), without the output (the compensator's
+/// copy of the plant's plays); AVX for `f64` as in [`step_fast`].
+#[inline(always)]
+pub fn advance_plays<T: Real, const SIMD: bool>(state: &mut [T], thresholds: &[T], v: T) {
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    if SIMD
+        && core::any::TypeId::of::<T>() == core::any::TypeId::of::<f64>()
+        && crate::realtime::simd::avx2_in_use()
+    {
+        // SAFETY: T is f64 (checked above): same layout; the CPU has AVX2.
+        unsafe {
+            avx2_plays_f64(
+                &mut *(state as *mut [T] as *mut [f64]),
+                &*(thresholds as *const [T] as *const [f64]),
+                v.to_f64(),
+            )
+        };
+        return;
+    }
+    for (x, &r) in state.iter_mut().zip(thresholds) {
+        *x = play(v, r, *x);
+    }
+}
+
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn avx2_plays_f64(state: &mut [f64], thresholds: &[f64], v: f64) {
+    use core::arch::x86_64::*;
+    let n = state.len();
+    assert!(thresholds.len() == n);
+    let full = n - n % 4;
+    let vv = _mm256_set1_pd(v);
+    for i0 in (0..full).step_by(4) {
+        // SAFETY: i0 + 4 ≤ n for both slices.
+        let at = state.as_mut_ptr().add(i0);
+        let r = _mm256_loadu_pd(thresholds.as_ptr().add(i0));
+        let x = _mm256_loadu_pd(at);
+        let x = _mm256_max_pd(_mm256_min_pd(x, _mm256_add_pd(vv, r)), _mm256_sub_pd(vv, r));
+        _mm256_storeu_pd(at, x);
+    }
+    for i in full..n {
+        state[i] = play(v, thresholds[i], state[i]);
+    }
+}
+
+/// `Σ w_i x_i` in four partial sums, lane `l` adding the terms `i ≡ l mod
+/// 4` in order (SIMD without `-ffast-math`-style reassociation: the order
+/// is fixed, the same for every instruction set), then [`reduce`]d.
 #[inline(always)]
 pub fn weighted_sum<T: Real>(w: &[T], x: &[T]) -> T {
     let mut a = [T::ZERO; 4];
@@ -39,7 +167,14 @@ pub fn weighted_sum<T: Real>(w: &[T], x: &[T]) -> T {
     for l in 0..wr.len() {
         a[l] += wr[l] * xr[l];
     }
-    (a[0] + a[1]) + (a[2] + a[3])
+    reduce(a)
+}
+
+/// The four partial sums added as `(a₀ + a₂) + (a₁ + a₃)`: the two halves
+/// of a 4-lane register, then its two lanes, with no shuffle in between.
+#[inline(always)]
+pub fn reduce<T: Real>(a: [T; 4]) -> T {
+    (a[0] + a[2]) + (a[1] + a[3])
 }
 
 /// A PI hysteresis operator (10) with at most `N` plays.

@@ -9,6 +9,7 @@
 //! are compiled once, for the target's own features.
 
 /// Whether the steps run the AVX2 copy on this CPU.
+#[inline]
 pub fn avx2_in_use() -> bool {
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
     {
