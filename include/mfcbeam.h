@@ -51,7 +51,7 @@
 /**
  * Words of `MfcbeamCompensatorF64`.
  */
-#define MFCBEAM_COMPENSATOR_F64_WORDS 754
+#define MFCBEAM_COMPENSATOR_F64_WORDS 755
 
 /**
  * Words of `MfcbeamModelF32`.

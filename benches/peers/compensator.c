@@ -9,6 +9,9 @@
  *   compensator time    per-step median over batches, in ns, on stdout
  *   compensator trace   y_d,u_peer of the first 4096 samples as CSV, to check it
  *
+ * Built with -DPEER_LIB -shared -fPIC it is a library instead (peer_new,
+ * peer_targets, peer_run) for the interleaved comparison in benches/peers.rs.
+ *
  * The input is the random walk of benches/common (same generator and
  * constants); the targets are W of it, computed here by the forward model.
  */
@@ -148,6 +151,36 @@ static void test_input(double *out) {
     }
 }
 
+#ifdef PEER_LIB
+/* For benches/peers.rs, which times this and mfcbeam in interleaved batches:
+ * the same loop as main's timed one. */
+void *peer_new(void) {
+    static compensator c;
+    init_compensator(&c);
+    return &c;
+}
+
+void peer_targets(double *out) {
+    static double input[LEN];
+    test_input(input);
+    model w;
+    init_model(&w);
+    for (int k = 0; k < LEN; k++) out[k] = model_step(&w, input[k]);
+}
+
+double peer_run(void *p, const double *targets, unsigned *k, long steps) {
+    compensator *c = p;
+    double sink = 0.0;
+    int sat;
+    unsigned kk = *k;
+    for (long i = 0; i < steps; i++) {
+        kk = (kk + 1) & (LEN - 1);
+        sink += compensate(c, targets[kk], &sat);
+    }
+    *k = kk;
+    return sink;
+}
+#else
 static double now(void) {
     struct timespec t;
     clock_gettime(CLOCK_MONOTONIC, &t);
@@ -199,3 +232,4 @@ int main(int argc, char **argv) {
     printf("%.2f\n", per_step[BATCHES / 2]);
     return sink == 12345.678 ? 1 : 0; /* keep the results live */
 }
+#endif

@@ -25,7 +25,7 @@ pub const MFCBEAM_MAX_CREEP: usize = 144;
 /// Words of `MfcbeamCompensatorF32`.
 pub const MFCBEAM_COMPENSATOR_F32_WORDS: usize = 380;
 /// Words of `MfcbeamCompensatorF64`.
-pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 754;
+pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 755;
 /// Words of `MfcbeamModelF32`.
 pub const MFCBEAM_MODEL_F32_WORDS: usize = 331;
 /// Words of `MfcbeamModelF64`.

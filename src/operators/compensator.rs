@@ -14,10 +14,11 @@
 //!
 //! Saturation: the output is clipped to the configured limits (default: the
 //! balanced supply range `[−1000, 1000]` V of (1)) and every clipped sample is
-//! flagged. The compensator also advances the *forward* plays with the value
-//! it emits; after a clipped sample it rebuilds the inverse state from them by
-//! (22), so its state is exactly the one the plant has after receiving the
-//! clipped value and the identity resumes as soon as the target is reachable.
+//! flagged. After a clipped sample the compensator recovers the plant's plays
+//! from its inverse ones (the state rule of (22) solved backwards), advances
+//! them with the clipped value and rebuilds the inverse state from them by
+//! (22), so its state is the one the plant has after receiving the clipped
+//! value and the identity resumes as soon as the target is reachable.
 
 use crate::error::ModelError;
 use crate::operators::creep::CreepOperator;
@@ -98,8 +99,10 @@ pub struct Compensator {
     forward_thresholds: Vec<f64>,
     forward_weights: Vec<f64>,
     forward_sums: Vec<f64>,
-    /// Play states of the plant's `H`, advanced with the emitted (clipped) value.
-    forward_state: Vec<f64>,
+    /// Room for the plant's play states, used after a clipped sample.
+    scratch: Vec<f64>,
+    /// The last emitted value, held for a non-finite target.
+    last_u: f64,
     creep: Option<CreepOperator>,
     /// The model's output offset, subtracted from every target.
     offset: f64,
@@ -120,7 +123,8 @@ impl Compensator {
             forward_thresholds: h.thresholds().to_vec(),
             forward_weights: h.weights().to_vec(),
             forward_sums: h.partial_sums(),
-            forward_state: h.play_states().to_vec(),
+            scratch: vec![0.0; h.play_states().len()],
+            last_u: h.play_states()[0],
             creep: model.creep().cloned(),
             offset: model.offset(),
         })
@@ -129,6 +133,13 @@ impl Compensator {
     /// The limits in force.
     pub fn settings(&self) -> &CompensatorSettings {
         &self.settings
+    }
+
+    /// The plays of the plant's `H` that match the inverse plays (22).
+    fn forward_state(&self) -> Vec<f64> {
+        let mut x = self.inverse.play_states().to_vec();
+        crate::realtime::inverse::forward_state_in_place(&self.forward_sums, &mut x);
+        x
     }
 
     /// The inverse hysteresis operator `H⁻¹` with its current state.
@@ -169,12 +180,13 @@ impl Compensator {
                 thresholds: &self.forward_thresholds,
                 weights: &self.forward_weights,
                 sums: &self.forward_sums,
-                state: &mut self.forward_state,
+                scratch: &mut self.scratch,
             },
             target - self.offset - c,
             self.settings.lower_limit,
             self.settings.upper_limit,
         );
+        self.last_u = u;
         if let Some(op) = &mut self.creep {
             op.advance_with::<SIMD>(u);
         }
@@ -190,8 +202,7 @@ impl Compensator {
     /// plant's does.
     #[cold]
     fn hold(&mut self) -> Compensated {
-        // the play with r_0 = 0 holds the last emitted value
-        let u = self.forward_state[0];
+        let u = self.last_u;
         if let Some(op) = &mut self.creep {
             op.advance(u);
         }
@@ -204,7 +215,7 @@ impl Compensator {
 
     /// Return to the virgin state (forward plays, inverse plays and creep).
     pub fn reset(&mut self) {
-        self.forward_state.fill(0.0);
+        self.last_u = 0.0;
         self.inverse.reset();
         if let Some(c) = &mut self.creep {
             c.reset();
@@ -273,7 +284,7 @@ impl Snapshot for Compensator {
 
     fn state(&self) -> CompensatorState {
         CompensatorState {
-            forward: self.forward_state.clone(),
+            forward: self.forward_state(),
             inverse: self.inverse.state(),
             creep: self.creep.as_ref().map(|c| c.state()),
         }
@@ -301,7 +312,31 @@ impl Snapshot for Compensator {
         }
         let mut inverse = self.inverse.clone();
         inverse.set_state(&state.inverse)?;
-        self.forward_state.copy_from_slice(&state.forward);
+        // The plays of H are implied by those of H⁻¹ (22): both must agree
+        // to rounding, amplified at most by the ratio of the slopes.
+        let mut expected = vec![0.0; n];
+        crate::realtime::inverse::inverse_state_into(
+            &self.forward_weights,
+            &self.forward_sums,
+            &state.forward,
+            &mut expected,
+        );
+        let (s_min, s_max) = self
+            .forward_sums
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(a, b), &s| (a.min(s), b.max(s)));
+        let scale = state.inverse.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+        let tolerance = 8.0 * (n as f64 + 1.0) * f64::EPSILON * scale * (1.0 + s_max / s_min);
+        if let Some(j) = (0..n).find(|&j| (expected[j] - state.inverse[j]).abs() > tolerance) {
+            return Err(ModelError::Inconsistent {
+                field: format!("compensator.inverse[{j}]"),
+                reason: format!(
+                    "{} is not the state (22) gives for compensator.forward ({})",
+                    state.inverse[j], expected[j]
+                ),
+            });
+        }
+        self.last_u = state.forward[0];
         self.inverse = inverse;
         self.creep = creep;
         Ok(())

@@ -19,7 +19,7 @@ use crate::realtime::error::ParameterError;
 use crate::realtime::hysteresis::reduce;
 use crate::realtime::inverse::inverse_parameters_into;
 use crate::realtime::parameters::{check_limits, ModelParameters};
-use crate::realtime::play::clamp;
+use crate::realtime::play::{clamp, play};
 use crate::realtime::real::Real;
 use crate::realtime::simd::dispatch;
 
@@ -56,7 +56,9 @@ pub struct CompensatorBank<T: Real> {
     lower: T,
     upper: T,
     inv_x: Vec<T>,
-    x: Vec<T>,
+    /// The inverse plays before the step (a saturated lane starts from them).
+    scratch: Vec<T>,
+    last_u: Vec<T>,
     chi: Vec<T>,
     creep_out: Vec<T>,
     creep_last: Vec<T>,
@@ -177,7 +179,8 @@ impl<T: Real> CompensatorBank<T> {
             lower: T::from_f64_up(lower),
             upper: T::from_f64_down(upper),
             inv_x: vec![T::ZERO; n * padded],
-            x: vec![T::ZERO; n * padded],
+            scratch: vec![T::ZERO; n * padded],
+            last_u: vec![T::ZERO; padded],
             chi: vec![T::ZERO; nc * m * padded],
             creep_out: vec![T::ZERO; padded],
             creep_last: vec![T::ZERO; padded],
@@ -243,7 +246,7 @@ impl<T: Real> CompensatorBank<T> {
     pub fn reset(&mut self) {
         for v in [
             &mut self.inv_x,
-            &mut self.x,
+            &mut self.last_u,
             &mut self.chi,
             &mut self.creep_out,
             &mut self.creep_last,
@@ -295,6 +298,10 @@ impl<T: Real> CompensatorBank<T> {
         }
 
         // H⁻¹: the plays of (22) and Σ w'_i x'_i
+        for i in 0..n {
+            let at = i * cs + c0;
+            self.scratch[at..at + W].copy_from_slice(&self.inv_x[at..at + W]);
+        }
         let mut sums = [[T::ZERO; W]; 4];
         for i in 0..n {
             let (r, w) = (lane(&p.inv_r, i), lane(&p.inv_w, i));
@@ -321,21 +328,12 @@ impl<T: Real> CompensatorBank<T> {
             } else {
                 (v[l], false)
             };
-            u[l] = if fault[l] { self.x[c0 + l] } else { u_l };
+            u[l] = if fault[l] { self.last_u[c0 + l] } else { u_l };
             saturated[l] = s_l && !fault[l];
-        }
-
-        // the plays of H follow the applied voltage
-        for i in 0..n {
-            let r = lane(&p.r, i);
-            let x = &mut self.x[i * cs + c0..i * cs + c0 + W];
-            for l in 0..W {
-                let new = clamp(x[l], u[l] - r[l], u[l] + r[l]);
-                x[l] = if fault[l] { x[l] } else { new };
-            }
+            self.last_u[c0 + l] = u[l];
         }
         if saturated.iter().any(|&s| s) {
-            self.reseat(c0, &saturated);
+            self.reseat(c0, &saturated, &u);
         }
 
         // creep (20), as creep::advance sums it
@@ -383,18 +381,36 @@ impl<T: Real> CompensatorBank<T> {
         }
     }
 
-    /// The inverse plays of the saturated lanes from those of `H` (22).
+    /// The saturated lanes as the single compensator re-seats: the plays of
+    /// `H` from the inverse plays before the step, advanced with `u`, and the
+    /// inverse plays from them (22).
     #[cold]
-    fn reseat<const W: usize>(&mut self, c0: usize, saturated: &[bool; W]) {
+    #[inline(never)]
+    fn reseat<const W: usize>(&mut self, c0: usize, saturated: &[bool; W], u: &[T; W]) {
         let (n, cs, ps) = (self.plays, self.padded, self.p.stride);
         for (l, _) in saturated.iter().enumerate().filter(|(_, &s)| s) {
             let c = c0 + l;
             let pc = if self.p.shared { l } else { c };
+            let at = |j: usize| j * cs + c;
+            let par = |v: &[T], j: usize| v[j * ps + pc];
+            // forward_state_in_place, strided
+            let mut next_inv = self.scratch[at(n - 1)];
+            self.scratch[at(n - 1)] = next_inv / par(&self.p.s, n - 1);
+            for j in (0..n - 1).rev() {
+                let inv = self.scratch[at(j)];
+                self.scratch[at(j)] =
+                    self.scratch[at(j + 1)] + (inv - next_inv) / par(&self.p.s, j);
+                next_inv = inv;
+            }
+            for j in 0..n {
+                self.scratch[at(j)] = play(u[l], par(&self.p.r, j), self.scratch[at(j)]);
+            }
+            // inverse_state_into, strided
             let mut tail = T::ZERO;
             for j in (0..n).rev() {
-                let x = self.x[j * cs + c];
-                self.inv_x[j * cs + c] = self.p.s[j * ps + pc] * x + tail;
-                tail += self.p.w[j * ps + pc] * x;
+                let x = self.scratch[at(j)];
+                self.inv_x[at(j)] = par(&self.p.s, j) * x + tail;
+                tail += par(&self.p.w, j) * x;
             }
         }
     }

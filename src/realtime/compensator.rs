@@ -2,17 +2,21 @@
 //! the `std` compensator shares.
 //!
 //! `v_k = H⁻¹[ς_k − offset − C_k]`: explicit, because `C_k` depends on inputs
-//! up to `u_{k−1}` only. `v_k` is clipped to the supply limits; the forward
-//! plays of `H` track the voltage actually applied, and when it was clipped
-//! the inverse plays are re-seated from them by (22), so the compensator
-//! leaves saturation on the branch the actuator is on. A non-finite target
-//! holds the last voltage (`x_0` of the zero-threshold forward play) and is
-//! flagged; creep keeps advancing with the voltage applied.
+//! up to `u_{k−1}` only. `v_k` is clipped to the supply limits; when it was
+//! clipped, the plays of `H` the actuator holds are recovered from those of
+//! `H⁻¹` before the sample (the state rule of (22) solved backwards), advanced
+//! with the voltage actually applied, and the inverse plays re-seated from
+//! them by (22), so the compensator leaves saturation on the branch the
+//! actuator is on. Between saturations the plays of `H` are implied by those
+//! of `H⁻¹` and are not stepped. A non-finite target holds the last voltage
+//! and is flagged; creep keeps advancing with the voltage applied.
 
 use crate::realtime::creep::FixedCreep;
 use crate::realtime::error::ParameterError;
 use crate::realtime::hysteresis::{self, FixedHysteresis};
-use crate::realtime::inverse::{inverse_parameters_into, inverse_state_into};
+use crate::realtime::inverse::{
+    forward_state_in_place, inverse_parameters_into, inverse_state_into,
+};
 use crate::realtime::parameters::{
     check_admissible, check_capacity, check_finite, check_length, check_limits, ModelParameters,
 };
@@ -32,8 +36,8 @@ pub struct Compensated<T = f64> {
     pub fault: bool,
 }
 
-/// The hysteresis half of (21): `H⁻¹` with its plays and the forward plays of
-/// `H` with its weights and partial sums `s_j`.
+/// The hysteresis half of (21): `H⁻¹` with its plays, the thresholds, weights
+/// and partial sums `s_j` of `H`, and room for one set of play states.
 pub(crate) struct HysteresisPair<'a, T> {
     pub inv_thresholds: &'a [T],
     pub inv_weights: &'a [T],
@@ -41,11 +45,11 @@ pub(crate) struct HysteresisPair<'a, T> {
     pub thresholds: &'a [T],
     pub weights: &'a [T],
     pub sums: &'a [T],
-    pub state: &'a mut [T],
+    pub scratch: &'a mut [T],
 }
 
-/// `u = sat(H⁻¹[y])`, the forward plays advanced with `u`, and on saturation
-/// the inverse plays re-seated (22). Returns `(u, saturated)`.
+/// `u = sat(H⁻¹[y])`, and on saturation the inverse plays re-seated on the
+/// branch of `u` (22). Returns `(u, saturated)`.
 #[inline(always)]
 pub(crate) fn invert_saturating<T: Real, const SIMD: bool>(
     p: HysteresisPair<'_, T>,
@@ -53,6 +57,7 @@ pub(crate) fn invert_saturating<T: Real, const SIMD: bool>(
     lower: T,
     upper: T,
 ) -> (T, bool) {
+    p.scratch.copy_from_slice(p.inv_state);
     let v = hysteresis::step_fast::<T, SIMD>(p.inv_state, p.inv_thresholds, p.inv_weights, y);
     let (u, saturated) = if v < lower {
         (lower, true)
@@ -61,11 +66,20 @@ pub(crate) fn invert_saturating<T: Real, const SIMD: bool>(
     } else {
         (v, false)
     };
-    hysteresis::advance_plays::<T, SIMD>(p.state, p.thresholds, u);
     if saturated {
-        inverse_state_into(p.weights, p.sums, p.state, p.inv_state);
+        reseat(p, u);
     }
     (u, saturated)
+}
+
+/// After a clipped sample: the plays of `H` before it (from the saved inverse
+/// plays), advanced with the applied `u`, and `H⁻¹`'s plays from them (22).
+#[cold]
+#[inline(never)]
+fn reseat<T: Real>(p: HysteresisPair<'_, T>, u: T) {
+    forward_state_in_place(p.sums, p.scratch);
+    hysteresis::advance_plays::<T, false>(p.scratch, p.thresholds, u);
+    inverse_state_into(p.weights, p.sums, p.scratch, p.inv_state);
 }
 
 /// The compensator `W⁻¹` (21) with at most `N` plays and `K` elementary creep
@@ -76,7 +90,10 @@ pub struct FixedCompensator<T: Real, const N: usize, const K: usize> {
     thresholds: [T; N],
     weights: [T; N],
     sums: [T; N],
-    state: [T; N],
+    /// Room for the plays of `H`, used after a saturated sample.
+    scratch: [T; N],
+    /// The voltage of the last sample (held for a non-finite target).
+    last_u: T,
     creep: Option<FixedCreep<T, K>>,
     offset: T,
     lower: T,
@@ -106,7 +123,8 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
             thresholds: [T::ZERO; N],
             weights: [T::ZERO; N],
             sums: [T::ZERO; N],
-            state: [T::ZERO; N],
+            scratch: [T::ZERO; N],
+            last_u: T::ZERO,
             creep: match &parameters.creep {
                 Some(cp) => Some(FixedCreep::new(cp, parameters.sample_time)?),
                 None => None,
@@ -163,9 +181,9 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
         let mut inv = [0.0f64; N];
         inverse_state_into(&w[..n], &s[..n], hysteresis, &mut inv[..n]);
         for i in 0..n {
-            self.state[i] = T::from_f64(hysteresis[i]);
             self.inverse.state_mut()[i] = T::from_f64(inv[i]);
         }
+        self.last_u = T::from_f64(hysteresis[0]);
         self.creep = creep_trial;
         Ok(())
     }
@@ -208,12 +226,13 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
                 thresholds: &self.thresholds[..n],
                 weights: &self.weights[..n],
                 sums: &self.sums[..n],
-                state: &mut self.state[..n],
+                scratch: &mut self.scratch[..n],
             },
             target - self.offset - c,
             self.lower,
             self.upper,
         );
+        self.last_u = u;
         if let Some(op) = &mut self.creep {
             op.advance_with::<SIMD>(u);
         }
@@ -226,7 +245,7 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
 
     #[cold]
     fn hold(&mut self) -> Compensated<T> {
-        let u = self.state[0];
+        let u = self.last_u;
         if let Some(op) = &mut self.creep {
             op.advance(u);
         }
@@ -239,7 +258,7 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
 
     /// Back to the virgin state (the model's, not the one set last).
     pub fn reset(&mut self) {
-        self.state = [T::ZERO; N];
+        self.last_u = T::ZERO;
         self.inverse.reset();
         if let Some(c) = &mut self.creep {
             c.reset();

@@ -5,7 +5,9 @@
 //! * `w'_0 = 1/w_0`, `w'_j = −w_j / (s_j s_{j−1})`,
 //! * `x'_j = Σ_i w_i x_{min(i,j)} = s_j x_j + Σ_{i>j} w_i x_i`,
 //!
-//! with the partial sums `s_j = Σ_{i≤j} w_i` of (11).
+//! with the partial sums `s_j = Σ_{i≤j} w_i` of (11). The state rule is
+//! invertible (the `s_j` are positive), which lets the compensator keep only
+//! the states of `H⁻¹`.
 
 use crate::realtime::real::Real;
 
@@ -41,5 +43,26 @@ pub fn inverse_state_into<T: Real>(weights: &[T], sums: &[T], x: &[T], inv_state
     for j in (0..n).rev() {
         inv_state[j] = sums[j] * x[j] + tail;
         tail += weights[j] * x[j];
+    }
+}
+
+/// The play states of `H` matching the states `inv_state` of `H⁻¹`: (22)
+/// solved backwards, `x_n = x'_n / s_n` and
+/// `x_j = x_{j+1} + (x'_j − x'_{j+1}) / s_j` (the difference of consecutive
+/// rows of (22) is `s_j (x_j − x_{j+1})`). In place: `x` holds `x'` on entry.
+/// Allocation-free: the compensator calls it after a saturated sample.
+#[inline]
+pub fn forward_state_in_place<T: Real>(sums: &[T], x: &mut [T]) {
+    let n = x.len();
+    debug_assert!(sums.len() == n);
+    if n == 0 {
+        return;
+    }
+    let mut next_inv = x[n - 1];
+    x[n - 1] = next_inv / sums[n - 1];
+    for j in (0..n - 1).rev() {
+        let inv = x[j];
+        x[j] = x[j + 1] + (inv - next_inv) / sums[j];
+        next_inv = inv;
     }
 }
