@@ -66,3 +66,49 @@ pub fn forward_state_in_place<T: Real>(sums: &[T], x: &mut [T]) {
         next_inv = inv;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `forward_state_in_place` undoes `inverse_state_into`: each `x'_j` is a
+    /// sum of at most `n` rounded terms (error `≤ n ε max|x'|`); each backward
+    /// row divides the difference of two of them, rounded once more, by
+    /// `s_j ≥ s_min`, and `n` rows add up: `|x̃_j − x_j| ≤ 2n(n+1) ε max|x'| /
+    /// s_min`.
+    #[test]
+    fn the_backward_rule_undoes_the_state_rule() {
+        let mut seed = 0x1234_5678_9abc_def0u64;
+        let mut unit = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..500 {
+            let n = 1 + (unit() * 16.0) as usize;
+            // partial sums in [0.05, 1], so single weights are often negative
+            let sums: Vec<f64> = (0..n).map(|_| 0.05 + 0.95 * unit()).collect();
+            let weights: Vec<f64> = (0..n)
+                .map(|j| if j == 0 { sums[0] } else { sums[j] - sums[j - 1] })
+                .collect();
+            let x: Vec<f64> = (0..n).map(|_| 2000.0 * unit() - 1000.0).collect();
+            let mut inv = vec![0.0; n];
+            inverse_state_into(&weights, &sums, &x, &mut inv);
+            let mut back = inv.clone();
+            forward_state_in_place(&sums, &mut back);
+            let s_min = sums.iter().cloned().fold(f64::INFINITY, f64::min);
+            let scale = inv.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let nf = n as f64;
+            let bound = 2.0 * nf * (nf + 1.0) * f64::EPSILON * scale / s_min;
+            for j in 0..n {
+                assert!(
+                    (back[j] - x[j]).abs() <= bound,
+                    "n = {n}, j = {j}: {} vs {}, bound {bound}",
+                    back[j],
+                    x[j]
+                );
+            }
+        }
+    }
+}
