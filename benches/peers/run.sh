@@ -52,25 +52,26 @@ else
 fi
 [[ "${1:-}" == "--check" ]] && exit 0
 
+# Interleaved batches of the C library and mfcbeam in one process (the
+# ratios), then numba, then criterion's medians.
+cc -O3 -march=native -ffast-math -Wall -Wextra -Werror -DPEER_LIB -shared -fPIC \
+  -o "$out/libpeer.so" benches/peers/compensator.c -lm
+MFCBEAM_C_PEER="$PWD/$out/libpeer.so" cargo bench --quiet --bench peers
 c_ns=$("$out/compensator" time)
 nb_ns=$([[ $numba == yes ]] && python3 benches/peers/numba_compensator.py time || echo nan)
 cargo bench --quiet --bench operators -- 'step/compensator_step$' \
-  --warm-up-time 1 --measurement-time 3 >/dev/null
-cargo bench --quiet --bench implementations -- 'compensator_step/fixed_f' \
   --warm-up-time 1 --measurement-time 3 >/dev/null
 median() {
   python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['median']['point_estimate'])" \
     "target/criterion/$1/new/estimates.json"
 }
-python3 - "$c_ns" "$nb_ns" "$(median step/compensator_step)" \
-  "$(median compensator_step/fixed_f64)" "$(median compensator_step/fixed_f32)" <<'EOF'
+python3 - "$c_ns" "$nb_ns" "$(median step/compensator_step)" <<'EOF'
 import sys
-c, nb, heap, f64, f32 = map(float, sys.argv[1:])
+c, nb, heap = map(float, sys.argv[1:])
 cpu = next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo") if l.startswith("model name")), "?")
 print(f"CPU: {cpu}")
-print(f"{'implementation':<44} {'ns/step':>8} {'/ C':>6} {'numba /':>8}")
-for name, t in [("C, -O3 -march=native -ffast-math", c), ("numba @njit", nb),
-                ("mfcbeam Compensator (f64)", heap), ("mfcbeam PaperCompensator<f64>", f64),
-                ("mfcbeam PaperCompensator<f32>", f32)]:
-    print(f"{name:<44} {t:>8.1f} {t / c:>6.2f} {nb / t:>8.2f}")
+print("separate processes, one after another (the machine may change between them):")
+print(f"  C peer alone (median of batches)            {c:8.1f} ns")
+print(f"  numba @njit (median of batches)             {nb:8.1f} ns   numba / mfcbeam = {nb / heap:.2f}")
+print(f"  criterion step/compensator_step (median)    {heap:8.1f} ns   / C = {heap / c:.2f}")
 EOF

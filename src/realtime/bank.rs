@@ -2,7 +2,8 @@
 //! mirror has hundreds to thousands), stepped together.
 //!
 //! Every state and parameter is stored structure-of-arrays, element-major
-//! and channel-minor (`x[i · C + c]`), and a step runs each element over a
+//! and channel-minor (`x[i · C + c]`, creep `χ[(i · m + j) · C + c]`), and a
+//! step runs each element over a
 //! block of channels (4 in `f64`, 8 in `f32`: one AVX register), so SIMD goes
 //! across channels and no channel waits for another. Each channel does the
 //! arithmetic of [`FixedCompensator`](crate::realtime::FixedCompensator) in
@@ -276,11 +277,7 @@ impl<T: Real> CompensatorBank<T> {
         let cs = self.padded;
         let p = &self.p;
         let (ps, pb) = (p.stride, if p.shared { 0 } else { c0 });
-        let lane = |v: &[T], e: usize| -> [T; W] {
-            let mut a = [T::ZERO; W];
-            a.copy_from_slice(&v[e * ps + pb..e * ps + pb + W]);
-            a
-        };
+        let lane = |v: &[T], e: usize| -> [T; W] { lane(v, e * ps + pb) };
 
         let mut fault = [false; W];
         let mut y = [T::ZERO; W];
@@ -303,14 +300,20 @@ impl<T: Real> CompensatorBank<T> {
             self.scratch[at..at + W].copy_from_slice(&self.inv_x[at..at + W]);
         }
         let mut sums = [[T::ZERO; W]; 4];
-        for i in 0..n {
-            let (r, w) = (lane(&p.inv_r, i), lane(&p.inv_w, i));
-            let x = &mut self.inv_x[i * cs + c0..i * cs + c0 + W];
-            for l in 0..W {
-                let new = clamp(x[l], y[l] - r[l], y[l] + r[l]);
-                sums[i % 4][l] += w[l] * new;
-                x[l] = if fault[l] { x[l] } else { new };
+        // lane q of the partial sums takes the plays i ≡ q mod 4, as
+        // hysteresis::step does; a constant q keeps the sums in registers
+        let full = n - n % 4;
+        for i0 in (0..full).step_by(4) {
+            for (q, sum) in sums.iter_mut().enumerate() {
+                let i = i0 + q;
+                let x = block(&mut self.inv_x, i * cs + c0);
+                inverse_play_fast(x, lane(&p.inv_r, i), lane(&p.inv_w, i), &y, &fault, sum);
             }
+        }
+        for i in full..n {
+            let x = block(&mut self.inv_x, i * cs + c0);
+            let sum = &mut sums[i - full];
+            inverse_play_fast(x, lane(&p.inv_r, i), lane(&p.inv_w, i), &y, &fault, sum);
         }
         let mut v = [T::ZERO; W];
         for l in 0..W {
@@ -348,30 +351,36 @@ impl<T: Real> CompensatorBank<T> {
             self.creep_last[c0 + l] = uc[l];
         }
         let mut acc = [[T::ZERO; W]; 4];
-        for i in 0..nc {
-            let r = lane(&p.creep_r, i);
-            let mut lower = [T::ZERO; W];
-            let mut upper = [T::ZERO; W];
-            for l in 0..W {
-                lower[l] = uc[l] - r[l];
-                upper[l] = uc[l] + r[l];
+        let full = nc - nc % 4;
+        for i0 in (0..full).step_by(4) {
+            for (q, a) in acc.iter_mut().enumerate() {
+                let i = i0 + q;
+                let (r, w) = (lane(&p.creep_r, i), lane(&p.creep_w, i));
+                creep_row_fast(
+                    &mut self.chi,
+                    (i * m * cs + c0, cs),
+                    &p.gains,
+                    (ps, pb, m),
+                    &uc,
+                    r,
+                    w,
+                    a,
+                );
             }
-            let mut rows = [T::ZERO; W];
-            for j in 0..m {
-                let g = lane(&p.gains, j);
-                let e = (j * nc + i) * cs + c0;
-                let chi = &mut self.chi[e..e + W];
-                for l in 0..W {
-                    let x = chi[l];
-                    let x = x + g[l] * (clamp(x, lower[l], upper[l]) - x);
-                    chi[l] = x;
-                    rows[l] += x;
-                }
-            }
-            let w = lane(&p.creep_w, i);
-            for l in 0..W {
-                acc[i % 4][l] += w[l] * rows[l];
-            }
+        }
+        for i in full..nc {
+            let (r, w) = (lane(&p.creep_r, i), lane(&p.creep_w, i));
+            let a = &mut acc[i - full];
+            creep_row_fast(
+                &mut self.chi,
+                (i * m * cs + c0, cs),
+                &p.gains,
+                (ps, pb, m),
+                &uc,
+                r,
+                w,
+                a,
+            );
         }
         for l in 0..W {
             self.creep_out[c0 + l] = reduce([acc[0][l], acc[1][l], acc[2][l], acc[3][l]]);
@@ -423,6 +432,244 @@ struct Io<T> {
     u: Vec<T>,
     saturated: Vec<bool>,
     fault: Vec<bool>,
+}
+
+#[inline(always)]
+fn lane<T: Real, const W: usize>(v: &[T], at: usize) -> [T; W] {
+    v[at..at + W].try_into().unwrap()
+}
+
+#[inline(always)]
+fn block<T: Real, const W: usize>(v: &mut [T], at: usize) -> &mut [T; W] {
+    (&mut v[at..at + W]).try_into().unwrap()
+}
+
+/// One play of `H⁻¹` (22) over `W` channels; a faulted lane keeps its state.
+#[inline(always)]
+fn inverse_play<T: Real, const W: usize>(
+    x: &mut [T; W],
+    r: [T; W],
+    w: [T; W],
+    y: &[T; W],
+    fault: &[bool; W],
+    sum: &mut [T; W],
+) {
+    for l in 0..W {
+        let new = clamp(x[l], y[l] - r[l], y[l] + r[l]);
+        sum[l] += w[l] * new;
+        x[l] = if fault[l] { x[l] } else { new };
+    }
+}
+
+/// The `m` creep operators of one threshold over `W` channels (20), summed
+/// as `creep::advance` sums them; `at = (first element, stride per
+/// eigenvalue)`, `params = (stride, offset, m)` of the parameter arrays.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn creep_row<T: Real, const W: usize>(
+    chi: &mut [T],
+    at: (usize, usize),
+    gains: &[T],
+    params: (usize, usize, usize),
+    u: &[T; W],
+    r: [T; W],
+    w: [T; W],
+    acc: &mut [T; W],
+) {
+    let (e0, step) = at;
+    let (ps, pb, m) = params;
+    let mut lower = [T::ZERO; W];
+    let mut upper = [T::ZERO; W];
+    for l in 0..W {
+        lower[l] = u[l] - r[l];
+        upper[l] = u[l] + r[l];
+    }
+    let mut rows = [T::ZERO; W];
+    for j in 0..m {
+        let g: [T; W] = lane(gains, j * ps + pb);
+        let x = block::<T, W>(chi, e0 + j * step);
+        for l in 0..W {
+            x[l] = x[l] + g[l] * (clamp(x[l], lower[l], upper[l]) - x[l]);
+        }
+        for l in 0..W {
+            rows[l] += x[l];
+        }
+    }
+    for l in 0..W {
+        acc[l] += w[l] * rows[l];
+    }
+}
+
+/// [`inverse_play`] in AVX registers for `f64 × 4` and `f32 × 8` where the
+/// CPU has AVX2: the same operations lane by lane (see
+/// `creep::advance_fast`), so the same bits.
+#[inline(always)]
+fn inverse_play_fast<T: Real, const W: usize>(
+    x: &mut [T; W],
+    r: [T; W],
+    w: [T; W],
+    y: &[T; W],
+    fault: &[bool; W],
+    sum: &mut [T; W],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::realtime::simd::avx2_in_use() && W * core::mem::size_of::<T>() == 32 {
+        let mask: [T; W] = fault.map(|f| if f { T::NEG_INFINITY } else { T::ZERO });
+        // SAFETY: 32-byte arrays of f64 × 4 or f32 × 8 (checked by size and
+        // TypeId inside); the CPU has AVX2.
+        unsafe { avx::inverse_play(x, &r, &w, y, &mask, sum) };
+        return;
+    }
+    inverse_play(x, r, w, y, fault, sum)
+}
+
+/// [`creep_row`] in AVX registers, as [`inverse_play_fast`].
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn creep_row_fast<T: Real, const W: usize>(
+    chi: &mut [T],
+    at: (usize, usize),
+    gains: &[T],
+    params: (usize, usize, usize),
+    u: &[T; W],
+    r: [T; W],
+    w: [T; W],
+    acc: &mut [T; W],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::realtime::simd::avx2_in_use() && W * core::mem::size_of::<T>() == 32 {
+        let (e0, step) = at;
+        let (ps, pb, m) = params;
+        assert!(
+            e0 + (m.max(1) - 1) * step + W <= chi.len()
+                && (m.max(1) - 1) * ps + pb + W <= gains.len()
+        );
+        // SAFETY: every block read lies inside chi and gains (asserted
+        // above); 32-byte lane arrays; the CPU has AVX2.
+        unsafe { avx::creep_row(chi, e0, step, gains, ps, pb, m, u, &r, &w, acc) };
+        return;
+    }
+    creep_row(chi, at, gains, params, u, r, w, acc)
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    //! The bank's two inner kernels on 256-bit registers, for `f64 × 4` and
+    //! `f32 × 8` (any other `T` or width is never passed: the callers check
+    //! that a lane array is 32 bytes, and `T` is `f32` or `f64`).
+    use core::arch::x86_64::*;
+    use core::mem::size_of;
+
+    use crate::realtime::real::Real;
+
+    /// 32 bytes of lanes, either type.
+    #[derive(Clone, Copy)]
+    struct V(__m256d, __m256);
+
+    #[inline(always)]
+    fn is_f64<T>() -> bool {
+        size_of::<T>() == 8
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn load<T>(p: *const T) -> V {
+        if is_f64::<T>() {
+            V(_mm256_loadu_pd(p as *const f64), _mm256_setzero_ps())
+        } else {
+            V(_mm256_setzero_pd(), _mm256_loadu_ps(p as *const f32))
+        }
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn store<T>(p: *mut T, v: V) {
+        if is_f64::<T>() {
+            _mm256_storeu_pd(p as *mut f64, v.0)
+        } else {
+            _mm256_storeu_ps(p as *mut f32, v.1)
+        }
+    }
+
+    macro_rules! op {
+        ($name:ident, $pd:ident, $ps:ident) => {
+            #[target_feature(enable = "avx2")]
+            #[inline]
+            unsafe fn $name<T>(a: V, b: V) -> V {
+                if is_f64::<T>() {
+                    V($pd(a.0, b.0), a.1)
+                } else {
+                    V(a.0, $ps(a.1, b.1))
+                }
+            }
+        };
+    }
+    op!(add, _mm256_add_pd, _mm256_add_ps);
+    op!(sub, _mm256_sub_pd, _mm256_sub_ps);
+    op!(mul, _mm256_mul_pd, _mm256_mul_ps);
+    op!(min, _mm256_min_pd, _mm256_min_ps);
+    op!(max, _mm256_max_pd, _mm256_max_ps);
+
+    /// `a` where the lane of `mask` has its sign bit set, else `b`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn select<T>(mask: V, a: V, b: V) -> V {
+        if is_f64::<T>() {
+            V(_mm256_blendv_pd(b.0, a.0, mask.0), a.1)
+        } else {
+            V(a.0, _mm256_blendv_ps(b.1, a.1, mask.1))
+        }
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) unsafe fn inverse_play<T: Real, const W: usize>(
+        x: &mut [T; W],
+        r: &[T; W],
+        w: &[T; W],
+        y: &[T; W],
+        fault: &[T; W],
+        sum: &mut [T; W],
+    ) {
+        let (xv, rv, yv) = (load(x.as_ptr()), load(r.as_ptr()), load(y.as_ptr()));
+        let new = max::<T>(min::<T>(xv, add::<T>(yv, rv)), sub::<T>(yv, rv));
+        let s = add::<T>(load(sum.as_ptr()), mul::<T>(load(w.as_ptr()), new));
+        store(sum.as_mut_ptr(), s);
+        store(x.as_mut_ptr(), select::<T>(load(fault.as_ptr()), xv, new));
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) unsafe fn creep_row<T: Real, const W: usize>(
+        chi: &mut [T],
+        e0: usize,
+        step: usize,
+        gains: &[T],
+        ps: usize,
+        pb: usize,
+        m: usize,
+        u: &[T; W],
+        r: &[T; W],
+        w: &[T; W],
+        acc: &mut [T; W],
+    ) {
+        let (uv, rv) = (load(u.as_ptr()), load(r.as_ptr()));
+        let (lower, upper) = (sub::<T>(uv, rv), add::<T>(uv, rv));
+        let mut rows = V(_mm256_setzero_pd(), _mm256_setzero_ps());
+        let p = chi.as_mut_ptr();
+        for j in 0..m {
+            let g = load(gains.as_ptr().add(j * ps + pb));
+            let at = p.add(e0 + j * step);
+            let x = load(at);
+            let c = max::<T>(min::<T>(x, upper), lower);
+            let x = add::<T>(x, mul::<T>(g, sub::<T>(c, x)));
+            store(at, x);
+            rows = add::<T>(rows, x);
+        }
+        let a = add::<T>(load(acc.as_ptr()), mul::<T>(load(w.as_ptr()), rows));
+        store(acc.as_mut_ptr(), a);
+    }
 }
 
 fn check_same(field: &'static str, expected: usize, found: usize) -> Result<(), ParameterError> {

@@ -90,7 +90,13 @@ mod tests {
             // partial sums in [0.05, 1], so single weights are often negative
             let sums: Vec<f64> = (0..n).map(|_| 0.05 + 0.95 * unit()).collect();
             let weights: Vec<f64> = (0..n)
-                .map(|j| if j == 0 { sums[0] } else { sums[j] - sums[j - 1] })
+                .map(|j| {
+                    if j == 0 {
+                        sums[0]
+                    } else {
+                        sums[j] - sums[j - 1]
+                    }
+                })
                 .collect();
             let x: Vec<f64> = (0..n).map(|_| 2000.0 * unit() - 1000.0).collect();
             let mut inv = vec![0.0; n];
