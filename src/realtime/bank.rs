@@ -258,13 +258,15 @@ impl<T: Real> CompensatorBank<T> {
 
     #[inline(always)]
     fn step_all(&mut self) {
+        // one feature test per step, not one per row
+        let avx = crate::realtime::simd::avx2_in_use();
         if core::mem::size_of::<T>() == 4 {
             for c0 in (0..self.padded).step_by(8) {
-                self.step_block::<8>(c0);
+                self.step_block::<8>(c0, avx);
             }
         } else {
             for c0 in (0..self.padded).step_by(4) {
-                self.step_block::<4>(c0);
+                self.step_block::<4>(c0, avx);
             }
         }
     }
@@ -272,7 +274,7 @@ impl<T: Real> CompensatorBank<T> {
     /// Channels `c0..c0 + W`: what `FixedCompensator::compensate` does, lane
     /// by lane, in its order of operations.
     #[inline(always)]
-    fn step_block<const W: usize>(&mut self, c0: usize) {
+    fn step_block<const W: usize>(&mut self, c0: usize, avx: bool) {
         let (n, nc, m) = (self.plays, self.creep_thresholds, self.eigenvalues);
         let cs = self.padded;
         let p = &self.p;
@@ -307,13 +309,29 @@ impl<T: Real> CompensatorBank<T> {
             for (q, sum) in sums.iter_mut().enumerate() {
                 let i = i0 + q;
                 let x = block(&mut self.inv_x, i * cs + c0);
-                inverse_play_fast(x, lane(&p.inv_r, i), lane(&p.inv_w, i), &y, &fault, sum);
+                inverse_play_fast(
+                    avx,
+                    x,
+                    lane(&p.inv_r, i),
+                    lane(&p.inv_w, i),
+                    &y,
+                    &fault,
+                    sum,
+                );
             }
         }
         for i in full..n {
             let x = block(&mut self.inv_x, i * cs + c0);
             let sum = &mut sums[i - full];
-            inverse_play_fast(x, lane(&p.inv_r, i), lane(&p.inv_w, i), &y, &fault, sum);
+            inverse_play_fast(
+                avx,
+                x,
+                lane(&p.inv_r, i),
+                lane(&p.inv_w, i),
+                &y,
+                &fault,
+                sum,
+            );
         }
         let mut v = [T::ZERO; W];
         for l in 0..W {
@@ -357,6 +375,7 @@ impl<T: Real> CompensatorBank<T> {
                 let i = i0 + q;
                 let (r, w) = (lane(&p.creep_r, i), lane(&p.creep_w, i));
                 creep_row_fast(
+                    avx,
                     &mut self.chi,
                     (i * m * cs + c0, cs),
                     &p.gains,
@@ -372,6 +391,7 @@ impl<T: Real> CompensatorBank<T> {
             let (r, w) = (lane(&p.creep_r, i), lane(&p.creep_w, i));
             let a = &mut acc[i - full];
             creep_row_fast(
+                avx,
                 &mut self.chi,
                 (i * m * cs + c0, cs),
                 &p.gains,
@@ -500,11 +520,12 @@ fn creep_row<T: Real, const W: usize>(
     }
 }
 
-/// [`inverse_play`] in AVX registers for `f64 × 4` and `f32 × 8` where the
-/// CPU has AVX2: the same operations lane by lane (see
+/// [`inverse_play`] in AVX registers for `f64 × 4` and `f32 × 8` when `avx`
+/// (the CPU has AVX2): the same operations lane by lane (see
 /// `creep::advance_fast`), so the same bits.
 #[inline(always)]
 fn inverse_play_fast<T: Real, const W: usize>(
+    avx: bool,
     x: &mut [T; W],
     r: [T; W],
     w: [T; W],
@@ -513,7 +534,7 @@ fn inverse_play_fast<T: Real, const W: usize>(
     sum: &mut [T; W],
 ) {
     #[cfg(target_arch = "x86_64")]
-    if crate::realtime::simd::avx2_in_use() && W * core::mem::size_of::<T>() == 32 {
+    if avx && W * core::mem::size_of::<T>() == 32 {
         let mask: [T; W] = fault.map(|f| if f { T::NEG_INFINITY } else { T::ZERO });
         // SAFETY: 32-byte arrays of f64 × 4 or f32 × 8 (checked by size and
         // TypeId inside); the CPU has AVX2.
@@ -527,6 +548,7 @@ fn inverse_play_fast<T: Real, const W: usize>(
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn creep_row_fast<T: Real, const W: usize>(
+    avx: bool,
     chi: &mut [T],
     at: (usize, usize),
     gains: &[T],
@@ -537,7 +559,7 @@ fn creep_row_fast<T: Real, const W: usize>(
     acc: &mut [T; W],
 ) {
     #[cfg(target_arch = "x86_64")]
-    if crate::realtime::simd::avx2_in_use() && W * core::mem::size_of::<T>() == 32 {
+    if avx && W * core::mem::size_of::<T>() == 32 {
         let (e0, step) = at;
         let (ps, pb, m) = params;
         assert!(
