@@ -103,8 +103,9 @@ fn f32_core_accuracy_on_the_papers_scenarios() {
 fn paper_sized_storage_and_its_footprint() {
     let f32_bytes = std::mem::size_of::<PaperCompensator<f32>>();
     let f64_bytes = std::mem::size_of::<PaperCompensator<f64>>();
-    // Arrays: H⁻¹ (r', w', x') and H (r, w, s, x) of 12, creep (r, g, w/m, χ)
-    // of 60; then lengths, offset, limits, creep output and last input.
+    // Arrays: H⁻¹ (r', w', x') and H (r, w, s, room for x) of 12, creep
+    // (r, g, w/m, χ) of 60; then lengths, offset, limits, the last voltage,
+    // creep output and last input.
     for (bytes, size) in [(f32_bytes, 4), (f64_bytes, 8)] {
         let arrays = (7 * 12 + 4 * 60) * size;
         eprintln!("PaperCompensator: {bytes} bytes with {size}-byte numbers ({arrays} in arrays)");

@@ -180,8 +180,8 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
         }
         let mut inv = [0.0f64; N];
         inverse_state_into(&w[..n], &s[..n], hysteresis, &mut inv[..n]);
-        for i in 0..n {
-            self.inverse.state_mut()[i] = T::from_f64(inv[i]);
+        for (x, &v) in self.inverse.state_mut().iter_mut().zip(&inv[..n]) {
+            *x = T::from_f64(v);
         }
         self.last_u = T::from_f64(hysteresis[0]);
         self.creep = creep_trial;
