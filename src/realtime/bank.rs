@@ -19,7 +19,7 @@ use crate::realtime::creep::creep_gain;
 use crate::realtime::error::ParameterError;
 use crate::realtime::hysteresis::reduce;
 use crate::realtime::inverse::inverse_parameters_into;
-use crate::realtime::parameters::{check_limits, ModelParameters};
+use crate::realtime::parameters::{check_length, check_limits, ModelParameters};
 use crate::realtime::play::{clamp, play};
 use crate::realtime::real::Real;
 use crate::realtime::simd::dispatch;
@@ -207,32 +207,36 @@ impl<T: Real> CompensatorBank<T> {
         targets: &[T],
         out: &mut [Compensated<T>],
     ) -> Result<(), ParameterError> {
-        check_same("bank.targets", self.channels, targets.len())?;
-        check_same("bank.out", self.channels, out.len())?;
-        self.io.targets[..self.channels].copy_from_slice(targets);
-        dispatch(|| self.step_all());
-        for (c, o) in out.iter_mut().enumerate() {
-            *o = Compensated {
-                u: self.io.u[c],
-                saturated: self.io.saturated[c],
-                fault: self.io.fault[c],
-            };
-        }
-        Ok(())
+        self.run(targets, out, true)
     }
 
-    /// [`CompensatorBank::compensate`] compiled for the caller's instruction
-    /// set, without run-time dispatch (the same bits; for tests).
+    /// [`CompensatorBank::compensate`] with the portable kernels only, no
+    /// run-time dispatch (the same bits; for tests).
     #[doc(hidden)]
     pub fn compensate_portable(
         &mut self,
         targets: &[T],
         out: &mut [Compensated<T>],
     ) -> Result<(), ParameterError> {
-        check_same("bank.targets", self.channels, targets.len())?;
-        check_same("bank.out", self.channels, out.len())?;
+        self.run(targets, out, false)
+    }
+
+    fn run(
+        &mut self,
+        targets: &[T],
+        out: &mut [Compensated<T>],
+        simd: bool,
+    ) -> Result<(), ParameterError> {
+        check_length("bank.targets", self.channels, targets.len())?;
+        check_length("bank.out", self.channels, out.len())?;
         self.io.targets[..self.channels].copy_from_slice(targets);
-        self.step_all();
+        if simd {
+            // one feature test per step, not one per row
+            let avx = crate::realtime::simd::avx2_in_use();
+            dispatch(|| self.step_all(avx));
+        } else {
+            self.step_all(false);
+        }
         for (c, o) in out.iter_mut().enumerate() {
             *o = Compensated {
                 u: self.io.u[c],
@@ -257,9 +261,7 @@ impl<T: Real> CompensatorBank<T> {
     }
 
     #[inline(always)]
-    fn step_all(&mut self) {
-        // one feature test per step, not one per row
-        let avx = crate::realtime::simd::avx2_in_use();
+    fn step_all(&mut self, avx: bool) {
         if core::mem::size_of::<T>() == 4 {
             for c0 in (0..self.padded).step_by(8) {
                 self.step_block::<8>(c0, avx);
@@ -691,17 +693,5 @@ mod avx {
         }
         let a = add::<T>(load(acc.as_ptr()), mul::<T>(load(w.as_ptr()), rows));
         store(acc.as_mut_ptr(), a);
-    }
-}
-
-fn check_same(field: &'static str, expected: usize, found: usize) -> Result<(), ParameterError> {
-    if expected == found {
-        Ok(())
-    } else {
-        Err(ParameterError::LengthMismatch {
-            field,
-            expected,
-            found,
-        })
     }
 }
