@@ -85,6 +85,23 @@ pub fn advance<T: Real>(
             acc[l] += w[l] * rows[l];
         }
     }
+    advance_tail(chi, thresholds, gains, weights, v, full, &mut acc);
+    reduce(acc)
+}
+
+/// The thresholds `full..n` that do not fill a block, one by one, into the
+/// lanes `i − full` (shared by [`advance`] and its AVX copy).
+#[inline(always)]
+fn advance_tail<T: Real>(
+    chi: &mut [T],
+    thresholds: &[T],
+    gains: &[T],
+    weights: &[T],
+    v: T,
+    full: usize,
+    acc: &mut [T; LANES],
+) {
+    let n = thresholds.len();
     for i in full..n {
         let (lower, upper) = (v - thresholds[i], v + thresholds[i]);
         let mut row = T::ZERO;
@@ -96,7 +113,6 @@ pub fn advance<T: Real>(
         }
         acc[i - full] += weights[i] * row;
     }
-    reduce(acc)
 }
 
 /// [`advance`], with the `f64` blocks in explicit AVX registers when `SIMD`
@@ -115,27 +131,19 @@ pub fn advance_fast<T: Real, const SIMD: bool>(
     last_input: &mut T,
 ) -> T {
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
-    if SIMD
-        && core::any::TypeId::of::<T>() == core::any::TypeId::of::<f64>()
-        && crate::realtime::simd::avx2_in_use()
-    {
-        let v = if v.is_finite() { v } else { *last_input };
-        *last_input = v;
-        let f = |x: &[T]| -> &[f64] {
-            // SAFETY: T is f64 (checked above): same layout.
-            unsafe { &*(x as *const [T] as *const [f64]) }
-        };
-        // SAFETY: as above; the CPU has AVX2 (checked above).
-        let out = unsafe {
-            avx2_f64(
-                &mut *(chi as *mut [T] as *mut [f64]),
-                f(thresholds),
-                f(gains),
-                f(weights),
-                v.to_f64(),
-            )
-        };
-        return T::from_f64(out);
+    if SIMD && crate::realtime::simd::avx2_in_use() {
+        use crate::realtime::simd::{as_f64, as_f64_mut};
+        if let (Some(chi), Some(r), Some(g), Some(w)) = (
+            as_f64_mut(chi),
+            as_f64(thresholds),
+            as_f64(gains),
+            as_f64(weights),
+        ) {
+            let v = if v.is_finite() { v } else { *last_input };
+            *last_input = v;
+            // SAFETY: the CPU has AVX2 (checked above).
+            return T::from_f64(unsafe { avx2_f64(chi, r, g, w, v.to_f64()) });
+        }
     }
     advance(chi, thresholds, gains, weights, v, last_input)
 }
@@ -179,17 +187,7 @@ unsafe fn avx2_f64(
     }
     let mut lanes = [0.0f64; LANES];
     _mm256_storeu_pd(lanes.as_mut_ptr(), acc);
-    for i in full..n {
-        let (lower, upper) = (v - thresholds[i], v + thresholds[i]);
-        let mut row = 0.0;
-        for (j, &g) in gains.iter().enumerate() {
-            let x = chi[j * n + i];
-            let x = x + g * (clamp(x, lower, upper) - x);
-            chi[j * n + i] = x;
-            row += x;
-        }
-        lanes[i - full] += weights[i] * row;
-    }
+    advance_tail(chi, thresholds, gains, weights, v, full, &mut lanes);
     reduce(lanes)
 }
 

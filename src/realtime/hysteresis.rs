@@ -49,25 +49,15 @@ pub fn step_fast<T: Real, const SIMD: bool>(
     v: T,
 ) -> T {
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
-    if SIMD
-        && core::any::TypeId::of::<T>() == core::any::TypeId::of::<f64>()
-        && crate::realtime::simd::avx2_in_use()
-    {
+    if SIMD && crate::realtime::simd::avx2_in_use() {
+        use crate::realtime::simd::{as_f64, as_f64_mut};
         let v = if v.is_finite() { v } else { state[0] };
-        let f = |x: &[T]| -> &[f64] {
-            // SAFETY: T is f64 (checked above): same layout.
-            unsafe { &*(x as *const [T] as *const [f64]) }
-        };
-        // SAFETY: as above; the CPU has AVX2 (checked above).
-        let out = unsafe {
-            avx2_f64(
-                &mut *(state as *mut [T] as *mut [f64]),
-                f(thresholds),
-                f(weights),
-                v.to_f64(),
-            )
-        };
-        return T::from_f64(out);
+        if let (Some(x), Some(r), Some(w)) =
+            (as_f64_mut(state), as_f64(thresholds), as_f64(weights))
+        {
+            // SAFETY: the CPU has AVX2 (checked above).
+            return T::from_f64(unsafe { avx2_f64(x, r, w, v.to_f64()) });
+        }
     }
     step(state, thresholds, weights, v)
 }
@@ -109,19 +99,13 @@ unsafe fn avx2_f64(state: &mut [f64], thresholds: &[f64], weights: &[f64], v: f6
 #[inline(always)]
 pub fn advance_plays<T: Real, const SIMD: bool>(state: &mut [T], thresholds: &[T], v: T) {
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
-    if SIMD
-        && core::any::TypeId::of::<T>() == core::any::TypeId::of::<f64>()
-        && crate::realtime::simd::avx2_in_use()
-    {
-        // SAFETY: T is f64 (checked above): same layout; the CPU has AVX2.
-        unsafe {
-            avx2_plays_f64(
-                &mut *(state as *mut [T] as *mut [f64]),
-                &*(thresholds as *const [T] as *const [f64]),
-                v.to_f64(),
-            )
-        };
-        return;
+    if SIMD && crate::realtime::simd::avx2_in_use() {
+        use crate::realtime::simd::{as_f64, as_f64_mut};
+        if let (Some(x), Some(r)) = (as_f64_mut(state), as_f64(thresholds)) {
+            // SAFETY: the CPU has AVX2 (checked above).
+            unsafe { avx2_plays_f64(x, r, v.to_f64()) };
+            return;
+        }
     }
     for (x, &r) in state.iter_mut().zip(thresholds) {
         *x = play(v, r, *x);

@@ -5,8 +5,11 @@
 //! when the CPU has it (a cached feature test: one load and a branch per
 //! step). Neither copy fuses a multiply and an add (Rust never contracts
 //! them) and the sums run in a fixed order, so both compute the same bits:
-//! `verification/simd.rs` checks that. Without `std` (firmware) the kernels
+//! `verification/bank.rs` checks that. Without `std` (firmware) the kernels
 //! are compiled once, for the target's own features.
+
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+use {crate::realtime::real::Real, core::any::TypeId};
 
 /// Whether the steps run the AVX2 copy on this CPU.
 #[inline]
@@ -36,4 +39,22 @@ pub(crate) fn dispatch<R>(f: impl FnOnce() -> R) -> R {
 #[target_feature(enable = "avx2")]
 unsafe fn avx2<R>(f: impl FnOnce() -> R) -> R {
     f()
+}
+
+/// `x` as `f64` when `T` is `f64` (for the kernels written for `f64` only).
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+#[inline(always)]
+pub(crate) fn as_f64<T: Real>(x: &[T]) -> Option<&[f64]> {
+    // SAFETY: T is f64 when the TypeIds agree: the same type, the same layout.
+    (TypeId::of::<T>() == TypeId::of::<f64>())
+        .then(|| unsafe { &*(x as *const [T] as *const [f64]) })
+}
+
+/// `x` as `f64` when `T` is `f64`, mutably.
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+#[inline(always)]
+pub(crate) fn as_f64_mut<T: Real>(x: &mut [T]) -> Option<&mut [f64]> {
+    // SAFETY: as in `as_f64`.
+    (TypeId::of::<T>() == TypeId::of::<f64>())
+        .then(|| unsafe { &mut *(x as *mut [T] as *mut [f64]) })
 }
