@@ -1,4 +1,4 @@
-//! A bank of compensators (`realtime::CompensatorBank`) at the paper's order:
+//! A bank of compensators (`operators::bank::CompensatorBank`) at the paper's order:
 //! one step of 1, 8, 64 and 1024 channels sharing the nominal model, in
 //! `f64` and `f32`. Throughput is in channel-steps per second.
 
@@ -8,8 +8,9 @@ mod common;
 
 use common::test_input;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use mfcbeam::operators::bank::CompensatorBank;
 use mfcbeam::prelude::*;
-use mfcbeam::realtime::{nominal, Compensated, CompensatorBank, Real};
+use mfcbeam::realtime::{nominal, Compensated, Real};
 
 const ROWS: usize = 64;
 

@@ -7,183 +7,47 @@ use thiserror::Error;
 
 use crate::realtime::ParameterError;
 
-/// What is wrong with the parameters or the state of an operator, model or
-/// compensator.
+/// What is wrong with the parameters, the state or the file of an operator,
+/// model or compensator.
 #[derive(Debug, Clone, PartialEq, Error)]
 #[non_exhaustive]
 pub enum ModelError {
-    /// A list that must hold at least one value is empty.
-    #[error("{field}: must not be empty")]
-    Empty { field: String },
-    /// A value is NaN or infinite.
-    #[error("{field}[{index}]: {value} is not a finite number")]
-    NonFinite {
-        field: String,
-        index: usize,
-        value: f64,
+    /// A parameter or state breaks a condition the real-time core checks.
+    /// `field`, when set, names the place in a file or a heap operator
+    /// (`creep.state[3]`) instead of the static field the check knows.
+    #[error("{}", .error.display_as(.field.as_deref().unwrap_or(.error.field())))]
+    Parameter {
+        field: Option<String>,
+        error: ParameterError,
     },
-    /// The first threshold must be exactly 0, see (12) and (18).
-    #[error("{field}[0]: the first threshold must be 0, found {value}")]
-    FirstThresholdNotZero { field: String, value: f64 },
-    /// Thresholds must increase strictly, see (12) and (18).
-    #[error("{field}[{index}]: thresholds must increase strictly, but {value} follows {previous}")]
-    ThresholdsNotIncreasing {
-        field: String,
-        index: usize,
-        previous: f64,
-        value: f64,
-    },
-    /// A single threshold (play operator) must be finite and non-negative.
-    #[error("{field}: a threshold must be finite and >= 0, found {value}")]
-    InvalidThreshold { field: String, value: f64 },
-    /// Two lists that must have the same length do not.
-    #[error("{field}: expected {expected} values, found {found}")]
-    LengthMismatch {
-        field: String,
-        expected: usize,
-        found: usize,
-    },
-    /// A hysteresis weight partial sum `s_j = w_0 + … + w_j` is not positive, which breaks (11).
-    #[error("{field}: partial sum w[0] + ... + w[{index}] = {sum} must be > 0 (condition (11))")]
-    PartialSumNotPositive {
-        field: String,
-        index: usize,
-        sum: f64,
-    },
-    /// A creep weight partial sum is negative, which breaks (17).
-    #[error("{field}: partial sum w[0] + ... + w[{index}] = {sum} must be >= 0 (condition (17))")]
-    PartialSumNegative {
-        field: String,
-        index: usize,
-        sum: f64,
-    },
-    /// A creep eigenvalue must be finite and positive.
-    #[error("{field}[{index}]: a creep eigenvalue must be > 0, found {value}")]
-    NonPositiveEigenvalue {
-        field: String,
-        index: usize,
-        value: f64,
-    },
-    /// The sample time must be finite and positive.
-    #[error("sample_time: must be a finite number > 0, found {value}")]
-    NonPositiveSampleTime { value: f64 },
-    /// A play state that no input can reach from the virgin state.
-    #[error("{field}[{index}]: inadmissible state, |x[{index}] - x[{prev}]| = {gap} exceeds r[{index}] - r[{prev}] = {allowed}", prev = index - 1)]
-    InadmissibleState {
-        field: String,
-        index: usize,
-        gap: f64,
-        allowed: f64,
-    },
-    /// Saturation limits must satisfy `lower < upper` and not be NaN.
-    #[error("limits: the lower limit {lower} must be below the upper limit {upper}")]
-    InvalidLimits { lower: f64, upper: f64 },
-    /// Two operators that must share a sample time do not.
+    /// Parts that must agree do not (a state and its model, two sample
+    /// times).
     #[error("{field}: {reason}")]
     Inconsistent { field: String, reason: String },
-    /// More values than a fixed-capacity operator holds.
-    #[error("{field}: {found} values exceed the capacity of {capacity} fixed at compile time")]
-    ExceedsCapacity {
-        field: String,
-        capacity: usize,
-        found: usize,
-    },
+}
+
+impl ModelError {
+    /// The parameter error behind this one, if it is one.
+    pub fn parameter(&self) -> Option<&ParameterError> {
+        match self {
+            ModelError::Parameter { error, .. } => Some(error),
+            ModelError::Inconsistent { .. } => None,
+        }
+    }
 }
 
 impl From<ParameterError> for ModelError {
-    fn from(e: ParameterError) -> Self {
-        e.named("")
+    fn from(error: ParameterError) -> Self {
+        ModelError::Parameter { field: None, error }
     }
 }
 
 impl ParameterError {
-    /// The same error as a [`ModelError`], about `field` (or, if `field` is
-    /// empty, the field it names itself).
+    /// The same error about `field` (a name built at run time).
     pub fn named(self, field: &str) -> ModelError {
-        use ParameterError as P;
-        let name = |own: &'static str| -> String {
-            if field.is_empty() { own } else { field }.to_string()
-        };
-        match self {
-            P::Empty { field } => ModelError::Empty { field: name(field) },
-            P::NonFinite {
-                field,
-                index,
-                value,
-            } => ModelError::NonFinite {
-                field: name(field),
-                index,
-                value,
-            },
-            P::FirstThresholdNotZero { field, value } => ModelError::FirstThresholdNotZero {
-                field: name(field),
-                value,
-            },
-            P::ThresholdsNotIncreasing {
-                field,
-                index,
-                previous,
-                value,
-            } => ModelError::ThresholdsNotIncreasing {
-                field: name(field),
-                index,
-                previous,
-                value,
-            },
-            P::LengthMismatch {
-                field,
-                expected,
-                found,
-            } => ModelError::LengthMismatch {
-                field: name(field),
-                expected,
-                found,
-            },
-            P::PartialSumNotPositive { field, index, sum } => ModelError::PartialSumNotPositive {
-                field: name(field),
-                index,
-                sum,
-            },
-            P::PartialSumNegative { field, index, sum } => ModelError::PartialSumNegative {
-                field: name(field),
-                index,
-                sum,
-            },
-            P::NonPositiveEigenvalue {
-                field,
-                index,
-                value,
-            } => ModelError::NonPositiveEigenvalue {
-                field: name(field),
-                index,
-                value,
-            },
-            P::NonPositiveSampleTime { value } => ModelError::NonPositiveSampleTime { value },
-            P::InadmissibleState {
-                field,
-                index,
-                gap,
-                allowed,
-            } => ModelError::InadmissibleState {
-                field: name(field),
-                index,
-                gap,
-                allowed,
-            },
-            P::InvalidLimits { lower, upper } => ModelError::InvalidLimits { lower, upper },
-            P::ChannelMismatch { .. } => ModelError::Inconsistent {
-                field: name("bank"),
-                reason: self.to_string(),
-            },
-            P::ExceedsCapacity {
-                field,
-                capacity,
-                found,
-            } => ModelError::ExceedsCapacity {
-                field: name(field),
-                capacity,
-                found,
-            },
+        ModelError::Parameter {
+            field: Some(field.to_string()),
+            error: self,
         }
     }
 }

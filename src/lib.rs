@@ -106,6 +106,7 @@ pub mod identification;
 #[cfg(feature = "std")]
 pub mod prelude {
     pub use crate::error::{ModelError, SupplyError};
+    pub use crate::io::read_model;
     pub use crate::operators::compensator::{Compensator, CompensatorSettings};
     pub use crate::operators::creep::{CreepOperator, ElementaryCreepOperator, LogCreepOperator};
     pub use crate::operators::hysteresis::HysteresisOperator;
@@ -116,6 +117,7 @@ pub mod prelude {
     pub use crate::operators::traits::{
         ActuatorCompensator, ActuatorModel, Compensated, InverseHysteresis, Operator, Snapshot,
     };
+    pub use crate::realtime::ParameterError;
 }
 
 /// The README's Rust examples, compiled and run as doctests.

@@ -71,9 +71,13 @@ fn steps_and_in_place_runs_allocate_nothing() {
     let mut fixed32 = PaperCompensator::<f32>::new(&nominal::PARAMETERS, -300.0, 300.0).unwrap();
     let mut fixed64 = PaperCompensator::<f64>::new(&nominal::PARAMETERS, -300.0, 300.0).unwrap();
     let mut plant32 = PaperModel::<f32>::new(&nominal::PARAMETERS).unwrap();
-    let mut bank =
-        mfcbeam::realtime::CompensatorBank::<f32>::uniform(&nominal::PARAMETERS, 19, -300.0, 300.0)
-            .unwrap();
+    let mut bank = mfcbeam::operators::bank::CompensatorBank::<f32>::uniform(
+        &nominal::PARAMETERS,
+        19,
+        -300.0,
+        300.0,
+    )
+    .unwrap();
     let mut targets = [0.0f32; 19];
     let mut bank_out = [mfcbeam::realtime::Compensated::<f32>::default(); 19];
 

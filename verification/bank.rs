@@ -4,10 +4,9 @@
 //! the run-time AVX2 path gives the bits of the portable one, and bad
 //! parameters and slices are refused with the field named.
 
+use mfcbeam::operators::bank::CompensatorBank;
 use mfcbeam::operators::model::ModelFile;
-use mfcbeam::realtime::{
-    parameters_of, simd, CompensatorBank, FixedCompensator, ParameterError, Real,
-};
+use mfcbeam::realtime::{simd, FixedCompensator, ParameterError, Real};
 use mfcbeam::suite::conformance::{random_model, ModelShape, Rng};
 
 type Single<T> = FixedCompensator<T, 12, 72>;
@@ -57,7 +56,7 @@ fn targets(rng: &mut Rng, channels: usize, len: usize, limit: f64) -> Vec<Vec<f6
 fn same_as_singles<T: Real>(seed: u64, channels: usize, shared: bool) {
     let mut rng = Rng::new(seed);
     let files = models(&mut rng, if shared { 1 } else { channels });
-    let params: Vec<_> = files.iter().map(parameters_of).collect();
+    let params: Vec<_> = files.iter().map(ModelFile::parameters).collect();
     let limit = rng.uniform(100.0, 600.0);
     let mut bank = if shared {
         CompensatorBank::<T>::uniform(&params[0], channels, -limit, limit).unwrap()
@@ -116,7 +115,7 @@ fn the_avx2_step_gives_the_portable_bits() {
     let mut rng = Rng::new(7);
     for seed in 0..40u64 {
         let file = random_model(&mut rng, 12, ModelShape::Any);
-        let p = parameters_of(&file);
+        let p = file.parameters();
         let mut a = Single::<f64>::new(&p, -700.0, 700.0).unwrap();
         let mut b = a;
         let mut a32 = Single::<f32>::new(&p, -700.0, 700.0).unwrap();
@@ -134,7 +133,7 @@ fn the_avx2_step_gives_the_portable_bits() {
 fn bad_banks_and_slices_are_refused_with_the_field_named() {
     let mut rng = Rng::new(3);
     let files = models(&mut rng, 2);
-    let p: Vec<_> = files.iter().map(parameters_of).collect();
+    let p: Vec<_> = files.iter().map(ModelFile::parameters).collect();
     assert_eq!(
         CompensatorBank::<f64>::new(&[], -1.0, 1.0).unwrap_err(),
         ParameterError::Empty {
@@ -152,7 +151,7 @@ fn bad_banks_and_slices_are_refused_with_the_field_named() {
         .thresholds
         .push(other.hysteresis.thresholds.last().unwrap() + 10.0);
     other.hysteresis.weights.push(0.01);
-    let mixed = [p[0], parameters_of(&other)];
+    let mixed = [p[0], other.parameters()];
     let e = CompensatorBank::<f64>::new(&mixed, -1.0, 1.0).unwrap_err();
     assert_eq!(
         e,
@@ -167,7 +166,7 @@ fn bad_banks_and_slices_are_refused_with_the_field_named() {
     // an inadmissible channel is named by its own check
     let mut bad = files[1].clone();
     bad.hysteresis.weights[0] = -1.0;
-    assert!(CompensatorBank::<f64>::new(&[p[0], parameters_of(&bad)], -1.0, 1.0).is_err());
+    assert!(CompensatorBank::<f64>::new(&[p[0], bad.parameters()], -1.0, 1.0).is_err());
 
     let mut bank = CompensatorBank::<f64>::uniform(&p[0], 3, -1.0, 1.0).unwrap();
     let mut out = vec![Default::default(); 3];

@@ -63,7 +63,10 @@ fn validation_names_the_field() {
     assert!(e.to_string().starts_with("hysteresis.weights[1]"), "{e}");
     let mut h = HysteresisOperator::new(vec![0.0, 1.0], vec![1.0, 0.5]).unwrap();
     let e = h.set_state(&vec![0.0]).unwrap_err();
-    assert!(matches!(e, ModelError::LengthMismatch { .. }));
+    assert!(matches!(
+        e.parameter(),
+        Some(ParameterError::LengthMismatch { .. })
+    ));
     // a failed set_state leaves the state untouched
     h.step(0.7);
     let before = h.state();

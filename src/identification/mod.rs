@@ -1,7 +1,63 @@
 //! Identification of the hysteresis and creep weights from a measurement,
-//! (23)–(25): thresholds and eigenvalues fixed, weights by linearly
-//! constrained least squares ([`weights`]).
+//! equations (23)–(25), in stages: [`settings`] (what to fit), `regressor`
+//! (stage 1), `solve` (stage 2) and [`report`] (stage 3), put together by
+//! [`identify()`].
+//!
+//! Thresholds (23): `r_i = (i · r_max)/(n + 1)`, `r_max = max_k |v_k|`;
+//! creep eigenvalues (24): `a_j = 1/(10^j T_s)`. With those fixed, `W` is linear
+//! in the weights, `W[v] = Φ w`, where `Φ` has one column per play output and
+//! one per log(t)-creep output (15), sampled on the measured input from the
+//! virgin state. (25) becomes the convex QP
+//!
+//! ```text
+//! min_w ½ ‖Φ w − ς‖²   s.t.  Σ_{i≤j} w_H,i ≥ ε_H  (j = 0..n_H),   Σ_{i≤j} w_C,i ≥ 0  (j = 0..n_C)
+//! ```
+//!
+//! **Unknown initial state and offset.** A measurement starts from a history
+//! the model does not know, and a sensor adds an offset. Once `|v|` has
+//! reached `max|v|`, every play has been pushed to one side of its band, so
+//! its state is fixed by the input alone (wiping out, Madelung (iii)): by
+//! default only the samples from there on are fitted (the operators still run
+//! from the first sample). The creep states are not wiped out that way; their
+//! unknown initial part decays like `e^{−a t}`. An output offset is fitted as
+//! one more, unconstrained, unknown.
+//!
+//! Solved as follows:
+//!
+//! 1. `Φ` is built in one pass over the input (the plays and creep operators
+//!    are stepped once per sample); the fitted rows of `[1 | Φ | ς]` (offset
+//!    column first) get one thin Householder QR (faer). Eliminating the
+//!    offset leaves `‖Φ w − ς‖² = ‖R w − c‖² + ρ²` with a small triangular
+//!    `R`: the rest no longer depends on the number of samples.
+//! 2. The unknowns become the partial sums shifted by their bounds,
+//!    `x_j = S_j − b_j ≥ 0` (`w = D S`, `D` the difference operator per
+//!    group), a non-negative least-squares problem `min ‖M x − d‖`,
+//!    `M = R D`, solved exactly by the Lawson–Hanson active-set method: it
+//!    ends in finitely many steps at a point that meets the KKT conditions
+//!    (`g = Mᵀ(M x − d)`: `g_j = 0` where `x_j > 0`, `g_j ≥ 0` where
+//!    `x_j = 0`), which the report states as a relative residual.
+//! 3. The numerical rank of `R` comes from its singular values: those below
+//!    [`RANK_TOLERANCE`](solve::RANK_TOLERANCE) times the largest span directions the input does not
+//!    determine; the operators with weight in them are named. Every
+//!    least-squares step takes the minimum-norm solution (in `x`), so the
+//!    returned optimum is the minimum-norm one of its active set.
+//! 4. The weights are rebuilt from the partial sums so that the recomputed
+//!    partial sums satisfy the bounds in floating point: the identified model
+//!    always satisfies (11) and (17), so its inverse (22) exists.
+//!
+//! Operators whose threshold the input never exceeds (`r_i ≥ max|v|`) are
+//! never excited: their columns are zero. They keep weight 0 (which leaves the
+//! partial sums, and so (11), intact) and are named in the report.
 
-pub mod weights;
+mod identify;
+mod regressor;
+pub mod report;
+pub mod settings;
+mod solve;
 
-pub use weights::*;
+pub use identify::{identify, Identification};
+pub use report::{
+    first_at_max, validate, ActiveConstraint, FitErrors, FitReport, UnexcitedOperator,
+};
+pub use settings::{thresholds_23, IdentificationError, IdentificationSettings};
+pub use solve::RANK_TOLERANCE;

@@ -67,14 +67,10 @@ impl CompensatorSettings {
 
     /// `lower < upper`, neither NaN.
     pub fn validate(&self) -> Result<(), ModelError> {
-        if self.lower_limit < self.upper_limit {
-            Ok(())
-        } else {
-            Err(ModelError::InvalidLimits {
-                lower: self.lower_limit,
-                upper: self.upper_limit,
-            })
-        }
+        Ok(crate::realtime::parameters::check_limits(
+            self.lower_limit,
+            self.upper_limit,
+        )?)
     }
 }
 

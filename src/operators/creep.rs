@@ -56,12 +56,7 @@ impl ElementaryCreepOperator {
     /// A creep operator with threshold `r ≥ 0`, eigenvalue `a > 0` and sample
     /// time `T_s > 0`, in the zero state.
     pub fn new(threshold: f64, eigenvalue: f64, sample_time: f64) -> Result<Self, ModelError> {
-        if !(threshold.is_finite() && threshold >= 0.0) {
-            return Err(ModelError::InvalidThreshold {
-                field: "creep.threshold".into(),
-                value: threshold,
-            });
-        }
+        parameters::check_threshold("creep.threshold", threshold)?;
         check_eigenvalues("creep.eigenvalue", &[eigenvalue])?;
         check_sample_time(sample_time)?;
         Ok(Self {
@@ -117,12 +112,7 @@ pub struct LogCreepOperator {
 impl LogCreepOperator {
     /// A log(t)-creep operator with threshold `r ≥ 0` and eigenvalues `a_j > 0`.
     pub fn new(threshold: f64, eigenvalues: &[f64], sample_time: f64) -> Result<Self, ModelError> {
-        if !(threshold.is_finite() && threshold >= 0.0) {
-            return Err(ModelError::InvalidThreshold {
-                field: "creep.threshold".into(),
-                value: threshold,
-            });
-        }
+        parameters::check_threshold("creep.threshold", threshold)?;
         check_eigenvalues("creep.eigenvalues", eigenvalues)?;
         check_sample_time(sample_time)?;
         Ok(Self {
@@ -351,6 +341,7 @@ impl Snapshot for CreepOperator {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::realtime::ParameterError;
 
     #[test]
     fn expm1_gain_keeps_digits_for_slow_eigenvalues() {
@@ -380,11 +371,20 @@ mod tests {
     #[test]
     fn creep_weights_may_not_have_negative_partial_sums() {
         let e = CreepOperator::new(vec![0.0, 1.0], vec![0.1, -0.2], vec![1.0], 1e-3).unwrap_err();
-        assert!(matches!(e, ModelError::PartialSumNegative { index: 1, .. }));
+        assert!(matches!(
+            e.parameter(),
+            Some(ParameterError::PartialSumNegative { index: 1, .. })
+        ));
         let e = CreepOperator::new(vec![0.0], vec![0.1], vec![-1.0], 1e-3).unwrap_err();
-        assert!(matches!(e, ModelError::NonPositiveEigenvalue { .. }));
+        assert!(matches!(
+            e.parameter(),
+            Some(ParameterError::NonPositiveEigenvalue { .. })
+        ));
         let e = CreepOperator::new(vec![0.0], vec![0.1], vec![1.0], 0.0).unwrap_err();
-        assert!(matches!(e, ModelError::NonPositiveSampleTime { .. }));
+        assert!(matches!(
+            e.parameter(),
+            Some(ParameterError::NonPositiveSampleTime { .. })
+        ));
     }
 
     #[test]

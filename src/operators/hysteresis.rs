@@ -199,6 +199,7 @@ pub(crate) fn check_admissible(field: &str, r: &[f64], x: &[f64]) -> Result<(), 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::realtime::ParameterError;
 
     #[test]
     fn slopes_are_partial_sums() {
@@ -215,21 +216,27 @@ mod tests {
     fn refuses_broken_parameters_with_the_field_named() {
         let e = HysteresisOperator::new(vec![0.0, 1.0, 1.0], vec![1.0; 3]).unwrap_err();
         assert!(matches!(
-            e,
-            ModelError::ThresholdsNotIncreasing { index: 2, .. }
+            e.parameter(),
+            Some(ParameterError::ThresholdsNotIncreasing { index: 2, .. })
         ));
         let e = HysteresisOperator::new(vec![0.5, 1.0], vec![1.0; 2]).unwrap_err();
-        assert!(matches!(e, ModelError::FirstThresholdNotZero { .. }));
+        assert!(matches!(
+            e.parameter(),
+            Some(ParameterError::FirstThresholdNotZero { .. })
+        ));
         let e = HysteresisOperator::new(vec![0.0, 1.0], vec![1.0, -1.0]).unwrap_err();
         assert!(matches!(
-            e,
-            ModelError::PartialSumNotPositive { index: 1, .. }
+            e.parameter(),
+            Some(ParameterError::PartialSumNotPositive { index: 1, .. })
         ));
         assert!(e.to_string().contains("hysteresis.weights"));
         let e = HysteresisOperator::new(vec![0.0, 1.0], vec![1.0]).unwrap_err();
-        assert!(matches!(e, ModelError::LengthMismatch { .. }));
+        assert!(matches!(
+            e.parameter(),
+            Some(ParameterError::LengthMismatch { .. })
+        ));
         let e = HysteresisOperator::new(vec![], vec![]).unwrap_err();
-        assert!(matches!(e, ModelError::Empty { .. }));
+        assert!(matches!(e.parameter(), Some(ParameterError::Empty { .. })));
     }
 
     #[test]
@@ -237,7 +244,10 @@ mod tests {
         // x_1 - x_0 = 2 > r_1 - r_0 = 1: no input reaches this state.
         let e = HysteresisOperator::with_state(vec![0.0, 1.0], vec![1.0, 1.0], vec![0.0, 2.0])
             .unwrap_err();
-        assert!(matches!(e, ModelError::InadmissibleState { index: 1, .. }));
+        assert!(matches!(
+            e.parameter(),
+            Some(ParameterError::InadmissibleState { index: 1, .. })
+        ));
         assert!(
             HysteresisOperator::with_state(vec![0.0, 1.0], vec![1.0, 1.0], vec![0.0, 1.0]).is_ok()
         );

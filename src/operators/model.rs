@@ -85,9 +85,7 @@ impl HysteresisCreepModel {
         hysteresis: HysteresisOperator,
         creep: Option<CreepOperator>,
     ) -> Result<Self, ModelError> {
-        if !(sample_time.is_finite() && sample_time > 0.0) {
-            return Err(ModelError::NonPositiveSampleTime { value: sample_time });
-        }
+        crate::realtime::parameters::check_sample_time(sample_time)?;
         if let Some(c) = &creep {
             if c.sample_time() != sample_time {
                 return Err(ModelError::Inconsistent {
@@ -110,11 +108,7 @@ impl HysteresisCreepModel {
 
     /// Validate a model file and build the model with its state.
     pub fn from_file(file: &ModelFile) -> Result<Self, ModelError> {
-        if !(file.sample_time.is_finite() && file.sample_time > 0.0) {
-            return Err(ModelError::NonPositiveSampleTime {
-                value: file.sample_time,
-            });
-        }
+        crate::realtime::parameters::check_sample_time(file.sample_time)?;
         let h = &file.hysteresis;
         let mut hysteresis = HysteresisOperator::new(h.thresholds.clone(), h.weights.clone())?;
         if let Some(s) = &h.state {
@@ -136,13 +130,7 @@ impl HysteresisCreepModel {
             }
         };
         let offset = file.offset.unwrap_or(0.0);
-        if !offset.is_finite() {
-            return Err(ModelError::NonFinite {
-                field: "offset".into(),
-                index: 0,
-                value: offset,
-            });
-        }
+        crate::realtime::parameters::check_finite("offset", core::slice::from_ref(&offset))?;
         Ok(Self::new(file.sample_time, hysteresis, creep)?.with_offset(offset))
     }
 

@@ -26,12 +26,7 @@ pub struct PlayOperator {
 impl PlayOperator {
     /// A play in the virgin state `x = 0`.
     pub fn new(threshold: f64) -> Result<Self, ModelError> {
-        if !(threshold.is_finite() && threshold >= 0.0) {
-            return Err(ModelError::InvalidThreshold {
-                field: "threshold".into(),
-                value: threshold,
-            });
-        }
+        crate::realtime::parameters::check_threshold("threshold", threshold)?;
         Ok(Self { threshold, x: 0.0 })
     }
 
@@ -68,13 +63,7 @@ impl Snapshot for PlayOperator {
     }
 
     fn set_state(&mut self, state: &f64) -> Result<(), ModelError> {
-        if !state.is_finite() {
-            return Err(ModelError::NonFinite {
-                field: "state".into(),
-                index: 0,
-                value: *state,
-            });
-        }
+        crate::realtime::parameters::check_finite("state", core::slice::from_ref(state))?;
         self.x = *state;
         Ok(())
     }

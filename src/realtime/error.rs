@@ -1,77 +1,197 @@
 //! Errors of the real-time core: `Copy`, no allocation, field names static.
-//! With `std`, each converts into the corresponding [`crate::error::ModelError`]
-//! with the same message.
+//!
+//! This is the one error type for a bad parameter or state, whichever layer
+//! finds it. The `std` layer's [`crate::error::ModelError`] wraps it with a
+//! field name built at run time (`creep.state[3]`) instead of restating it,
+//! so every message is written once, here.
 
-use thiserror::Error;
+use core::fmt;
 
-/// What is wrong with parameters or a state handed to the real-time core.
-#[derive(Debug, Clone, Copy, PartialEq, Error)]
+/// What is wrong with parameters or a state handed to an operator.
+#[derive(Debug, Clone, Copy, PartialEq)]
 #[non_exhaustive]
 pub enum ParameterError {
-    #[error("{field}: must not be empty")]
+    /// A list that must hold at least one value is empty.
     Empty { field: &'static str },
-    #[error("{field}[{index}]: {value} is not a finite number")]
+    /// A value is NaN or infinite.
     NonFinite {
         field: &'static str,
         index: usize,
         value: f64,
     },
-    #[error("{field}[0]: the first threshold must be 0, found {value}")]
+    /// The first threshold must be exactly 0, see (12) and (18).
     FirstThresholdNotZero { field: &'static str, value: f64 },
-    #[error("{field}[{index}]: thresholds must increase strictly, but {value} follows {previous}")]
+    /// Thresholds must increase strictly, see (12) and (18).
     ThresholdsNotIncreasing {
         field: &'static str,
         index: usize,
         previous: f64,
         value: f64,
     },
-    #[error("{field}: expected {expected} values, found {found}")]
+    /// A single threshold (one play or creep operator) must be finite and
+    /// non-negative.
+    InvalidThreshold { field: &'static str, value: f64 },
+    /// Two lists that must have the same length do not.
     LengthMismatch {
         field: &'static str,
         expected: usize,
         found: usize,
     },
-    /// (11) broken.
-    #[error("{field}: partial sum w[0] + ... + w[{index}] = {sum} must be > 0 (condition (11))")]
+    /// A hysteresis partial sum is not positive: (11) broken.
     PartialSumNotPositive {
         field: &'static str,
         index: usize,
         sum: f64,
     },
-    /// (17) broken.
-    #[error("{field}: partial sum w[0] + ... + w[{index}] = {sum} must be >= 0 (condition (17))")]
+    /// A creep partial sum is negative: (17) broken.
     PartialSumNegative {
         field: &'static str,
         index: usize,
         sum: f64,
     },
-    #[error("{field}[{index}]: a creep eigenvalue must be > 0, found {value}")]
+    /// A creep eigenvalue must be finite and positive.
     NonPositiveEigenvalue {
         field: &'static str,
         index: usize,
         value: f64,
     },
-    #[error("sample_time: must be a finite number > 0, found {value}")]
+    /// The sample time must be finite and positive.
     NonPositiveSampleTime { value: f64 },
     /// A play state that no input reaches from the virgin state.
-    #[error("{field}[{index}]: inadmissible state, |x[{index}] - x[{prev}]| = {gap} exceeds r[{index}] - r[{prev}] = {allowed}", prev = index - 1)]
     InadmissibleState {
         field: &'static str,
         index: usize,
         gap: f64,
         allowed: f64,
     },
-    #[error("limits: the lower limit {lower} must be below the upper limit {upper}")]
+    /// Saturation limits must satisfy `lower < upper` and not be NaN.
     InvalidLimits { lower: f64, upper: f64 },
     /// A channel of a compensator bank whose model differs in shape from the
     /// first channel's.
-    #[error("models[{channel}].{field}: differs from models[0] (every channel of a bank needs the same orders and sample time)")]
     ChannelMismatch { field: &'static str, channel: usize },
+    /// A creep operator whose sample time differs from its model's.
+    SampleTimeMismatch { found: f64, expected: f64 },
     /// More values than the compile-time capacity holds.
-    #[error("{field}: {found} values exceed the capacity of {capacity} fixed at compile time")]
     ExceedsCapacity {
         field: &'static str,
         capacity: usize,
         found: usize,
     },
 }
+
+impl ParameterError {
+    /// The field the check named (empty for errors about no field).
+    pub fn field(&self) -> &'static str {
+        use ParameterError as P;
+        match *self {
+            P::Empty { field }
+            | P::NonFinite { field, .. }
+            | P::FirstThresholdNotZero { field, .. }
+            | P::ThresholdsNotIncreasing { field, .. }
+            | P::InvalidThreshold { field, .. }
+            | P::LengthMismatch { field, .. }
+            | P::PartialSumNotPositive { field, .. }
+            | P::PartialSumNegative { field, .. }
+            | P::NonPositiveEigenvalue { field, .. }
+            | P::InadmissibleState { field, .. }
+            | P::ChannelMismatch { field, .. }
+            | P::ExceedsCapacity { field, .. } => field,
+            P::NonPositiveSampleTime { .. } => "sample_time",
+            P::SampleTimeMismatch { .. } => "creep",
+            P::InvalidLimits { .. } => "limits",
+        }
+    }
+
+    /// The message, about `field` instead of the field the check named
+    /// (errors that name a fixed field, like `sample_time`, keep it).
+    pub fn display_as<'a>(&'a self, field: &'a str) -> impl fmt::Display + 'a {
+        Message { error: self, field }
+    }
+}
+
+struct Message<'a> {
+    error: &'a ParameterError,
+    field: &'a str,
+}
+
+impl fmt::Display for Message<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use ParameterError as P;
+        let field = self.field;
+        match *self.error {
+            P::Empty { .. } => write!(f, "{field}: must not be empty"),
+            P::NonFinite { index, value, .. } => {
+                write!(f, "{field}[{index}]: {value} is not a finite number")
+            }
+            P::FirstThresholdNotZero { value, .. } => {
+                write!(f, "{field}[0]: the first threshold must be 0, found {value}")
+            }
+            P::ThresholdsNotIncreasing {
+                index,
+                previous,
+                value,
+                ..
+            } => write!(
+                f,
+                "{field}[{index}]: thresholds must increase strictly, but {value} follows {previous}"
+            ),
+            P::InvalidThreshold { value, .. } => write!(
+                f,
+                "{field}: a threshold must be finite and >= 0, found {value}"
+            ),
+            P::LengthMismatch {
+                expected, found, ..
+            } => write!(f, "{field}: expected {expected} values, found {found}"),
+            P::PartialSumNotPositive { index, sum, .. } => write!(
+                f,
+                "{field}: partial sum w[0] + ... + w[{index}] = {sum} must be > 0 (condition (11))"
+            ),
+            P::PartialSumNegative { index, sum, .. } => write!(
+                f,
+                "{field}: partial sum w[0] + ... + w[{index}] = {sum} must be >= 0 (condition (17))"
+            ),
+            P::NonPositiveEigenvalue { index, value, .. } => write!(
+                f,
+                "{field}[{index}]: a creep eigenvalue must be > 0, found {value}"
+            ),
+            P::NonPositiveSampleTime { value } => {
+                write!(f, "sample_time: must be a finite number > 0, found {value}")
+            }
+            P::InadmissibleState {
+                index, gap, allowed, ..
+            } => {
+                let prev = index.saturating_sub(1);
+                write!(
+                    f,
+                    "{field}[{index}]: inadmissible state, |x[{index}] - x[{prev}]| = {gap} exceeds r[{index}] - r[{prev}] = {allowed}"
+                )
+            }
+            P::InvalidLimits { lower, upper } => write!(
+                f,
+                "limits: the lower limit {lower} must be below the upper limit {upper}"
+            ),
+            P::ChannelMismatch { channel, .. } => write!(
+                f,
+                "models[{channel}].{field}: differs from models[0] (every channel of a bank needs the same orders and sample time)"
+            ),
+            P::SampleTimeMismatch { found, expected } => write!(
+                f,
+                "{field}: creep sample time {found} differs from the model's {expected}"
+            ),
+            P::ExceedsCapacity {
+                capacity, found, ..
+            } => write!(
+                f,
+                "{field}: {found} values exceed the capacity of {capacity} fixed at compile time"
+            ),
+        }
+    }
+}
+
+impl fmt::Display for ParameterError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.display_as(self.field()).fmt(f)
+    }
+}
+
+impl core::error::Error for ParameterError {}

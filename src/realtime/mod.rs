@@ -31,10 +31,6 @@
 //! assert!((y - 250.0).abs() < 1e-3);
 //! ```
 
-#[cfg(feature = "std")]
-mod adapters;
-#[cfg(feature = "std")]
-pub mod bank;
 pub mod compensator;
 pub mod creep;
 pub mod error;
@@ -48,10 +44,6 @@ pub mod real;
 pub mod rounding;
 pub mod simd;
 
-#[cfg(feature = "std")]
-pub use adapters::parameters_of;
-#[cfg(feature = "std")]
-pub use bank::CompensatorBank;
 pub use compensator::{Compensated, FixedCompensator};
 pub use creep::FixedCreep;
 pub use error::ParameterError;

@@ -132,6 +132,15 @@ pub fn check_thresholds(field: &'static str, r: &[f64]) -> Result<(), ParameterE
     Ok(())
 }
 
+/// One threshold (a single play or creep operator): finite and `>= 0`.
+pub fn check_threshold(field: &'static str, value: f64) -> Result<(), ParameterError> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(())
+    } else {
+        Err(ParameterError::InvalidThreshold { field, value })
+    }
+}
+
 /// (11) when `strict` (every partial sum `> 0`), else (17) (`≥ 0`).
 pub fn check_partial_sums(
     field: &'static str,

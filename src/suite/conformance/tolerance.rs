@@ -4,7 +4,6 @@
 //! [`super::ConformanceSettings::tolerance_scale`].
 
 use crate::operators::model::ModelFile;
-use crate::realtime::parameters_of;
 use crate::realtime::rounding::RoundingBounds;
 
 fn bounds(file: &ModelFile) -> RoundingBounds<'_> {
@@ -14,7 +13,7 @@ fn bounds(file: &ModelFile) -> RoundingBounds<'_> {
         .iter()
         .flat_map(|c| c.state.iter().flatten().flatten());
     RoundingBounds {
-        parameters: parameters_of(file),
+        parameters: file.parameters(),
         state_max: h.chain(c).fold(0.0f64, |m, v| m.max(v.abs())),
         eps: f64::EPSILON,
     }

@@ -13,20 +13,24 @@ use crate::realtime::{
     ModelParameters, Real,
 };
 
-/// The parameters of a model file (its states not included).
-pub fn parameters_of(file: &ModelFile) -> ModelParameters<'_> {
-    ModelParameters {
-        sample_time: file.sample_time,
-        hysteresis: HysteresisParameters {
-            thresholds: &file.hysteresis.thresholds,
-            weights: &file.hysteresis.weights,
-        },
-        creep: file.creep.as_ref().map(|c| CreepParameters {
-            thresholds: &c.thresholds,
-            weights: &c.weights,
-            eigenvalues: &c.eigenvalues,
-        }),
-        offset: file.offset.unwrap_or(0.0),
+impl ModelFile {
+    /// The parameters of the model (its states not included), borrowed, as
+    /// the real-time core and the bank take them.
+    pub fn parameters(&self) -> ModelParameters<'_> {
+        let file = self;
+        ModelParameters {
+            sample_time: file.sample_time,
+            hysteresis: HysteresisParameters {
+                thresholds: &file.hysteresis.thresholds,
+                weights: &file.hysteresis.weights,
+            },
+            creep: file.creep.as_ref().map(|c| CreepParameters {
+                thresholds: &c.thresholds,
+                weights: &c.weights,
+                eigenvalues: &c.eigenvalues,
+            }),
+            offset: file.offset.unwrap_or(0.0),
+        }
     }
 }
 
@@ -50,7 +54,7 @@ fn creep_state(file: &ModelFile) -> Result<Option<Vec<f64>>, ModelError> {
 impl<T: Real, const N: usize, const K: usize> FixedModel<T, N, K> {
     /// `W` of a model file, in the file's state.
     pub fn from_file(file: &ModelFile) -> Result<Self, ModelError> {
-        let mut model = Self::new(&parameters_of(file))?;
+        let mut model = Self::new(&file.parameters())?;
         if let Some(x) = &file.hysteresis.state {
             model.hysteresis_mut().set_state(x)?;
         }
@@ -64,7 +68,7 @@ impl<T: Real, const N: usize, const K: usize> FixedModel<T, N, K> {
 impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
     /// `W⁻¹` of a model file, matched to the file's state.
     pub fn from_file(file: &ModelFile, lower: f64, upper: f64) -> Result<Self, ModelError> {
-        let mut comp = Self::new(&parameters_of(file), lower, upper)?;
+        let mut comp = Self::new(&file.parameters(), lower, upper)?;
         let creep = creep_state(file)?;
         if file.hysteresis.state.is_some() || creep.is_some() {
             let n = file.hysteresis.thresholds.len();
@@ -80,7 +84,7 @@ impl<T: Real, const N: usize> FixedHysteresis<T, N> {
     /// `H⁻¹` of a model file's hysteresis, matched to its state.
     pub fn inverse_from_file(file: &ModelFile) -> Result<Self, ModelError> {
         Ok(Self::inverse_of(
-            &parameters_of(file).hysteresis,
+            &file.parameters().hysteresis,
             file.hysteresis.state.as_deref(),
         )?)
     }

@@ -1,0 +1,252 @@
+//! Stage 3 of an identification: what the fit achieved — errors on the
+//! fitted, held-out and validation samples, the active constraints, the rank
+//! and the operators the data do not determine — and its printout.
+
+use super::settings::IdentificationError;
+use super::solve::RANK_TOLERANCE;
+use crate::operators::model::HysteresisCreepModel;
+use crate::operators::traits::Operator;
+
+/// A constraint that holds with equality at the solution.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ActiveConstraint {
+    /// `"hysteresis"` or `"creep"`.
+    pub group: &'static str,
+    /// `j` of the partial sum `Σ_{i≤j} w_i`.
+    pub index: usize,
+    /// Its bound (`ε_H` or 0).
+    pub bound: f64,
+}
+
+/// An operator named in the report: never excited, or not determined.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UnexcitedOperator {
+    /// `"hysteresis"` or `"creep"`.
+    pub group: &'static str,
+    /// Index of the operator (its threshold).
+    pub index: usize,
+    /// Its threshold.
+    pub threshold: f64,
+}
+
+/// Errors of a model on a stretch of data.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FitErrors {
+    /// Samples compared.
+    pub samples: usize,
+    /// RMS of `W[v] − ς`.
+    pub rms: f64,
+    /// Max of `|W[v] − ς|`.
+    pub max: f64,
+    /// `max ς − min ς` over the stretch.
+    pub output_range: f64,
+}
+
+impl FitErrors {
+    /// Errors of `fit` against `y` on `range`.
+    pub fn of(fit: &[f64], y: &[f64], range: std::ops::Range<usize>) -> Self {
+        let (mut sq, mut max) = (0.0, 0.0f64);
+        for k in range.clone() {
+            let e = fit[k] - y[k];
+            sq += e * e;
+            max = max.max(e.abs());
+        }
+        let n = range.len().max(1);
+        Self {
+            samples: range.len(),
+            rms: (sq / n as f64).sqrt(),
+            max,
+            output_range: self::range(&y[range]),
+        }
+    }
+
+    /// RMS error in % of the output range.
+    pub fn rms_percent(&self) -> f64 {
+        100.0 * self.rms / self.output_range.max(f64::MIN_POSITIVE)
+    }
+
+    /// Max error in % of the output range.
+    pub fn max_percent(&self) -> f64 {
+        100.0 * self.max / self.output_range.max(f64::MIN_POSITIVE)
+    }
+}
+
+/// How the identification went and how well the model fits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitReport {
+    /// Samples in the record.
+    pub samples: usize,
+    /// The samples fitted, `first..end`.
+    pub fitted: std::ops::Range<usize>,
+    /// Why the samples before `fitted.start` were left out.
+    pub skip_reason: String,
+    /// Errors on the fitted samples.
+    pub fit: FitErrors,
+    /// Errors on the held-out samples at the end, if any.
+    pub holdout: Option<FitErrors>,
+    /// The fitted output offset (0 when not fitted).
+    pub offset: f64,
+    /// 2-norm condition number of the reduced regressor (infinite when rank deficient).
+    pub condition_number: f64,
+    /// Numerical rank of the reduced regressor, and its number of columns.
+    pub rank: usize,
+    pub unknowns: usize,
+    /// Operators whose weights this input does not determine (rank deficiency).
+    pub undetermined: Vec<UnexcitedOperator>,
+    /// `ε_H` used.
+    pub epsilon_h: f64,
+    /// Constraints holding with equality at the optimum.
+    pub active_constraints: Vec<ActiveConstraint>,
+    /// Operators never excited (weight 0).
+    pub unexcited: Vec<UnexcitedOperator>,
+    /// The worst violation of the KKT conditions of (25), relative to
+    /// `‖M‖ ‖d‖` (0 at the exact optimum; rounding is ~1e-16).
+    pub kkt_residual: f64,
+    /// Steps of the active-set method.
+    pub iterations: usize,
+}
+
+/// A percentage with four significant digits, in exponent form when tiny.
+fn percent(x: f64) -> String {
+    if x != 0.0 && x.abs() < 1e-3 {
+        format!("{x:.3e} %")
+    } else {
+        format!("{x:.4} %")
+    }
+}
+
+impl std::fmt::Display for FitReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "samples              {} ({} fitted: {}..{})",
+            self.samples,
+            self.fitted.len(),
+            self.fitted.start,
+            self.fitted.end
+        )?;
+        if self.fitted.start > 0 {
+            writeln!(
+                f,
+                "skipped              the first {} samples: {}",
+                self.fitted.start, self.skip_reason
+            )?;
+        }
+        let e = &self.fit;
+        writeln!(
+            f,
+            "rms error            {:.6e} ({} of the output range {:.6e})",
+            e.rms,
+            percent(e.rms_percent()),
+            e.output_range
+        )?;
+        writeln!(
+            f,
+            "max error            {:.6e} ({})",
+            e.max,
+            percent(e.max_percent())
+        )?;
+        if let Some(h) = &self.holdout {
+            writeln!(
+                f,
+                "held out             {} samples: rms {:.6e} ({}), max {:.6e} ({})",
+                h.samples,
+                h.rms,
+                percent(h.rms_percent()),
+                h.max,
+                percent(h.max_percent())
+            )?;
+        }
+        writeln!(f, "offset               {:.6e}", self.offset)?;
+        writeln!(f, "cond(Phi)            {:.3e}", self.condition_number)?;
+        writeln!(
+            f,
+            "rank                 {} of {} (singular values below {:e} of the largest count as zero)",
+            self.rank, self.unknowns, RANK_TOLERANCE
+        )?;
+        writeln!(f, "epsilon_H            {:.6e}", self.epsilon_h)?;
+        writeln!(
+            f,
+            "solver               Lawson-Hanson active set, {} steps, KKT residual {:.1e}",
+            self.iterations, self.kkt_residual
+        )?;
+        if self.active_constraints.is_empty() {
+            writeln!(f, "active constraints   none")?;
+        } else {
+            for c in &self.active_constraints {
+                writeln!(
+                    f,
+                    "active constraint    {} partial sum 0..={} = {}",
+                    c.group, c.index, c.bound
+                )?;
+            }
+        }
+        for u in &self.unexcited {
+            writeln!(
+                f,
+                "warning: {} operator {} (threshold {}) was never excited by the input; its weight is 0",
+                u.group, u.index, u.threshold
+            )?;
+        }
+        if !self.undetermined.is_empty() {
+            let names: Vec<String> = self
+                .undetermined
+                .iter()
+                .map(|u| format!("{} {} (r = {})", u.group, u.index, u.threshold))
+                .collect();
+            writeln!(
+                f,
+                "warning: the input does not determine the weights of {}; the minimum-norm optimum is returned",
+                names.join(", ")
+            )?;
+        }
+        Ok(())
+    }
+}
+
+pub(super) fn check_finite(signal: &'static str, x: &[f64]) -> Result<(), IdentificationError> {
+    match x.iter().position(|v| !v.is_finite()) {
+        Some(index) => Err(IdentificationError::NonFinite {
+            signal,
+            index,
+            value: x[index],
+        }),
+        None => Ok(()),
+    }
+}
+
+/// The first sample at which `|v|` reaches `max|v|`.
+pub fn first_at_max(v: &[f64]) -> usize {
+    let m = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    v.iter().position(|x| x.abs() == m).unwrap_or(0)
+}
+
+/// Errors of `model` (run from the virgin state over the whole record) on a
+/// validation record, from the first sample at which `|u|` reaches `max|u|`.
+pub fn validate(
+    model: &HysteresisCreepModel,
+    u: &[f64],
+    y: &[f64],
+) -> Result<FitErrors, IdentificationError> {
+    if u.len() != y.len() {
+        return Err(IdentificationError::LengthMismatch {
+            u: u.len(),
+            y: y.len(),
+        });
+    }
+    check_finite("u", u)?;
+    check_finite("y", y)?;
+    let mut m = model.clone();
+    m.reset();
+    let fit = m.run(u);
+    Ok(FitErrors::of(&fit, y, first_at_max(u)..u.len()))
+}
+
+pub(super) fn range(x: &[f64]) -> f64 {
+    let (lo, hi) = x
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
+    hi - lo
+}

@@ -1,0 +1,182 @@
+//! What an identification takes: its settings with their defaults and
+//! checks, the thresholds of (23), and what can go wrong.
+
+use thiserror::Error;
+
+use crate::error::ModelError;
+
+/// What can go wrong in an identification.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
+pub enum IdentificationError {
+    /// `u` and `y` differ in length.
+    #[error("u and y differ in length: {u} and {y} samples")]
+    LengthMismatch { u: usize, y: usize },
+    /// Not enough samples for the number of unknowns.
+    #[error("too few samples: {found}, at least {needed} are needed for {unknowns} weights")]
+    TooFewSamples {
+        found: usize,
+        needed: usize,
+        unknowns: usize,
+    },
+    /// A NaN or infinite sample.
+    #[error("{signal}[{index}]: {value} is not a finite number")]
+    NonFinite {
+        signal: &'static str,
+        index: usize,
+        value: f64,
+    },
+    /// The input never changes: nothing can be identified.
+    #[error("the input is constant ({value}): it excites no operator")]
+    ConstantInput { value: f64 },
+    /// A setting is out of range.
+    #[error("{field}: {reason}")]
+    InvalidSetting { field: &'static str, reason: String },
+    /// The active-set method did not converge (should not happen).
+    #[error("the constrained least-squares problem was not solved: {reason}")]
+    NotSolved { reason: String },
+    /// The identified parameters do not form a valid model (should not happen).
+    #[error(transparent)]
+    Model(#[from] ModelError),
+}
+
+/// Orders, thresholds, eigenvalues and margin of an identification.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IdentificationSettings {
+    /// Number of plays `n_H + 1` (default 12). Ignored if thresholds are given.
+    pub hysteresis_operators: usize,
+    /// Number of log(t)-creep operators `n_C + 1` (default 12; 0 for no creep).
+    /// Ignored if creep thresholds are given.
+    pub creep_operators: usize,
+    /// Number of creep eigenvalues `m` (default 5). Ignored if eigenvalues are given.
+    pub creep_eigenvalues: usize,
+    /// Explicit hysteresis thresholds instead of (23).
+    pub hysteresis_thresholds: Option<Vec<f64>>,
+    /// Explicit creep thresholds instead of (23).
+    pub creep_thresholds: Option<Vec<f64>>,
+    /// Explicit creep eigenvalues (s⁻¹) instead of (24).
+    pub eigenvalues: Option<Vec<f64>>,
+    /// Margin `ε_H > 0` of the hysteresis partial sums; default
+    /// `1e-3 · range(ς) / range(v)`.
+    pub epsilon_h: Option<f64>,
+    /// Fit an output offset (default true).
+    pub fit_offset: bool,
+    /// First sample fitted; default: the first at which `|v|` reaches
+    /// `max|v|` (from there every play's state is known). `Some(0)` assumes
+    /// the virgin state at the first sample.
+    pub fit_from: Option<usize>,
+    /// Samples at the end left out of the fit, for validation (default 0).
+    pub holdout: usize,
+}
+
+impl Default for IdentificationSettings {
+    /// The paper's orders: 12 plays, 12 log(t)-creep operators, 5 eigenvalues.
+    fn default() -> Self {
+        Self {
+            hysteresis_operators: 12,
+            creep_operators: 12,
+            creep_eigenvalues: 5,
+            hysteresis_thresholds: None,
+            creep_thresholds: None,
+            eigenvalues: None,
+            epsilon_h: None,
+            fit_offset: true,
+            fit_from: None,
+            holdout: 0,
+        }
+    }
+}
+
+impl IdentificationSettings {
+    /// Check the orders and explicit values.
+    pub fn validate(&self) -> Result<(), IdentificationError> {
+        let bad = |field, reason: &str| {
+            Err(IdentificationError::InvalidSetting {
+                field,
+                reason: reason.into(),
+            })
+        };
+        if self.hysteresis_thresholds.is_none() && self.hysteresis_operators == 0 {
+            return bad("hysteresis_operators", "must be at least 1");
+        }
+        let creep = self
+            .creep_thresholds
+            .as_ref()
+            .map_or(self.creep_operators, Vec::len);
+        if creep > 0 && self.eigenvalues.is_none() && self.creep_eigenvalues == 0 {
+            return bad(
+                "creep_eigenvalues",
+                "must be at least 1 when there is creep",
+            );
+        }
+        if let Some(e) = self.epsilon_h {
+            if !(e.is_finite() && e > 0.0) {
+                return bad(
+                    "epsilon_h",
+                    &format!("must be a finite number > 0, found {e}"),
+                );
+            }
+        }
+        let check =
+            |field: &'static str, r: &Option<Vec<f64>>| -> Result<(), IdentificationError> {
+                if let Some(r) = r {
+                    crate::operators::hysteresis::check_thresholds(field, r).map_err(|e| {
+                        IdentificationError::InvalidSetting {
+                            field,
+                            reason: e.to_string(),
+                        }
+                    })?;
+                }
+                Ok(())
+            };
+        check("hysteresis_thresholds", &self.hysteresis_thresholds)?;
+        check("creep_thresholds", &self.creep_thresholds)?;
+        if let Some(a) = &self.eigenvalues {
+            if a.is_empty() || a.iter().any(|&x| !(x.is_finite() && x > 0.0)) {
+                return bad("eigenvalues", "must be finite numbers > 0");
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Thresholds by (23): `r_i = (i · r_max) / (n + 1)`, `i = 0..n`, evaluated in
+/// that order so every implementation gets the same bits.
+pub fn thresholds_23(count: usize, r_max: f64) -> Vec<f64> {
+    (0..count)
+        .map(|i| (i as f64 * r_max) / count as f64)
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thresholds_of_23_are_exact_fractions_of_r_max() {
+        let r = thresholds_23(12, 1000.0);
+        assert_eq!(r[0], 0.0);
+        assert_eq!(r[3], 250.0);
+        assert_eq!(r, crate::operators::nominal::nominal_thresholds());
+    }
+
+    #[test]
+    fn settings_are_validated() {
+        assert!(IdentificationSettings::default().validate().is_ok());
+        let s = IdentificationSettings {
+            hysteresis_operators: 0,
+            ..Default::default()
+        };
+        assert!(s.validate().is_err());
+        let s = IdentificationSettings {
+            epsilon_h: Some(-1.0),
+            ..Default::default()
+        };
+        assert!(s.validate().is_err());
+        let s = IdentificationSettings {
+            hysteresis_thresholds: Some(vec![0.0, 2.0, 1.0]),
+            ..Default::default()
+        };
+        assert!(s.validate().is_err());
+    }
+}

@@ -1,0 +1,103 @@
+//! Factories of the project's own implementations for the checks: the fast
+//! operators, the real-time core in `f32`/`f64`, the naive references and
+//! the numerical (bisection) compensator.
+
+use crate::error::ModelError;
+use crate::operators::compensator::CompensatorSettings;
+use crate::operators::model::{HysteresisCreepModel, ModelFile};
+use crate::operators::traits::{ActuatorCompensator, ActuatorModel, InverseHysteresis};
+use crate::realtime::{FixedCompensator, FixedHysteresis, FixedModel, Real};
+
+/// `ε₃₂/ε₆₄ = 2²⁹`: the [`ConformanceSettings::tolerance_scale`] of an `f32`
+/// implementation. Every tolerance is a sum of terms linear in `ε` (first-order
+/// rounding analysis), so moving to binary32 scales each by this ratio; the
+/// `f64` parameters rounded once to `f32` are relative perturbations of
+/// `ε₃₂/2`, inside the same terms.
+pub const F32_TOLERANCE_SCALE: f64 = (f32::EPSILON as f64) / f64::EPSILON;
+
+/// Factory of the real-time core's `W` in `T` with capacity `N` plays and `K`
+/// elementary creep operators.
+pub fn fixed_model<T: Real, const N: usize, const K: usize>(
+    file: &ModelFile,
+) -> Result<Box<dyn ActuatorModel>, ModelError> {
+    Ok(Box::new(FixedModel::<T, N, K>::from_file(file)?))
+}
+
+/// Factory of the real-time core's compensator in `T`.
+pub fn fixed_compensator<T: Real, const N: usize, const K: usize>(
+    file: &ModelFile,
+    settings: CompensatorSettings,
+) -> Result<Box<dyn ActuatorCompensator>, ModelError> {
+    settings.validate()?;
+    Ok(Box::new(FixedCompensator::<T, N, K>::from_file(
+        file,
+        settings.lower_limit,
+        settings.upper_limit,
+    )?))
+}
+
+/// Factory of the real-time core's `H⁻¹` in `T`.
+pub fn fixed_inverse_hysteresis<T: Real, const N: usize>(
+    file: &ModelFile,
+) -> Result<Box<dyn InverseHysteresis>, ModelError> {
+    HysteresisCreepModel::from_file(file)?;
+    Ok(Box::new(FixedHysteresis::<T, N>::inverse_from_file(file)?))
+}
+
+/// Factory of the project's model `W` (for tests and examples).
+pub fn fast_model(file: &ModelFile) -> Result<Box<dyn ActuatorModel>, ModelError> {
+    Ok(Box::new(HysteresisCreepModel::from_file(file)?))
+}
+
+/// Factory of the project's compensator (21).
+pub fn fast_compensator(
+    file: &ModelFile,
+    settings: CompensatorSettings,
+) -> Result<Box<dyn ActuatorCompensator>, ModelError> {
+    let model = HysteresisCreepModel::from_file(file)?;
+    Ok(Box::new(crate::operators::compensator::Compensator::new(
+        &model, settings,
+    )?))
+}
+
+/// Factory of the project's inverse hysteresis operator (22).
+pub fn fast_inverse_hysteresis(file: &ModelFile) -> Result<Box<dyn InverseHysteresis>, ModelError> {
+    let model = HysteresisCreepModel::from_file(file)?;
+    Ok(Box::new(model.hysteresis().inverse()))
+}
+
+/// Factory of the naive reference model.
+pub fn reference_model(file: &ModelFile) -> Result<Box<dyn ActuatorModel>, ModelError> {
+    Ok(Box::new(crate::suite::reference::NaiveModel::from_file(
+        file,
+    )?))
+}
+
+/// Factory of the naive reference compensator.
+pub fn reference_compensator(
+    file: &ModelFile,
+    settings: CompensatorSettings,
+) -> Result<Box<dyn ActuatorCompensator>, ModelError> {
+    Ok(Box::new(
+        crate::suite::reference::NaiveCompensator::from_file(file, settings)?,
+    ))
+}
+
+/// Factory of the naive reference inverse hysteresis operator.
+pub fn reference_inverse_hysteresis(
+    file: &ModelFile,
+) -> Result<Box<dyn InverseHysteresis>, ModelError> {
+    Ok(Box::new(crate::suite::reference::naive_inverse_hysteresis(
+        file,
+    )?))
+}
+
+/// Factory of the numerical (bisection) compensator.
+pub fn bisection_compensator(
+    file: &ModelFile,
+    settings: CompensatorSettings,
+) -> Result<Box<dyn ActuatorCompensator>, ModelError> {
+    Ok(Box::new(
+        crate::suite::reference::BisectionCompensator::from_file(file, settings)?,
+    ))
+}
