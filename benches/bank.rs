@@ -26,8 +26,12 @@ fn bank<T: Real>(c: &mut Criterion) {
                     .collect()
             })
             .collect();
-        let mut bank =
-            CompensatorBank::<T>::uniform(&nominal::PARAMETERS, channels, -1000.0, 1000.0).unwrap();
+        let mut bank = CompensatorBank::<T>::uniform(
+            &nominal::PARAMETERS,
+            channels,
+            CompensatorSettings::with_limits(-1000.0, 1000.0),
+        )
+        .unwrap();
         let mut out = vec![Compensated::<T>::default(); channels];
         g.throughput(Throughput::Elements(channels as u64));
         let mut k = 0usize;

@@ -4,7 +4,7 @@
 //! (bisection on `W` every sample, the way a hysteresis model without an
 //! analytic inverse must be inverted) — the contrast the paper draws for the
 //! analytic PI inverse (22). The real-time core's fixed-capacity operators
-//! (`PaperCompensator`, `PaperModel`) in f64 and f32 beside them. Nominal
+//! (`Compensator`, `Model` in `nominal::Capacity`) in f64 and f32 beside them. Nominal
 //! model, paper's order.
 
 use std::hint::black_box;
@@ -15,15 +15,15 @@ use common::test_input;
 use criterion::{criterion_group, criterion_main, Criterion};
 use mfcbeam::operators::nominal::nominal_model_file;
 use mfcbeam::prelude::*;
-use mfcbeam::realtime::{PAPER_CREEP, PAPER_PLAYS};
+use mfcbeam::realtime::nominal;
 use mfcbeam::suite::conformance::{
-    bisection_compensator, fast_compensator, fast_inverse_hysteresis, fast_model,
-    fixed_compensator, fixed_model, reference_compensator, reference_inverse_hysteresis,
+    bisection_compensator, heap_compensator, heap_inverse_hysteresis, heap_model,
+    inline_compensator, inline_model, reference_compensator, reference_inverse_hysteresis,
     reference_model, CompensatorFactory, InverseHysteresisFactory, ModelFactory,
 };
 
-const N: usize = PAPER_PLAYS;
-const K: usize = PAPER_CREEP;
+const N: usize = nominal::PLAYS;
+const K: usize = nominal::CREEP;
 
 const LEN: usize = 4096;
 
@@ -32,9 +32,9 @@ fn models(c: &mut Criterion) {
     let file = nominal_model_file();
     let mut g = c.benchmark_group("model_w_step");
     let candidates: [(&str, &ModelFactory); 4] = [
-        ("fast", &fast_model),
-        ("fixed_f64", &fixed_model::<f64, N, K>),
-        ("fixed_f32", &fixed_model::<f32, N, K>),
+        ("fast", &heap_model),
+        ("fixed_f64", &inline_model::<f64, N, K>),
+        ("fixed_f32", &inline_model::<f32, N, K>),
         ("naive_reference", &reference_model),
     ];
     for (name, factory) in candidates {
@@ -54,12 +54,12 @@ fn models(c: &mut Criterion) {
 fn compensators(c: &mut Criterion) {
     let file = nominal_model_file();
     // reachable targets: W of the test input
-    let targets = fast_model(&file).unwrap().run(&test_input(LEN));
+    let targets = heap_model(&file).unwrap().run(&test_input(LEN));
     let mut g = c.benchmark_group("compensator_step");
     let candidates: [(&str, &CompensatorFactory); 5] = [
-        ("fast", &fast_compensator),
-        ("fixed_f64", &fixed_compensator::<f64, N, K>),
-        ("fixed_f32", &fixed_compensator::<f32, N, K>),
+        ("fast", &heap_compensator),
+        ("fixed_f64", &inline_compensator::<f64, N, K>),
+        ("fixed_f32", &inline_compensator::<f32, N, K>),
         ("naive_reference", &reference_compensator),
         ("bisection", &bisection_compensator),
     ];
@@ -81,10 +81,10 @@ fn inverse_hysteresis(c: &mut Criterion) {
     let file = nominal_model_file();
     let mut h = file.clone();
     h.creep = None;
-    let targets = fast_model(&h).unwrap().run(&test_input(LEN));
+    let targets = heap_model(&h).unwrap().run(&test_input(LEN));
     let mut g = c.benchmark_group("inverse_hysteresis_step");
     let candidates: [(&str, &InverseHysteresisFactory); 2] = [
-        ("fast", &fast_inverse_hysteresis),
+        ("fast", &heap_inverse_hysteresis),
         ("naive_reference", &reference_inverse_hysteresis),
     ];
     for (name, factory) in candidates {

@@ -1,7 +1,7 @@
 //! Worst-case latency of one compensator step: the real-time budget check.
 //!
 //! `cargo bench --bench latency [-- STEPS]` times 10⁷ single steps of the
-//! paper-order compensator (`PaperCompensator`, f64 and f32, and the heap
+//! paper-order compensator (`Compensator<_, nominal::Capacity>`, f64 and f32, and the heap
 //! `Compensator`) under adversarial targets and prints the median, the 99.9th
 //! percentile and the maximum per step, in ns and as a fraction of the
 //! sample time `Ts = 0.2 ms`.
@@ -25,7 +25,7 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use mfcbeam::prelude::*;
-use mfcbeam::realtime::{nominal, simd, Compensated, PaperCompensator, Real};
+use mfcbeam::realtime::{nominal, simd, Compensated, Compensator, CompensatorSettings, Real};
 
 const TS_NS: f64 = 2e5;
 
@@ -151,7 +151,11 @@ fn measure(
 }
 
 fn fixed<T: Real>(steps: usize, targets: &[f64], samples: &mut [u64]) -> (usize, usize) {
-    let mut c = PaperCompensator::<T>::new(&nominal::PARAMETERS, -1000.0, 1000.0).unwrap();
+    let mut c = Compensator::<T, nominal::Capacity>::new(
+        &nominal::PARAMETERS,
+        CompensatorSettings::with_limits(-1000.0, 1000.0),
+    )
+    .unwrap();
     measure(steps, targets, samples, |t| {
         let Compensated {
             saturated, fault, ..
@@ -209,11 +213,11 @@ fn main() {
         );
     };
     let counts = fixed::<f64>(steps, &targets, &mut samples);
-    report("PaperCompensator<f64>", counts, &mut samples);
+    report("Compensator<f64, nominal::Capacity>", counts, &mut samples);
     let counts = fixed::<f32>(steps, &targets, &mut samples);
-    report("PaperCompensator<f32>", counts, &mut samples);
+    report("Compensator<f32, nominal::Capacity>", counts, &mut samples);
     let model = nominal_model();
-    let mut heap = Compensator::new(&model, CompensatorSettings::default()).unwrap();
+    let mut heap = model.compensator(CompensatorSettings::default()).unwrap();
     let counts = measure(steps, &targets, &mut samples, |t| {
         let c = heap.compensate(t);
         (c.saturated, c.fault)

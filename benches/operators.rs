@@ -43,7 +43,7 @@ fn single_steps(c: &mut Criterion) {
 
     // Targets the compensator can reach: W of the test input.
     let targets = nominal_model().run(&input);
-    let mut comp = Compensator::new(&model, CompensatorSettings::default()).unwrap();
+    let mut comp = model.compensator(CompensatorSettings::default()).unwrap();
     g.bench_function("compensator_step", |b| {
         b.iter(|| {
             k = (k + 1) & (LEN - 1);
@@ -51,7 +51,7 @@ fn single_steps(c: &mut Criterion) {
         })
     });
     // the same step without run-time dispatch: what AVX2 gains
-    let mut comp = Compensator::new(&model, CompensatorSettings::default()).unwrap();
+    let mut comp = model.compensator(CompensatorSettings::default()).unwrap();
     g.bench_function("compensator_step_portable", |b| {
         b.iter(|| {
             k = (k + 1) & (LEN - 1);
@@ -78,10 +78,11 @@ fn whole_trace(c: &mut Criterion) {
     });
     let mut u = vec![0.0; LEN];
     let mut sat = vec![false; LEN];
+    let mut fault = vec![false; LEN];
     g.bench_function("compensator_trace", |b| {
         b.iter(|| {
-            let mut comp = Compensator::new(&model, CompensatorSettings::default()).unwrap();
-            comp.compensate_into(black_box(&targets), &mut u, &mut sat)
+            let mut comp = model.compensator(CompensatorSettings::default()).unwrap();
+            comp.compensate_into(black_box(&targets), &mut u, &mut sat, &mut fault)
                 .unwrap()
         })
     });

@@ -18,7 +18,7 @@ fn main() {
     use std::time::Instant;
 
     use mfcbeam::prelude::*;
-    use mfcbeam::realtime::{nominal, PaperCompensator};
+    use mfcbeam::realtime::{nominal, Compensator, CompensatorSettings};
 
     type New = unsafe extern "C" fn() -> *mut c_void;
     type Targets = unsafe extern "C" fn(*mut f64);
@@ -63,17 +63,25 @@ fn main() {
     let peer = unsafe { new() };
     let mut peer_k = 0u32;
     let model = nominal_model();
-    let mut heap = Compensator::new(&model, CompensatorSettings::default()).unwrap();
-    let mut fixed64 = PaperCompensator::<f64>::new(&nominal::PARAMETERS, -1000.0, 1000.0).unwrap();
-    let mut fixed32 = PaperCompensator::<f32>::new(&nominal::PARAMETERS, -1000.0, 1000.0).unwrap();
+    let mut heap = model.compensator(CompensatorSettings::default()).unwrap();
+    let mut fixed64 = Compensator::<f64, nominal::Capacity>::new(
+        &nominal::PARAMETERS,
+        CompensatorSettings::with_limits(-1000.0, 1000.0),
+    )
+    .unwrap();
+    let mut fixed32 = Compensator::<f32, nominal::Capacity>::new(
+        &nominal::PARAMETERS,
+        CompensatorSettings::with_limits(-1000.0, 1000.0),
+    )
+    .unwrap();
     let targets32: Vec<f32> = targets.iter().map(|&t| t as f32).collect();
     let mut ks = [0usize; 3];
 
     let names = [
         "C peer (-O3 -march=native -ffast-math)",
         "Compensator (heap, f64)",
-        "PaperCompensator<f64>",
-        "PaperCompensator<f32>",
+        "Compensator<f64, nominal::Capacity>",
+        "Compensator<f32, nominal::Capacity>",
     ];
     let mut times = vec![Vec::with_capacity(ROUNDS); names.len()];
     let mut time = |which: usize, ks: &mut [usize; 3]| -> f64 {

@@ -44,45 +44,48 @@
 #define MFCBEAM_MAX_CREEP 144
 
 /**
- * Words of `MfcbeamCompensatorF32`.
+ * Words of `MfcbeamCompensatorStorageF32`.
  */
-#define MFCBEAM_COMPENSATOR_F32_WORDS 380
+#define MFCBEAM_COMPENSATOR_F32_WORDS 535
 
 /**
- * Words of `MfcbeamCompensatorF64`.
+ * Words of `MfcbeamCompensatorStorageF64`.
  */
-#define MFCBEAM_COMPENSATOR_F64_WORDS 755
+#define MFCBEAM_COMPENSATOR_F64_WORDS 1054
 
 /**
- * Words of `MfcbeamModelF32`.
+ * Words of `MfcbeamModelStorageF32`.
  */
-#define MFCBEAM_MODEL_F32_WORDS 331
+#define MFCBEAM_MODEL_F32_WORDS 483
 
 /**
- * Words of `MfcbeamModelF64`.
+ * Words of `MfcbeamModelStorageF64`.
  */
-#define MFCBEAM_MODEL_F64_WORDS 656
+#define MFCBEAM_MODEL_F64_WORDS 952
 
 #if defined(MFCBEAM_STD)
 /**
- * The compensator `W⁻¹` (opaque).
+ * A compensator `W⁻¹` on the heap, in `f64` (an opaque handle: made by
+ * `mfcbeam_compensator_from_json`, released by `mfcbeam_compensator_free`).
  */
-typedef struct MfcbeamCompensator MfcbeamCompensator;
+typedef struct MfcbeamCompensatorHandle MfcbeamCompensatorHandle;
 #endif
 
 #if defined(MFCBEAM_STD)
 /**
- * The model `W` (opaque).
+ * A model `W` on the heap, in `f64` (an opaque handle: made by
+ * `mfcbeam_model_from_json`, released by `mfcbeam_model_free`).
  */
-typedef struct MfcbeamModel MfcbeamModel;
+typedef struct MfcbeamModelHandle MfcbeamModelHandle;
 #endif
 
 /**
- * Storage for a compensator in `f32` (declare it, then `*_init` it).
+ * Caller-owned storage for a compensator in `f32` (declare it, statically
+ * or on the stack, then `*_init` it; nothing to free).
  */
-typedef struct MfcbeamCompensatorF32 {
+typedef struct MfcbeamCompensatorStorageF32 {
   uint64_t words[MFCBEAM_COMPENSATOR_F32_WORDS];
-} MfcbeamCompensatorF32;
+} MfcbeamCompensatorStorageF32;
 
 /**
  * The model `W = H + C + offset`: hysteresis thresholds `0 = r_0 < … < r_n`
@@ -105,25 +108,25 @@ typedef struct MfcbeamParameters {
 } MfcbeamParameters;
 
 /**
- * Storage for a compensator in `f64`.
+ * Caller-owned storage for a compensator in `f64`.
  */
-typedef struct MfcbeamCompensatorF64 {
+typedef struct MfcbeamCompensatorStorageF64 {
   uint64_t words[MFCBEAM_COMPENSATOR_F64_WORDS];
-} MfcbeamCompensatorF64;
+} MfcbeamCompensatorStorageF64;
 
 /**
- * Storage for a model `W` in `f32`.
+ * Caller-owned storage for a model `W` in `f32`.
  */
-typedef struct MfcbeamModelF32 {
+typedef struct MfcbeamModelStorageF32 {
   uint64_t words[MFCBEAM_MODEL_F32_WORDS];
-} MfcbeamModelF32;
+} MfcbeamModelStorageF32;
 
 /**
- * Storage for a model `W` in `f64`.
+ * Caller-owned storage for a model `W` in `f64`.
  */
-typedef struct MfcbeamModelF64 {
+typedef struct MfcbeamModelStorageF64 {
   uint64_t words[MFCBEAM_MODEL_F64_WORDS];
-} MfcbeamModelF64;
+} MfcbeamModelStorageF64;
 
 #ifdef __cplusplus
 extern "C" {
@@ -135,10 +138,10 @@ extern "C" {
  * and the reason in `err`.
  *
  * # Safety
- * `storage` NULL or an `MfcbeamCompensatorF32`; `parameters` NULL or valid
+ * `storage` NULL or an `MfcbeamCompensatorStorageF32`; `parameters` NULL or valid
  * with arrays of the lengths it states; `err` NULL or `err_len` bytes.
  */
-int mfcbeam_compensator_f32_init(struct MfcbeamCompensatorF32 *storage,
+int mfcbeam_compensator_f32_init(struct MfcbeamCompensatorStorageF32 *storage,
                                  const struct MfcbeamParameters *parameters,
                                  double lower,
                                  double upper,
@@ -153,7 +156,7 @@ int mfcbeam_compensator_f32_init(struct MfcbeamCompensatorF32 *storage,
  * # Safety
  * As [`mfcbeam_compensator_f32_init`]; `json` NULL or NUL-terminated.
  */
-int mfcbeam_compensator_f32_init_json(struct MfcbeamCompensatorF32 *storage,
+int mfcbeam_compensator_f32_init_json(struct MfcbeamCompensatorStorageF32 *storage,
                                       const char *json,
                                       double lower,
                                       double upper,
@@ -165,25 +168,27 @@ int mfcbeam_compensator_f32_init_json(struct MfcbeamCompensatorF32 *storage,
  * The voltage for `target`, in `f32`; flags as `mfcbeam_compensate`.
  *
  * # Safety
- * `storage` NULL or an `MfcbeamCompensatorF32`; `flags` NULL or writable.
+ * `storage` NULL or an `MfcbeamCompensatorStorageF32`; `flags` NULL or writable.
  */
-float mfcbeam_compensate_f32(struct MfcbeamCompensatorF32 *storage, float target, int *flags);
+float mfcbeam_compensate_f32(struct MfcbeamCompensatorStorageF32 *storage,
+                             float target,
+                             int *flags);
 
 /**
  * Back to the virgin state. Nothing for NULL or uninitialised storage.
  *
  * # Safety
- * `storage` NULL or an `MfcbeamCompensatorF32`.
+ * `storage` NULL or an `MfcbeamCompensatorStorageF32`.
  */
-void mfcbeam_compensator_f32_reset(struct MfcbeamCompensatorF32 *storage);
+void mfcbeam_compensator_f32_reset(struct MfcbeamCompensatorStorageF32 *storage);
 
 /**
  * As [`mfcbeam_compensator_f32_init`], computing in `f64`.
  *
  * # Safety
- * As [`mfcbeam_compensator_f32_init`], for an `MfcbeamCompensatorF64`.
+ * As [`mfcbeam_compensator_f32_init`], for an `MfcbeamCompensatorStorageF64`.
  */
-int mfcbeam_compensator_f64_init(struct MfcbeamCompensatorF64 *storage,
+int mfcbeam_compensator_f64_init(struct MfcbeamCompensatorStorageF64 *storage,
                                  const struct MfcbeamParameters *parameters,
                                  double lower,
                                  double upper,
@@ -195,9 +200,9 @@ int mfcbeam_compensator_f64_init(struct MfcbeamCompensatorF64 *storage,
  * As [`mfcbeam_compensator_f32_init_json`], computing in `f64`.
  *
  * # Safety
- * As [`mfcbeam_compensator_f32_init_json`], for an `MfcbeamCompensatorF64`.
+ * As [`mfcbeam_compensator_f32_init_json`], for an `MfcbeamCompensatorStorageF64`.
  */
-int mfcbeam_compensator_f64_init_json(struct MfcbeamCompensatorF64 *storage,
+int mfcbeam_compensator_f64_init_json(struct MfcbeamCompensatorStorageF64 *storage,
                                       const char *json,
                                       double lower,
                                       double upper,
@@ -209,27 +214,29 @@ int mfcbeam_compensator_f64_init_json(struct MfcbeamCompensatorF64 *storage,
  * The voltage for `target`, in `f64`; flags as `mfcbeam_compensate`.
  *
  * # Safety
- * `storage` NULL or an `MfcbeamCompensatorF64`; `flags` NULL or writable.
+ * `storage` NULL or an `MfcbeamCompensatorStorageF64`; `flags` NULL or writable.
  */
-double mfcbeam_compensate_f64(struct MfcbeamCompensatorF64 *storage, double target, int *flags);
+double mfcbeam_compensate_f64(struct MfcbeamCompensatorStorageF64 *storage,
+                              double target,
+                              int *flags);
 
 /**
  * Back to the virgin state. Nothing for NULL or uninitialised storage.
  *
  * # Safety
- * `storage` NULL or an `MfcbeamCompensatorF64`.
+ * `storage` NULL or an `MfcbeamCompensatorStorageF64`.
  */
-void mfcbeam_compensator_f64_reset(struct MfcbeamCompensatorF64 *storage);
+void mfcbeam_compensator_f64_reset(struct MfcbeamCompensatorStorageF64 *storage);
 
 /**
  * The model `W` of `parameters` (virgin state) in `storage`, in `f32`.
  * 0, or -1 and the reason in `err`.
  *
  * # Safety
- * `storage` NULL or an `MfcbeamModelF32`; otherwise as
+ * `storage` NULL or an `MfcbeamModelStorageF32`; otherwise as
  * [`mfcbeam_compensator_f32_init`].
  */
-int mfcbeam_model_f32_init(struct MfcbeamModelF32 *storage,
+int mfcbeam_model_f32_init(struct MfcbeamModelStorageF32 *storage,
                            const struct MfcbeamParameters *parameters,
                            char *err,
                            size_t err_len);
@@ -241,7 +248,7 @@ int mfcbeam_model_f32_init(struct MfcbeamModelF32 *storage,
  * # Safety
  * As [`mfcbeam_model_f32_init`]; `json` NULL or NUL-terminated.
  */
-int mfcbeam_model_f32_init_json(struct MfcbeamModelF32 *storage,
+int mfcbeam_model_f32_init_json(struct MfcbeamModelStorageF32 *storage,
                                 const char *json,
                                 char *err,
                                 size_t err_len);
@@ -251,17 +258,17 @@ int mfcbeam_model_f32_init_json(struct MfcbeamModelF32 *storage,
  * One sample `W[u]` in `f32`; NaN for NULL or uninitialised storage.
  *
  * # Safety
- * `storage` NULL or an `MfcbeamModelF32`.
+ * `storage` NULL or an `MfcbeamModelStorageF32`.
  */
-float mfcbeam_model_f32_step(struct MfcbeamModelF32 *storage, float u);
+float mfcbeam_model_f32_step(struct MfcbeamModelStorageF32 *storage, float u);
 
 /**
  * As [`mfcbeam_model_f32_init`], in `f64`.
  *
  * # Safety
- * As [`mfcbeam_model_f32_init`], for an `MfcbeamModelF64`.
+ * As [`mfcbeam_model_f32_init`], for an `MfcbeamModelStorageF64`.
  */
-int mfcbeam_model_f64_init(struct MfcbeamModelF64 *storage,
+int mfcbeam_model_f64_init(struct MfcbeamModelStorageF64 *storage,
                            const struct MfcbeamParameters *parameters,
                            char *err,
                            size_t err_len);
@@ -271,9 +278,9 @@ int mfcbeam_model_f64_init(struct MfcbeamModelF64 *storage,
  * As [`mfcbeam_model_f32_init_json`], in `f64`.
  *
  * # Safety
- * As [`mfcbeam_model_f32_init_json`], for an `MfcbeamModelF64`.
+ * As [`mfcbeam_model_f32_init_json`], for an `MfcbeamModelStorageF64`.
  */
-int mfcbeam_model_f64_init_json(struct MfcbeamModelF64 *storage,
+int mfcbeam_model_f64_init_json(struct MfcbeamModelStorageF64 *storage,
                                 const char *json,
                                 char *err,
                                 size_t err_len);
@@ -283,9 +290,9 @@ int mfcbeam_model_f64_init_json(struct MfcbeamModelF64 *storage,
  * One sample `W[u]` in `f64`; NaN for NULL or uninitialised storage.
  *
  * # Safety
- * `storage` NULL or an `MfcbeamModelF64`.
+ * `storage` NULL or an `MfcbeamModelStorageF64`.
  */
-double mfcbeam_model_f64_step(struct MfcbeamModelF64 *storage, double u);
+double mfcbeam_model_f64_step(struct MfcbeamModelStorageF64 *storage, double u);
 
 #if defined(MFCBEAM_STD)
 /**
@@ -296,7 +303,7 @@ double mfcbeam_model_f64_step(struct MfcbeamModelF64 *storage, double u);
  * # Safety
  * `json` is NULL or NUL-terminated; `err` is NULL or has `err_len` bytes.
  */
-struct MfcbeamModel *mfcbeam_model_from_json(const char *json, char *err, size_t err_len);
+struct MfcbeamModelHandle *mfcbeam_model_from_json(const char *json, char *err, size_t err_len);
 #endif
 
 #if defined(MFCBEAM_STD)
@@ -306,7 +313,7 @@ struct MfcbeamModel *mfcbeam_model_from_json(const char *json, char *err, size_t
  * # Safety
  * `model` is NULL or from `mfcbeam_model_from_json` and not yet freed.
  */
-double mfcbeam_model_step(struct MfcbeamModel *model, double u);
+double mfcbeam_model_step(struct MfcbeamModelHandle *model, double u);
 #endif
 
 #if defined(MFCBEAM_STD)
@@ -316,7 +323,7 @@ double mfcbeam_model_step(struct MfcbeamModel *model, double u);
  * # Safety
  * As [`mfcbeam_model_step`].
  */
-void mfcbeam_model_reset(struct MfcbeamModel *model);
+void mfcbeam_model_reset(struct MfcbeamModelHandle *model);
 #endif
 
 #if defined(MFCBEAM_STD)
@@ -326,7 +333,7 @@ void mfcbeam_model_reset(struct MfcbeamModel *model);
  * # Safety
  * `model` is NULL or from `mfcbeam_model_from_json`, freed once.
  */
-void mfcbeam_model_free(struct MfcbeamModel *model);
+void mfcbeam_model_free(struct MfcbeamModelHandle *model);
 #endif
 
 #if defined(MFCBEAM_STD)
@@ -338,11 +345,11 @@ void mfcbeam_model_free(struct MfcbeamModel *model);
  * # Safety
  * As [`mfcbeam_model_from_json`].
  */
-struct MfcbeamCompensator *mfcbeam_compensator_from_json(const char *json,
-                                                         double lower,
-                                                         double upper,
-                                                         char *err,
-                                                         size_t err_len);
+struct MfcbeamCompensatorHandle *mfcbeam_compensator_from_json(const char *json,
+                                                               double lower,
+                                                               double upper,
+                                                               char *err,
+                                                               size_t err_len);
 #endif
 
 #if defined(MFCBEAM_STD)
@@ -355,7 +362,7 @@ struct MfcbeamCompensator *mfcbeam_compensator_from_json(const char *json,
  * # Safety
  * `comp` is NULL or a live handle; `flags` is NULL or writable.
  */
-double mfcbeam_compensate(struct MfcbeamCompensator *comp, double target, int *flags);
+double mfcbeam_compensate(struct MfcbeamCompensatorHandle *comp, double target, int *flags);
 #endif
 
 #if defined(MFCBEAM_STD)
@@ -366,7 +373,7 @@ double mfcbeam_compensate(struct MfcbeamCompensator *comp, double target, int *f
  * # Safety
  * As [`mfcbeam_compensate`].
  */
-void mfcbeam_compensator_reset(struct MfcbeamCompensator *comp);
+void mfcbeam_compensator_reset(struct MfcbeamCompensatorHandle *comp);
 #endif
 
 #if defined(MFCBEAM_STD)
@@ -376,7 +383,7 @@ void mfcbeam_compensator_reset(struct MfcbeamCompensator *comp);
  * # Safety
  * `comp` is NULL or from `mfcbeam_compensator_from_json`, freed once.
  */
-void mfcbeam_compensator_free(struct MfcbeamCompensator *comp);
+void mfcbeam_compensator_free(struct MfcbeamCompensatorHandle *comp);
 #endif
 
 #ifdef __cplusplus

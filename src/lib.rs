@@ -73,7 +73,7 @@
 //!
 //! let model = nominal_model();
 //! let mut plant = model.clone();
-//! let mut comp = Compensator::new(&model, CompensatorSettings::default()).unwrap();
+//! let mut comp = model.compensator(CompensatorSettings::default()).unwrap();
 //! for k in 0..1000 {
 //!     let target = 300.0 * (k as f64 * 1e-3).sin();
 //!     let u = comp.compensate(target);
@@ -107,8 +107,8 @@ pub mod identification;
 pub mod prelude {
     pub use crate::error::{ModelError, SupplyError};
     pub use crate::io::read_model;
-    pub use crate::operators::compensator::{Compensator, CompensatorSettings};
-    pub use crate::operators::creep::{CreepOperator, ElementaryCreepOperator, LogCreepOperator};
+    pub use crate::operators::creep::CreepOperator;
+    pub use crate::operators::heap::Heap;
     pub use crate::operators::hysteresis::HysteresisOperator;
     pub use crate::operators::model::{HysteresisCreepModel, ModelFile};
     pub use crate::operators::nominal::nominal_model;
@@ -117,7 +117,9 @@ pub mod prelude {
     pub use crate::operators::traits::{
         ActuatorCompensator, ActuatorModel, Compensated, InverseHysteresis, Operator, Snapshot,
     };
-    pub use crate::realtime::ParameterError;
+    pub use crate::realtime::{
+        Compensator, CompensatorSettings, Creep, Hysteresis, Inline, Model, ParameterError, Real,
+    };
 }
 
 /// The README's Rust examples, compiled and run as doctests.

@@ -5,6 +5,7 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
+use mfcbeam::operators::creep::{ElementaryCreepOperator, LogCreepOperator};
 use mfcbeam::prelude::*;
 
 struct Counting;
@@ -50,6 +51,7 @@ fn steps_and_in_place_runs_allocate_nothing() {
         .collect();
     let mut out = vec![0.0; input.len()];
     let mut sat = vec![false; input.len()];
+    let mut fault = vec![false; input.len()];
 
     let mut play = PlayOperator::new(100.0).unwrap();
     let mut h = model.hysteresis().clone();
@@ -59,23 +61,31 @@ fn steps_and_in_place_runs_allocate_nothing() {
     let mut el = ElementaryCreepOperator::new(50.0, 5.0, 2e-4).unwrap();
     let mut w = model.clone();
     // limits well inside the input range, so the saturated path runs too
-    let mut comp =
-        Compensator::new(&model, CompensatorSettings::with_limits(-300.0, 300.0)).unwrap();
+    let mut comp = model
+        .compensator(CompensatorSettings::with_limits(-300.0, 300.0))
+        .unwrap();
     let mut bisection = mfcbeam::suite::reference::BisectionCompensator::from_file(
         &model.to_file(),
         CompensatorSettings::with_limits(-300.0, 300.0),
     )
     .unwrap();
 
-    use mfcbeam::realtime::{nominal, PaperCompensator, PaperModel};
-    let mut fixed32 = PaperCompensator::<f32>::new(&nominal::PARAMETERS, -300.0, 300.0).unwrap();
-    let mut fixed64 = PaperCompensator::<f64>::new(&nominal::PARAMETERS, -300.0, 300.0).unwrap();
-    let mut plant32 = PaperModel::<f32>::new(&nominal::PARAMETERS).unwrap();
+    use mfcbeam::realtime::{nominal, Compensator, CompensatorSettings, Model};
+    let mut fixed32 = Compensator::<f32, nominal::Capacity>::new(
+        &nominal::PARAMETERS,
+        CompensatorSettings::with_limits(-300.0, 300.0),
+    )
+    .unwrap();
+    let mut fixed64 = Compensator::<f64, nominal::Capacity>::new(
+        &nominal::PARAMETERS,
+        CompensatorSettings::with_limits(-300.0, 300.0),
+    )
+    .unwrap();
+    let mut plant32 = Model::<f32, nominal::Capacity>::new(&nominal::PARAMETERS).unwrap();
     let mut bank = mfcbeam::operators::bank::CompensatorBank::<f32>::uniform(
         &nominal::PARAMETERS,
         19,
-        -300.0,
-        300.0,
+        CompensatorSettings::with_limits(-300.0, 300.0),
     )
     .unwrap();
     let mut targets = [0.0f32; 19];
@@ -107,8 +117,10 @@ fn steps_and_in_place_runs_allocate_nothing() {
         std::hint::black_box(comp.compensate(f64::NAN));
         std::hint::black_box(w.step(f64::INFINITY));
         w.run_into(&input, &mut out).unwrap();
-        let saturated = comp.compensate_into(&input, &mut out, &mut sat).unwrap();
-        assert!(saturated > 0);
+        let (saturated, faults) = comp
+            .compensate_into(&input, &mut out, &mut sat, &mut fault)
+            .unwrap();
+        assert!(saturated > 0 && faults == 0);
     });
     assert_eq!(n, 0, "{n} allocations in the per-sample path");
     // the counter does see allocations

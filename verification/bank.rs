@@ -1,15 +1,15 @@
 //! `CompensatorBank`: every channel gives the bits of a single
-//! `FixedCompensator` of its model (one shared model or one per channel,
+//! inline `Compensator` of its model (one shared model or one per channel,
 //! `f32` and `f64`, through saturation, recovery and non-finite targets),
 //! the run-time AVX2 path gives the bits of the portable one, and bad
 //! parameters and slices are refused with the field named.
 
 use mfcbeam::operators::bank::CompensatorBank;
 use mfcbeam::operators::model::ModelFile;
-use mfcbeam::realtime::{simd, FixedCompensator, ParameterError, Real};
+use mfcbeam::realtime::{simd, Compensator, CompensatorSettings, Inline, ParameterError, Real};
 use mfcbeam::suite::conformance::{random_model, ModelShape, Rng};
 
-type Single<T> = FixedCompensator<T, 12, 72>;
+type Single<T> = Compensator<T, Inline<12, 72>>;
 
 /// `count` models of one random shape: the first as drawn, the others with
 /// weights scaled (which keeps (11) and (17)) and their own offsets.
@@ -59,13 +59,24 @@ fn same_as_singles<T: Real>(seed: u64, channels: usize, shared: bool) {
     let params: Vec<_> = files.iter().map(ModelFile::parameters).collect();
     let limit = rng.uniform(100.0, 600.0);
     let mut bank = if shared {
-        CompensatorBank::<T>::uniform(&params[0], channels, -limit, limit).unwrap()
+        CompensatorBank::<T>::uniform(
+            &params[0],
+            channels,
+            CompensatorSettings::with_limits(-limit, limit),
+        )
+        .unwrap()
     } else {
-        CompensatorBank::<T>::new(&params, -limit, limit).unwrap()
+        CompensatorBank::<T>::new(&params, CompensatorSettings::with_limits(-limit, limit)).unwrap()
     };
     let mut portable = bank.clone();
     let mut singles: Vec<Single<T>> = (0..channels)
-        .map(|c| Single::<T>::new(&params[if shared { 0 } else { c }], -limit, limit).unwrap())
+        .map(|c| {
+            Single::<T>::new(
+                &params[if shared { 0 } else { c }],
+                CompensatorSettings::with_limits(-limit, limit),
+            )
+            .unwrap()
+        })
         .collect();
     let mut out = vec![Default::default(); channels];
     let mut out_portable = out.clone();
@@ -116,10 +127,12 @@ fn the_avx2_step_gives_the_portable_bits() {
     for seed in 0..40u64 {
         let file = random_model(&mut rng, 12, ModelShape::Any);
         let p = file.parameters();
-        let mut a = Single::<f64>::new(&p, -700.0, 700.0).unwrap();
-        let mut b = a;
-        let mut a32 = Single::<f32>::new(&p, -700.0, 700.0).unwrap();
-        let mut b32 = a32;
+        let mut a =
+            Single::<f64>::new(&p, CompensatorSettings::with_limits(-700.0, 700.0)).unwrap();
+        let mut b = a.clone();
+        let mut a32 =
+            Single::<f32>::new(&p, CompensatorSettings::with_limits(-700.0, 700.0)).unwrap();
+        let mut b32 = a32.clone();
         for row in targets(&mut Rng::new(seed), 1, 2000, 700.0) {
             let t = row[0];
             assert_eq!(a.compensate(t), b.compensate_portable(t), "seed {seed}");
@@ -135,13 +148,13 @@ fn bad_banks_and_slices_are_refused_with_the_field_named() {
     let files = models(&mut rng, 2);
     let p: Vec<_> = files.iter().map(ModelFile::parameters).collect();
     assert_eq!(
-        CompensatorBank::<f64>::new(&[], -1.0, 1.0).unwrap_err(),
+        CompensatorBank::<f64>::new(&[], CompensatorSettings::with_limits(-1.0, 1.0)).unwrap_err(),
         ParameterError::Empty {
             field: "bank.channels"
         }
     );
     assert!(matches!(
-        CompensatorBank::<f64>::uniform(&p[0], 4, 1.0, -1.0),
+        CompensatorBank::<f64>::uniform(&p[0], 4, CompensatorSettings::with_limits(1.0, -1.0)),
         Err(ParameterError::InvalidLimits { .. })
     ));
     // a channel of another order
@@ -152,7 +165,8 @@ fn bad_banks_and_slices_are_refused_with_the_field_named() {
         .push(other.hysteresis.thresholds.last().unwrap() + 10.0);
     other.hysteresis.weights.push(0.01);
     let mixed = [p[0], other.parameters()];
-    let e = CompensatorBank::<f64>::new(&mixed, -1.0, 1.0).unwrap_err();
+    let e = CompensatorBank::<f64>::new(&mixed, CompensatorSettings::with_limits(-1.0, 1.0))
+        .unwrap_err();
     assert_eq!(
         e,
         ParameterError::ChannelMismatch {
@@ -166,9 +180,15 @@ fn bad_banks_and_slices_are_refused_with_the_field_named() {
     // an inadmissible channel is named by its own check
     let mut bad = files[1].clone();
     bad.hysteresis.weights[0] = -1.0;
-    assert!(CompensatorBank::<f64>::new(&[p[0], bad.parameters()], -1.0, 1.0).is_err());
+    let bad_pair = [p[0], bad.parameters()];
+    assert!(
+        CompensatorBank::<f64>::new(&bad_pair, CompensatorSettings::with_limits(-1.0, 1.0))
+            .is_err()
+    );
 
-    let mut bank = CompensatorBank::<f64>::uniform(&p[0], 3, -1.0, 1.0).unwrap();
+    let mut bank =
+        CompensatorBank::<f64>::uniform(&p[0], 3, CompensatorSettings::with_limits(-1.0, 1.0))
+            .unwrap();
     let mut out = vec![Default::default(); 3];
     assert_eq!(
         bank.compensate(&[0.0; 2], &mut out).unwrap_err(),
@@ -187,7 +207,9 @@ fn bad_banks_and_slices_are_refused_with_the_field_named() {
         }
     );
     // nothing moved: the next good step equals a fresh bank's
-    let mut fresh = CompensatorBank::<f64>::uniform(&p[0], 3, -1.0, 1.0).unwrap();
+    let mut fresh =
+        CompensatorBank::<f64>::uniform(&p[0], 3, CompensatorSettings::with_limits(-1.0, 1.0))
+            .unwrap();
     let mut out2 = out.clone();
     bank.compensate(&[0.5; 3], &mut out).unwrap();
     fresh.compensate(&[0.5; 3], &mut out2).unwrap();

@@ -202,7 +202,9 @@ fn compensated_plant_is_linear() {
     let target = step(20_000, 100, 300.0);
     let linear = beam.clone().simulate(&target);
     let mut comp = CompensatedPlant {
-        compensator: Compensator::new(&nominal_model(), CompensatorSettings::default()).unwrap(),
+        compensator: nominal_model()
+            .compensator(CompensatorSettings::default())
+            .unwrap(),
         plant: HammersteinPlant::new(nominal_model(), beam.clone()).unwrap(),
     };
     let out = comp.simulate(&target);

@@ -139,7 +139,9 @@ fn compensate_writes_u_and_saturated_and_limits_parse_negative_numbers() {
         assert_eq!(trace.column("saturated").unwrap(), vec![0.0, 0.0, 1.0, 0.0]);
         let u = trace.column("u").unwrap();
         assert_eq!(u[2], 1000.0);
-        let mut comp = Compensator::new(&nominal_model(), CompensatorSettings::default()).unwrap();
+        let mut comp = nominal_model()
+            .compensator(CompensatorSettings::default())
+            .unwrap();
         let expected: Vec<f64> = [0.0, 300.0, 5000.0, 100.0]
             .iter()
             .map(|&t| comp.compensate(t).u)

@@ -8,8 +8,8 @@ use mfcbeam::operators::hysteresis::HysteresisOperator;
 use mfcbeam::prelude::*;
 use mfcbeam::suite::conformance::{
     bisection_compensator, check_compensator, check_inverse_hysteresis, check_model,
-    fast_compensator, fast_inverse_hysteresis, fast_model, fixed_compensator,
-    fixed_inverse_hysteresis, fixed_model, reference_compensator, reference_inverse_hysteresis,
+    heap_compensator, heap_inverse_hysteresis, heap_model, inline_compensator,
+    inline_inverse_hysteresis, inline_model, reference_compensator, reference_inverse_hysteresis,
     reference_model, ConformanceReport, ConformanceSettings, F32_TOLERANCE_SCALE,
 };
 
@@ -41,7 +41,7 @@ fn assert_passes(report: &ConformanceReport, who: &str) {
 
 #[test]
 fn the_fast_model_conforms() {
-    assert_passes(&check_model(&fast_model, &exact()).unwrap(), "fast W");
+    assert_passes(&check_model(&heap_model, &exact()).unwrap(), "fast W");
 }
 
 #[test]
@@ -55,7 +55,7 @@ fn the_reference_model_conforms() {
 #[test]
 fn the_fast_compensator_conforms() {
     assert_passes(
-        &check_compensator(&fast_compensator, &exact()).unwrap(),
+        &check_compensator(&heap_compensator, &exact()).unwrap(),
         "fast W⁻¹",
     );
 }
@@ -83,15 +83,15 @@ fn the_bisection_compensator_conforms() {
 #[test]
 fn the_fixed_f64_core_conforms_exactly() {
     assert_passes(
-        &check_model(&fixed_model::<f64, N, K>, &exact()).unwrap(),
+        &check_model(&inline_model::<f64, N, K>, &exact()).unwrap(),
         "fixed f64 W",
     );
     assert_passes(
-        &check_compensator(&fixed_compensator::<f64, N, K>, &exact()).unwrap(),
+        &check_compensator(&inline_compensator::<f64, N, K>, &exact()).unwrap(),
         "fixed f64 W⁻¹",
     );
     assert_passes(
-        &check_inverse_hysteresis(&fixed_inverse_hysteresis::<f64, N>, &exact()).unwrap(),
+        &check_inverse_hysteresis(&inline_inverse_hysteresis::<f64, N>, &exact()).unwrap(),
         "fixed f64 H⁻¹",
     );
 }
@@ -105,15 +105,15 @@ fn the_fixed_f32_core_conforms_at_f32_tolerances() {
         ..settings()
     };
     assert_passes(
-        &check_model(&fixed_model::<f32, N, K>, &f32_settings).unwrap(),
+        &check_model(&inline_model::<f32, N, K>, &f32_settings).unwrap(),
         "fixed f32 W",
     );
     assert_passes(
-        &check_compensator(&fixed_compensator::<f32, N, K>, &f32_settings).unwrap(),
+        &check_compensator(&inline_compensator::<f32, N, K>, &f32_settings).unwrap(),
         "fixed f32 W⁻¹",
     );
     assert_passes(
-        &check_inverse_hysteresis(&fixed_inverse_hysteresis::<f32, N>, &f32_settings).unwrap(),
+        &check_inverse_hysteresis(&inline_inverse_hysteresis::<f32, N>, &f32_settings).unwrap(),
         "fixed f32 H⁻¹",
     );
 }
@@ -121,7 +121,7 @@ fn the_fixed_f32_core_conforms_at_f32_tolerances() {
 #[test]
 fn the_fast_inverse_hysteresis_conforms() {
     assert_passes(
-        &check_inverse_hysteresis(&fast_inverse_hysteresis, &exact()).unwrap(),
+        &check_inverse_hysteresis(&heap_inverse_hysteresis, &exact()).unwrap(),
         "fast H⁻¹",
     );
 }
@@ -171,7 +171,7 @@ impl<T: Operator> Operator for Delayed<T> {
 impl<T: Operator> ActuatorModel for Delayed<T> {}
 
 /// A compensator that never reports saturation.
-struct NoFlag(Compensator);
+struct NoFlag(Compensator<f64, Heap>);
 
 impl ActuatorCompensator for NoFlag {
     fn compensate(&mut self, target: f64) -> Compensated {
@@ -256,13 +256,13 @@ fn injected_faults_are_caught_with_small_counterexamples() {
     };
     assert_caught(&check_model(&creep_vk, &s).unwrap(), "creep from v_k");
 
-    let threshold = |f: &ModelFile| fast_model(&shifted(f));
+    let threshold = |f: &ModelFile| heap_model(&shifted(f));
     assert_caught(
         &check_model(&threshold, &s).unwrap(),
         "threshold moved 1e-6",
     );
 
-    let sign = |f: &ModelFile| fast_model(&flipped(f));
+    let sign = |f: &ModelFile| heap_model(&flipped(f));
     assert_caught(&check_model(&sign, &s).unwrap(), "weight sign flipped");
 
     let delay = |f: &ModelFile| -> Result<Box<dyn ActuatorModel>, ModelError> {
@@ -276,17 +276,16 @@ fn injected_faults_are_caught_with_small_counterexamples() {
     let no_flag = |f: &ModelFile,
                    c: CompensatorSettings|
      -> Result<Box<dyn ActuatorCompensator>, ModelError> {
-        Ok(Box::new(NoFlag(Compensator::new(
-            &HysteresisCreepModel::from_file(f)?,
-            c,
-        )?)))
+        Ok(Box::new(NoFlag(
+            HysteresisCreepModel::from_file(f)?.compensator(c)?,
+        )))
     };
     assert_caught(
         &check_compensator(&no_flag, &s).unwrap(),
         "saturated flag dropped",
     );
 
-    let inv_threshold = |f: &ModelFile| fast_inverse_hysteresis(&shifted(f));
+    let inv_threshold = |f: &ModelFile| heap_inverse_hysteresis(&shifted(f));
     assert_caught(
         &check_inverse_hysteresis(&inv_threshold, &s).unwrap(),
         "H⁻¹ of a threshold moved 1e-6",
@@ -299,10 +298,10 @@ fn bad_settings_are_refused() {
         cases: 0,
         ..ConformanceSettings::default()
     };
-    assert!(check_model(&fast_model, &s).is_err());
+    assert!(check_model(&heap_model, &s).is_err());
     let s = ConformanceSettings {
         tolerance_scale: 0.5,
         ..ConformanceSettings::default()
     };
-    assert!(check_compensator(&fast_compensator, &s).is_err());
+    assert!(check_compensator(&heap_compensator, &s).is_err());
 }

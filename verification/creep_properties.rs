@@ -6,7 +6,9 @@
 mod common;
 
 use common::*;
-use mfcbeam::operators::creep::{creep_gain, log_spaced_eigenvalues};
+use mfcbeam::operators::creep::{
+    creep_gain, log_spaced_eigenvalues, ElementaryCreepOperator, LogCreepOperator,
+};
 use mfcbeam::operators::play::dead_zone;
 use mfcbeam::prelude::*;
 use proptest::prelude::*;

@@ -11,7 +11,7 @@ use std::path::Path;
 use mfcbeam::operators::creep::CreepOperator;
 use mfcbeam::operators::hysteresis::HysteresisOperator;
 use mfcbeam::prelude::*;
-use mfcbeam::suite::conformance::fast_model;
+use mfcbeam::suite::conformance::heap_model;
 use mfcbeam::suite::golden::{
     check_golden, declared_columns, read_manifest, sha256_hex, ColumnSpec,
 };
@@ -77,7 +77,7 @@ fn perturbed(f: fn(&mut ModelFile)) -> ScenarioContext {
     ctx.plant = Box::new(move |file: &ModelFile| {
         let mut file = file.clone();
         f(&mut file);
-        fast_model(&file)
+        heap_model(&file)
     });
     ctx
 }

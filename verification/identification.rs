@@ -8,6 +8,7 @@ use common::*;
 use mfcbeam::identification::{
     identify, thresholds_23, IdentificationError, IdentificationSettings,
 };
+use mfcbeam::operators::creep::LogCreepOperator;
 use mfcbeam::operators::nominal::{CREEP_WEIGHTS, HYSTERESIS_WEIGHTS, SAMPLE_TIME};
 use mfcbeam::prelude::*;
 use mfcbeam::suite::signal::Staircase;
@@ -72,7 +73,7 @@ fn noise_free_data_recover_the_nominal_weights() {
     assert!(id.report.unexcited.is_empty());
     assert!(id.report.fit.rms <= 1e-9 * id.report.fit.output_range);
     // the identified model inverts: W[W⁻¹[ς]] = ς
-    let mut comp = Compensator::new(w, CompensatorSettings::default()).unwrap();
+    let mut comp = w.compensator(CompensatorSettings::default()).unwrap();
     let mut plant = w.clone();
     for &t in &Staircase::full_loop(400.0, 4, 0.1, 0.2).sample(SAMPLE_TIME) {
         assert!((plant.step(comp.compensate(t).u) - t).abs() < 1e-9);
@@ -116,7 +117,7 @@ fn noisy_data_degrade_gracefully_on_a_validation_input() {
         rms(&err_true)
     );
     // the compensator of the identified model exists
-    assert!(Compensator::new(&id.model, CompensatorSettings::default()).is_ok());
+    assert!(id.model.compensator(CompensatorSettings::default()).is_ok());
 }
 
 /// An input reaching only 500 V with thresholds fixed for 1000 V: the upper
@@ -153,7 +154,7 @@ fn partial_excitation_names_the_unexcited_operators() {
         .all(|&w| w == 0.0));
     // on the excited range the model reproduces the data
     assert!(id.report.fit.max <= 1e-8 * id.report.fit.output_range);
-    assert!(Compensator::new(&id.model, CompensatorSettings::default()).is_ok());
+    assert!(id.model.compensator(CompensatorSettings::default()).is_ok());
 }
 
 /// Data no model of this structure fits with positive slopes (a falling
@@ -165,7 +166,7 @@ fn active_constraints_hold_and_are_reported() {
     let id = identify(&u, &y, SAMPLE_TIME, &IdentificationSettings::default()).unwrap();
     assert!(!id.report.active_constraints.is_empty());
     assert_constraints(&id.model, id.report.epsilon_h);
-    assert!(Compensator::new(&id.model, CompensatorSettings::default()).is_ok());
+    assert!(id.model.compensator(CompensatorSettings::default()).is_ok());
 }
 
 /// Bad data gets a clear error.
@@ -235,7 +236,7 @@ proptest! {
             mfcbeam::operators::creep::log_spaced_eigenvalues(m, ts),
             ts,
         ).unwrap();
-        let truth = HysteresisCreepModel::new(ts, h, Some(c)).unwrap();
+        let truth = HysteresisCreepModel::from_parts(ts, h, Some(c)).unwrap();
         let y = truth.clone().run(&u);
         let settings = IdentificationSettings {
             hysteresis_operators: nh,

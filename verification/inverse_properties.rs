@@ -79,7 +79,7 @@ proptest! {
         y.extend(second.run(&v[k..]));
         prop_assert_eq!(&whole, &y);
 
-        let mut comp = Compensator::new(&w, CompensatorSettings::with_limits(-4.0, 4.0)).unwrap();
+        let mut comp = w.compensator(CompensatorSettings::with_limits(-4.0, 4.0)).unwrap();
         let whole_u = comp.clone().run(&whole);
         let mut c1 = comp.clone();
         let mut u = c1.run(&whole[..k]);
@@ -141,8 +141,12 @@ fn inverse_parameters_match_direct_sums() {
 #[test]
 fn compensator_settings_are_validated() {
     let w = nominal_model();
-    assert!(Compensator::new(&w, CompensatorSettings::with_limits(1.0, -1.0)).is_err());
-    assert!(Compensator::new(&w, CompensatorSettings::with_limits(f64::NAN, 1.0)).is_err());
+    assert!(w
+        .compensator(CompensatorSettings::with_limits(1.0, -1.0))
+        .is_err());
+    assert!(w
+        .compensator(CompensatorSettings::with_limits(f64::NAN, 1.0))
+        .is_err());
     assert!(CompensatorSettings::default().validate().is_ok());
     assert_eq!(CompensatorSettings::default().upper_limit, 1000.0);
 }

@@ -119,7 +119,7 @@ fn the_identified_compensator_linearizes_the_true_actuator() {
     plant.run(&u);
     let mut fitted = id.model.clone();
     fitted.run(&u);
-    let mut comp = Compensator::new(&fitted, CompensatorSettings::default()).unwrap();
+    let mut comp = fitted.compensator(CompensatorSettings::default()).unwrap();
     // a staircase of targets around the offset, within the supply
     let targets: Vec<f64> = Staircase::full_loop(400.0, 4, 0.1, 0.9)
         .sample(SAMPLE_TIME)
@@ -142,7 +142,7 @@ fn the_identified_compensator_linearizes_the_true_actuator() {
 /// active constraints that are active.
 #[test]
 fn an_off_grid_model_gives_the_exact_constrained_optimum() {
-    let w = HysteresisCreepModel::new(
+    let w = HysteresisCreepModel::from_parts(
         SAMPLE_TIME,
         HysteresisOperator::new(
             vec![0.0, 37.0, 211.0, 480.0, 733.0],

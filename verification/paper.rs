@@ -57,7 +57,7 @@ fn compensated_staircase_is_reproduced_through_w() {
     let stairs = Staircase::full_loop(500.0, 4, 0.1, 1.15);
     assert!((stairs.duration() - 20.0).abs() < 1e-9);
     let target = stairs.sample(SAMPLE_TIME);
-    let mut comp = Compensator::new(&w, CompensatorSettings::default()).unwrap();
+    let mut comp = w.compensator(CompensatorSettings::default()).unwrap();
     let mut plant = w.clone();
     let mut max_err = 0.0f64;
     let mut max_u = 0.0f64;

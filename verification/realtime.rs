@@ -5,16 +5,16 @@
 
 use mfcbeam::prelude::*;
 use mfcbeam::realtime::{
-    nominal, CreepParameters, FixedCompensator, FixedModel, HysteresisParameters, ModelParameters,
-    PaperCompensator, PaperModel, ParameterError, RoundingBounds,
+    nominal, Compensator, CompensatorSettings, CreepParameters, HysteresisParameters, Inline,
+    Model, ModelParameters, ParameterError, RoundingBounds,
 };
-use mfcbeam::suite::conformance::{fixed_compensator, fixed_model};
+use mfcbeam::suite::conformance::{inline_compensator, inline_model};
 use mfcbeam::suite::scenarios::{run, scenario, ScenarioContext, ScenarioTrace};
 
 fn context<T: mfcbeam::realtime::Real>() -> ScenarioContext {
     ScenarioContext {
-        plant: Box::new(fixed_model::<T, 12, 60>),
-        compensator: Box::new(fixed_compensator::<T, 12, 60>),
+        plant: Box::new(inline_model::<T, 12, 60>),
+        compensator: Box::new(inline_compensator::<T, 12, 60>),
         ..ScenarioContext::nominal()
     }
 }
@@ -101,23 +101,32 @@ fn f32_core_accuracy_on_the_papers_scenarios() {
 
 #[test]
 fn paper_sized_storage_and_its_footprint() {
-    let f32_bytes = std::mem::size_of::<PaperCompensator<f32>>();
-    let f64_bytes = std::mem::size_of::<PaperCompensator<f64>>();
+    let f32_bytes = std::mem::size_of::<Compensator<f32, nominal::Capacity>>();
+    let f64_bytes = std::mem::size_of::<Compensator<f64, nominal::Capacity>>();
     // Arrays: H⁻¹ (r', w', x') and H (r, w, s, room for x) of 12, creep
-    // (r, g, w/m, χ) of 60; then lengths, offset, limits, the last voltage,
-    // creep output and last input.
+    // (r, w, a, g, w/m, χ) of 60; then one length per array (13), the
+    // sample time, offset, limits, the last voltage, creep output and last
+    // input, and the creep's presence.
     for (bytes, size) in [(f32_bytes, 4), (f64_bytes, 8)] {
-        let arrays = (7 * 12 + 4 * 60) * size;
-        eprintln!("PaperCompensator: {bytes} bytes with {size}-byte numbers ({arrays} in arrays)");
-        assert!(bytes >= arrays && bytes <= arrays + 96, "{bytes} bytes");
+        let arrays = (7 * 12 + 6 * 60) * size;
+        let lengths = 13 * std::mem::size_of::<usize>();
+        eprintln!("Compensator<_, nominal::Capacity>: {bytes} bytes with {size}-byte numbers ({arrays} in arrays)");
+        assert!(
+            bytes >= arrays + lengths && bytes <= arrays + lengths + 8 * 8,
+            "{bytes} bytes"
+        );
     }
-    let m = std::mem::size_of::<PaperModel<f32>>();
-    eprintln!("PaperModel<f32>: {m} bytes");
+    let m = std::mem::size_of::<Model<f32, nominal::Capacity>>();
+    eprintln!("Model<f32, nominal::Capacity>: {m} bytes");
 }
 
 #[test]
 fn parameters_beyond_the_capacity_are_refused() {
-    let e = FixedCompensator::<f64, 8, 60>::new(&nominal::PARAMETERS, -1e3, 1e3).unwrap_err();
+    let e = Compensator::<f64, Inline<8, 60>>::new(
+        &nominal::PARAMETERS,
+        CompensatorSettings::with_limits(-1e3, 1e3),
+    )
+    .unwrap_err();
     assert!(matches!(
         e,
         ParameterError::ExceedsCapacity {
@@ -126,7 +135,7 @@ fn parameters_beyond_the_capacity_are_refused() {
             ..
         }
     ));
-    let e = FixedModel::<f32, 12, 59>::new(&nominal::PARAMETERS).unwrap_err();
+    let e = Model::<f32, Inline<12, 59>>::new(&nominal::PARAMETERS).unwrap_err();
     assert!(matches!(
         e,
         ParameterError::ExceedsCapacity {
@@ -149,8 +158,12 @@ fn parameters_beyond_the_capacity_are_refused() {
         }),
         offset: 0.0,
     };
-    let mut w = PaperModel::<f32>::new(&small).unwrap();
-    let mut c = PaperCompensator::<f32>::new(&small, -10.0, 10.0).unwrap();
+    let mut w = Model::<f32, nominal::Capacity>::new(&small).unwrap();
+    let mut c = Compensator::<f32, nominal::Capacity>::new(
+        &small,
+        CompensatorSettings::with_limits(-10.0, 10.0),
+    )
+    .unwrap();
     for k in 0..200 {
         let y = 3.0 * (k as f32 * 0.05).sin();
         let out = w.step(c.compensate(y).u);
@@ -170,7 +183,8 @@ fn broken_parameters_name_the_field() {
             },
             ..nominal::PARAMETERS
         };
-        PaperCompensator::<f32>::new(&p, -1e3, 1e3).unwrap_err()
+        Compensator::<f32, nominal::Capacity>::new(&p, CompensatorSettings::with_limits(-1e3, 1e3))
+            .unwrap_err()
     };
     assert!(matches!(
         bad(|w| w[0] = -1.0),
@@ -184,10 +198,18 @@ fn broken_parameters_name_the_field() {
             ..
         }
     ));
-    let e = PaperCompensator::<f64>::new(&nominal::PARAMETERS, 1.0, -1.0).unwrap_err();
+    let e = Compensator::<f64, nominal::Capacity>::new(
+        &nominal::PARAMETERS,
+        CompensatorSettings::with_limits(1.0, -1.0),
+    )
+    .unwrap_err();
     assert!(matches!(e, ParameterError::InvalidLimits { .. }));
     assert!(e.to_string().contains("limits"));
-    let e = PaperCompensator::<f64>::new(&nominal::PARAMETERS, f64::NAN, 1.0).unwrap_err();
+    let e = Compensator::<f64, nominal::Capacity>::new(
+        &nominal::PARAMETERS,
+        CompensatorSettings::with_limits(f64::NAN, 1.0),
+    )
+    .unwrap_err();
     assert!(matches!(e, ParameterError::InvalidLimits { .. }));
     // the std error carries the same message
     let m: ModelError = e.into();
@@ -199,14 +221,22 @@ fn f32_limits_are_rounded_inward_and_faults_hold_the_voltage() {
     // 0.1 is not a binary32 number: to nearest it rounds up, past the limit
     let upper = 0.1f64;
     assert!((upper as f32) as f64 > upper);
-    let mut c = PaperCompensator::<f32>::new(&nominal::PARAMETERS, -upper, upper).unwrap();
+    let mut c = Compensator::<f32, nominal::Capacity>::new(
+        &nominal::PARAMETERS,
+        CompensatorSettings::with_limits(-upper, upper),
+    )
+    .unwrap();
     let out = c.compensate(500.0);
     assert!(out.saturated && (out.u as f64) <= upper && (out.u as f64) > upper * (1.0 - 1e-7));
     let out = c.compensate(-500.0);
     assert!(out.saturated && (out.u as f64) >= -upper);
 
-    let mut c = PaperCompensator::<f32>::new(&nominal::PARAMETERS, -1e3, 1e3).unwrap();
-    let mut w = PaperModel::<f32>::new(&nominal::PARAMETERS).unwrap();
+    let mut c = Compensator::<f32, nominal::Capacity>::new(
+        &nominal::PARAMETERS,
+        CompensatorSettings::with_limits(-1e3, 1e3),
+    )
+    .unwrap();
+    let mut w = Model::<f32, nominal::Capacity>::new(&nominal::PARAMETERS).unwrap();
     let u = c.compensate(200.0).u;
     w.step(u);
     for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {

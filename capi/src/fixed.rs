@@ -10,7 +10,7 @@
 use core::ffi::{c_char, c_int};
 use core::mem::{align_of, size_of};
 
-use mfcbeam_rs::realtime::{FixedCompensator, FixedModel, Real};
+use mfcbeam_rs::realtime::{Compensator, CompensatorSettings, Inline, Model, Real};
 
 use crate::error::{flags_of, set_flags, write_error, Failure, MFCBEAM_FLAG_INVALID_HANDLE};
 #[cfg(feature = "std")]
@@ -22,41 +22,42 @@ pub const MFCBEAM_MAX_PLAYS: usize = 24;
 /// Elementary creep operators (creep thresholds × eigenvalues) it holds.
 pub const MFCBEAM_MAX_CREEP: usize = 144;
 
-/// Words of `MfcbeamCompensatorF32`.
-pub const MFCBEAM_COMPENSATOR_F32_WORDS: usize = 380;
-/// Words of `MfcbeamCompensatorF64`.
-pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 755;
-/// Words of `MfcbeamModelF32`.
-pub const MFCBEAM_MODEL_F32_WORDS: usize = 331;
-/// Words of `MfcbeamModelF64`.
-pub const MFCBEAM_MODEL_F64_WORDS: usize = 656;
+/// Words of `MfcbeamCompensatorStorageF32`.
+pub const MFCBEAM_COMPENSATOR_F32_WORDS: usize = 535;
+/// Words of `MfcbeamCompensatorStorageF64`.
+pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 1054;
+/// Words of `MfcbeamModelStorageF32`.
+pub const MFCBEAM_MODEL_F32_WORDS: usize = 483;
+/// Words of `MfcbeamModelStorageF64`.
+pub const MFCBEAM_MODEL_F64_WORDS: usize = 952;
 
-type CompensatorF32 = FixedCompensator<f32, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>;
-type CompensatorF64 = FixedCompensator<f64, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>;
-type ModelF32 = FixedModel<f32, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>;
-type ModelF64 = FixedModel<f64, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>;
+type CompensatorF32 = Compensator<f32, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>;
+type CompensatorF64 = Compensator<f64, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>;
+type ModelF32 = Model<f32, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>;
+type ModelF64 = Model<f64, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>;
 
-/// Storage for a compensator in `f32` (declare it, then `*_init` it).
+/// Caller-owned storage for a compensator in `f32` (declare it, statically
+/// or on the stack, then `*_init` it; nothing to free).
 #[repr(C)]
-pub struct MfcbeamCompensatorF32 {
+pub struct MfcbeamCompensatorStorageF32 {
     pub words: [u64; MFCBEAM_COMPENSATOR_F32_WORDS],
 }
 
-/// Storage for a compensator in `f64`.
+/// Caller-owned storage for a compensator in `f64`.
 #[repr(C)]
-pub struct MfcbeamCompensatorF64 {
+pub struct MfcbeamCompensatorStorageF64 {
     pub words: [u64; MFCBEAM_COMPENSATOR_F64_WORDS],
 }
 
-/// Storage for a model `W` in `f32`.
+/// Caller-owned storage for a model `W` in `f32`.
 #[repr(C)]
-pub struct MfcbeamModelF32 {
+pub struct MfcbeamModelStorageF32 {
     pub words: [u64; MFCBEAM_MODEL_F32_WORDS],
 }
 
-/// Storage for a model `W` in `f64`.
+/// Caller-owned storage for a model `W` in `f64`.
 #[repr(C)]
-pub struct MfcbeamModelF64 {
+pub struct MfcbeamModelStorageF64 {
     pub words: [u64; MFCBEAM_MODEL_F64_WORDS],
 }
 
@@ -143,24 +144,27 @@ unsafe fn compensator_from<T: Real>(
     parameters: *const MfcbeamParameters,
     lower: f64,
     upper: f64,
-) -> Result<FixedCompensator<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>, Failure> {
+) -> Result<Compensator<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>, Failure> {
     // SAFETY: forwarded from the caller.
     let p = unsafe { parameters.as_ref() }.ok_or(Failure::Null("parameters"))?;
     // SAFETY: forwarded from the caller.
     let model = unsafe { p.model() }?;
-    Ok(FixedCompensator::new(&model, lower, upper)?)
+    Ok(Compensator::new(
+        &model,
+        CompensatorSettings::with_limits(lower, upper),
+    )?)
 }
 
 /// # Safety
 /// As [`compensator_from`].
 unsafe fn model_from<T: Real>(
     parameters: *const MfcbeamParameters,
-) -> Result<FixedModel<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>, Failure> {
+) -> Result<Model<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>, Failure> {
     // SAFETY: forwarded from the caller.
     let p = unsafe { parameters.as_ref() }.ok_or(Failure::Null("parameters"))?;
     // SAFETY: forwarded from the caller.
     let model = unsafe { p.model() }?;
-    Ok(FixedModel::new(&model)?)
+    Ok(Model::new(&model)?)
 }
 
 #[cfg(feature = "std")]
@@ -170,10 +174,11 @@ unsafe fn compensator_from_json<T: Real>(
     json: *const c_char,
     lower: f64,
     upper: f64,
-) -> Result<FixedCompensator<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>, Failure> {
+) -> Result<Compensator<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>, Failure> {
     // SAFETY: forwarded from the caller.
     let file = unsafe { model_file(json) }?;
-    FixedCompensator::from_file(&file, lower, upper).map_err(|e| Failure::Text(e.to_string()))
+    Compensator::from_file(&file, CompensatorSettings::with_limits(lower, upper))
+        .map_err(|e| Failure::Text(e.to_string()))
 }
 
 #[cfg(feature = "std")]
@@ -181,10 +186,10 @@ unsafe fn compensator_from_json<T: Real>(
 /// `json` is NULL or NUL-terminated.
 unsafe fn model_from_json<T: Real>(
     json: *const c_char,
-) -> Result<FixedModel<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>, Failure> {
+) -> Result<Model<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>, Failure> {
     // SAFETY: forwarded from the caller.
     let file = unsafe { model_file(json) }?;
-    FixedModel::from_file(&file).map_err(|e| Failure::Text(e.to_string()))
+    Model::from_file(&file).map_err(|e| Failure::Text(e.to_string()))
 }
 
 /// One compensator step on storage.
@@ -194,7 +199,7 @@ unsafe fn model_from_json<T: Real>(
 unsafe fn compensate<S, T: Real>(storage: *mut S, target: T, flags: *mut c_int) -> T {
     // SAFETY: forwarded from the caller.
     unsafe {
-        match value::<S, FixedCompensator<T, MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>(storage) {
+        match value::<S, Compensator<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>>(storage) {
             Some(c) => {
                 let out = c.compensate(target);
                 set_flags(flags, flags_of(out.saturated, out.fault));
@@ -213,11 +218,11 @@ unsafe fn compensate<S, T: Real>(storage: *mut S, target: T, flags: *mut c_int) 
 /// and the reason in `err`.
 ///
 /// # Safety
-/// `storage` NULL or an `MfcbeamCompensatorF32`; `parameters` NULL or valid
+/// `storage` NULL or an `MfcbeamCompensatorStorageF32`; `parameters` NULL or valid
 /// with arrays of the lengths it states; `err` NULL or `err_len` bytes.
 #[no_mangle]
 pub unsafe extern "C" fn mfcbeam_compensator_f32_init(
-    storage: *mut MfcbeamCompensatorF32,
+    storage: *mut MfcbeamCompensatorStorageF32,
     parameters: *const MfcbeamParameters,
     lower: f64,
     upper: f64,
@@ -240,7 +245,7 @@ pub unsafe extern "C" fn mfcbeam_compensator_f32_init(
 #[cfg(feature = "std")]
 #[no_mangle]
 pub unsafe extern "C" fn mfcbeam_compensator_f32_init_json(
-    storage: *mut MfcbeamCompensatorF32,
+    storage: *mut MfcbeamCompensatorStorageF32,
     json: *const c_char,
     lower: f64,
     upper: f64,
@@ -258,10 +263,10 @@ pub unsafe extern "C" fn mfcbeam_compensator_f32_init_json(
 /// The voltage for `target`, in `f32`; flags as `mfcbeam_compensate`.
 ///
 /// # Safety
-/// `storage` NULL or an `MfcbeamCompensatorF32`; `flags` NULL or writable.
+/// `storage` NULL or an `MfcbeamCompensatorStorageF32`; `flags` NULL or writable.
 #[no_mangle]
 pub unsafe extern "C" fn mfcbeam_compensate_f32(
-    storage: *mut MfcbeamCompensatorF32,
+    storage: *mut MfcbeamCompensatorStorageF32,
     target: f32,
     flags: *mut c_int,
 ) -> f32 {
@@ -272,9 +277,9 @@ pub unsafe extern "C" fn mfcbeam_compensate_f32(
 /// Back to the virgin state. Nothing for NULL or uninitialised storage.
 ///
 /// # Safety
-/// `storage` NULL or an `MfcbeamCompensatorF32`.
+/// `storage` NULL or an `MfcbeamCompensatorStorageF32`.
 #[no_mangle]
-pub unsafe extern "C" fn mfcbeam_compensator_f32_reset(storage: *mut MfcbeamCompensatorF32) {
+pub unsafe extern "C" fn mfcbeam_compensator_f32_reset(storage: *mut MfcbeamCompensatorStorageF32) {
     // SAFETY: forwarded from the caller.
     if let Some(c) = unsafe { value::<_, CompensatorF32>(storage) } {
         c.reset();
@@ -284,10 +289,10 @@ pub unsafe extern "C" fn mfcbeam_compensator_f32_reset(storage: *mut MfcbeamComp
 /// As [`mfcbeam_compensator_f32_init`], computing in `f64`.
 ///
 /// # Safety
-/// As [`mfcbeam_compensator_f32_init`], for an `MfcbeamCompensatorF64`.
+/// As [`mfcbeam_compensator_f32_init`], for an `MfcbeamCompensatorStorageF64`.
 #[no_mangle]
 pub unsafe extern "C" fn mfcbeam_compensator_f64_init(
-    storage: *mut MfcbeamCompensatorF64,
+    storage: *mut MfcbeamCompensatorStorageF64,
     parameters: *const MfcbeamParameters,
     lower: f64,
     upper: f64,
@@ -305,11 +310,11 @@ pub unsafe extern "C" fn mfcbeam_compensator_f64_init(
 /// As [`mfcbeam_compensator_f32_init_json`], computing in `f64`.
 ///
 /// # Safety
-/// As [`mfcbeam_compensator_f32_init_json`], for an `MfcbeamCompensatorF64`.
+/// As [`mfcbeam_compensator_f32_init_json`], for an `MfcbeamCompensatorStorageF64`.
 #[cfg(feature = "std")]
 #[no_mangle]
 pub unsafe extern "C" fn mfcbeam_compensator_f64_init_json(
-    storage: *mut MfcbeamCompensatorF64,
+    storage: *mut MfcbeamCompensatorStorageF64,
     json: *const c_char,
     lower: f64,
     upper: f64,
@@ -327,10 +332,10 @@ pub unsafe extern "C" fn mfcbeam_compensator_f64_init_json(
 /// The voltage for `target`, in `f64`; flags as `mfcbeam_compensate`.
 ///
 /// # Safety
-/// `storage` NULL or an `MfcbeamCompensatorF64`; `flags` NULL or writable.
+/// `storage` NULL or an `MfcbeamCompensatorStorageF64`; `flags` NULL or writable.
 #[no_mangle]
 pub unsafe extern "C" fn mfcbeam_compensate_f64(
-    storage: *mut MfcbeamCompensatorF64,
+    storage: *mut MfcbeamCompensatorStorageF64,
     target: f64,
     flags: *mut c_int,
 ) -> f64 {
@@ -341,9 +346,9 @@ pub unsafe extern "C" fn mfcbeam_compensate_f64(
 /// Back to the virgin state. Nothing for NULL or uninitialised storage.
 ///
 /// # Safety
-/// `storage` NULL or an `MfcbeamCompensatorF64`.
+/// `storage` NULL or an `MfcbeamCompensatorStorageF64`.
 #[no_mangle]
-pub unsafe extern "C" fn mfcbeam_compensator_f64_reset(storage: *mut MfcbeamCompensatorF64) {
+pub unsafe extern "C" fn mfcbeam_compensator_f64_reset(storage: *mut MfcbeamCompensatorStorageF64) {
     // SAFETY: forwarded from the caller.
     if let Some(c) = unsafe { value::<_, CompensatorF64>(storage) } {
         c.reset();
@@ -354,11 +359,11 @@ pub unsafe extern "C" fn mfcbeam_compensator_f64_reset(storage: *mut MfcbeamComp
 /// 0, or -1 and the reason in `err`.
 ///
 /// # Safety
-/// `storage` NULL or an `MfcbeamModelF32`; otherwise as
+/// `storage` NULL or an `MfcbeamModelStorageF32`; otherwise as
 /// [`mfcbeam_compensator_f32_init`].
 #[no_mangle]
 pub unsafe extern "C" fn mfcbeam_model_f32_init(
-    storage: *mut MfcbeamModelF32,
+    storage: *mut MfcbeamModelStorageF32,
     parameters: *const MfcbeamParameters,
     err: *mut c_char,
     err_len: usize,
@@ -374,7 +379,7 @@ pub unsafe extern "C" fn mfcbeam_model_f32_init(
 #[cfg(feature = "std")]
 #[no_mangle]
 pub unsafe extern "C" fn mfcbeam_model_f32_init_json(
-    storage: *mut MfcbeamModelF32,
+    storage: *mut MfcbeamModelStorageF32,
     json: *const c_char,
     err: *mut c_char,
     err_len: usize,
@@ -386,9 +391,12 @@ pub unsafe extern "C" fn mfcbeam_model_f32_init_json(
 /// One sample `W[u]` in `f32`; NaN for NULL or uninitialised storage.
 ///
 /// # Safety
-/// `storage` NULL or an `MfcbeamModelF32`.
+/// `storage` NULL or an `MfcbeamModelStorageF32`.
 #[no_mangle]
-pub unsafe extern "C" fn mfcbeam_model_f32_step(storage: *mut MfcbeamModelF32, u: f32) -> f32 {
+pub unsafe extern "C" fn mfcbeam_model_f32_step(
+    storage: *mut MfcbeamModelStorageF32,
+    u: f32,
+) -> f32 {
     // SAFETY: forwarded from the caller.
     match unsafe { value::<_, ModelF32>(storage) } {
         Some(m) => m.step(u),
@@ -399,10 +407,10 @@ pub unsafe extern "C" fn mfcbeam_model_f32_step(storage: *mut MfcbeamModelF32, u
 /// As [`mfcbeam_model_f32_init`], in `f64`.
 ///
 /// # Safety
-/// As [`mfcbeam_model_f32_init`], for an `MfcbeamModelF64`.
+/// As [`mfcbeam_model_f32_init`], for an `MfcbeamModelStorageF64`.
 #[no_mangle]
 pub unsafe extern "C" fn mfcbeam_model_f64_init(
-    storage: *mut MfcbeamModelF64,
+    storage: *mut MfcbeamModelStorageF64,
     parameters: *const MfcbeamParameters,
     err: *mut c_char,
     err_len: usize,
@@ -414,11 +422,11 @@ pub unsafe extern "C" fn mfcbeam_model_f64_init(
 /// As [`mfcbeam_model_f32_init_json`], in `f64`.
 ///
 /// # Safety
-/// As [`mfcbeam_model_f32_init_json`], for an `MfcbeamModelF64`.
+/// As [`mfcbeam_model_f32_init_json`], for an `MfcbeamModelStorageF64`.
 #[cfg(feature = "std")]
 #[no_mangle]
 pub unsafe extern "C" fn mfcbeam_model_f64_init_json(
-    storage: *mut MfcbeamModelF64,
+    storage: *mut MfcbeamModelStorageF64,
     json: *const c_char,
     err: *mut c_char,
     err_len: usize,
@@ -430,9 +438,12 @@ pub unsafe extern "C" fn mfcbeam_model_f64_init_json(
 /// One sample `W[u]` in `f64`; NaN for NULL or uninitialised storage.
 ///
 /// # Safety
-/// `storage` NULL or an `MfcbeamModelF64`.
+/// `storage` NULL or an `MfcbeamModelStorageF64`.
 #[no_mangle]
-pub unsafe extern "C" fn mfcbeam_model_f64_step(storage: *mut MfcbeamModelF64, u: f64) -> f64 {
+pub unsafe extern "C" fn mfcbeam_model_f64_step(
+    storage: *mut MfcbeamModelStorageF64,
+    u: f64,
+) -> f64 {
     // SAFETY: forwarded from the caller.
     match unsafe { value::<_, ModelF64>(storage) } {
         Some(m) => m.step(u),
@@ -455,9 +466,10 @@ mod tests {
             (words::<ModelF64>(), MFCBEAM_MODEL_F64_WORDS),
         ];
         if cfg!(target_pointer_width = "64") {
-            for (needed, declared) in sizes {
-                assert_eq!(needed, declared);
-            }
+            assert!(
+                sizes.iter().all(|(n, d)| n == d),
+                "needed vs declared: {sizes:?}"
+            );
         }
     }
 }

@@ -5,18 +5,19 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use mfcbeam_rs::operators::compensator::{Compensator, CompensatorSettings};
 use mfcbeam_rs::operators::model::{HysteresisCreepModel, ModelFile};
-use mfcbeam_rs::operators::traits::Operator;
 
 use crate::error::{flags_of, set_flags, write_error, Failure, MFCBEAM_FLAG_INVALID_HANDLE};
 
-/// The model `W` (opaque).
-pub struct MfcbeamModel {
+/// A model `W` on the heap, in `f64` (an opaque handle: made by
+/// `mfcbeam_model_from_json`, released by `mfcbeam_model_free`).
+pub struct MfcbeamModelHandle {
     inner: HysteresisCreepModel,
 }
 
-/// The compensator `W⁻¹` (opaque).
-pub struct MfcbeamCompensator {
-    inner: Compensator,
+/// A compensator `W⁻¹` on the heap, in `f64` (an opaque handle: made by
+/// `mfcbeam_compensator_from_json`, released by `mfcbeam_compensator_free`).
+pub struct MfcbeamCompensatorHandle {
+    inner: Compensator<f64, mfcbeam_rs::operators::heap::Heap>,
 }
 
 /// The model file at `json`, parsed (checked by whoever builds from it).
@@ -67,14 +68,14 @@ pub unsafe extern "C" fn mfcbeam_model_from_json(
     json: *const c_char,
     err: *mut c_char,
     err_len: usize,
-) -> *mut MfcbeamModel {
+) -> *mut MfcbeamModelHandle {
     // SAFETY: forwarded from the caller.
     unsafe {
         construct(err, err_len, || {
             let file = model_file(json)?;
             let inner =
                 HysteresisCreepModel::from_file(&file).map_err(|e| Failure::Text(e.to_string()))?;
-            Ok(MfcbeamModel { inner })
+            Ok(MfcbeamModelHandle { inner })
         })
     }
 }
@@ -84,7 +85,7 @@ pub unsafe extern "C" fn mfcbeam_model_from_json(
 /// # Safety
 /// `model` is NULL or from `mfcbeam_model_from_json` and not yet freed.
 #[no_mangle]
-pub unsafe extern "C" fn mfcbeam_model_step(model: *mut MfcbeamModel, u: f64) -> f64 {
+pub unsafe extern "C" fn mfcbeam_model_step(model: *mut MfcbeamModelHandle, u: f64) -> f64 {
     // SAFETY: NULL or a live handle, by the caller's contract.
     match unsafe { model.as_mut() } {
         Some(m) => m.inner.step(u),
@@ -97,7 +98,7 @@ pub unsafe extern "C" fn mfcbeam_model_step(model: *mut MfcbeamModel, u: f64) ->
 /// # Safety
 /// As [`mfcbeam_model_step`].
 #[no_mangle]
-pub unsafe extern "C" fn mfcbeam_model_reset(model: *mut MfcbeamModel) {
+pub unsafe extern "C" fn mfcbeam_model_reset(model: *mut MfcbeamModelHandle) {
     // SAFETY: as above.
     if let Some(m) = unsafe { model.as_mut() } {
         m.inner.reset();
@@ -109,7 +110,7 @@ pub unsafe extern "C" fn mfcbeam_model_reset(model: *mut MfcbeamModel) {
 /// # Safety
 /// `model` is NULL or from `mfcbeam_model_from_json`, freed once.
 #[no_mangle]
-pub unsafe extern "C" fn mfcbeam_model_free(model: *mut MfcbeamModel) {
+pub unsafe extern "C" fn mfcbeam_model_free(model: *mut MfcbeamModelHandle) {
     if !model.is_null() {
         // SAFETY: created by Box::into_raw, freed once.
         drop(unsafe { Box::from_raw(model) });
@@ -129,7 +130,7 @@ pub unsafe extern "C" fn mfcbeam_compensator_from_json(
     upper: f64,
     err: *mut c_char,
     err_len: usize,
-) -> *mut MfcbeamCompensator {
+) -> *mut MfcbeamCompensatorHandle {
     // SAFETY: forwarded from the caller.
     unsafe {
         construct(err, err_len, || {
@@ -137,9 +138,10 @@ pub unsafe extern "C" fn mfcbeam_compensator_from_json(
             let model =
                 HysteresisCreepModel::from_file(&file).map_err(|e| Failure::Text(e.to_string()))?;
             let settings = CompensatorSettings::with_limits(lower, upper);
-            let inner =
-                Compensator::new(&model, settings).map_err(|e| Failure::Text(e.to_string()))?;
-            Ok(MfcbeamCompensator { inner })
+            let inner = model
+                .compensator(settings)
+                .map_err(|e| Failure::Text(e.to_string()))?;
+            Ok(MfcbeamCompensatorHandle { inner })
         })
     }
 }
@@ -153,7 +155,7 @@ pub unsafe extern "C" fn mfcbeam_compensator_from_json(
 /// `comp` is NULL or a live handle; `flags` is NULL or writable.
 #[no_mangle]
 pub unsafe extern "C" fn mfcbeam_compensate(
-    comp: *mut MfcbeamCompensator,
+    comp: *mut MfcbeamCompensatorHandle,
     target: f64,
     flags: *mut c_int,
 ) -> f64 {
@@ -179,7 +181,7 @@ pub unsafe extern "C" fn mfcbeam_compensate(
 /// # Safety
 /// As [`mfcbeam_compensate`].
 #[no_mangle]
-pub unsafe extern "C" fn mfcbeam_compensator_reset(comp: *mut MfcbeamCompensator) {
+pub unsafe extern "C" fn mfcbeam_compensator_reset(comp: *mut MfcbeamCompensatorHandle) {
     // SAFETY: as above.
     if let Some(c) = unsafe { comp.as_mut() } {
         c.inner.reset();
@@ -191,7 +193,7 @@ pub unsafe extern "C" fn mfcbeam_compensator_reset(comp: *mut MfcbeamCompensator
 /// # Safety
 /// `comp` is NULL or from `mfcbeam_compensator_from_json`, freed once.
 #[no_mangle]
-pub unsafe extern "C" fn mfcbeam_compensator_free(comp: *mut MfcbeamCompensator) {
+pub unsafe extern "C" fn mfcbeam_compensator_free(comp: *mut MfcbeamCompensatorHandle) {
     if !comp.is_null() {
         // SAFETY: created by Box::into_raw, freed once.
         drop(unsafe { Box::from_raw(comp) });

@@ -8,7 +8,7 @@
 //!   `mfcbeam_compensator_from_json` return an opaque pointer, or `NULL`
 //!   with the reason in the caller's `err` buffer. `f64`, any order.
 //! * **Storage the caller owns, configured by parameter arrays**, for targets
-//!   without a heap: `MfcbeamCompensatorF32`/`F64` and `MfcbeamModelF32`/`F64`
+//!   without a heap: `MfcbeamCompensatorStorageF32`/`F64` and `MfcbeamModelStorageF32`/`F64`
 //!   are plain structs of a size fixed at compile time (at most
 //!   `MFCBEAM_MAX_PLAYS` plays and `MFCBEAM_MAX_CREEP` elementary creep
 //!   operators); `mfcbeam_*_init` fills one from an `MfcbeamParameters` and

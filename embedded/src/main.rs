@@ -1,6 +1,6 @@
 //! The paper's Fig. 10 staircase through `W⁻¹` and then `W` on a Cortex-M4
 //! (QEMU `mps2-an386`), in `f32` and in `f64`, with the paper-sized
-//! `PaperCompensator` and `PaperModel` of `mfcbeam::realtime`.
+//! `Compensator` and `Model` of `mfcbeam::realtime` in `nominal::Capacity`.
 //!
 //! Prints, per precision, the worst identity error `max|W[W⁻¹[y]] − y|`
 //! against its rounding bound (`RoundingBounds::identity`), and the cost of
@@ -22,7 +22,7 @@ use core::panic::PanicInfo;
 use cortex_m::peripheral::{syst::SystClkSource, DWT, SYST};
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::{debug, hio};
-use mfcbeam::realtime::{nominal, PaperCompensator, PaperModel, Real, RoundingBounds};
+use mfcbeam::realtime::{nominal, Compensator, CompensatorSettings, Model, Real, RoundingBounds};
 
 /// MPS2's core clock (the SysTick reference with the core clock source).
 const CORE_CLOCK_HZ: u32 = 25_000_000;
@@ -114,8 +114,12 @@ struct Outcome {
 
 fn run<T: Real>(counter: &Counter) -> Outcome {
     let p = &nominal::PARAMETERS;
-    let mut comp = PaperCompensator::<T>::new(p, -1000.0, 1000.0).expect("nominal model");
-    let mut plant = PaperModel::<T>::new(p).expect("nominal model");
+    let mut comp = Compensator::<T, nominal::Capacity>::new(
+        p,
+        CompensatorSettings::with_limits(-1000.0, 1000.0),
+    )
+    .expect("nominal model");
+    let mut plant = Model::<T, nominal::Capacity>::new(p).expect("nominal model");
     let mut o = Outcome {
         identity: 0.0,
         bound: 0.0,
@@ -172,9 +176,9 @@ fn main() -> ! {
     if let Some(o) = out.as_mut() {
         let _ = writeln!(
             o,
-            "mfcbeam on Cortex-M4: Fig. 10 staircase through W^-1 then W, PaperCompensator ({} bytes f32, {} bytes f64)",
-            core::mem::size_of::<PaperCompensator<f32>>(),
-            core::mem::size_of::<PaperCompensator<f64>>()
+            "mfcbeam on Cortex-M4: Fig. 10 staircase through W^-1 then W, Compensator ({} bytes f32, {} bytes f64)",
+            core::mem::size_of::<Compensator<f32, nominal::Capacity>>(),
+            core::mem::size_of::<Compensator<f64, nominal::Capacity>>()
         );
         let _ = writeln!(o, "counter: {} at {} Hz", counter.name(), CORE_CLOCK_HZ);
     }

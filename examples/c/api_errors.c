@@ -27,7 +27,7 @@ int main(void) {
 
     /* JSON constructors: NULL and the reason */
     err[0] = 0;
-    MfcbeamModel *m = mfcbeam_model_from_json("{\"sample_time\": 0.0002, \"hysteresis\": [", err, sizeof err);
+    MfcbeamModelHandle *m = mfcbeam_model_from_json("{\"sample_time\": 0.0002, \"hysteresis\": [", err, sizeof err);
     check(!m && strstr(err, "malformed"), "malformed JSON", err);
     err[0] = 0;
     m = mfcbeam_model_from_json(
@@ -46,7 +46,7 @@ int main(void) {
     m = mfcbeam_model_from_json(NULL, err, sizeof err);
     check(!m && strstr(err, "NULL"), "NULL JSON", err);
     err[0] = 0;
-    MfcbeamCompensator *c = mfcbeam_compensator_from_json(GOOD, 10.0, -10.0, err, sizeof err);
+    MfcbeamCompensatorHandle *c = mfcbeam_compensator_from_json(GOOD, 10.0, -10.0, err, sizeof err);
     check(!c && strstr(err, "limits"), "lower limit above upper", err);
     c = mfcbeam_compensator_from_json(GOOD, NAN, 10.0, err, sizeof err);
     check(!c, "NaN limit", err);
@@ -68,7 +68,7 @@ int main(void) {
     check(1, "reset and free of NULL", NULL);
 
     /* caller-owned storage */
-    static MfcbeamCompensatorF32 zeroed;
+    static MfcbeamCompensatorStorageF32 zeroed;
     float v = mfcbeam_compensate_f32(&zeroed, 1.0f, &flags);
     check(isnan(v) && flags == MFCBEAM_FLAG_INVALID_HANDLE, "uninitialised storage", NULL);
     v = mfcbeam_compensate_f32(NULL, 1.0f, &flags);
@@ -77,8 +77,8 @@ int main(void) {
     const double r[2] = {0.0, 100.0}, w[2] = {0.5, 0.25};
     const double rc[1] = {0.0}, wc[1] = {0.05}, a[2] = {50.0, 0.5};
     MfcbeamParameters p = {0.0002, r, w, 2, rc, wc, 1, a, 2, 0.0};
-    static MfcbeamCompensatorF32 comp;
-    static MfcbeamModelF32 plant;
+    static MfcbeamCompensatorStorageF32 comp;
+    static MfcbeamModelStorageF32 plant;
     err[0] = 0;
     check(mfcbeam_compensator_f32_init(&comp, &p, -500.0, 500.0, err, sizeof err) == 0, "init from arrays", err);
     err[0] = 0;
@@ -111,7 +111,7 @@ int main(void) {
     double many[MFCBEAM_MAX_PLAYS + 1], ones[MFCBEAM_MAX_PLAYS + 1];
     for (int i = 0; i <= MFCBEAM_MAX_PLAYS; i++) many[i] = i, ones[i] = 1.0;
     MfcbeamParameters big = {0.0002, many, ones, MFCBEAM_MAX_PLAYS + 1, NULL, NULL, 0, NULL, 0, 0.0};
-    static MfcbeamCompensatorF64 comp64;
+    static MfcbeamCompensatorStorageF64 comp64;
     err[0] = 0;
     check(mfcbeam_compensator_f64_init(&comp64, &big, -1.0, 1.0, err, sizeof err) == -1 && strstr(err, "capacity"),
           "beyond the capacity", err);

@@ -10,7 +10,7 @@
  * `simulate` appends y = W[u] to the input's columns, `compensate` appends
  * u = W^-1[y_d] and `saturated`. Without --f32 it uses the heap handles
  * (mfcbeam_model_from_json, mfcbeam_compensator_from_json, f64); with --f32
- * the caller-owned storage (MfcbeamModelF32, MfcbeamCompensatorF32) that a
+ * the caller-owned storage (MfcbeamModelStorageF32, MfcbeamCompensatorStorageF32) that a
  * target without a heap would use. Errors: one line on stderr, exit 2, no
  * output file.
  */
@@ -113,16 +113,16 @@ int main(int argc, char **argv) {
     char err[512];
 
     if (simulate && !single) {
-        MfcbeamModel *w = mfcbeam_model_from_json(json, err, sizeof err);
+        MfcbeamModelHandle *w = mfcbeam_model_from_json(json, err, sizeof err);
         if (!w) die(model, err);
         for (size_t k = 0; k < t.rows; k++) out[k] = mfcbeam_model_step(w, t.values[k]);
         mfcbeam_model_free(w);
     } else if (simulate) {
-        static MfcbeamModelF32 w;
+        static MfcbeamModelStorageF32 w;
         if (mfcbeam_model_f32_init_json(&w, json, err, sizeof err) != 0) die(model, err);
         for (size_t k = 0; k < t.rows; k++) out[k] = mfcbeam_model_f32_step(&w, (float)t.values[k]);
     } else if (!single) {
-        MfcbeamCompensator *c = mfcbeam_compensator_from_json(json, lower, upper, err, sizeof err);
+        MfcbeamCompensatorHandle *c = mfcbeam_compensator_from_json(json, lower, upper, err, sizeof err);
         if (!c) die(model, err);
         for (size_t k = 0; k < t.rows; k++) {
             int flags = 0;
@@ -131,7 +131,7 @@ int main(int argc, char **argv) {
         }
         mfcbeam_compensator_free(c);
     } else {
-        static MfcbeamCompensatorF32 c;
+        static MfcbeamCompensatorStorageF32 c;
         if (mfcbeam_compensator_f32_init_json(&c, json, lower, upper, err, sizeof err) != 0) die(model, err);
         for (size_t k = 0; k < t.rows; k++) {
             int flags = 0;

@@ -26,8 +26,8 @@ static const double CREEP_WEIGHTS[12] = {0.08,  0.006, 0.005, 0.004, 0.003, 0.00
                                          0.002, 0.001, 0.001, 0.001, 0.001, 0.001};
 static const double EIGENVALUES[5] = {500.0, 50.0, 5.0, 0.5, 0.05};
 
-static MfcbeamCompensatorF32 compensator; /* zeroed: refused until init */
-static MfcbeamModelF32 plant;
+static MfcbeamCompensatorStorageF32 compensator; /* zeroed: refused until init */
+static MfcbeamModelStorageF32 plant;
 
 int main(void) {
     const MfcbeamParameters p = {

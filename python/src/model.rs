@@ -166,7 +166,7 @@ impl Model {
 #[pyclass(module = "mfcbeam", name = "Compensator")]
 #[derive(Clone)]
 pub struct Compensator {
-    inner: compensator::Compensator,
+    inner: compensator::Compensator<f64, mfcbeam::operators::heap::Heap>,
 }
 
 #[pymethods]
@@ -177,11 +177,8 @@ impl Compensator {
         text_signature = "(model, limits=(-1000.0, 1000.0))"
     )]
     fn new(model: &Model, limits: Option<(f64, f64)>) -> PyResult<Self> {
-        let settings = match limits {
-            Some((lo, hi)) => CompensatorSettings::with_limits(lo, hi),
-            None => CompensatorSettings::unlimited(),
-        };
-        let inner = compensator::Compensator::new(&model.inner, settings).map_err(value_error)?;
+        let settings = CompensatorSettings::from_limits(limits);
+        let inner = model.inner.compensator(settings).map_err(value_error)?;
         Ok(Self { inner })
     }
 
@@ -201,21 +198,16 @@ impl Compensator {
     )> {
         let y_d = signal("y_d", y_d)?;
         let inner = &mut self.inner;
-        let (u, saturated, fault) = py.detach(move || {
-            let n = y_d.len();
-            let (mut u, mut saturated, mut fault) = (
-                Vec::with_capacity(n),
-                Vec::with_capacity(n),
-                Vec::with_capacity(n),
-            );
-            for &target in &y_d {
-                let c = inner.compensate(target);
-                u.push(c.u);
-                saturated.push(c.saturated);
-                fault.push(c.fault);
-            }
-            (u, saturated, fault)
-        });
+        let (u, saturated, fault) = py
+            .detach(move || {
+                let n = y_d.len();
+                let (mut u, mut saturated, mut fault) =
+                    (vec![0.0; n], vec![false; n], vec![false; n]);
+                inner
+                    .compensate_into(&y_d, &mut u, &mut saturated, &mut fault)
+                    .map(|_| (u, saturated, fault))
+            })
+            .map_err(value_error)?;
         Ok((
             to_numpy(py, u),
             to_numpy(py, saturated),

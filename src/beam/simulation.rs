@@ -273,7 +273,7 @@ impl HammersteinPlant {
 /// chain is linear, `y = beam[ς_d]` while the compensator is not saturated.
 #[derive(Debug, Clone)]
 pub struct CompensatedPlant {
-    pub compensator: crate::operators::compensator::Compensator,
+    pub compensator: crate::operators::compensator::Compensator<f64, crate::operators::heap::Heap>,
     pub plant: HammersteinPlant,
 }
 

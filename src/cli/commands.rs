@@ -10,7 +10,7 @@ use mfcbeam::beam::step_response_fit::{modal_model, simulate_response, FitParame
 use mfcbeam::beam::BeamParameters;
 use mfcbeam::identification::{identify as identify_model, IdentificationSettings};
 use mfcbeam::io::{read_beam, read_model, write_atomic, write_json, Trace};
-use mfcbeam::operators::compensator::{Compensator, CompensatorSettings};
+use mfcbeam::operators::compensator::CompensatorSettings;
 use mfcbeam::operators::nominal::SAMPLE_TIME;
 use mfcbeam::operators::traits::Operator;
 use mfcbeam::suite::signal::{time_axis, Staircase};
@@ -49,20 +49,15 @@ fn simulate(a: &SimulateArgs) -> Result<()> {
 
 fn compensate(a: &CompensateArgs) -> Result<()> {
     let model = read_model(&a.files.model)?;
-    let settings = if a.no_limits {
-        CompensatorSettings::unlimited()
-    } else if let Some((lo, hi)) = a.limits {
-        CompensatorSettings::with_limits(lo, hi)
-    } else {
-        CompensatorSettings::default()
-    };
-    let mut comp = Compensator::new(&model, settings).context("--limits")?;
+    let settings = CompensatorSettings::from_options(a.limits, a.no_limits);
+    let mut comp = model.compensator(settings).context("--limits")?;
     let mut trace = Trace::read(&a.files.input)?;
     trace.check_time_column(model.sample_time())?;
     let y_d = trace.column("y_d")?;
     let mut u = vec![0.0; y_d.len()];
     let mut sat = vec![false; y_d.len()];
-    let count = comp.compensate_into(&y_d, &mut u, &mut sat)?;
+    let mut fault = vec![false; y_d.len()];
+    let (count, _) = comp.compensate_into(&y_d, &mut u, &mut sat, &mut fault)?;
     trace.push_column("u", &u)?;
     trace.push_text_column(
         "saturated",

@@ -28,7 +28,7 @@ use crate::beam::simulation::DiagonalForm;
 use crate::beam::BeamError;
 use crate::error::ModelError;
 use crate::feedforward::trajectory::{Trajectory, TrajectoryError};
-use crate::operators::compensator::{Compensator, CompensatorSettings};
+use crate::operators::compensator::CompensatorSettings;
 use crate::operators::model::HysteresisCreepModel;
 use crate::operators::supply::Supply;
 
@@ -208,6 +208,12 @@ pub enum FeedforwardError {
     Invalid { field: &'static str, reason: String },
 }
 
+impl From<crate::realtime::ParameterError> for FeedforwardError {
+    fn from(e: crate::realtime::ParameterError) -> Self {
+        Self::Model(e.into())
+    }
+}
+
 /// A sampled feedforward design.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Feedforward {
@@ -317,7 +323,7 @@ pub fn compensate(
     supply: &Supply,
 ) -> Result<CompensatedFeedforward, FeedforwardError> {
     let (lo, hi) = supply.balanced_limits();
-    let mut comp = Compensator::new(model, CompensatorSettings::with_limits(lo, hi))?;
+    let mut comp = model.compensator(CompensatorSettings::with_limits(lo, hi))?;
     let mut out = CompensatedFeedforward {
         u: Vec::with_capacity(u_d.len()),
         u_fs: Vec::with_capacity(u_d.len()),

@@ -219,7 +219,7 @@ impl FitPlan {
             )?)
         };
         Ok(
-            HysteresisCreepModel::new(self.sample_time, hysteresis, creep)?
+            HysteresisCreepModel::from_parts(self.sample_time, hysteresis, creep)?
                 .with_offset(solution.offset),
         )
     }
@@ -238,7 +238,7 @@ impl Regression {
     fn of(u: &[f64], y: &[f64], plan: &FitPlan) -> Result<Self, IdentificationError> {
         let creep = if plan.nc > 0 {
             Some(CreepOperator::new(
-                plan.r_c[..plan.nc].to_vec(),
+                &plan.r_c[..plan.nc],
                 vec![0.0; plan.nc],
                 plan.eigenvalues.clone(),
                 plan.sample_time,

@@ -51,7 +51,7 @@ pub(crate) fn regressor_factor(
             if keep {
                 c.log_creep_outputs_into(&mut creep_row);
             }
-            c.advance_state(v);
+            c.advance(v);
         }
         if !keep {
             continue;

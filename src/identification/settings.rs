@@ -40,6 +40,12 @@ pub enum IdentificationError {
     Model(#[from] ModelError),
 }
 
+impl From<crate::realtime::ParameterError> for IdentificationError {
+    fn from(e: crate::realtime::ParameterError) -> Self {
+        Self::Model(e.into())
+    }
+}
+
 /// Orders, thresholds, eigenvalues and margin of an identification.
 #[derive(Debug, Clone, PartialEq)]
 pub struct IdentificationSettings {
@@ -120,7 +126,7 @@ impl IdentificationSettings {
         let check =
             |field: &'static str, r: &Option<Vec<f64>>| -> Result<(), IdentificationError> {
                 if let Some(r) = r {
-                    crate::operators::hysteresis::check_thresholds(field, r).map_err(|e| {
+                    crate::realtime::parameters::check_thresholds(field, r).map_err(|e| {
                         IdentificationError::InvalidSetting {
                             field,
                             reason: e.to_string(),

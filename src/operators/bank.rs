@@ -6,7 +6,7 @@
 //! step runs each element over a
 //! block of channels (4 in `f64`, 8 in `f32`: one AVX register), so SIMD goes
 //! across channels and no channel waits for another. Each channel does the
-//! arithmetic of [`FixedCompensator`](crate::realtime::FixedCompensator) in
+//! arithmetic of [`Compensator`](crate::realtime::Compensator) in
 //! the same order, so channel `c` of a bank and a single compensator of the
 //! same model give the same bits (`verification/bank.rs`). The channels may
 //! share one model or each have their own; all have the same orders.
@@ -19,10 +19,11 @@ use crate::realtime::creep::creep_gain;
 use crate::realtime::error::ParameterError;
 use crate::realtime::hysteresis::reduce;
 use crate::realtime::inverse::inverse_parameters_into;
-use crate::realtime::parameters::{check_length, check_limits, ModelParameters};
+use crate::realtime::parameters::{check_length, ModelParameters};
 use crate::realtime::play::{clamp, play};
 use crate::realtime::real::Real;
 use crate::realtime::simd::dispatch;
+use crate::realtime::CompensatorSettings;
 
 /// Channels are padded to a multiple of this (the widest block).
 const PAD: usize = 8;
@@ -68,34 +69,32 @@ pub struct CompensatorBank<T: Real> {
 
 impl<T: Real> CompensatorBank<T> {
     /// `channels` compensators of one model, virgin, with output limits
-    /// `lower < upper`.
+    /// `settings`.
     pub fn uniform(
         model: &ModelParameters<'_>,
         channels: usize,
-        lower: f64,
-        upper: f64,
+        settings: CompensatorSettings,
     ) -> Result<Self, ParameterError> {
-        Self::build(core::slice::from_ref(model), channels, true, lower, upper)
+        Self::build(core::slice::from_ref(model), channels, true, settings)
     }
 
     /// One compensator per model in `models` (all of the same orders),
-    /// virgin, with output limits `lower < upper`.
+    /// virgin, with output limits `settings`.
     pub fn new(
         models: &[ModelParameters<'_>],
-        lower: f64,
-        upper: f64,
+        settings: CompensatorSettings,
     ) -> Result<Self, ParameterError> {
-        Self::build(models, models.len(), false, lower, upper)
+        Self::build(models, models.len(), false, settings)
     }
 
     fn build(
         models: &[ModelParameters<'_>],
         channels: usize,
         shared: bool,
-        lower: f64,
-        upper: f64,
+        settings: CompensatorSettings,
     ) -> Result<Self, ParameterError> {
-        check_limits(lower, upper)?;
+        settings.validate()?;
+        let (lower, upper) = (settings.lower_limit, settings.upper_limit);
         if channels == 0 {
             return Err(ParameterError::Empty {
                 field: "bank.channels",
@@ -273,7 +272,7 @@ impl<T: Real> CompensatorBank<T> {
         }
     }
 
-    /// Channels `c0..c0 + W`: what `FixedCompensator::compensate` does, lane
+    /// Channels `c0..c0 + W`: what `Compensator::compensate` does, lane
     /// by lane, in its order of operations.
     #[inline(always)]
     fn step_block<const W: usize>(&mut self, c0: usize, avx: bool) {

@@ -1,80 +1,47 @@
-//! The real-time hysteresis and creep compensator `W⁻¹`, equation (21).
-//!
-//! `v_k = H⁻¹[ς_k − C_k]`, where `C_k` is the creep output at step `k`. Because
-//! the time-discrete creep operator (20) has a one-sample delay, `C_k` depends
-//! only on `v_{k−1}` and the creep state, so (21) is explicit: no iteration.
-//! The compensator keeps its own copy of the creep state and of the inverse
-//! hysteresis state (from the transformation rules (22)), so that from matched
-//! states `W[W⁻¹[ς]] = ς` and `W⁻¹[W[v]] = v` hold to rounding.
-//!
-//! With a model offset (`y = W[v] + offset`) the target is `ς_k − offset`.
-//!
-//! A non-finite target never enters the state: the previous output is held
-//! and the sample flagged as a fault ([`Compensated::fault`]).
-//!
-//! Saturation: the output is clipped to the configured limits (default: the
-//! balanced supply range `[−1000, 1000]` V of (1)) and every clipped sample is
-//! flagged. After a clipped sample the compensator recovers the plant's plays
-//! from its inverse ones (the state rule of (22) solved backwards), advances
-//! them with the clipped value and rebuilds the inverse state from them by
-//! (22), so its state is the one the plant has after receiving the clipped
-//! value and the identity resumes as soon as the target is reachable.
+//! The compensator `W⁻¹` (21) with the `std` conveniences: built from a
+//! model file or a model, the object-safe [`ActuatorCompensator`],
+//! [`Operator`] and [`Snapshot`] traits. The compensator itself is
+//! [`crate::realtime::Compensator`]: `v_k = H⁻¹[ς_k − offset − C_k]`,
+//! explicit because the time-discrete creep operator (20) has a one-sample
+//! delay; clipped to [`CompensatorSettings`] with every clipped sample
+//! flagged; a non-finite target holds the last output and is flagged as a
+//! fault.
 
 use crate::error::ModelError;
-use crate::operators::creep::CreepOperator;
-use crate::operators::hysteresis::{
-    check_admissible, check_finite, check_length, HysteresisOperator,
-};
-use crate::operators::model::HysteresisCreepModel;
+use crate::operators::model::ModelFile;
 use crate::operators::traits::{ActuatorCompensator, Operator, Snapshot};
-use crate::realtime::compensator::{invert_saturating, HysteresisPair};
+use crate::realtime::{Model, ParameterError, Real, Storage};
 
-/// Saturation limits of the compensator output (balanced voltage, V).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CompensatorSettings {
-    /// Lowest output; `-inf` for none.
-    pub lower_limit: f64,
-    /// Highest output; `+inf` for none.
-    pub upper_limit: f64,
-}
+pub use crate::realtime::{Compensated, Compensator, CompensatorSettings};
 
-impl Default for CompensatorSettings {
-    /// The balanced supply range: `[−1000, 1000]` V.
-    fn default() -> Self {
-        Self {
-            lower_limit: -1000.0,
-            upper_limit: 1000.0,
-        }
+impl<S: Storage> Model<f64, S> {
+    /// The compensator of this model in the same storage, matched to the
+    /// model's current state.
+    pub fn compensator(
+        &self,
+        settings: CompensatorSettings,
+    ) -> Result<Compensator<f64, S>, ParameterError> {
+        Compensator::of(self, settings)
     }
 }
 
-impl CompensatorSettings {
-    /// No saturation at all.
-    pub fn unlimited() -> Self {
-        Self {
-            lower_limit: f64::NEG_INFINITY,
-            upper_limit: f64::INFINITY,
+impl<T: Real, S: Storage> Compensator<T, S> {
+    /// `W⁻¹` of a model file, matched to the file's state.
+    pub fn from_file(file: &ModelFile, settings: CompensatorSettings) -> Result<Self, ModelError> {
+        let mut comp = Self::new(&file.parameters(), settings)?;
+        let creep = file.creep_state_flat()?;
+        if file.hysteresis.state.is_some() || creep.is_some() {
+            let zeros = vec![0.0; file.hysteresis.thresholds.len()];
+            let x = file.hysteresis.state.as_deref().unwrap_or(&zeros);
+            comp.set_model_state(x, creep.as_deref())?;
         }
-    }
-
-    /// Limits `[lower, upper]`.
-    pub fn with_limits(lower_limit: f64, upper_limit: f64) -> Self {
-        Self {
-            lower_limit,
-            upper_limit,
-        }
-    }
-
-    /// `lower < upper`, neither NaN.
-    pub fn validate(&self) -> Result<(), ModelError> {
-        Ok(crate::realtime::parameters::check_limits(
-            self.lower_limit,
-            self.upper_limit,
-        )?)
+        Ok(comp)
     }
 }
 
-pub use crate::operators::traits::Compensated;
+fn to_f64<T: Real>(x: &[T]) -> Vec<f64> {
+    x.iter().map(|v| v.to_f64()).collect()
+}
 
 /// Everything the compensator's next output depends on.
 #[derive(Debug, Clone, PartialEq)]
@@ -87,176 +54,13 @@ pub struct CompensatorState {
     pub creep: Option<Vec<Vec<f64>>>,
 }
 
-/// The compensator `W⁻¹` (21) of a [`HysteresisCreepModel`].
-#[derive(Debug, Clone)]
-pub struct Compensator {
-    settings: CompensatorSettings,
-    inverse: HysteresisOperator,
-    forward_thresholds: Vec<f64>,
-    forward_weights: Vec<f64>,
-    forward_sums: Vec<f64>,
-    /// Room for the plant's play states, used after a clipped sample.
-    scratch: Vec<f64>,
-    /// The last emitted value, held for a non-finite target.
-    last_u: f64,
-    creep: Option<CreepOperator>,
-    /// The model's output offset, subtracted from every target.
-    offset: f64,
-}
-
-impl Compensator {
-    /// The compensator of `model`, starting from the model's current state
-    /// (matched states).
-    pub fn new(
-        model: &HysteresisCreepModel,
-        settings: CompensatorSettings,
-    ) -> Result<Self, ModelError> {
-        settings.validate()?;
-        let h = model.hysteresis();
-        Ok(Self {
-            settings,
-            inverse: h.inverse(),
-            forward_thresholds: h.thresholds().to_vec(),
-            forward_weights: h.weights().to_vec(),
-            forward_sums: h.partial_sums(),
-            scratch: vec![0.0; h.play_states().len()],
-            last_u: h.play_states()[0],
-            creep: model.creep().cloned(),
-            offset: model.offset(),
-        })
-    }
-
-    /// The limits in force.
-    pub fn settings(&self) -> &CompensatorSettings {
-        &self.settings
-    }
-
-    /// The plays of the plant's `H` that match the inverse plays (22).
-    fn forward_state(&self) -> Vec<f64> {
-        let mut x = self.inverse.play_states().to_vec();
-        crate::realtime::inverse::forward_state_in_place(&self.forward_sums, &mut x);
-        x
-    }
-
-    /// The inverse hysteresis operator `H⁻¹` with its current state.
-    pub fn inverse_hysteresis(&self) -> &HysteresisOperator {
-        &self.inverse
-    }
-
-    /// One sample of (21): the voltage that makes `W` produce `target`, clipped
-    /// to the limits. Allocation-free, no I/O.
-    #[inline]
-    pub fn compensate(&mut self, target: f64) -> Compensated {
-        crate::realtime::simd::dispatch(|| self.compensate_with::<true>(target))
-    }
-
-    /// [`Compensator::compensate`] compiled for the caller's instruction set,
-    /// without run-time dispatch (the same bits).
-    #[doc(hidden)]
-    #[inline(always)]
-    pub fn compensate_portable(&mut self, target: f64) -> Compensated {
-        self.compensate_with::<false>(target)
-    }
-
-    #[inline(always)]
-    fn compensate_with<const SIMD: bool>(&mut self, target: f64) -> Compensated {
-        if !target.is_finite() {
-            return self.hold();
-        }
-        let c = match &self.creep {
-            Some(op) => op.output(),
-            None => 0.0,
-        };
-        let (inv_thresholds, inv_weights, inv_state) = self.inverse.parts_mut();
-        let (u, saturated) = invert_saturating::<f64, SIMD>(
-            HysteresisPair {
-                inv_thresholds,
-                inv_weights,
-                inv_state,
-                thresholds: &self.forward_thresholds,
-                weights: &self.forward_weights,
-                sums: &self.forward_sums,
-                scratch: &mut self.scratch,
-            },
-            target - self.offset - c,
-            self.settings.lower_limit,
-            self.settings.upper_limit,
-        );
-        self.last_u = u;
-        if let Some(op) = &mut self.creep {
-            op.advance_with::<SIMD>(u);
-        }
-        Compensated {
-            u,
-            saturated,
-            fault: false,
-        }
-    }
-
-    /// A non-finite target: emit the previous output again. The plays see
-    /// the same input (no change); the creep advances with it, as the
-    /// plant's does.
-    #[cold]
-    fn hold(&mut self) -> Compensated {
-        let u = self.last_u;
-        if let Some(op) = &mut self.creep {
-            op.advance(u);
-        }
-        Compensated {
-            u,
-            saturated: false,
-            fault: true,
-        }
-    }
-
-    /// Return to the virgin state (forward plays, inverse plays and creep).
-    pub fn reset(&mut self) {
-        self.last_u = 0.0;
-        self.inverse.reset();
-        if let Some(c) = &mut self.creep {
-            c.reset();
-        }
-    }
-
-    /// Compensate a whole signal into caller buffers; returns the number of
-    /// saturated samples.
-    pub fn compensate_into(
-        &mut self,
-        targets: &[f64],
-        u: &mut [f64],
-        saturated: &mut [bool],
-    ) -> Result<usize, crate::error::DimensionError> {
-        for (what, len) in [
-            ("output buffer", u.len()),
-            ("saturation buffer", saturated.len()),
-        ] {
-            if len != targets.len() {
-                return Err(crate::error::DimensionError {
-                    what,
-                    expected: targets.len(),
-                    found: len,
-                });
-            }
-        }
-        // one instruction-set dispatch for the whole signal
-        Ok(crate::realtime::simd::dispatch(|| {
-            let mut count = 0;
-            for ((&t, u), s) in targets.iter().zip(u.iter_mut()).zip(saturated.iter_mut()) {
-                let out = self.compensate_with::<true>(t);
-                *u = out.u;
-                *s = out.saturated;
-                count += usize::from(out.saturated);
-            }
-            count
-        }))
-    }
-}
-
-impl Operator for Compensator {
-    /// The compensated voltage; use [`Compensator::compensate`] for the flag.
+impl<T: Real, S: Storage> Operator for Compensator<T, S> {
+    /// The compensated voltage; use [`Compensator::compensate`] for the flags.
     #[inline]
     fn step(&mut self, target: f64) -> f64 {
-        self.compensate(target).u
+        Compensator::compensate(self, T::from_f64(target))
+            .u
+            .to_f64()
     }
 
     fn reset(&mut self) {
@@ -264,10 +68,15 @@ impl Operator for Compensator {
     }
 }
 
-impl ActuatorCompensator for Compensator {
+impl<T: Real, S: Storage> ActuatorCompensator for Compensator<T, S> {
     #[inline]
     fn compensate(&mut self, target: f64) -> Compensated {
-        Compensator::compensate(self, target)
+        let c = Compensator::compensate(self, T::from_f64(target));
+        Compensated {
+            u: c.u.to_f64(),
+            saturated: c.saturated,
+            fault: c.fault,
+        }
     }
 
     fn reset(&mut self) {
@@ -275,29 +84,38 @@ impl ActuatorCompensator for Compensator {
     }
 }
 
-impl Snapshot for Compensator {
+impl<T: Real, S: Storage> Snapshot for Compensator<T, S> {
     type State = CompensatorState;
 
     fn state(&self) -> CompensatorState {
+        let mut forward = self.inverse.play_states().to_vec();
+        self.forward_state_into(&mut forward)
+            .expect("one value per play");
         CompensatorState {
-            forward: self.forward_state(),
-            inverse: self.inverse.state(),
-            creep: self.creep.as_ref().map(|c| c.state()),
+            forward: to_f64(&forward),
+            inverse: to_f64(self.inverse.play_states()),
+            creep: self.creep.as_ref().map(Snapshot::state),
         }
     }
 
     fn set_state(&mut self, state: &CompensatorState) -> Result<(), ModelError> {
-        let n = self.forward_thresholds.len();
-        check_length("compensator.forward", n, state.forward.len())?;
-        check_finite("compensator.forward", &state.forward)?;
-        check_admissible(
-            "compensator.forward",
-            &self.forward_thresholds,
-            &state.forward,
-        )?;
-        let mut creep = self.creep.clone();
-        match (&mut creep, &state.creep) {
-            (Some(c), Some(s)) => c.set_state(s)?,
+        let n = self.inverse.len();
+        let named = |field: &'static str| move |e: ParameterError| e.named(field);
+        crate::realtime::parameters::check_length("", n, state.forward.len())
+            .map_err(named("compensator.forward"))?;
+        // the plays of H⁻¹ are implied by those of H (22): both must agree
+        // to rounding, amplified at most by the ratio of the slopes
+        let mut trial = self.clone();
+        trial
+            .set_model_state(&state.forward, None)
+            .map_err(|e| match e {
+                ParameterError::NonFinite { .. } | ParameterError::InadmissibleState { .. } => {
+                    e.named("compensator.forward")
+                }
+                e => e.into(),
+            })?;
+        match (&mut trial.creep, &state.creep) {
+            (Some(c), Some(s)) => Snapshot::set_state(c, s)?,
             (None, None) => {}
             _ => {
                 return Err(ModelError::Inconsistent {
@@ -306,23 +124,18 @@ impl Snapshot for Compensator {
                 })
             }
         }
-        let mut inverse = self.inverse.clone();
-        inverse.set_state(&state.inverse)?;
-        // The plays of H are implied by those of H⁻¹ (22): both must agree
-        // to rounding, amplified at most by the ratio of the slopes.
-        let mut expected = vec![0.0; n];
-        crate::realtime::inverse::inverse_state_into(
-            &self.forward_weights,
-            &self.forward_sums,
-            &state.forward,
-            &mut expected,
-        );
-        let (s_min, s_max) = self
-            .forward_sums
+        crate::realtime::parameters::check_length("", n, state.inverse.len())
+            .map_err(named("compensator.inverse"))?;
+        crate::realtime::parameters::check_finite("", &state.inverse)
+            .map_err(named("compensator.inverse"))?;
+        let expected = to_f64(trial.inverse.play_states());
+        let sums = to_f64(&self.sums);
+        let (s_min, s_max) = sums
             .iter()
             .fold((f64::INFINITY, 0.0f64), |(a, b), &s| (a.min(s), b.max(s)));
         let scale = state.inverse.iter().fold(1.0f64, |m, x| m.max(x.abs()));
-        let tolerance = 8.0 * (n as f64 + 1.0) * f64::EPSILON * scale * (1.0 + s_max / s_min);
+        let tolerance =
+            8.0 * (n as f64 + 1.0) * T::EPSILON.to_f64() * scale * (1.0 + s_max / s_min);
         if let Some(j) = (0..n).find(|&j| (expected[j] - state.inverse[j]).abs() > tolerance) {
             return Err(ModelError::Inconsistent {
                 field: format!("compensator.inverse[{j}]"),
@@ -332,9 +145,11 @@ impl Snapshot for Compensator {
                 ),
             });
         }
-        self.last_u = state.forward[0];
-        self.inverse = inverse;
-        self.creep = creep;
+        // the inverse plays as given (they agree with (22) to rounding)
+        for (x, &v) in trial.inverse.state_mut().iter_mut().zip(&state.inverse) {
+            *x = T::from_f64(v);
+        }
+        *self = trial;
         Ok(())
     }
 }

@@ -15,34 +15,9 @@
 //! up to rounding). `H⁻¹[H[v]] = v` and `H[H⁻¹[y]] = y` hold for admissible,
 //! matched states.
 
-use crate::operators::hysteresis::{partial_sums, HysteresisOperator};
-
-pub use crate::realtime::inverse::{inverse_parameters_into, inverse_state_into};
-
-impl HysteresisOperator {
-    /// The inverse operator `H⁻¹` with its transformed state, by (22).
-    ///
-    /// Always exists: the constructor and `set_state` guarantee (11), (12) and
-    /// admissibility.
-    pub fn inverse(&self) -> HysteresisOperator {
-        let n = self.len();
-        let mut r = vec![0.0; n];
-        let mut w = vec![0.0; n];
-        inverse_parameters_into(self.thresholds(), self.weights(), &mut r, &mut w);
-        let mut x = vec![0.0; n];
-        inverse_state_into(
-            self.weights(),
-            &partial_sums(self.weights()),
-            self.play_states(),
-            &mut x,
-        );
-        HysteresisOperator::from_trusted_parts(r, w, x)
-    }
-}
-
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use crate::operators::hysteresis::HysteresisOperator;
 
     #[test]
     fn rules_are_an_involution() {

@@ -10,10 +10,10 @@
 //! ones here, the naive references in [`crate::suite::reference`] and your
 //! own — implements, so that one property suite checks them all.
 
-mod adapters;
 pub mod bank;
 pub mod compensator;
 pub mod creep;
+pub mod heap;
 pub mod hysteresis;
 pub mod inverse;
 pub mod model;

@@ -9,9 +9,14 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::ModelError;
-use crate::operators::creep::CreepOperator;
-use crate::operators::hysteresis::HysteresisOperator;
+use crate::operators::heap::Heap;
 use crate::operators::traits::{ActuatorModel, Operator, Snapshot};
+use crate::realtime::{
+    CreepParameters, HysteresisParameters, Model, ModelParameters, Real, Storage,
+};
+
+/// `W = H + C + offset` in `f64` on the heap: what most programs use.
+pub type HysteresisCreepModel = Model<f64, Heap>;
 
 /// The hysteresis part of a model file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -68,165 +73,115 @@ pub struct ModelState {
     pub creep: Option<Vec<Vec<f64>>>,
 }
 
-/// The operator `W = H + C` (6).
-#[derive(Debug, Clone, PartialEq)]
-pub struct HysteresisCreepModel {
-    sample_time: f64,
-    offset: f64,
-    hysteresis: HysteresisOperator,
-    creep: Option<CreepOperator>,
-}
-
-impl HysteresisCreepModel {
-    /// Combine a hysteresis operator and an optional creep operator. The creep
-    /// operator's sample time must equal `sample_time`.
-    pub fn new(
-        sample_time: f64,
-        hysteresis: HysteresisOperator,
-        creep: Option<CreepOperator>,
-    ) -> Result<Self, ModelError> {
-        crate::realtime::parameters::check_sample_time(sample_time)?;
-        if let Some(c) = &creep {
-            if c.sample_time() != sample_time {
-                return Err(ModelError::Inconsistent {
-                    field: "creep".into(),
-                    reason: format!(
-                        "creep sample time {} differs from the model's {}",
-                        c.sample_time(),
-                        sample_time
-                    ),
-                });
-            }
-        }
-        Ok(Self {
-            sample_time,
-            offset: 0.0,
-            hysteresis,
-            creep,
-        })
-    }
-
-    /// Validate a model file and build the model with its state.
-    pub fn from_file(file: &ModelFile) -> Result<Self, ModelError> {
-        crate::realtime::parameters::check_sample_time(file.sample_time)?;
-        let h = &file.hysteresis;
-        let mut hysteresis = HysteresisOperator::new(h.thresholds.clone(), h.weights.clone())?;
-        if let Some(s) = &h.state {
-            hysteresis.set_state(s)?;
-        }
-        let creep = match &file.creep {
-            None => None,
-            Some(c) => {
-                let mut op = CreepOperator::new(
-                    c.thresholds.clone(),
-                    c.weights.clone(),
-                    c.eigenvalues.clone(),
-                    file.sample_time,
-                )?;
-                if let Some(s) = &c.state {
-                    op.set_state(s)?;
-                }
-                Some(op)
-            }
-        };
-        let offset = file.offset.unwrap_or(0.0);
-        crate::realtime::parameters::check_finite("offset", core::slice::from_ref(&offset))?;
-        Ok(Self::new(file.sample_time, hysteresis, creep)?.with_offset(offset))
-    }
-
-    /// The same model with output offset `offset`: `y = W[u] + offset`.
-    pub fn with_offset(mut self, offset: f64) -> Self {
-        self.offset = offset;
-        self
-    }
-
-    /// The output offset.
-    pub fn offset(&self) -> f64 {
-        self.offset
-    }
-
-    /// The model file of this model, with its current state.
-    pub fn to_file(&self) -> ModelFile {
-        ModelFile {
+impl ModelFile {
+    /// The parameters of the model (its states not included), borrowed, as
+    /// the core's constructors and the bank take them.
+    pub fn parameters(&self) -> ModelParameters<'_> {
+        ModelParameters {
             sample_time: self.sample_time,
-            hysteresis: HysteresisData {
-                thresholds: self.hysteresis.thresholds().to_vec(),
-                weights: self.hysteresis.weights().to_vec(),
-                state: Some(self.hysteresis.state()),
+            hysteresis: HysteresisParameters {
+                thresholds: &self.hysteresis.thresholds,
+                weights: &self.hysteresis.weights,
             },
-            creep: self.creep.as_ref().map(|c| CreepData {
-                thresholds: c.thresholds().to_vec(),
-                weights: c.weights().to_vec(),
-                eigenvalues: c.eigenvalues().to_vec(),
-                state: Some(c.state()),
+            creep: self.creep.as_ref().map(|c| CreepParameters {
+                thresholds: &c.thresholds,
+                weights: &c.weights,
+                eigenvalues: &c.eigenvalues,
             }),
-            offset: (self.offset != 0.0).then_some(self.offset),
+            offset: self.offset.unwrap_or(0.0),
         }
     }
 
-    /// Sample time `T_s` (s).
-    pub fn sample_time(&self) -> f64 {
-        self.sample_time
-    }
-
-    /// The hysteresis operator `H`.
-    pub fn hysteresis(&self) -> &HysteresisOperator {
-        &self.hysteresis
-    }
-
-    /// The creep operator `C`, if any.
-    pub fn creep(&self) -> Option<&CreepOperator> {
-        self.creep.as_ref()
+    /// The creep state flattened as the core takes it (`state[i * m + j]`),
+    /// every row's length checked.
+    pub(crate) fn creep_state_flat(&self) -> Result<Option<Vec<f64>>, ModelError> {
+        let Some(c) = &self.creep else {
+            return Ok(None);
+        };
+        let Some(rows) = &c.state else {
+            return Ok(None);
+        };
+        let m = c.eigenvalues.len();
+        crate::realtime::parameters::check_length("creep.state", c.thresholds.len(), rows.len())?;
+        for (i, row) in rows.iter().enumerate() {
+            crate::realtime::parameters::check_length("", m, row.len())
+                .map_err(|e| e.named(&format!("creep.state[{i}]")))?;
+        }
+        Ok(Some(rows.iter().flatten().copied().collect()))
     }
 }
 
-impl Operator for HysteresisCreepModel {
+impl<T: Real, S: Storage> Model<T, S> {
+    /// Validate a model file and build the model in the file's state.
+    pub fn from_file(file: &ModelFile) -> Result<Self, ModelError> {
+        let mut model = Self::new(&file.parameters())?;
+        if let Some(x) = &file.hysteresis.state {
+            model.hysteresis_mut().set_state(x)?;
+        }
+        if let (Some(state), Some(c)) = (file.creep_state_flat()?, model.creep_mut()) {
+            c.set_state_flat(&state)?;
+        }
+        Ok(model)
+    }
+
+    /// The model file of this model and its current state.
+    pub fn to_file(&self) -> ModelFile {
+        let f64s = |x: &[T]| x.iter().map(|v| v.to_f64()).collect::<Vec<f64>>();
+        let h = self.hysteresis();
+        let offset = self.offset().to_f64();
+        ModelFile {
+            sample_time: self.sample_time(),
+            hysteresis: HysteresisData {
+                thresholds: f64s(h.thresholds()),
+                weights: f64s(h.weights()),
+                state: Some(Snapshot::state(h)),
+            },
+            creep: self.creep().map(|c| CreepData {
+                thresholds: f64s(c.thresholds()),
+                weights: f64s(c.weights()),
+                eigenvalues: f64s(c.eigenvalues()),
+                state: Some(Snapshot::state(c)),
+            }),
+            offset: (offset != 0.0).then_some(offset),
+        }
+    }
+}
+
+impl<T: Real, S: Storage> Operator for Model<T, S> {
     /// A non-finite input is taken as the previous input held: the plays do
     /// not move, the creep advances with the held value.
     #[inline]
     fn step(&mut self, v: f64) -> f64 {
-        let v = if v.is_finite() {
-            v
-        } else {
-            self.hysteresis.play_states()[0]
-        };
-        let h = self.hysteresis.step(v);
-        let w = match &mut self.creep {
-            Some(c) => h + c.step(v),
-            None => h,
-        };
-        w + self.offset
+        Model::step(self, T::from_f64(v)).to_f64()
     }
 
     fn reset(&mut self) {
-        self.hysteresis.reset();
-        if let Some(c) = &mut self.creep {
-            c.reset();
-        }
+        Model::reset(self);
     }
 }
 
-impl Snapshot for HysteresisCreepModel {
+impl<T: Real, S: Storage> Snapshot for Model<T, S> {
     type State = ModelState;
 
     fn state(&self) -> ModelState {
         ModelState {
-            hysteresis: self.hysteresis.state(),
-            creep: self.creep.as_ref().map(|c| c.state()),
+            hysteresis: Snapshot::state(self.hysteresis()),
+            creep: self.creep().map(Snapshot::state),
         }
     }
 
     fn set_state(&mut self, state: &ModelState) -> Result<(), ModelError> {
-        match (&mut self.creep, &state.creep) {
-            (Some(c), Some(s)) => {
-                // Validate both before changing either.
-                let mut trial = c.clone();
-                trial.set_state(s)?;
-                self.hysteresis.set_state(&state.hysteresis)?;
-                *c = trial;
+        match (self.creep().cloned(), &state.creep) {
+            (Some(mut trial), Some(s)) => {
+                // validate both before changing either
+                Snapshot::set_state(&mut trial, s)?;
+                self.hysteresis_mut().set_state(&state.hysteresis)?;
+                if let Some(c) = self.creep_mut() {
+                    *c = trial;
+                }
                 Ok(())
             }
-            (None, None) => self.hysteresis.set_state(&state.hysteresis),
+            (None, None) => Ok(self.hysteresis_mut().set_state(&state.hysteresis)?),
             _ => Err(ModelError::Inconsistent {
                 field: "creep.state".into(),
                 reason: "a creep state must be given exactly when the model has creep".into(),
@@ -235,4 +190,4 @@ impl Snapshot for HysteresisCreepModel {
     }
 }
 
-impl ActuatorModel for HysteresisCreepModel {}
+impl<T: Real, S: Storage> ActuatorModel for Model<T, S> {}

@@ -16,16 +16,16 @@ pub fn nominal_thresholds() -> Vec<f64> {
 
 /// The nominal model `W = H + C` in the virgin state.
 pub fn nominal_model() -> HysteresisCreepModel {
-    let h = HysteresisOperator::new(nominal_thresholds(), HYSTERESIS_WEIGHTS.to_vec())
+    let h = HysteresisOperator::new(nominal_thresholds(), HYSTERESIS_WEIGHTS)
         .expect("nominal hysteresis satisfies (11), (12)");
     let c = CreepOperator::new(
         nominal_thresholds(),
-        CREEP_WEIGHTS.to_vec(),
-        CREEP_EIGENVALUES.to_vec(),
+        CREEP_WEIGHTS,
+        CREEP_EIGENVALUES,
         SAMPLE_TIME,
     )
     .expect("nominal creep satisfies (17), (18)");
-    HysteresisCreepModel::new(SAMPLE_TIME, h, Some(c)).expect("consistent sample time")
+    HysteresisCreepModel::from_parts(SAMPLE_TIME, h, Some(c)).expect("consistent sample time")
 }
 
 /// The nominal model as a model file, virgin (no `state` entries).

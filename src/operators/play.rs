@@ -14,7 +14,14 @@ use crate::operators::traits::{Operator, Snapshot};
 /// One step of the play (20), for `f32` or `f64`; exactly odd:
 /// `play(−v, r, −x) == −play(v, r, x)` bit for bit. The dead zone of (14) is
 /// the play from the zero state.
-pub use crate::realtime::play::{dead_zone, play};
+pub use crate::realtime::play::play;
+
+/// The dead zone `d_r(z) = max(z − r, min(z + r, 0))` of (14): the play from
+/// the zero state.
+#[inline(always)]
+pub fn dead_zone(z: f64, r: f64) -> f64 {
+    play(z, r, 0.0)
+}
 
 /// The play operator `P_r` with threshold `r ≥ 0` and state `x`.
 #[derive(Debug, Clone, PartialEq)]

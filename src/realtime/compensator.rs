@@ -1,5 +1,4 @@
-//! The compensator (21) in fixed-capacity storage, and the per-sample kernel
-//! the `std` compensator shares.
+//! The compensator `W⁻¹` (21) and its per-sample kernel.
 //!
 //! `v_k = H⁻¹[ς_k − offset − C_k]`: explicit, because `C_k` depends on inputs
 //! up to `u_{k−1}` only. `v_k` is clipped to the supply limits; when it was
@@ -11,17 +10,17 @@
 //! of `H⁻¹` and are not stepped. A non-finite target holds the last voltage
 //! and is flagged; creep keeps advancing with the voltage applied.
 
-use crate::realtime::creep::FixedCreep;
+use crate::realtime::creep::Creep;
 use crate::realtime::error::ParameterError;
-use crate::realtime::hysteresis::{self, FixedHysteresis};
-use crate::realtime::inverse::{
-    forward_state_in_place, inverse_parameters_into, inverse_state_into,
-};
+use crate::realtime::hysteresis::{self, Hysteresis};
+use crate::realtime::inverse::{forward_state_in_place, inverse_state_into};
+use crate::realtime::model::Model;
 use crate::realtime::parameters::{
-    check_admissible, check_capacity, check_finite, check_length, check_limits, ModelParameters,
+    check_admissible, check_finite, check_length, check_limits, ModelParameters,
 };
 use crate::realtime::real::Real;
 use crate::realtime::simd::dispatch;
+use crate::realtime::storage::{Buffer, Storage};
 
 /// One compensator output sample.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -82,57 +81,114 @@ fn reseat<T: Real>(p: HysteresisPair<'_, T>, u: T) {
     inverse_state_into(p.weights, p.sums, p.scratch, p.inv_state);
 }
 
-/// The compensator `W⁻¹` (21) with at most `N` plays and `K` elementary creep
-/// operators, in `T`. No allocation anywhere, construction included.
+/// Output limits of a compensator (balanced voltage, V): every output lies
+/// in `[lower_limit, upper_limit]` and a clipped sample is flagged. The one
+/// way limits are stated, in every layer.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FixedCompensator<T: Real, const N: usize, const K: usize> {
-    inverse: FixedHysteresis<T, N>,
-    thresholds: [T; N],
-    weights: [T; N],
-    sums: [T; N],
+pub struct CompensatorSettings {
+    /// Lowest output; `-inf` for none.
+    pub lower_limit: f64,
+    /// Highest output; `+inf` for none.
+    pub upper_limit: f64,
+}
+
+impl Default for CompensatorSettings {
+    /// The balanced supply range of (1): `[−1000, 1000]` V.
+    fn default() -> Self {
+        Self::with_limits(-1000.0, 1000.0)
+    }
+}
+
+impl CompensatorSettings {
+    /// No saturation at all.
+    pub fn unlimited() -> Self {
+        Self::with_limits(f64::NEG_INFINITY, f64::INFINITY)
+    }
+
+    /// Limits `[lower, upper]`.
+    pub fn with_limits(lower_limit: f64, upper_limit: f64) -> Self {
+        Self {
+            lower_limit,
+            upper_limit,
+        }
+    }
+
+    /// Limits as front ends take them: `None` for no limits, else
+    /// `(lower, upper)`.
+    pub fn from_limits(limits: Option<(f64, f64)>) -> Self {
+        match limits {
+            Some((lower, upper)) => Self::with_limits(lower, upper),
+            None => Self::unlimited(),
+        }
+    }
+
+    /// Limits as a command line gives them: `limits` if given, no limits
+    /// if `unlimited`, else the default.
+    pub fn from_options(limits: Option<(f64, f64)>, unlimited: bool) -> Self {
+        match (limits, unlimited) {
+            (_, true) => Self::unlimited(),
+            (Some(l), false) => Self::from_limits(Some(l)),
+            (None, false) => Self::default(),
+        }
+    }
+
+    /// `lower < upper`, neither NaN (either may be infinite).
+    pub fn validate(&self) -> Result<(), ParameterError> {
+        check_limits(self.lower_limit, self.upper_limit)
+    }
+}
+
+/// The compensator `W⁻¹` (21) in `T`, kept in storage `S`: `H⁻¹` by the
+/// rules (22), a copy of the plant's creep operator and the model's offset.
+/// No allocation per sample (with [`Inline`](crate::realtime::Inline)
+/// storage none at all, construction included).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Compensator<T: Real, S: Storage> {
+    pub(crate) inverse: Hysteresis<T, S>,
+    /// Thresholds, weights and partial sums of the plant's `H`.
+    pub(crate) thresholds: S::Plays<T>,
+    pub(crate) weights: S::Plays<T>,
+    pub(crate) sums: S::Plays<T>,
     /// Room for the plays of `H`, used after a saturated sample.
-    scratch: [T; N],
+    scratch: S::Plays<T>,
     /// The voltage of the last sample (held for a non-finite target).
     last_u: T,
-    creep: Option<FixedCreep<T, K>>,
+    pub(crate) creep: Option<Creep<T, S>>,
     offset: T,
     lower: T,
     upper: T,
 }
 
-impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
-    /// The compensator of the model `parameters` (virgin state) with output
-    /// limits `lower < upper` (either may be infinite). The inverse
-    /// parameters (22) and creep gains are computed in `f64`, then rounded;
-    /// the limits are rounded inward, so every `u` lies within them.
+impl<T: Real, S: Storage> Compensator<T, S> {
+    /// The compensator of the model `parameters` (virgin state) with
+    /// output limits `settings`. The inverse parameters (22) and creep
+    /// gains are computed in `f64`, then rounded; the limits are rounded
+    /// inward, so every `u` lies within them.
     pub fn new(
         parameters: &ModelParameters<'_>,
-        lower: f64,
-        upper: f64,
+        settings: CompensatorSettings,
     ) -> Result<Self, ParameterError> {
         parameters.validate()?;
-        check_limits(lower, upper)?;
+        settings.validate()?;
         let h = &parameters.hysteresis;
         let n = h.thresholds.len();
-        check_capacity("hysteresis.thresholds", N, n)?;
-        let mut inv_r = [0.0f64; N];
-        let mut inv_w = [0.0f64; N];
-        inverse_parameters_into(h.thresholds, h.weights, &mut inv_r[..n], &mut inv_w[..n]);
+        let field = "hysteresis.thresholds";
+        let zeros = || S::Plays::<T>::zeroed(field, n);
         let mut c = Self {
-            inverse: FixedHysteresis::from_trusted(&inv_r[..n], &inv_w[..n], None),
-            thresholds: [T::ZERO; N],
-            weights: [T::ZERO; N],
-            sums: [T::ZERO; N],
-            scratch: [T::ZERO; N],
+            inverse: Hysteresis::inverse_of(h, None)?,
+            thresholds: zeros()?,
+            weights: zeros()?,
+            sums: zeros()?,
+            scratch: zeros()?,
             last_u: T::ZERO,
             creep: match &parameters.creep {
-                Some(cp) => Some(FixedCreep::new(cp, parameters.sample_time)?),
+                Some(cp) => Some(Creep::from_parameters(cp, parameters.sample_time)?),
                 None => None,
             },
             offset: T::from_f64(parameters.offset),
-            // Rounded inward: an f32 limit rounded to nearest can lie outside.
-            lower: T::from_f64_up(lower),
-            upper: T::from_f64_down(upper),
+            // rounded inward: an f32 limit rounded to nearest can lie outside
+            lower: T::from_f64_up(settings.lower_limit),
+            upper: T::from_f64_down(settings.upper_limit),
         };
         let mut s = 0.0;
         for i in 0..n {
@@ -144,10 +200,24 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
         Ok(c)
     }
 
+    /// The compensator of `model`, matched to the model's current state
+    /// (so that `W[W⁻¹[y]] = y` from the next sample on).
+    pub fn of<S2: Storage>(
+        model: &Model<f64, S2>,
+        settings: CompensatorSettings,
+    ) -> Result<Self, ParameterError> {
+        let mut c = Self::new(&model.parameters(), settings)?;
+        c.set_model_state(model.hysteresis().play_states(), None)?;
+        if let (Some(mine), Some(theirs)) = (&mut c.creep, model.creep()) {
+            mine.copy_state_from(theirs)?;
+        }
+        Ok(c)
+    }
+
     /// Match the compensator to a model whose hysteresis plays hold
     /// `hysteresis` and whose creep operators hold `creep` (flattened as
-    /// [`FixedCreep::set_state`] takes it): the inverse plays follow by (22).
-    /// Checked before anything changes.
+    /// [`Creep::set_state_flat`] takes it; `None`: zero): the inverse plays
+    /// follow by (22). Checked before anything changes.
     pub fn set_model_state(
         &mut self,
         hysteresis: &[f64],
@@ -156,18 +226,19 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
         let n = self.inverse.len();
         check_length("hysteresis.state", n, hysteresis.len())?;
         check_finite("hysteresis.state", hysteresis)?;
-        let mut r = [0.0f64; N];
-        let mut w = [0.0f64; N];
-        let mut s = [0.0f64; N];
+        let field = "hysteresis.state";
+        let mut r = S::Plays::<f64>::zeroed(field, n)?;
+        let mut w = S::Plays::<f64>::zeroed(field, n)?;
+        let mut s = S::Plays::<f64>::zeroed(field, n)?;
         for i in 0..n {
             r[i] = self.thresholds[i].to_f64();
             w[i] = self.weights[i].to_f64();
             s[i] = self.sums[i].to_f64();
         }
-        check_admissible("hysteresis.state", &r[..n], hysteresis, T::EPSILON.to_f64())?;
-        let mut creep_trial = self.creep;
+        check_admissible(field, &r, hysteresis, T::EPSILON.to_f64())?;
+        let mut creep_trial = self.creep.clone();
         match (&mut creep_trial, creep) {
-            (Some(c), Some(state)) => c.set_state(state)?,
+            (Some(c), Some(state)) => c.set_state_flat(state)?,
             (None, None) => {}
             (Some(c), None) => c.reset(),
             (None, Some(state)) => {
@@ -178,9 +249,9 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
                 })
             }
         }
-        let mut inv = [0.0f64; N];
-        inverse_state_into(&w[..n], &s[..n], hysteresis, &mut inv[..n]);
-        for (x, &v) in self.inverse.state_mut().iter_mut().zip(&inv[..n]) {
+        let mut inv = S::Plays::<f64>::zeroed(field, n)?;
+        inverse_state_into(&w, &s, hysteresis, &mut inv);
+        for (x, &v) in self.inverse.state_mut().iter_mut().zip(inv.iter()) {
             *x = T::from_f64(v);
         }
         self.last_u = T::from_f64(hysteresis[0]);
@@ -188,9 +259,23 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
         Ok(())
     }
 
-    /// `H⁻¹` as the rules (22) give it.
-    pub fn inverse_hysteresis(&self) -> &FixedHysteresis<T, N> {
+    /// The limits in force (as rounded to `T`).
+    pub fn settings(&self) -> CompensatorSettings {
+        CompensatorSettings::with_limits(self.lower.to_f64(), self.upper.to_f64())
+    }
+
+    /// `H⁻¹` as the rules (22) give it, in its current state.
+    pub fn inverse_hysteresis(&self) -> &Hysteresis<T, S> {
         &self.inverse
+    }
+
+    /// The plays of the plant's `H` that match the inverse plays (22):
+    /// `x` gets one value per play.
+    pub fn forward_state_into(&self, x: &mut [T]) -> Result<(), ParameterError> {
+        check_length("hysteresis.state", self.inverse.len(), x.len())?;
+        x.copy_from_slice(self.inverse.play_states());
+        forward_state_in_place(&self.sums, x);
+        Ok(())
     }
 
     /// The voltage for the target `target`; allocation-free, O(n + n_C m).
@@ -199,12 +284,39 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
         dispatch(|| self.compensate_with::<true>(target))
     }
 
-    /// [`FixedCompensator::compensate`] compiled for the caller's instruction
+    /// [`Compensator::compensate`] compiled for the caller's instruction
     /// set, without run-time dispatch (the same bits; for tests and for
     /// callers that dispatch a whole loop themselves).
     #[inline(always)]
     pub fn compensate_portable(&mut self, target: T) -> Compensated<T> {
         self.compensate_with::<false>(target)
+    }
+
+    /// A whole signal into caller buffers, every flag kept; one
+    /// instruction-set dispatch for the lot. Returns how many samples were
+    /// saturated and how many were faults.
+    pub fn compensate_into(
+        &mut self,
+        targets: &[T],
+        u: &mut [T],
+        saturated: &mut [bool],
+        fault: &mut [bool],
+    ) -> Result<(usize, usize), ParameterError> {
+        check_length("u", targets.len(), u.len())?;
+        check_length("saturated", targets.len(), saturated.len())?;
+        check_length("fault", targets.len(), fault.len())?;
+        Ok(dispatch(|| {
+            let (mut clipped, mut faults) = (0, 0);
+            for (k, &t) in targets.iter().enumerate() {
+                let out = self.compensate_with::<true>(t);
+                u[k] = out.u;
+                saturated[k] = out.saturated;
+                fault[k] = out.fault;
+                clipped += usize::from(out.saturated);
+                faults += usize::from(out.fault);
+            }
+            (clipped, faults)
+        }))
     }
 
     #[inline(always)]
@@ -216,17 +328,16 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
             Some(op) => op.output(),
             None => T::ZERO,
         };
-        let n = self.inverse.len();
         let (inv_r, inv_w, inv_x) = self.inverse.parts_mut();
         let (u, saturated) = invert_saturating::<T, SIMD>(
             HysteresisPair {
                 inv_thresholds: inv_r,
                 inv_weights: inv_w,
                 inv_state: inv_x,
-                thresholds: &self.thresholds[..n],
-                weights: &self.weights[..n],
-                sums: &self.sums[..n],
-                scratch: &mut self.scratch[..n],
+                thresholds: &self.thresholds,
+                weights: &self.weights,
+                sums: &self.sums,
+                scratch: &mut self.scratch,
             },
             target - self.offset - c,
             self.lower,
@@ -243,6 +354,9 @@ impl<T: Real, const N: usize, const K: usize> FixedCompensator<T, N, K> {
         }
     }
 
+    /// A non-finite target: emit the previous output again. The plays see
+    /// the same input (no change); the creep advances with it, as the
+    /// plant's does.
     #[cold]
     fn hold(&mut self) -> Compensated<T> {
         let u = self.last_u;

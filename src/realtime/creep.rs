@@ -1,5 +1,4 @@
-//! PI creep (13)–(18) in fixed-capacity storage, and the per-sample kernel
-//! the `std` operator shares.
+//! PI creep (13)–(18) and its per-sample kernel.
 //!
 //! Each elementary operator `dχ/dt = a d_r(v − χ)` is solved exactly under
 //! zero-order hold (20): `χ_{k+1} = χ_k + g d_r(v_k − χ_k)` with
@@ -15,10 +14,11 @@
 
 use crate::realtime::error::ParameterError;
 use crate::realtime::hysteresis::reduce;
-use crate::realtime::parameters::{check_capacity, check_finite, check_length, CreepParameters};
+use crate::realtime::parameters::{check_finite, check_length, CreepParameters};
 use crate::realtime::play::clamp;
 use crate::realtime::real::Real;
 use crate::realtime::simd::dispatch;
+use crate::realtime::storage::{Buffer, Storage};
 
 /// `1 − e^{−a T_s}` without cancellation (`−expm1(−aT_s)`; the literal form
 /// loses five digits at `a = 0.05 s⁻¹`, `T_s = 0.2 ms`).
@@ -206,56 +206,105 @@ pub fn output<T: Real>(chi: &[T], weights: &[T]) -> T {
     reduce(acc)
 }
 
-/// A PI creep operator (16) with at most `K` elementary operators
-/// (`n + 1` thresholds times `m` eigenvalues).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FixedCreep<T: Real, const K: usize> {
-    thresholds: usize,
-    eigenvalues: usize,
-    /// `r_i` (first `n + 1`), `1 − e^{−a_j T_s}` (first `m`), `w_i / m`.
-    thresholds_r: [T; K],
-    gains: [T; K],
-    weights: [T; K],
-    chi: [T; K],
+/// A PI creep operator `C` (16): `n + 1` log(t)-creep operators (15) of `m`
+/// elementary operators (13)–(14) each, thresholds as (18), weights with
+/// non-negative partial sums (17), in `T`, kept in storage `S`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Creep<T: Real, S: Storage> {
+    thresholds: S::Creep<T>,
+    weights: S::Creep<T>,
+    eigenvalues: S::Creep<T>,
+    sample_time: f64,
+    /// `1 − e^{−a_j T_s}` per eigenvalue and `w_i / m` per threshold.
+    gains: S::Creep<T>,
+    scaled_weights: S::Creep<T>,
+    /// `χ[j * n + i]`: eigenvalue `j`, threshold `i`.
+    chi: S::Creep<T>,
+    /// The output of the current state, kept so `output()` is O(1).
     output: T,
+    /// The last finite input, held in place of a non-finite one.
     last_input: T,
 }
 
-impl<T: Real, const K: usize> FixedCreep<T, K> {
-    /// `C` with checked parameters (17), (18), in the virgin state.
-    pub fn new(parameters: &CreepParameters<'_>, sample_time: f64) -> Result<Self, ParameterError> {
+impl<T: Real, S: Storage> Creep<T, S> {
+    /// `C` with checked thresholds (18), weights (17), eigenvalues `a_j > 0`
+    /// (s⁻¹) and sample time, in the zero state.
+    pub fn new(
+        thresholds: impl AsRef<[f64]>,
+        weights: impl AsRef<[f64]>,
+        eigenvalues: impl AsRef<[f64]>,
+        sample_time: f64,
+    ) -> Result<Self, ParameterError> {
+        Self::from_parameters(
+            &CreepParameters {
+                thresholds: thresholds.as_ref(),
+                weights: weights.as_ref(),
+                eigenvalues: eigenvalues.as_ref(),
+            },
+            sample_time,
+        )
+    }
+
+    /// `C` of checked `parameters`, in the zero state.
+    pub fn from_parameters(
+        parameters: &CreepParameters<'_>,
+        sample_time: f64,
+    ) -> Result<Self, ParameterError> {
         parameters.validate(sample_time)?;
         let n = parameters.thresholds.len();
         let m = parameters.eigenvalues.len();
-        check_capacity("creep", K, n.saturating_mul(m))?;
+        let field = "creep";
         let mut c = Self {
-            thresholds: n,
-            eigenvalues: m,
-            thresholds_r: [T::ZERO; K],
-            gains: [T::ZERO; K],
-            weights: [T::ZERO; K],
-            chi: [T::ZERO; K],
+            thresholds: S::Creep::zeroed(field, n)?,
+            weights: S::Creep::zeroed(field, n)?,
+            eigenvalues: S::Creep::zeroed(field, m)?,
+            sample_time,
+            gains: S::Creep::zeroed(field, m)?,
+            scaled_weights: S::Creep::zeroed(field, n)?,
+            chi: S::Creep::zeroed(field, n.saturating_mul(m))?,
             output: T::ZERO,
             last_input: T::ZERO,
         };
         for (j, &a) in parameters.eigenvalues.iter().enumerate() {
+            c.eigenvalues[j] = T::from_f64(a);
             c.gains[j] = T::from_f64(creep_gain(a, sample_time));
         }
         for i in 0..n {
-            c.thresholds_r[i] = T::from_f64(parameters.thresholds[i]);
-            c.weights[i] = T::from_f64(parameters.weights[i] / m as f64);
+            c.thresholds[i] = T::from_f64(parameters.thresholds[i]);
+            c.weights[i] = T::from_f64(parameters.weights[i]);
+            c.scaled_weights[i] = T::from_f64(parameters.weights[i] / m as f64);
         }
         Ok(c)
     }
 
     /// `(n + 1, m)`: thresholds and eigenvalues.
     pub fn shape(&self) -> (usize, usize) {
-        (self.thresholds, self.eigenvalues)
+        (self.thresholds.len(), self.eigenvalues.len())
+    }
+
+    /// Thresholds `r_{C,i}`.
+    pub fn thresholds(&self) -> &[T] {
+        &self.thresholds
+    }
+
+    /// Weights `w_{C,i}`.
+    pub fn weights(&self) -> &[T] {
+        &self.weights
+    }
+
+    /// Eigenvalues `a_j` (s⁻¹).
+    pub fn eigenvalues(&self) -> &[T] {
+        &self.eigenvalues
+    }
+
+    /// Sample time `T_s` (s).
+    pub fn sample_time(&self) -> f64 {
+        self.sample_time
     }
 
     /// Set `χ` from `state[i * m + j]` (threshold `i`, eigenvalue `j`: the
-    /// model file's rows, flattened).
-    pub fn set_state(&mut self, state: &[f64]) -> Result<(), ParameterError> {
+    /// model file's rows, flattened). Checked before anything changes.
+    pub fn set_state_flat(&mut self, state: &[f64]) -> Result<(), ParameterError> {
         let (n, m) = self.shape();
         check_length("creep.state", n * m, state.len())?;
         check_finite("creep.state", state)?;
@@ -268,8 +317,8 @@ impl<T: Real, const K: usize> FixedCreep<T, K> {
         Ok(())
     }
 
-    /// `χ_{ij}` of the next sample, as [`FixedCreep::set_state`] takes it.
-    pub fn state_into(&self, state: &mut [f64]) -> Result<(), ParameterError> {
+    /// `χ_{ij}` of the next sample, as [`Creep::set_state_flat`] takes it.
+    pub fn state_flat_into(&self, state: &mut [f64]) -> Result<(), ParameterError> {
         let (n, m) = self.shape();
         check_length("creep.state", n * m, state.len())?;
         for i in 0..n {
@@ -280,20 +329,55 @@ impl<T: Real, const K: usize> FixedCreep<T, K> {
         Ok(())
     }
 
-    /// The output `C_k` of the current state.
+    /// Take the whole state of `other`, an operator with the same
+    /// parameters in any storage (its `χ`, output and held input).
+    pub fn copy_state_from<U: Real, S2: Storage>(
+        &mut self,
+        other: &Creep<U, S2>,
+    ) -> Result<(), ParameterError> {
+        check_length("creep.state", self.chi.len(), other.chi.len())?;
+        for (x, &y) in self.chi.iter_mut().zip(other.chi.iter()) {
+            *x = T::from_f64(y.to_f64());
+        }
+        self.output = T::from_f64(other.output.to_f64());
+        self.last_input = T::from_f64(other.last_input.to_f64());
+        Ok(())
+    }
+
+    /// The output `C_k` of the current state (before the next input acts).
     #[inline]
     pub fn output(&self) -> T {
         self.output
     }
 
-    /// Advance with `v_k` and return `C_{k+1}`.
+    /// The outputs `ς_{C,i} = (1/m) Σ_j χ_{i,j}` of the log(t)-creep
+    /// operators (15), one per threshold, for the current state: the creep
+    /// columns of the identification regressor (25).
+    #[inline]
+    pub fn log_creep_outputs_into(&self, out: &mut [T]) {
+        let (n, m) = self.shape();
+        out[..n].copy_from_slice(&self.chi[..n]);
+        for row in self.chi.chunks_exact(n).skip(1) {
+            for (o, &c) in out.iter_mut().zip(row) {
+                *o += c;
+            }
+        }
+        let m = T::from_f64(m as f64);
+        for o in &mut out[..n] {
+            *o = *o / m;
+        }
+    }
+
+    /// Advance with `v_k` and return `C_{k+1}`; allocation-free. A
+    /// non-finite input is taken as the last finite one: it never enters
+    /// the state.
     #[inline]
     pub fn advance(&mut self, v: T) -> T {
         dispatch(|| self.advance_with::<true>(v))
     }
 
-    /// [`FixedCreep::advance`] compiled for the caller's instruction set,
-    /// no run-time dispatch (the same bits).
+    /// [`Creep::advance`] compiled for the caller's instruction set, no
+    /// run-time dispatch (the same bits).
     #[inline(always)]
     pub fn advance_portable(&mut self, v: T) -> T {
         self.advance_with::<false>(v)
@@ -302,12 +386,11 @@ impl<T: Real, const K: usize> FixedCreep<T, K> {
     /// With `SIMD`, the explicit AVX blocks where the CPU has them.
     #[inline(always)]
     pub(crate) fn advance_with<const SIMD: bool>(&mut self, v: T) -> T {
-        let (n, m) = self.shape();
         self.output = advance_fast::<T, SIMD>(
-            &mut self.chi[..n * m],
-            &self.thresholds_r[..n],
-            &self.gains[..m],
-            &self.weights[..n],
+            &mut self.chi,
+            &self.thresholds,
+            &self.gains,
+            &self.scaled_weights,
             v,
             &mut self.last_input,
         );
@@ -323,13 +406,13 @@ impl<T: Real, const K: usize> FixedCreep<T, K> {
     }
 
     fn refresh_output(&mut self) {
-        let (n, m) = self.shape();
-        self.output = output(&self.chi[..n * m], &self.weights[..n]);
+        self.output = output(&self.chi, &self.scaled_weights);
     }
 
+    /// Back to the zero state.
     pub fn reset(&mut self) {
-        self.chi = [T::ZERO; K];
-        self.output = T::ZERO;
+        self.chi.fill(T::ZERO);
         self.last_input = T::ZERO;
+        self.refresh_output();
     }
 }

@@ -1,13 +1,17 @@
-//! Prandtl–Ishlinskii hysteresis (10): `H[v]_k = Σ_i w_i x_{i,k}` over plays
-//! (20), in fixed-capacity storage, and the per-sample kernel the `std`
-//! operator shares.
+//! Prandtl–Ishlinskii hysteresis (10)–(12): `H[v]_k = Σ_i w_i x_{i,k}` over
+//! plays (20), `x_{i,k} = max(v_k − r_i, min(v_k + r_i, x_{i,k−1}))`, and its
+//! per-sample kernel. On a monotone branch the slope is the partial sum
+//! `s_j = Σ_{i≤j} w_i` on the `j`-th segment, which is why (11) makes `H`
+//! strictly increasing on monotone inputs and invertible.
 
 use crate::realtime::error::ParameterError;
+use crate::realtime::inverse::{inverse_parameters_into, inverse_state_into};
 use crate::realtime::parameters::{
-    check_admissible, check_capacity, check_finite, check_length, HysteresisParameters,
+    check_admissible, check_finite, check_length, HysteresisParameters,
 };
 use crate::realtime::play::play;
 use crate::realtime::real::Real;
+use crate::realtime::storage::{Buffer, Storage};
 
 /// One sample of `H`: advance every play with `v` and return `Σ w_i x_i`
 /// (summed as [`weighted_sum`] sums). A non-finite `v` is replaced by `x_0`
@@ -161,123 +165,75 @@ pub fn reduce<T: Real>(a: [T; 4]) -> T {
     (a[0] + a[2]) + (a[1] + a[3])
 }
 
-/// A PI hysteresis operator (10) with at most `N` plays.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FixedHysteresis<T: Real, const N: usize> {
-    len: usize,
-    thresholds: [T; N],
-    weights: [T; N],
-    state: [T; N],
+/// The Prandtl–Ishlinskii hysteresis operator `H` (10): plays (20) with
+/// thresholds `0 = r_0 < … < r_n` (12) and weights whose partial sums are
+/// positive (11), in `T`, kept in storage `S` ([`Inline`] or `Heap`).
+///
+/// A state is *admissible* if some input drives the virgin state (all
+/// zeros) to it; equivalently `|x_i − x_{i−1}| ≤ r_i − r_{i−1}`. The inverse
+/// (22) relies on it, so states set from outside are checked.
+///
+/// [`Inline`]: crate::realtime::Inline
+#[derive(Debug, Clone, PartialEq)]
+pub struct Hysteresis<T: Real, S: Storage> {
+    thresholds: S::Plays<T>,
+    weights: S::Plays<T>,
+    state: S::Plays<T>,
 }
 
-impl<T: Real, const N: usize> FixedHysteresis<T, N> {
-    /// `H` with checked parameters (11), (12), in the virgin state.
-    pub fn new(parameters: &HysteresisParameters<'_>) -> Result<Self, ParameterError> {
-        parameters.validate()?;
-        check_capacity("hysteresis.thresholds", N, parameters.thresholds.len())?;
-        Ok(Self::from_trusted(
-            parameters.thresholds,
-            parameters.weights,
-            None,
-        ))
+impl<T: Real, S: Storage> Hysteresis<T, S> {
+    /// `H` with checked thresholds (12) and weights (11), virgin.
+    pub fn new(
+        thresholds: impl AsRef<[f64]>,
+        weights: impl AsRef<[f64]>,
+    ) -> Result<Self, ParameterError> {
+        Self::from_parameters(&HysteresisParameters {
+            thresholds: thresholds.as_ref(),
+            weights: weights.as_ref(),
+        })
     }
 
-    /// From parameters (and a state) already checked, rounded to `T`.
-    pub(crate) fn from_trusted(r: &[f64], w: &[f64], x: Option<&[f64]>) -> Self {
-        let len = r.len();
+    /// `H` with initial play states `x_init` (applied through (8) at the
+    /// first sample), which must be admissible.
+    pub fn with_state(
+        thresholds: impl AsRef<[f64]>,
+        weights: impl AsRef<[f64]>,
+        state: impl AsRef<[f64]>,
+    ) -> Result<Self, ParameterError> {
+        let mut h = Self::new(thresholds, weights)?;
+        h.set_state(state.as_ref())?;
+        Ok(h)
+    }
+
+    /// `H` of checked `parameters`, virgin.
+    pub fn from_parameters(parameters: &HysteresisParameters<'_>) -> Result<Self, ParameterError> {
+        parameters.validate()?;
+        Self::from_trusted(parameters.thresholds, parameters.weights, None)
+    }
+
+    /// From parameters (and a state) already checked, rounded to `T`; only
+    /// the capacity can refuse.
+    pub(crate) fn from_trusted(
+        r: &[f64],
+        w: &[f64],
+        x: Option<&[f64]>,
+    ) -> Result<Self, ParameterError> {
+        let field = "hysteresis.thresholds";
         let mut h = Self {
-            len,
-            thresholds: [T::ZERO; N],
-            weights: [T::ZERO; N],
-            state: [T::ZERO; N],
+            thresholds: S::Plays::zeroed(field, r.len())?,
+            weights: S::Plays::zeroed(field, r.len())?,
+            state: S::Plays::zeroed(field, r.len())?,
         };
-        for i in 0..len {
+        for i in 0..r.len() {
             h.thresholds[i] = T::from_f64(r[i]);
             h.weights[i] = T::from_f64(w[i]);
             if let Some(x) = x {
                 h.state[i] = T::from_f64(x[i]);
             }
         }
-        h
+        Ok(h)
     }
 
-    /// The number of plays `n + 1`.
-    pub fn len(&self) -> usize {
-        self.len
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
-    pub fn thresholds(&self) -> &[T] {
-        &self.thresholds[..self.len]
-    }
-
-    pub fn weights(&self) -> &[T] {
-        &self.weights[..self.len]
-    }
-
-    /// The play states `x_i` after the last step.
-    pub fn state(&self) -> &[T] {
-        &self.state[..self.len]
-    }
-
-    pub(crate) fn state_mut(&mut self) -> &mut [T] {
-        &mut self.state[..self.len]
-    }
-
-    /// Set the play states (checked: finite, admissible).
-    pub fn set_state(&mut self, x: &[f64]) -> Result<(), ParameterError> {
-        check_length("hysteresis.state", self.len, x.len())?;
-        check_finite("hysteresis.state", x)?;
-        let mut r = [0.0f64; N];
-        for (ri, &t) in r.iter_mut().zip(self.thresholds()) {
-            *ri = t.to_f64();
-        }
-        check_admissible("hysteresis.state", &r[..self.len], x, T::EPSILON.to_f64())?;
-        for (s, &xi) in self.state.iter_mut().zip(x) {
-            *s = T::from_f64(xi);
-        }
-        Ok(())
-    }
-
-    /// One sample; allocation-free, a non-finite input is held out.
-    #[inline]
-    pub fn step(&mut self, v: T) -> T {
-        let n = self.len;
-        step(
-            &mut self.state[..n],
-            &self.thresholds[..n],
-            &self.weights[..n],
-            v,
-        )
-    }
-
-    /// The output `Σ w_i x_i` of the current state.
-    pub fn output(&self) -> T {
-        weighted_sum(self.weights(), self.state())
-    }
-
-    pub fn reset(&mut self) {
-        self.state = [T::ZERO; N];
-    }
-}
-
-impl<T: Real, const N: usize> FixedHysteresis<T, N> {
-    /// Thresholds, weights and the mutable state, at the run-time length.
-    #[inline(always)]
-    pub(crate) fn parts_mut(&mut self) -> (&[T], &[T], &mut [T]) {
-        let n = self.len;
-        (
-            &self.thresholds[..n],
-            &self.weights[..n],
-            &mut self.state[..n],
-        )
-    }
-}
-
-impl<T: Real, const N: usize> FixedHysteresis<T, N> {
     /// `H⁻¹` of the hysteresis `parameters` by the rules (22), its plays
     /// matched to `state` of `H` (or virgin); transformed in `f64`.
     pub fn inverse_of(
@@ -286,16 +242,11 @@ impl<T: Real, const N: usize> FixedHysteresis<T, N> {
     ) -> Result<Self, ParameterError> {
         parameters.validate()?;
         let n = parameters.thresholds.len();
-        check_capacity("hysteresis.thresholds", N, n)?;
-        let mut r = [0.0f64; N];
-        let mut w = [0.0f64; N];
-        crate::realtime::inverse::inverse_parameters_into(
-            parameters.thresholds,
-            parameters.weights,
-            &mut r[..n],
-            &mut w[..n],
-        );
-        let mut x = [0.0f64; N];
+        let field = "hysteresis.thresholds";
+        let mut r = S::Plays::<f64>::zeroed(field, n)?;
+        let mut w = S::Plays::<f64>::zeroed(field, n)?;
+        inverse_parameters_into(parameters.thresholds, parameters.weights, &mut r, &mut w);
+        let mut x = S::Plays::<f64>::zeroed(field, n)?;
         if let Some(state) = state {
             check_length("hysteresis.state", n, state.len())?;
             check_finite("hysteresis.state", state)?;
@@ -305,19 +256,100 @@ impl<T: Real, const N: usize> FixedHysteresis<T, N> {
                 state,
                 f64::EPSILON,
             )?;
-            let mut sums = [0.0f64; N];
-            let mut s = 0.0;
-            for (si, &wi) in sums.iter_mut().zip(parameters.weights) {
-                s += wi;
-                *si = s;
-            }
-            crate::realtime::inverse::inverse_state_into(
-                parameters.weights,
-                &sums[..n],
-                state,
-                &mut x[..n],
-            );
+            let mut sums = S::Plays::<f64>::zeroed(field, n)?;
+            partial_sums_into(parameters.weights, &mut sums);
+            inverse_state_into(parameters.weights, &sums, state, &mut x);
         }
-        Ok(Self::from_trusted(&r[..n], &w[..n], Some(&x[..n])))
+        Self::from_trusted(&r, &w, Some(&x))
+    }
+
+    /// `H⁻¹` of this operator by the rules (22), matched to its state.
+    pub fn inverse(&self) -> Self {
+        // buffers of the right length: copies, every value overwritten
+        let (mut r, mut w) = (self.thresholds.clone(), self.weights.clone());
+        let (mut x, mut sums) = (self.state.clone(), self.weights.clone());
+        inverse_parameters_into(&self.thresholds, &self.weights, &mut r, &mut w);
+        partial_sums_into(&self.weights, &mut sums);
+        inverse_state_into(&self.weights, &sums, &self.state, &mut x);
+        Self {
+            thresholds: r,
+            weights: w,
+            state: x,
+        }
+    }
+
+    /// The number of plays `n + 1`.
+    pub fn len(&self) -> usize {
+        self.thresholds.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.thresholds.is_empty()
+    }
+
+    /// The thresholds `r_i`.
+    pub fn thresholds(&self) -> &[T] {
+        &self.thresholds
+    }
+
+    /// The weights `w_i`.
+    pub fn weights(&self) -> &[T] {
+        &self.weights
+    }
+
+    /// The play states `x_i` after the last step.
+    pub fn play_states(&self) -> &[T] {
+        &self.state
+    }
+
+    pub(crate) fn state_mut(&mut self) -> &mut [T] {
+        &mut self.state
+    }
+
+    /// Thresholds, weights and the mutable state.
+    #[inline(always)]
+    pub(crate) fn parts_mut(&mut self) -> (&[T], &[T], &mut [T]) {
+        (&self.thresholds, &self.weights, &mut self.state)
+    }
+
+    /// Set the play states (checked: length, finite, admissible).
+    pub fn set_state(&mut self, x: &[f64]) -> Result<(), ParameterError> {
+        let n = self.len();
+        check_length("hysteresis.state", n, x.len())?;
+        check_finite("hysteresis.state", x)?;
+        let mut r = S::Plays::<f64>::zeroed("hysteresis.state", n)?;
+        for (ri, &t) in r.iter_mut().zip(self.thresholds()) {
+            *ri = t.to_f64();
+        }
+        check_admissible("hysteresis.state", &r, x, T::EPSILON.to_f64())?;
+        for (s, &xi) in self.state.iter_mut().zip(x) {
+            *s = T::from_f64(xi);
+        }
+        Ok(())
+    }
+
+    /// One sample; allocation-free, a non-finite input is held out.
+    #[inline]
+    pub fn step(&mut self, v: T) -> T {
+        step(&mut self.state, &self.thresholds, &self.weights, v)
+    }
+
+    /// The output `Σ w_i x_i` of the current state.
+    pub fn output(&self) -> T {
+        weighted_sum(&self.weights, &self.state)
+    }
+
+    /// Back to the virgin state.
+    pub fn reset(&mut self) {
+        self.state.fill(T::ZERO);
+    }
+}
+
+/// `s_j = Σ_{i≤j} w_i`, summed in order.
+pub(crate) fn partial_sums_into<T: Real>(weights: &[T], sums: &mut [T]) {
+    let mut s = T::ZERO;
+    for (si, &w) in sums.iter_mut().zip(weights) {
+        s += w;
+        *si = s;
     }
 }

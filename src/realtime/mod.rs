@@ -1,32 +1,36 @@
-//! The real-time core: every operator a compensator needs on the target, in
-//! `f32` or `f64`, in storage fixed at compile time.
+//! The `no_std` core: every operator and the compensator, in `f32` or `f64`,
+//! in storage chosen by a type parameter.
 //!
 //! This module is all the crate is with `default-features = false`: it is
-//! `#![no_std]`, needs no allocator and depends on `libm` only (for
-//! `expm1` when building the creep gains). The `std` operators in
-//! `crate::operators` run the same per-sample kernels ([`hysteresis::step`],
-//! [`creep::advance`], the compensator's inversion), so there is one
-//! implementation of the mathematics, instantiated for `f32`, `f64` and for
-//! heap or fixed storage.
+//! `#![no_std]`, needs no allocator and depends on `libm` only (for `expm1`
+//! when building the creep gains). It imports nothing from the rest of the
+//! crate; the `std` layer (`crate::operators`) adds heap storage, model
+//! files and the object-safe traits on top of these same types.
 //!
-//! * [`FixedHysteresis`] — `H` (10) with at most `N` plays (20);
-//! * [`FixedCreep`] — `C` (16) with at most `K = (n+1)·m` elementary
-//!   operators (13)–(15);
-//! * [`FixedModel`] — `W = H + C + offset` (4), (6);
-//! * [`FixedCompensator`] — `W⁻¹` (21) with saturation and the inverse rules
-//!   (22), the fault flag for a non-finite target and the model's offset.
+//! One type per concept, generic over the scalar `T` ([`Real`]: `f32`,
+//! `f64`) and the storage `S` ([`Storage`]: [`Inline`] capacity fixed at
+//! compile time, or `Heap` with `std`):
 //!
-//! Orders are chosen at run time up to the capacity; [`PaperCompensator`] and
-//! [`PaperModel`] have exactly the paper's (12 plays, 12 × 5 creep
-//! operators). Parameters come in as `f64` slices ([`ModelParameters`]), are
-//! checked like the model file's (11), (12), (17), (18) and transformed in
-//! `f64`; only the steps run in `T`.
+//! * [`Hysteresis`] — `H` (10) over plays (20);
+//! * [`Creep`] — `C` (16) of log(t)-creep operators (13)–(15);
+//! * [`Model`] — `W = H + C + offset` (4), (6);
+//! * [`Compensator`] — `W⁻¹` (21) with saturation ([`CompensatorSettings`]),
+//!   the inverse rules (22), the fault flag for a non-finite target and the
+//!   model's offset.
+//!
+//! Orders are chosen at run time up to the capacity; [`nominal::Capacity`]
+//! holds exactly the paper's (12 plays, 12 × 5 creep operators).
+//! Parameters come in as `f64` slices ([`ModelParameters`]), are checked
+//! once ([`ModelParameters::validate`], (11), (12), (17), (18)) and
+//! transformed in `f64`; only the steps run in `T`.
 //!
 //! ```
-//! use mfcbeam::realtime::{nominal, PaperCompensator, PaperModel};
+//! use mfcbeam::realtime::{nominal, Compensator, CompensatorSettings, Model};
 //!
-//! let mut comp = PaperCompensator::<f32>::new(&nominal::PARAMETERS, -1000.0, 1000.0).unwrap();
-//! let mut plant = PaperModel::<f32>::new(&nominal::PARAMETERS).unwrap();
+//! type Size = nominal::Capacity;
+//! let settings = CompensatorSettings::default();
+//! let mut comp = Compensator::<f32, Size>::new(&nominal::PARAMETERS, settings).unwrap();
+//! let mut plant = Model::<f32, Size>::new(&nominal::PARAMETERS).unwrap();
 //! let y = plant.step(comp.compensate(250.0).u);
 //! assert!((y - 250.0).abs() < 1e-3);
 //! ```
@@ -35,31 +39,22 @@ pub mod compensator;
 pub mod creep;
 pub mod error;
 pub mod hysteresis;
-pub mod inverse;
+pub(crate) mod inverse;
 pub mod model;
 pub mod nominal;
 pub mod parameters;
-pub mod play;
+pub(crate) mod play;
 pub mod real;
 pub mod rounding;
 pub mod simd;
+pub mod storage;
 
-pub use compensator::{Compensated, FixedCompensator};
-pub use creep::FixedCreep;
+pub use compensator::{Compensated, Compensator, CompensatorSettings};
+pub use creep::Creep;
 pub use error::ParameterError;
-pub use hysteresis::FixedHysteresis;
-pub use model::FixedModel;
+pub use hysteresis::Hysteresis;
+pub use model::Model;
 pub use parameters::{CreepParameters, HysteresisParameters, ModelParameters};
 pub use real::Real;
 pub use rounding::RoundingBounds;
-
-/// Plays of the paper's model (`n = 11`).
-pub const PAPER_PLAYS: usize = 12;
-/// Elementary creep operators of the paper's model (12 thresholds × 5
-/// eigenvalues).
-pub const PAPER_CREEP: usize = 60;
-
-/// A compensator sized for the paper's model.
-pub type PaperCompensator<T> = FixedCompensator<T, PAPER_PLAYS, PAPER_CREEP>;
-/// A model `W` sized for the paper's model.
-pub type PaperModel<T> = FixedModel<T, PAPER_PLAYS, PAPER_CREEP>;
+pub use storage::{Buffer, Inline, InlineBuffer, Storage};

@@ -1,61 +1,135 @@
-//! The actuator model `W[v] = H[v] + C[v] + offset` (4), (6) in fixed-capacity
-//! storage: what a test bench on the target runs the compensator against.
+//! The actuator model `W[v] = H[v] + C[v] + offset` (4), (6): `W` maps the
+//! balanced patch voltage `u` (V) to the effective voltage that drives the
+//! linear beam; the offset is a measurement's sensor offset. `C` may be
+//! absent (pure hysteresis).
 
-use crate::realtime::creep::FixedCreep;
+use crate::realtime::creep::Creep;
 use crate::realtime::error::ParameterError;
-use crate::realtime::hysteresis::FixedHysteresis;
-use crate::realtime::parameters::ModelParameters;
+use crate::realtime::hysteresis::Hysteresis;
+use crate::realtime::parameters::{
+    check_sample_time, CreepParameters, HysteresisParameters, ModelParameters,
+};
 use crate::realtime::real::Real;
+use crate::realtime::storage::Storage;
 
-/// `W` with at most `N` plays and `K` elementary creep operators.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FixedModel<T: Real, const N: usize, const K: usize> {
-    hysteresis: FixedHysteresis<T, N>,
-    creep: Option<FixedCreep<T, K>>,
+/// `W = H + C + offset` (6) in `T`, kept in storage `S`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Model<T: Real, S: Storage> {
+    sample_time: f64,
     offset: T,
+    hysteresis: Hysteresis<T, S>,
+    creep: Option<Creep<T, S>>,
 }
 
-impl<T: Real, const N: usize, const K: usize> FixedModel<T, N, K> {
+impl<T: Real, S: Storage> Model<T, S> {
     /// `W` with checked parameters, in the virgin state.
     pub fn new(parameters: &ModelParameters<'_>) -> Result<Self, ParameterError> {
         parameters.validate()?;
         Ok(Self {
-            hysteresis: FixedHysteresis::new(&parameters.hysteresis)?,
+            sample_time: parameters.sample_time,
+            offset: T::from_f64(parameters.offset),
+            hysteresis: Hysteresis::from_parameters(&parameters.hysteresis)?,
             creep: match &parameters.creep {
-                Some(c) => Some(FixedCreep::new(c, parameters.sample_time)?),
+                Some(c) => Some(Creep::from_parameters(c, parameters.sample_time)?),
                 None => None,
             },
-            offset: T::from_f64(parameters.offset),
         })
     }
 
-    pub fn hysteresis(&self) -> &FixedHysteresis<T, N> {
-        &self.hysteresis
+    /// `W` of an `H` and an optional `C` (in their states), without offset.
+    /// The creep operator's sample time must equal `sample_time`.
+    pub fn from_parts(
+        sample_time: f64,
+        hysteresis: Hysteresis<T, S>,
+        creep: Option<Creep<T, S>>,
+    ) -> Result<Self, ParameterError> {
+        check_sample_time(sample_time)?;
+        if let Some(c) = &creep {
+            if c.sample_time() != sample_time {
+                return Err(ParameterError::SampleTimeMismatch {
+                    found: c.sample_time(),
+                    expected: sample_time,
+                });
+            }
+        }
+        Ok(Self {
+            sample_time,
+            offset: T::ZERO,
+            hysteresis,
+            creep,
+        })
     }
 
-    pub fn hysteresis_mut(&mut self) -> &mut FixedHysteresis<T, N> {
-        &mut self.hysteresis
+    /// The same model with output offset `offset`: `y = W[u] + offset`.
+    pub fn with_offset(mut self, offset: f64) -> Self {
+        self.offset = T::from_f64(offset);
+        self
     }
 
-    pub fn creep(&self) -> Option<&FixedCreep<T, K>> {
-        self.creep.as_ref()
+    /// Sample time `T_s` (s).
+    pub fn sample_time(&self) -> f64 {
+        self.sample_time
     }
 
-    pub fn creep_mut(&mut self) -> Option<&mut FixedCreep<T, K>> {
-        self.creep.as_mut()
-    }
-
+    /// The output offset.
     pub fn offset(&self) -> T {
         self.offset
     }
 
-    /// One sample of `W`; a non-finite input holds the last one.
+    /// The hysteresis operator `H`.
+    pub fn hysteresis(&self) -> &Hysteresis<T, S> {
+        &self.hysteresis
+    }
+
+    pub fn hysteresis_mut(&mut self) -> &mut Hysteresis<T, S> {
+        &mut self.hysteresis
+    }
+
+    /// The creep operator `C`, if any.
+    pub fn creep(&self) -> Option<&Creep<T, S>> {
+        self.creep.as_ref()
+    }
+
+    pub fn creep_mut(&mut self) -> Option<&mut Creep<T, S>> {
+        self.creep.as_mut()
+    }
+
+    /// Set the play states of `H` and (flattened, `state[i * m + j]`) the
+    /// creep states; both are checked before either changes. `creep: None`
+    /// leaves `C` in its zero state.
+    pub fn set_state(
+        &mut self,
+        hysteresis: &[f64],
+        creep: Option<&[f64]>,
+    ) -> Result<(), ParameterError> {
+        let mut h = self.hysteresis.clone();
+        h.set_state(hysteresis)?;
+        let mut c = self.creep.clone();
+        match (&mut c, creep) {
+            (Some(c), Some(state)) => c.set_state_flat(state)?,
+            (Some(c), None) => c.reset(),
+            (None, None) => {}
+            (None, Some(state)) => {
+                return Err(ParameterError::LengthMismatch {
+                    field: "creep.state",
+                    expected: 0,
+                    found: state.len(),
+                })
+            }
+        }
+        self.hysteresis = h;
+        self.creep = c;
+        Ok(())
+    }
+
+    /// One sample of `W`. A non-finite input is taken as the previous input
+    /// held: the plays do not move, the creep advances with the held value.
     #[inline]
     pub fn step(&mut self, v: T) -> T {
         let v = if v.is_finite() {
             v
         } else {
-            self.hysteresis.state()[0]
+            self.hysteresis.play_states()[0]
         };
         let h = self.hysteresis.step(v);
         let w = match &mut self.creep {
@@ -65,10 +139,31 @@ impl<T: Real, const N: usize, const K: usize> FixedModel<T, N, K> {
         w + self.offset
     }
 
+    /// Back to the virgin state.
     pub fn reset(&mut self) {
         self.hysteresis.reset();
         if let Some(c) = &mut self.creep {
             c.reset();
+        }
+    }
+}
+
+impl<S: Storage> Model<f64, S> {
+    /// The parameters of the model (its state not included), borrowed: what
+    /// a compensator, a bank or another storage is built from.
+    pub fn parameters(&self) -> ModelParameters<'_> {
+        ModelParameters {
+            sample_time: self.sample_time,
+            hysteresis: HysteresisParameters {
+                thresholds: self.hysteresis.thresholds(),
+                weights: self.hysteresis.weights(),
+            },
+            creep: self.creep.as_ref().map(|c| CreepParameters {
+                thresholds: c.thresholds(),
+                weights: c.weights(),
+                eigenvalues: c.eigenvalues(),
+            }),
+            offset: self.offset,
         }
     }
 }

@@ -5,6 +5,17 @@
 //! does not print its identified ones.
 
 use crate::realtime::parameters::{CreepParameters, HysteresisParameters, ModelParameters};
+use crate::realtime::storage::Inline;
+
+/// Inline storage for exactly the paper's orders: 12 plays and 12 × 5
+/// elementary creep operators (`Compensator<f32, nominal::Capacity>`).
+pub type Capacity = Inline<PLAYS, CREEP>;
+
+/// Plays of the paper's model (`n = 11`).
+pub const PLAYS: usize = 12;
+/// Elementary creep operators of the paper's model (12 thresholds × 5
+/// eigenvalues).
+pub const CREEP: usize = 60;
 
 pub const SAMPLE_TIME: f64 = 2e-4;
 

@@ -22,10 +22,3 @@ pub fn clamp<T: Real>(x: T, lower: T, upper: T) -> T {
         lower
     }
 }
-
-/// The dead zone `d_r(z) = max(z − r, min(z + r, 0))` of (14): the play from
-/// the zero state.
-#[inline(always)]
-pub fn dead_zone<T: Real>(z: T, r: T) -> T {
-    play(z, r, T::ZERO)
-}

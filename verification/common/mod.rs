@@ -109,7 +109,7 @@ pub fn creep_operator(max_thresholds: usize) -> impl Strategy<Value = CreepOpera
                 CreepOperator::new(
                     thresholds_from_increments(&inc),
                     weights_from_partial_sums(&sums),
-                    log_a.iter().map(|&l| 10f64.powf(l)).collect(),
+                    log_a.iter().map(|&l| 10f64.powf(l)).collect::<Vec<_>>(),
                     10f64.powf(log_ts),
                 )
                 .expect("generated creep operator satisfies (17), (18)")
@@ -121,7 +121,7 @@ pub fn creep_operator(max_thresholds: usize) -> impl Strategy<Value = CreepOpera
 pub fn model(max_plays: usize) -> impl Strategy<Value = HysteresisCreepModel> {
     (hysteresis_operator(max_plays), creep_operator(max_plays)).prop_map(|(h, c)| {
         let ts = c.sample_time();
-        HysteresisCreepModel::new(ts, h, Some(c)).expect("consistent sample time")
+        HysteresisCreepModel::from_parts(ts, h, Some(c)).expect("consistent sample time")
     })
 }
 

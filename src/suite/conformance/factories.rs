@@ -3,10 +3,11 @@
 //! the numerical (bisection) compensator.
 
 use crate::error::ModelError;
-use crate::operators::compensator::CompensatorSettings;
+use crate::operators::heap::Heap;
+use crate::operators::hysteresis::HysteresisOperator;
 use crate::operators::model::{HysteresisCreepModel, ModelFile};
 use crate::operators::traits::{ActuatorCompensator, ActuatorModel, InverseHysteresis};
-use crate::realtime::{FixedCompensator, FixedHysteresis, FixedModel, Real};
+use crate::realtime::{Compensator, CompensatorSettings, Hysteresis, Inline, Model, Real};
 
 /// `ε₃₂/ε₆₄ = 2²⁹`: the [`ConformanceSettings::tolerance_scale`] of an `f32`
 /// implementation. Every tolerance is a sum of terms linear in `ε` (first-order
@@ -15,55 +16,53 @@ use crate::realtime::{FixedCompensator, FixedHysteresis, FixedModel, Real};
 /// `ε₃₂/2`, inside the same terms.
 pub const F32_TOLERANCE_SCALE: f64 = (f32::EPSILON as f64) / f64::EPSILON;
 
-/// Factory of the real-time core's `W` in `T` with capacity `N` plays and `K`
+/// Factory of the core's `W` in `T`, inline with capacity `N` plays and `K`
 /// elementary creep operators.
-pub fn fixed_model<T: Real, const N: usize, const K: usize>(
+pub fn inline_model<T: Real, const N: usize, const K: usize>(
     file: &ModelFile,
 ) -> Result<Box<dyn ActuatorModel>, ModelError> {
-    Ok(Box::new(FixedModel::<T, N, K>::from_file(file)?))
+    Ok(Box::new(Model::<T, Inline<N, K>>::from_file(file)?))
 }
 
-/// Factory of the real-time core's compensator in `T`.
-pub fn fixed_compensator<T: Real, const N: usize, const K: usize>(
+/// Factory of the core's compensator in `T`, inline.
+pub fn inline_compensator<T: Real, const N: usize, const K: usize>(
     file: &ModelFile,
     settings: CompensatorSettings,
 ) -> Result<Box<dyn ActuatorCompensator>, ModelError> {
-    settings.validate()?;
-    Ok(Box::new(FixedCompensator::<T, N, K>::from_file(
-        file,
-        settings.lower_limit,
-        settings.upper_limit,
+    Ok(Box::new(Compensator::<T, Inline<N, K>>::from_file(
+        file, settings,
     )?))
 }
 
-/// Factory of the real-time core's `H⁻¹` in `T`.
-pub fn fixed_inverse_hysteresis<T: Real, const N: usize>(
+/// Factory of the core's `H⁻¹` in `T`, inline with capacity `N` plays.
+pub fn inline_inverse_hysteresis<T: Real, const N: usize>(
     file: &ModelFile,
 ) -> Result<Box<dyn InverseHysteresis>, ModelError> {
     HysteresisCreepModel::from_file(file)?;
-    Ok(Box::new(FixedHysteresis::<T, N>::inverse_from_file(file)?))
-}
-
-/// Factory of the project's model `W` (for tests and examples).
-pub fn fast_model(file: &ModelFile) -> Result<Box<dyn ActuatorModel>, ModelError> {
-    Ok(Box::new(HysteresisCreepModel::from_file(file)?))
-}
-
-/// Factory of the project's compensator (21).
-pub fn fast_compensator(
-    file: &ModelFile,
-    settings: CompensatorSettings,
-) -> Result<Box<dyn ActuatorCompensator>, ModelError> {
-    let model = HysteresisCreepModel::from_file(file)?;
-    Ok(Box::new(crate::operators::compensator::Compensator::new(
-        &model, settings,
+    Ok(Box::new(Hysteresis::<T, Inline<N, 0>>::inverse_from_file(
+        file,
     )?))
 }
 
-/// Factory of the project's inverse hysteresis operator (22).
-pub fn fast_inverse_hysteresis(file: &ModelFile) -> Result<Box<dyn InverseHysteresis>, ModelError> {
-    let model = HysteresisCreepModel::from_file(file)?;
-    Ok(Box::new(model.hysteresis().inverse()))
+/// Factory of the project's model `W` (`f64`, heap).
+pub fn heap_model(file: &ModelFile) -> Result<Box<dyn ActuatorModel>, ModelError> {
+    Ok(Box::new(HysteresisCreepModel::from_file(file)?))
+}
+
+/// Factory of the project's compensator (21) (`f64`, heap).
+pub fn heap_compensator(
+    file: &ModelFile,
+    settings: CompensatorSettings,
+) -> Result<Box<dyn ActuatorCompensator>, ModelError> {
+    Ok(Box::new(Compensator::<f64, Heap>::from_file(
+        file, settings,
+    )?))
+}
+
+/// Factory of the project's inverse hysteresis operator (22) (`f64`, heap).
+pub fn heap_inverse_hysteresis(file: &ModelFile) -> Result<Box<dyn InverseHysteresis>, ModelError> {
+    HysteresisCreepModel::from_file(file)?;
+    Ok(Box::new(HysteresisOperator::inverse_from_file(file)?))
 }
 
 /// Factory of the naive reference model.

@@ -38,7 +38,7 @@ use crate::operators::compensator::CompensatorSettings;
 use crate::operators::model::HysteresisCreepModel;
 use crate::operators::nominal::{nominal_model, SAMPLE_TIME};
 use crate::operators::traits::{ActuatorCompensator, ActuatorModel};
-use crate::suite::conformance::{fast_compensator, fast_model, CompensatorFactory, ModelFactory};
+use crate::suite::conformance::{heap_compensator, heap_model, CompensatorFactory, ModelFactory};
 use crate::suite::plots::Figure;
 use crate::suite::signal::Staircase;
 
@@ -226,8 +226,8 @@ impl ScenarioContext {
             model: nominal_model(),
             beam,
             modal,
-            plant: Box::new(fast_model),
-            compensator: Box::new(fast_compensator),
+            plant: Box::new(heap_model),
+            compensator: Box::new(heap_compensator),
         }
     }
 

@@ -1,0 +1,89 @@
+//! Where an operator keeps its numbers: the storage parameter `S` of
+//! [`Hysteresis`](super::Hysteresis), [`Creep`](super::Creep),
+//! [`Model`](super::Model) and [`Compensator`](super::Compensator).
+//!
+//! One type per concept, with its storage as a parameter (as nalgebra makes
+//! storage a parameter of one `Matrix`): the mathematics and the per-sample
+//! kernels are written once and run on either
+//!
+//! * [`Inline<PLAYS, CREEP>`]: arrays of a capacity fixed at compile time
+//!   inside the object (at most `PLAYS` plays, at most `CREEP` elementary
+//!   creep operators); no allocator, for `no_std` firmware and C storage;
+//! * `Heap` (with the `std` feature, in `crate::operators`): vectors sized
+//!   at run time.
+//!
+//! The orders are chosen at run time in both; an inline object refuses
+//! orders above its capacity with [`ParameterError::ExceedsCapacity`].
+
+use core::fmt::Debug;
+use core::ops::{Deref, DerefMut};
+
+use crate::realtime::error::ParameterError;
+use crate::realtime::real::Real;
+
+/// A storage class: the buffer types for play-sized and creep-sized lists.
+pub trait Storage: Sized + Copy + Debug + PartialEq + 'static {
+    /// Room for one value per play (thresholds, weights, states of `H`).
+    type Plays<T: Real>: Buffer<T>;
+    /// Room for one value per elementary creep operator (and the shorter
+    /// lists of `C`: thresholds, weights, eigenvalues).
+    type Creep<T: Real>: Buffer<T>;
+}
+
+/// A list of `len` values, zero-initialised, seen as a slice of exactly
+/// that length.
+pub trait Buffer<T: Real>: Clone + Debug + PartialEq + Deref<Target = [T]> + DerefMut {
+    /// `len` zeros, or [`ParameterError::ExceedsCapacity`] naming `field`.
+    fn zeroed(field: &'static str, len: usize) -> Result<Self, ParameterError>;
+}
+
+/// Inline storage: at most `PLAYS` plays and `CREEP` elementary creep
+/// operators, in arrays inside the object.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Inline<const PLAYS: usize, const CREEP: usize>;
+
+impl<const PLAYS: usize, const CREEP: usize> Storage for Inline<PLAYS, CREEP> {
+    type Plays<T: Real> = InlineBuffer<T, PLAYS>;
+    type Creep<T: Real> = InlineBuffer<T, CREEP>;
+}
+
+/// Up to `N` values in an array, `len` of them in use.
+#[derive(Debug, Clone, Copy)]
+pub struct InlineBuffer<T, const N: usize> {
+    len: usize,
+    data: [T; N],
+}
+
+impl<T: Real, const N: usize> Buffer<T> for InlineBuffer<T, N> {
+    fn zeroed(field: &'static str, len: usize) -> Result<Self, ParameterError> {
+        crate::realtime::parameters::check_capacity(field, N, len)?;
+        Ok(Self {
+            len,
+            data: [T::ZERO; N],
+        })
+    }
+}
+
+impl<T, const N: usize> Deref for InlineBuffer<T, N> {
+    type Target = [T];
+    #[inline(always)]
+    fn deref(&self) -> &[T] {
+        // `len ≤ N` by construction; the slice lets the kernels see the
+        // orders, not the capacity
+        &self.data[..self.len]
+    }
+}
+
+impl<T, const N: usize> DerefMut for InlineBuffer<T, N> {
+    #[inline(always)]
+    fn deref_mut(&mut self) -> &mut [T] {
+        &mut self.data[..self.len]
+    }
+}
+
+/// Equal when the values in use are (the unused tail does not count).
+impl<T: PartialEq, const N: usize> PartialEq for InlineBuffer<T, N> {
+    fn eq(&self, other: &Self) -> bool {
+        self[..] == other[..]
+    }
+}
