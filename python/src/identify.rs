@@ -6,8 +6,8 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use mfcbeam::identification::{
-    identify as identify_model, validate as validate_model, FitErrors, IdentificationSettings,
-    UnexcitedOperator,
+    holdout_samples, identify as identify_model, validate as validate_model, FitErrors,
+    IdentificationSettings, UnexcitedOperator,
 };
 use mfcbeam::io::TimeAxis;
 
@@ -59,11 +59,7 @@ pub fn identify<'py>(
     let y = signal("y", y)?;
     let t = optional_signal("t", t)?;
     let (ts, jitter) = sample_time_of(sample_time, t.as_deref(), u.len())?;
-    if !(0.0..1.0).contains(&holdout) {
-        return Err(PyValueError::new_err(format!(
-            "holdout: must be a fraction in [0, 1), found {holdout}"
-        )));
-    }
+    let holdout = holdout_samples(holdout, u.len()).map_err(value_error)?;
     let validation = match validate {
         None => None,
         Some((vu, vy)) => Some((signal("validate[0]", &vu)?, signal("validate[1]", &vy)?)),
@@ -78,7 +74,7 @@ pub fn identify<'py>(
         epsilon_h,
         fit_offset,
         fit_from,
-        holdout: (holdout * u.len() as f64).floor() as usize,
+        holdout,
     };
     let (id, validated) = py
         .detach(move || {

@@ -3,12 +3,14 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use serde::Serialize;
 
 use mfcbeam::beam::step_response_fit::{modal_model, simulate_response, FitParameter};
 use mfcbeam::beam::BeamParameters;
-use mfcbeam::identification::{identify as identify_model, IdentificationSettings};
+use mfcbeam::identification::{
+    holdout_samples, identify as identify_model, IdentificationSettings,
+};
 use mfcbeam::io::{read_beam, read_model, write_atomic, write_json, Trace};
 use mfcbeam::operators::compensator::CompensatorSettings;
 use mfcbeam::operators::nominal::SAMPLE_TIME;
@@ -106,11 +108,8 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
     };
     let u = trace.column("u")?;
     let y = trace.column("y")?;
-    let holdout = match a.holdout {
-        None => 0,
-        Some(f) if (0.0..1.0).contains(&f) => (f * u.len() as f64).floor() as usize,
-        Some(f) => bail!("--holdout: must be a fraction in [0, 1), found {f}"),
-    };
+    let holdout =
+        holdout_samples(a.holdout.unwrap_or(0.0), u.len()).map_err(|e| anyhow!("--{e}"))?;
     let validation = match &a.validate {
         None => None,
         Some(path) => {

@@ -17,29 +17,27 @@ use mfcbeam::suite::conformance::external::{
     ExternalCandidate, ExternalCompensator, ExternalModel, Invocation, WIDE_LIMITS,
 };
 use mfcbeam::suite::conformance::{
-    check_compensator, check_model, recheck_compensator, recheck_model, ConformanceSettings,
-    Counterexample, Outcome,
+    check_compensator, check_model, compensator_property_count, model_property_count,
+    recheck_compensator, recheck_model, ConformanceSettings, Counterexample, Outcome,
 };
 
 use super::args::{ConformArgs, ConformKind};
-
-/// Properties per kind (for spreading `--cases`).
-const MODEL_PROPERTIES: usize = 12;
-const COMPENSATOR_PROPERTIES: usize = 8;
 
 /// Shrink budget for a candidate that runs as a process (each evaluation
 /// starts it a few times).
 const EXTERNAL_SHRINK_BUDGET: usize = 300;
 
 pub fn conform(a: &ConformArgs) -> Result<()> {
-    if a.cases == 0 {
-        bail!("--cases: must be at least 1");
-    }
-    if !(a.tolerance_scale.is_finite() && a.tolerance_scale >= 1.0) {
-        bail!(
-            "--tolerance-scale: must be a finite number >= 1, found {}",
-            a.tolerance_scale
-        );
+    let settings = ConformanceSettings {
+        cases: a.cases,
+        seed: a.seed,
+        tolerance_scale: a.tolerance_scale,
+        shrink_budget: EXTERNAL_SHRINK_BUDGET,
+        ..ConformanceSettings::default()
+    };
+    // the library's checks, named as the options are
+    if let Err(ModelError::Inconsistent { field, reason }) = settings.validate() {
+        bail!("--{}: {reason}", field.replace('_', "-"));
     }
     if !(a.timeout.is_finite() && a.timeout > 0.0) {
         bail!(
@@ -58,20 +56,13 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
         )
     })?;
 
-    let per_property = a
-        .cases
-        .div_ceil(match a.kind {
-            ConformKind::Model => MODEL_PROPERTIES,
-            ConformKind::Compensator => COMPENSATOR_PROPERTIES,
-        })
-        .max(1);
-    let settings = ConformanceSettings {
-        cases: per_property,
-        seed: a.seed,
-        tolerance_scale: a.tolerance_scale,
-        shrink_budget: EXTERNAL_SHRINK_BUDGET,
-        ..ConformanceSettings::default()
-    };
+    let settings = settings.spread(
+        a.cases,
+        match a.kind {
+            ConformKind::Model => model_property_count(),
+            ConformKind::Compensator => compensator_property_count(),
+        },
+    );
     let start = Instant::now();
     let progress = Progress::start(&candidate);
     let cand = candidate.clone();

@@ -146,6 +146,19 @@ impl IdentificationSettings {
     }
 }
 
+/// Samples at the end of a record of `samples` left out of the fit for a
+/// hold-out `fraction` in `[0, 1)` (rounded down).
+pub fn holdout_samples(fraction: f64, samples: usize) -> Result<usize, IdentificationError> {
+    if (0.0..1.0).contains(&fraction) {
+        Ok((fraction * samples as f64).floor() as usize)
+    } else {
+        Err(IdentificationError::InvalidSetting {
+            field: "holdout",
+            reason: format!("must be a fraction in [0, 1), found {fraction}"),
+        })
+    }
+}
+
 /// Thresholds by (23): `r_i = (i · r_max) / (n + 1)`, `i = 0..n`, evaluated in
 /// that order so every implementation gets the same bits.
 pub fn thresholds_23(count: usize, r_max: f64) -> Vec<f64> {

@@ -34,7 +34,7 @@ pub fn creep_gain(eigenvalue: f64, sample_time: f64) -> f64 {
 /// Thresholds per block of the creep pass: the clamp bounds `v ∓ r_i` are
 /// formed once per threshold and reused by every eigenvalue's row, and a
 /// block is one AVX register of `f64` (two SSE2 registers).
-pub const LANES: usize = 4;
+pub(crate) const LANES: usize = 4;
 
 /// Advance every elementary operator with `v` (20) and return the new output
 /// `Σ_i (w_i/m) Σ_j χ_ij`. `chi[j * n + i]` (eigenvalue-major); `thresholds`
@@ -49,7 +49,7 @@ pub const LANES: usize = 4;
 /// [`reduce`]), the same for every instruction set: the result does not
 /// depend on the CPU.
 #[inline(always)]
-pub fn advance<T: Real>(
+pub(crate) fn advance<T: Real>(
     chi: &mut [T],
     thresholds: &[T],
     gains: &[T],
@@ -122,7 +122,7 @@ fn advance_tail<T: Real>(
 /// `if t > lo { t } else { lo }`, so the bits are those of [`advance`]
 /// (`verification/bank.rs` compares them).
 #[inline(always)]
-pub fn advance_fast<T: Real, const SIMD: bool>(
+pub(crate) fn advance_fast<T: Real, const SIMD: bool>(
     chi: &mut [T],
     thresholds: &[T],
     gains: &[T],
@@ -193,7 +193,7 @@ unsafe fn avx2_f64(
 
 /// The output `Σ_i (w_i/m) Σ_j χ_ij` of a state, summed in the order
 /// [`advance`] uses (bit for bit what it returns for that state).
-pub fn output<T: Real>(chi: &[T], weights: &[T]) -> T {
+pub(crate) fn output<T: Real>(chi: &[T], weights: &[T]) -> T {
     let n = weights.len();
     let mut acc = [T::ZERO; LANES];
     for (i, &w) in weights.iter().enumerate() {

@@ -18,7 +18,7 @@ use crate::realtime::storage::{Buffer, Storage};
 /// (the zero-threshold play holds the last input), so it never enters the
 /// state.
 #[inline(always)]
-pub fn step<T: Real>(state: &mut [T], thresholds: &[T], weights: &[T], v: T) -> T {
+pub(crate) fn step<T: Real>(state: &mut [T], thresholds: &[T], weights: &[T], v: T) -> T {
     let v = if v.is_finite() { v } else { state[0] };
     let n = state.len();
     debug_assert!(thresholds.len() == n && weights.len() == n);
@@ -46,7 +46,7 @@ pub fn step<T: Real>(state: &mut [T], thresholds: &[T], weights: &[T], v: T) -> 
 /// set and the CPU has AVX2: the same operations in the same order, so the
 /// same bits (see [`crate::realtime::creep::advance_fast`]).
 #[inline(always)]
-pub fn step_fast<T: Real, const SIMD: bool>(
+pub(crate) fn step_fast<T: Real, const SIMD: bool>(
     state: &mut [T],
     thresholds: &[T],
     weights: &[T],
@@ -101,7 +101,7 @@ unsafe fn avx2_f64(state: &mut [f64], thresholds: &[f64], weights: &[f64], v: f6
 /// Advance the plays with `v` (20), without the output (the compensator's
 /// copy of the plant's plays); AVX for `f64` as in [`step_fast`].
 #[inline(always)]
-pub fn advance_plays<T: Real, const SIMD: bool>(state: &mut [T], thresholds: &[T], v: T) {
+pub(crate) fn advance_plays<T: Real, const SIMD: bool>(state: &mut [T], thresholds: &[T], v: T) {
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
     if SIMD && crate::realtime::simd::avx2_in_use() {
         use crate::realtime::simd::{as_f64, as_f64_mut};
@@ -142,7 +142,7 @@ unsafe fn avx2_plays_f64(state: &mut [f64], thresholds: &[f64], v: f64) {
 /// 4` in order (SIMD without `-ffast-math`-style reassociation: the order
 /// is fixed, the same for every instruction set), then [`reduce`]d.
 #[inline(always)]
-pub fn weighted_sum<T: Real>(w: &[T], x: &[T]) -> T {
+pub(crate) fn weighted_sum<T: Real>(w: &[T], x: &[T]) -> T {
     let mut a = [T::ZERO; 4];
     let wc = w.chunks_exact(4);
     let xc = x.chunks_exact(4);
@@ -161,7 +161,7 @@ pub fn weighted_sum<T: Real>(w: &[T], x: &[T]) -> T {
 /// The four partial sums added as `(a₀ + a₂) + (a₁ + a₃)`: the two halves
 /// of a 4-lane register, then its two lanes, with no shuffle in between.
 #[inline(always)]
-pub fn reduce<T: Real>(a: [T; 4]) -> T {
+pub(crate) fn reduce<T: Real>(a: [T; 4]) -> T {
     (a[0] + a[2]) + (a[1] + a[3])
 }
 

@@ -13,7 +13,7 @@ use crate::realtime::real::Real;
 
 /// Thresholds and weights of `H⁻¹` from those of `H` (all slices of one
 /// length `n + 1 ≥ 1`).
-pub fn inverse_parameters_into<T: Real>(
+pub(crate) fn inverse_parameters_into<T: Real>(
     thresholds: &[T],
     weights: &[T],
     inv_thresholds: &mut [T],
@@ -36,7 +36,7 @@ pub fn inverse_parameters_into<T: Real>(
 /// weights and their partial sums. Allocation-free: the compensator calls it
 /// on saturation.
 #[inline]
-pub fn inverse_state_into<T: Real>(weights: &[T], sums: &[T], x: &[T], inv_state: &mut [T]) {
+pub(crate) fn inverse_state_into<T: Real>(weights: &[T], sums: &[T], x: &[T], inv_state: &mut [T]) {
     let n = x.len();
     debug_assert!(weights.len() == n && sums.len() == n && inv_state.len() == n);
     let mut tail = T::ZERO;
@@ -52,7 +52,7 @@ pub fn inverse_state_into<T: Real>(weights: &[T], sums: &[T], x: &[T], inv_state
 /// rows of (22) is `s_j (x_j − x_{j+1})`). In place: `x` holds `x'` on entry.
 /// Allocation-free: the compensator calls it after a saturated sample.
 #[inline]
-pub fn forward_state_in_place<T: Real>(sums: &[T], x: &mut [T]) {
+pub(crate) fn forward_state_in_place<T: Real>(sums: &[T], x: &mut [T]) {
     let n = x.len();
     debug_assert!(sums.len() == n);
     if n == 0 {

@@ -67,7 +67,7 @@ impl ModelParameters<'_> {
     }
 }
 
-pub fn check_finite(field: &'static str, values: &[f64]) -> Result<(), ParameterError> {
+pub(crate) fn check_finite(field: &'static str, values: &[f64]) -> Result<(), ParameterError> {
     match values.iter().position(|v| !v.is_finite()) {
         Some(index) => Err(ParameterError::NonFinite {
             field,
@@ -78,7 +78,7 @@ pub fn check_finite(field: &'static str, values: &[f64]) -> Result<(), Parameter
     }
 }
 
-pub fn check_length(
+pub(crate) fn check_length(
     field: &'static str,
     expected: usize,
     found: usize,
@@ -94,7 +94,7 @@ pub fn check_length(
     }
 }
 
-pub fn check_capacity(
+pub(crate) fn check_capacity(
     field: &'static str,
     capacity: usize,
     found: usize,
@@ -111,7 +111,7 @@ pub fn check_capacity(
 }
 
 /// (12)/(18): not empty, finite, `r_0 = 0`, strictly increasing.
-pub fn check_thresholds(field: &'static str, r: &[f64]) -> Result<(), ParameterError> {
+pub(crate) fn check_thresholds(field: &'static str, r: &[f64]) -> Result<(), ParameterError> {
     if r.is_empty() {
         return Err(ParameterError::Empty { field });
     }
@@ -133,7 +133,8 @@ pub fn check_thresholds(field: &'static str, r: &[f64]) -> Result<(), ParameterE
 }
 
 /// One threshold (a single play or creep operator): finite and `>= 0`.
-pub fn check_threshold(field: &'static str, value: f64) -> Result<(), ParameterError> {
+#[cfg_attr(not(feature = "std"), allow(dead_code))] // used by the single-threshold std operators
+pub(crate) fn check_threshold(field: &'static str, value: f64) -> Result<(), ParameterError> {
     if value.is_finite() && value >= 0.0 {
         Ok(())
     } else {
@@ -142,7 +143,7 @@ pub fn check_threshold(field: &'static str, value: f64) -> Result<(), ParameterE
 }
 
 /// (11) when `strict` (every partial sum `> 0`), else (17) (`≥ 0`).
-pub fn check_partial_sums(
+pub(crate) fn check_partial_sums(
     field: &'static str,
     w: &[f64],
     strict: bool,
@@ -161,7 +162,7 @@ pub fn check_partial_sums(
 }
 
 /// Creep eigenvalues: at least one, each finite and `> 0`.
-pub fn check_eigenvalues(field: &'static str, a: &[f64]) -> Result<(), ParameterError> {
+pub(crate) fn check_eigenvalues(field: &'static str, a: &[f64]) -> Result<(), ParameterError> {
     if a.is_empty() {
         return Err(ParameterError::Empty { field });
     }
@@ -177,7 +178,7 @@ pub fn check_eigenvalues(field: &'static str, a: &[f64]) -> Result<(), Parameter
     Ok(())
 }
 
-pub fn check_sample_time(sample_time: f64) -> Result<(), ParameterError> {
+pub(crate) fn check_sample_time(sample_time: f64) -> Result<(), ParameterError> {
     if sample_time.is_finite() && sample_time > 0.0 {
         Ok(())
     } else {
@@ -186,7 +187,7 @@ pub fn check_sample_time(sample_time: f64) -> Result<(), ParameterError> {
 }
 
 /// Saturation limits `lower < upper` (either may be infinite, neither NaN).
-pub fn check_limits(lower: f64, upper: f64) -> Result<(), ParameterError> {
+pub(crate) fn check_limits(lower: f64, upper: f64) -> Result<(), ParameterError> {
     if lower < upper {
         Ok(())
     } else {
@@ -199,7 +200,7 @@ pub fn check_limits(lower: f64, upper: f64) -> Result<(), ParameterError> {
 /// (22) make, `8 (n+1) ε (max|x| + r_n)` with the `ε` of the precision `r`
 /// was stored in (thresholds rounded to `f32` move by `ε₃₂/2` relative).
 /// Lengths must already agree.
-pub fn check_admissible(
+pub(crate) fn check_admissible(
     field: &'static str,
     r: &[f64],
     x: &[f64],

@@ -14,7 +14,7 @@ pub fn play<T: Real>(v: T, r: T, x: T) -> T {
 /// `max(lower, min(upper, x))`: the play (20) with its bounds `v ∓ r` formed
 /// by the caller, so that one pair serves several states.
 #[inline(always)]
-pub fn clamp<T: Real>(x: T, lower: T, upper: T) -> T {
+pub(crate) fn clamp<T: Real>(x: T, lower: T, upper: T) -> T {
     let t = if x < upper { x } else { upper };
     if t > lower {
         t

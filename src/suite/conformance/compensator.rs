@@ -34,6 +34,11 @@ pub fn recheck_compensator(
     super::recheck(&properties(), name, case, factory, settings)
 }
 
+/// How many properties [`check_compensator`] runs.
+pub fn compensator_property_count() -> usize {
+    properties().len()
+}
+
 fn properties<'a>() -> Vec<Property<CompensatorFactory<'a>>> {
     let p = |name, description, max_cases, generate, check: Check<'a>| Property {
         name,

@@ -49,10 +49,10 @@ pub use cases::{
     nested_extrema, path, random_input, random_model, refine, segment, with_state_after,
     ModelShape, Rng,
 };
-pub use compensator::{check_compensator, recheck_compensator};
+pub use compensator::{check_compensator, compensator_property_count, recheck_compensator};
 pub use factories::*;
 pub use inverse_hysteresis::{check_inverse_hysteresis, recheck_inverse_hysteresis};
-pub use model::{check_model, recheck_model};
+pub use model::{check_model, model_property_count, recheck_model};
 pub(crate) use runner::{recheck, run_properties};
 
 /// Builds an implementation of `W` from a model file (starting from its
@@ -120,6 +120,13 @@ impl ConformanceSettings {
         } else {
             self.tolerance_scale * rounding
         }
+    }
+
+    /// The same settings with `total` cases spread over `properties`
+    /// properties (at least one case each).
+    pub fn spread(mut self, total: usize, properties: usize) -> Self {
+        self.cases = total.div_ceil(properties.max(1)).max(1);
+        self
     }
 
     /// At least one case, a finite scale ≥ 1, at least one play and 4 samples.
@@ -194,7 +201,7 @@ pub enum Outcome {
 }
 
 /// Compare `found` with `expected` sample by sample within `tolerance`.
-pub fn compare(
+pub(crate) fn compare(
     signal: &[f64],
     expected: &[f64],
     found: &[f64],
@@ -242,7 +249,7 @@ pub fn compare(
 }
 
 /// A failed outcome.
-pub fn fail(
+pub(crate) fn fail(
     signal: &[f64],
     expected: &[f64],
     found: &[f64],
@@ -280,7 +287,7 @@ pub(crate) fn two<T>(build: impl Fn() -> Result<T, Outcome>) -> Result<(T, T), O
 }
 
 /// The candidate refused a valid model.
-pub fn refused(e: ModelError) -> Outcome {
+pub(crate) fn refused(e: ModelError) -> Outcome {
     fail(
         &[],
         &[],

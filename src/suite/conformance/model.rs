@@ -38,6 +38,11 @@ pub fn recheck_model(
     super::recheck(&properties(), name, case, factory, settings)
 }
 
+/// How many properties [`check_model`] runs.
+pub fn model_property_count() -> usize {
+    properties().len()
+}
+
 fn properties<'a>() -> Vec<Property<ModelFactory<'a>>> {
     let p = |name, description, max_cases, generate, check: Check<'a>| Property {
         name,
