@@ -902,9 +902,9 @@ fn reproduce_writes_traces_plots_and_a_summary_where_every_claim_holds() {
         "{table}"
     );
     for s in mfcbeam::suite::scenarios::SCENARIOS {
-        assert!(d.path(&format!("traces/{}.csv", s.id())).exists());
+        assert!(d.path(&format!("traces/{}.csv", s.id)).exists());
         for ext in ["svg", "png"] {
-            let p = d.path(&format!("plots/{}.{ext}", s.id()));
+            let p = d.path(&format!("plots/{}.{ext}", s.id));
             assert!(
                 fs::metadata(&p).map(|m| m.len() > 1000).unwrap_or(false),
                 "{}",

@@ -124,22 +124,10 @@ fn faulty_variants_fail_with_small_counterexamples() {
         ("compensator", "compensate", "no-flag"),
         ("compensator", "compensate", "ignore-state"),
     ];
-    // each run mostly waits for its candidate processes: run them together
-    let runs: Vec<_> = std::thread::scope(|scope| {
-        let handles: Vec<_> = faults
-            .iter()
-            .map(|&(kind, command, fault)| {
-                scope.spawn(move || {
-                    let d = TempDir::new(&format!("fault-{fault}-{kind}"));
-                    let exec = format!("{} {PYTHON} {command} --fault {fault}", python());
-                    let out = conform(kind, &exec, 24, &d.0);
-                    (kind, fault, d, out)
-                })
-            })
-            .collect();
-        handles.into_iter().map(|h| h.join().unwrap()).collect()
-    });
-    for (kind, fault, d, out) in runs {
+    for (kind, command, fault) in faults {
+        let d = TempDir::new(&format!("fault-{fault}-{kind}"));
+        let exec = format!("{} {PYTHON} {command} --fault {fault}", python());
+        let out = conform(kind, &exec, 24, &d.0);
         let text = String::from_utf8_lossy(&out.stdout);
         eprintln!("{fault} ({kind}):\n{text}");
         assert_eq!(out.status.code(), Some(1), "{fault} should be caught");

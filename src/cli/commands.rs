@@ -278,7 +278,7 @@ fn reproduce(a: &ReproduceArgs) -> Result<()> {
 fn scenario(a: &ScenarioArgs) -> Result<()> {
     use mfcbeam::suite::scenarios::{run, scenario, ScenarioContext, SCENARIOS};
     let Some(sc) = scenario(&a.name) else {
-        let ids: Vec<&str> = SCENARIOS.iter().map(|s| s.id()).collect();
+        let ids: Vec<&str> = SCENARIOS.iter().map(|s| s.id).collect();
         bail!(
             "scenario '{}': unknown (one of: {})",
             a.name,
@@ -289,14 +289,14 @@ fn scenario(a: &ScenarioArgs) -> Result<()> {
     let tr = if a.full {
         tr
     } else {
-        tr.decimated(sc.decimation())
+        tr.decimated(sc.decimation)
     };
     let cols: Vec<(&str, &[f64])> = tr.columns.iter().map(|(n, v)| (*n, v.as_slice())).collect();
     Trace::from_columns(&a.output, &cols).write(&a.output)?;
     eprintln!(
         "mfcbeam: {} ({}): wrote {} rows to {}",
-        sc.id(),
-        sc.paper(),
+        sc.id,
+        sc.paper,
         tr.len(),
         a.output.display()
     );

@@ -17,8 +17,7 @@ use mfcbeam::suite::conformance::external::{
     ExternalCandidate, ExternalCompensator, ExternalModel, Invocation, WIDE_LIMITS,
 };
 use mfcbeam::suite::conformance::{
-    check_compensator, check_model, compensator_property_count, model_property_count,
-    recheck_compensator, recheck_model, ConformanceSettings, Counterexample, Outcome,
+    compensator_properties, model_properties, ConformanceSettings, Counterexample, Outcome,
 };
 
 use super::args::{ConformArgs, ConformKind};
@@ -59,8 +58,8 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
     let settings = settings.spread(
         a.cases,
         match a.kind {
-            ConformKind::Model => model_property_count(),
-            ConformKind::Compensator => compensator_property_count(),
+            ConformKind::Model => model_properties().len(),
+            ConformKind::Compensator => compensator_properties().len(),
         },
     );
     let start = Instant::now();
@@ -76,8 +75,10 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
         Ok(Box::new(ExternalCompensator::new(cand.clone(), f, s)))
     };
     let report = match a.kind {
-        ConformKind::Model => check_model(&model_factory, &settings)?,
-        ConformKind::Compensator => check_compensator(&compensator_factory, &settings)?,
+        ConformKind::Model => model_properties().check(&model_factory, &settings)?,
+        ConformKind::Compensator => {
+            compensator_properties().check(&compensator_factory, &settings)?
+        }
     };
     progress.finish();
     let runs = candidate.runs.load(Ordering::Relaxed);
@@ -97,9 +98,11 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
         if let Some(c) = &p.counterexample {
             let dir = a.out.join(format!("{}-{}", p.name, c.case_index));
             let recheck = |case: &mfcbeam::suite::conformance::Case| match a.kind {
-                ConformKind::Model => recheck_model(p.name, case, &model_factory, &settings),
+                ConformKind::Model => {
+                    model_properties().recheck(p.name, case, &model_factory, &settings)
+                }
                 ConformKind::Compensator => {
-                    recheck_compensator(p.name, case, &compensator_factory, &settings)
+                    compensator_properties().recheck(p.name, case, &compensator_factory, &settings)
                 }
             };
             write_counterexample(&candidate, &dir, p.name, p.description, c, recheck)

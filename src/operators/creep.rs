@@ -155,16 +155,7 @@ impl Snapshot for LogCreepOperator {
     }
 }
 
-impl<T: Real, S: Storage> Operator for Creep<T, S> {
-    #[inline]
-    fn step(&mut self, v: f64) -> f64 {
-        Creep::step(self, T::from_f64(v)).to_f64()
-    }
-
-    fn reset(&mut self) {
-        Creep::reset(self);
-    }
-}
+crate::operators::traits::operator_in_any_precision!(Creep);
 
 impl<T: Real, S: Storage> Snapshot for Creep<T, S> {
     /// One row of `m` values per threshold, as in the model file.

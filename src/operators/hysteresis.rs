@@ -7,7 +7,7 @@
 use crate::error::ModelError;
 use crate::operators::heap::Heap;
 use crate::operators::model::ModelFile;
-use crate::operators::traits::{InverseHysteresis, Operator, Snapshot};
+use crate::operators::traits::{InverseHysteresis, Snapshot};
 use crate::realtime::{Hysteresis, Real, Storage};
 
 /// `H` in `f64` on the heap: what most programs use.
@@ -44,18 +44,7 @@ impl<T: Real, S: Storage> Hysteresis<T, S> {
     }
 }
 
-impl<T: Real, S: Storage> Operator for Hysteresis<T, S> {
-    /// A non-finite input is taken as the previous one held: the state
-    /// does not change and the last output is returned.
-    #[inline]
-    fn step(&mut self, v: f64) -> f64 {
-        Hysteresis::step(self, T::from_f64(v)).to_f64()
-    }
-
-    fn reset(&mut self) {
-        Hysteresis::reset(self);
-    }
-}
+crate::operators::traits::operator_in_any_precision!(Hysteresis);
 
 impl<T: Real, S: Storage> Snapshot for Hysteresis<T, S> {
     type State = Vec<f64>;

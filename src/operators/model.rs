@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::ModelError;
 use crate::operators::heap::Heap;
-use crate::operators::traits::{ActuatorModel, Operator, Snapshot};
+use crate::operators::traits::{ActuatorModel, Snapshot};
 use crate::realtime::{
     CreepParameters, HysteresisParameters, Model, ModelParameters, Real, Storage,
 };
@@ -147,18 +147,7 @@ impl<T: Real, S: Storage> Model<T, S> {
     }
 }
 
-impl<T: Real, S: Storage> Operator for Model<T, S> {
-    /// A non-finite input is taken as the previous input held: the plays do
-    /// not move, the creep advances with the held value.
-    #[inline]
-    fn step(&mut self, v: f64) -> f64 {
-        Model::step(self, T::from_f64(v)).to_f64()
-    }
-
-    fn reset(&mut self) {
-        Model::reset(self);
-    }
-}
+crate::operators::traits::operator_in_any_precision!(Model);
 
 impl<T: Real, S: Storage> Snapshot for Model<T, S> {
     type State = ModelState;

@@ -92,3 +92,24 @@ pub trait ActuatorCompensator {
         targets.iter().map(|&t| self.compensate(t)).collect()
     }
 }
+
+/// [`Operator`] for a core operator in every precision and storage: `f64`
+/// in and out, rounded to `T` at the boundary (exact for `f64`). A
+/// non-finite input is held out by the operator's own step.
+macro_rules! operator_in_any_precision {
+    ($operator:ident) => {
+        impl<T: $crate::realtime::Real, S: $crate::realtime::Storage>
+            $crate::operators::traits::Operator for $operator<T, S>
+        {
+            #[inline]
+            fn step(&mut self, v: f64) -> f64 {
+                $operator::step(self, T::from_f64(v)).to_f64()
+            }
+
+            fn reset(&mut self) {
+                $operator::reset(self);
+            }
+        }
+    };
+}
+pub(crate) use operator_in_any_precision;

@@ -120,11 +120,11 @@ pub fn compute_all(
     SCENARIOS
         .iter()
         .map(|s| {
-            let trace = run(*s, ctx)?;
+            let trace = run(s, ctx)?;
             Ok((
-                format!("{}.csv", s.id()),
-                trace.decimated(s.decimation()),
-                s.decimation(),
+                format!("{}.csv", s.id),
+                trace.decimated(s.decimation),
+                s.decimation,
             ))
         })
         .collect()
@@ -138,20 +138,20 @@ pub fn write_golden(dir: &Path) -> Result<Manifest, GoldenError> {
         let bytes = csv_bytes(&trace);
         write_atomic(&dir.join(&file), &bytes)?;
         traces.push(TraceManifest {
-            id: s.id().into(),
+            id: s.id.into(),
             file: file.clone(),
-            paper: s.paper().into(),
-            description: s.description().into(),
+            paper: s.paper.into(),
+            description: s.description.into(),
             provenance: format!(
                 "mfcbeam scenario {} --output golden/{file} (all at once: mfcbeam golden --write)",
-                s.id()
+                s.id
             ),
             models: vec!["nominal_model.json".into(), "nominal_beam.json".into()],
             sample_time: SAMPLE_TIME,
             decimation: k,
             rows: trace.len(),
             sha256: sha256_hex(&bytes),
-            columns: s.columns().into_iter().map(ColumnSpec::from).collect(),
+            columns: s.columns.iter().copied().map(ColumnSpec::from).collect(),
         });
     }
     let manifest = Manifest {
@@ -456,5 +456,5 @@ pub fn verify(golden: &Path, candidate: &Path) -> Result<VerifyReport, GoldenErr
 
 /// The declared columns of a scenario, as the manifest stores them.
 pub fn declared_columns(id: &str) -> Option<Vec<ColumnSpec>> {
-    scenario(id).map(|s| s.columns().into_iter().map(ColumnSpec::from).collect())
+    scenario(id).map(|s| s.columns.iter().copied().map(ColumnSpec::from).collect())
 }

@@ -27,7 +27,7 @@ pub enum ReproduceError {
 pub fn claims(traces: &Traces) -> Vec<Claim> {
     SCENARIOS
         .iter()
-        .filter_map(|s| traces.get(s.id()).map(|t| s.claims(t, traces)))
+        .filter_map(|s| traces.get(s.id).map(|t| s.claims(t, traces)))
         .flatten()
         .collect()
 }
@@ -46,10 +46,10 @@ pub fn reproduce(out: &Path) -> Result<Vec<Claim>, ReproduceError> {
     }
     let full = run_all(&ctx)?;
     for s in SCENARIOS {
-        let bytes = csv_bytes(&full[s.id()].decimated(s.decimation()));
-        write_atomic(&traces_dir.join(format!("{}.csv", s.id())), &bytes)?;
-        if let Some(fig) = s.figure(&full[s.id()], &full) {
-            let stem = plots_dir.join(s.id());
+        let bytes = csv_bytes(&full[s.id].decimated(s.decimation));
+        write_atomic(&traces_dir.join(format!("{}.csv", s.id)), &bytes)?;
+        if let Some(fig) = s.figure(&full[s.id], &full) {
+            let stem = plots_dir.join(s.id);
             write_figure(&fig, &stem).map_err(|message| ReproduceError::Figure {
                 path: stem.display().to_string(),
                 message,

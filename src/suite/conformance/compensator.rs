@@ -6,7 +6,7 @@
 use super::candidate;
 use super::cases::{random_input, random_model, reach, with_state_after, ModelShape, Rng};
 use super::{compare, fail, refused, tolerance, two, Case, ConformanceReport, ConformanceSettings};
-use super::{CompensatorFactory, Outcome, Property};
+use super::{CompensatorFactory, Outcome, Properties, Property};
 use crate::error::ModelError;
 use crate::operators::compensator::CompensatorSettings;
 use crate::operators::nominal::nominal_model_file;
@@ -14,39 +14,19 @@ use crate::operators::traits::{ActuatorCompensator, Compensated, Operator};
 use crate::suite::reference::{NaiveCompensator, NaiveModel};
 use crate::suite::signal::Staircase;
 
-type Check<'a> = fn(&Case, &CompensatorFactory<'a>, &ConformanceSettings) -> Outcome;
-
-/// Run every property of `W⁻¹` on the compensators `factory` builds.
+/// Run every property of the compensator on the implementations `factory` builds.
 pub fn check_compensator(
     factory: &CompensatorFactory<'_>,
     settings: &ConformanceSettings,
 ) -> Result<ConformanceReport, ModelError> {
-    super::run_properties("compensator", &properties(), factory, settings)
+    compensator_properties().check(factory, settings)
 }
 
-/// Rerun property `name` on one case (`None`: no such property).
-pub fn recheck_compensator(
-    name: &str,
-    case: &Case,
-    factory: &CompensatorFactory<'_>,
-    settings: &ConformanceSettings,
-) -> Option<Outcome> {
-    super::recheck(&properties(), name, case, factory, settings)
-}
-
-/// How many properties [`check_compensator`] runs.
-pub fn compensator_property_count() -> usize {
-    properties().len()
-}
-
-fn properties<'a>() -> Vec<Property<CompensatorFactory<'a>>> {
-    let p = |name, description, max_cases, generate, check: Check<'a>| Property {
-        name,
-        description,
-        max_cases,
-        generate,
-        check,
-    };
+/// The properties of the compensator, to run, count or rerun one by name.
+pub fn compensator_properties<'a>() -> Properties<CompensatorFactory<'a>> {
+    let p = Property::<CompensatorFactory<'a>>::new;
+    Properties::new(
+        "compensator",
     vec![
         p("agreement", "W⁻¹ equals the naive reference compensator (21), (22) on random models, states and targets", usize::MAX, target_case, agreement),
         p("model_after_compensator", "W[W⁻¹[y]] = y from matched states (no limits)", usize::MAX, target_case, model_after_compensator),
@@ -56,7 +36,8 @@ fn properties<'a>() -> Vec<Property<CompensatorFactory<'a>>> {
         p("split_and_resume", "a compensator from the model file's state continues W⁻¹∘W (state semantics)", usize::MAX, voltage_case, split_and_resume),
         p("saturation_flags", "outputs stay within the limits and exactly the clipped samples are flagged", usize::MAX, saturating_case, saturation_flags),
         p("saturation_recovery", "after clipped samples W[W⁻¹[y]] = y again as soon as y is reachable", usize::MAX, saturating_case, saturation_recovery),
-    ]
+    ],
+    )
 }
 
 fn settings_of(case: &Case) -> CompensatorSettings {

@@ -6,77 +6,72 @@
 use super::candidate;
 use super::cases::{random_input, random_model, reach, refine, with_state_after, ModelShape, Rng};
 use super::{compare, refused, tolerance, two, Case, ConformanceReport, ConformanceSettings};
-use super::{InverseHysteresisFactory, Outcome, Property};
+use super::{InverseHysteresisFactory, Outcome, Properties, Property};
 use crate::error::ModelError;
 use crate::operators::traits::{InverseHysteresis, Operator};
 use crate::suite::reference::{naive_inverse_hysteresis, NaiveModel};
 
-type Check<'a> = fn(&Case, &InverseHysteresisFactory<'a>, &ConformanceSettings) -> Outcome;
-
-/// Run every property of `H⁻¹` on the operators `factory` builds.
+/// Run every property of the inverse hysteresis on the implementations `factory` builds.
 pub fn check_inverse_hysteresis(
     factory: &InverseHysteresisFactory<'_>,
     settings: &ConformanceSettings,
 ) -> Result<ConformanceReport, ModelError> {
-    super::run_properties("inverse hysteresis", &properties(), factory, settings)
+    inverse_hysteresis_properties().check(factory, settings)
 }
 
-/// Rerun property `name` on one case (`None`: no such property).
-pub fn recheck_inverse_hysteresis(
-    name: &str,
-    case: &Case,
-    factory: &InverseHysteresisFactory<'_>,
-    settings: &ConformanceSettings,
-) -> Option<Outcome> {
-    super::recheck(&properties(), name, case, factory, settings)
-}
-
-fn properties<'a>() -> Vec<Property<InverseHysteresisFactory<'a>>> {
-    let p = |name, description, generate, check: Check<'a>| Property {
-        name,
-        description,
-        max_cases: usize::MAX,
-        generate,
-        check,
+/// The properties of the inverse hysteresis, to run, count or rerun one by name.
+pub fn inverse_hysteresis_properties<'a>() -> Properties<InverseHysteresisFactory<'a>> {
+    // every property runs on as many cases as asked
+    let p = |name, description, generate, check| {
+        Property::<InverseHysteresisFactory<'a>>::new(
+            name,
+            description,
+            usize::MAX,
+            generate,
+            check,
+        )
     };
-    vec![
-        p(
-            "agreement",
-            "H⁻¹ equals the direct sums of the rules (22) applied to the model's state",
-            output_case,
-            agreement,
-        ),
-        p(
-            "forward_after_inverse",
-            "H[H⁻¹[y]] = y from matched admissible states",
-            output_case,
-            forward_after_inverse,
-        ),
-        p(
-            "inverse_after_forward",
-            "H⁻¹[H[v]] = v from matched admissible states",
-            voltage_case,
-            inverse_after_forward,
-        ),
-        p(
-            "odd_symmetry",
-            "H⁻¹[-y] = -H⁻¹[y] from the virgin state",
-            virgin_case,
-            odd_symmetry,
-        ),
-        p(
-            "rate_independence",
-            "samples inserted on monotone segments change nothing at the original samples",
-            virgin_case,
-            rate_independence,
-        ),
-        p(
-            "split_and_resume",
-            "H⁻¹ built from the model file's state continues H⁻¹∘H (state semantics)",
-            voltage_case,
-            split_and_resume,
-        ),
-    ]
+    Properties::new(
+        "inverse hysteresis",
+        vec![
+            p(
+                "agreement",
+                "H⁻¹ equals the direct sums of the rules (22) applied to the model's state",
+                output_case,
+                agreement,
+            ),
+            p(
+                "forward_after_inverse",
+                "H[H⁻¹[y]] = y from matched admissible states",
+                output_case,
+                forward_after_inverse,
+            ),
+            p(
+                "inverse_after_forward",
+                "H⁻¹[H[v]] = v from matched admissible states",
+                voltage_case,
+                inverse_after_forward,
+            ),
+            p(
+                "odd_symmetry",
+                "H⁻¹[-y] = -H⁻¹[y] from the virgin state",
+                virgin_case,
+                odd_symmetry,
+            ),
+            p(
+                "rate_independence",
+                "samples inserted on monotone segments change nothing at the original samples",
+                virgin_case,
+                rate_independence,
+            ),
+            p(
+                "split_and_resume",
+                "H⁻¹ built from the model file's state continues H⁻¹∘H (state semantics)",
+                voltage_case,
+                split_and_resume,
+            ),
+        ],
+    )
 }
 
 fn build(

@@ -49,11 +49,11 @@ pub use cases::{
     nested_extrema, path, random_input, random_model, refine, segment, with_state_after,
     ModelShape, Rng,
 };
-pub use compensator::{check_compensator, compensator_property_count, recheck_compensator};
+pub use compensator::{check_compensator, compensator_properties};
 pub use factories::*;
-pub use inverse_hysteresis::{check_inverse_hysteresis, recheck_inverse_hysteresis};
-pub use model::{check_model, model_property_count, recheck_model};
-pub(crate) use runner::{recheck, run_properties};
+pub use inverse_hysteresis::{check_inverse_hysteresis, inverse_hysteresis_properties};
+pub use model::{check_model, model_properties};
+pub(crate) use runner::run_properties;
 
 /// Builds an implementation of `W` from a model file (starting from its
 /// `state`). `Sync`: properties run in parallel.
@@ -407,7 +407,54 @@ impl fmt::Display for ConformanceReport {
     }
 }
 
+/// The properties of one kind (`F`, its factory type): run them all on an
+/// implementation, count them, or rerun one by name on one case.
+pub struct Properties<F: ?Sized> {
+    kind: &'static str,
+    properties: Vec<Property<F>>,
+}
+
+impl<F: ?Sized + Sync> Properties<F> {
+    pub(crate) fn new(kind: &'static str, properties: Vec<Property<F>>) -> Self {
+        Self { kind, properties }
+    }
+
+    /// Run every property on the implementations `factory` builds.
+    pub fn check(
+        &self,
+        factory: &F,
+        settings: &ConformanceSettings,
+    ) -> Result<ConformanceReport, ModelError> {
+        run_properties(self.kind, &self.properties, factory, settings)
+    }
+
+    /// How many properties there are.
+    pub fn len(&self) -> usize {
+        self.properties.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.properties.is_empty()
+    }
+
+    /// Rerun property `name` on one case, to reproduce a counterexample
+    /// (`None`: no such property).
+    pub fn recheck(
+        &self,
+        name: &str,
+        case: &Case,
+        factory: &F,
+        settings: &ConformanceSettings,
+    ) -> Option<Outcome> {
+        self.properties
+            .iter()
+            .find(|p| p.name == name)
+            .map(|p| (p.check)(case, factory, settings))
+    }
+}
+
 /// One property of kind `F` (the factory type).
+#[allow(clippy::type_complexity)]
 pub(crate) struct Property<F: ?Sized> {
     pub name: &'static str,
     pub description: &'static str,
@@ -415,4 +462,22 @@ pub(crate) struct Property<F: ?Sized> {
     pub max_cases: usize,
     pub generate: fn(&mut Rng, &ConformanceSettings, usize) -> Case,
     pub check: fn(&Case, &F, &ConformanceSettings) -> Outcome,
+}
+
+impl<F: ?Sized> Property<F> {
+    pub(crate) fn new(
+        name: &'static str,
+        description: &'static str,
+        max_cases: usize,
+        generate: fn(&mut Rng, &ConformanceSettings, usize) -> Case,
+        check: fn(&Case, &F, &ConformanceSettings) -> Outcome,
+    ) -> Self {
+        Self {
+            name,
+            description,
+            max_cases,
+            generate,
+            check,
+        }
+    }
 }

@@ -11,46 +11,26 @@ use super::cases::{
     with_state_after, ModelShape, Rng,
 };
 use super::{compare, fail, refused, tolerance, two, Case, ConformanceReport, ConformanceSettings};
-use super::{ModelFactory, Outcome, Property};
+use super::{ModelFactory, Outcome, Properties, Property};
 use crate::error::ModelError;
 use crate::operators::nominal::nominal_model_file;
 use crate::operators::traits::{ActuatorModel, Operator};
 use crate::suite::reference::NaiveModel;
 use crate::suite::signal::Staircase;
 
-type Check<'a> = fn(&Case, &ModelFactory<'a>, &ConformanceSettings) -> Outcome;
-
-/// Run every property of `W` on the implementations `factory` builds.
+/// Run every property of the model on the implementations `factory` builds.
 pub fn check_model(
     factory: &ModelFactory<'_>,
     settings: &ConformanceSettings,
 ) -> Result<ConformanceReport, ModelError> {
-    super::run_properties("model", &properties(), factory, settings)
+    model_properties().check(factory, settings)
 }
 
-/// Rerun property `name` on one case (`None`: no such property).
-pub fn recheck_model(
-    name: &str,
-    case: &Case,
-    factory: &ModelFactory<'_>,
-    settings: &ConformanceSettings,
-) -> Option<Outcome> {
-    super::recheck(&properties(), name, case, factory, settings)
-}
-
-/// How many properties [`check_model`] runs.
-pub fn model_property_count() -> usize {
-    properties().len()
-}
-
-fn properties<'a>() -> Vec<Property<ModelFactory<'a>>> {
-    let p = |name, description, max_cases, generate, check: Check<'a>| Property {
-        name,
-        description,
-        max_cases,
-        generate,
-        check,
-    };
+/// The properties of the model, to run, count or rerun one by name.
+pub fn model_properties<'a>() -> Properties<ModelFactory<'a>> {
+    let p = Property::<ModelFactory<'a>>::new;
+    Properties::new(
+        "model",
     vec![
         p("agreement", "W equals the naive reference (10), (16), (20) on random models, states and inputs", usize::MAX, any_case, agreement),
         p("paper_inputs", "W equals the reference on the nominal model and the paper's inputs (Figs. 2, 3, 8a)", 3, paper_case, agreement),
@@ -64,7 +44,8 @@ fn properties<'a>() -> Vec<Property<ModelFactory<'a>>> {
         p("madelung_wiping_out", "H: continued beyond p1 the curve is the one that led to p1 (Madelung iii)", usize::MAX, extrema_case, madelung_iii),
         p("masing", "H: a branch from a turning point is the initial loading curve scaled by 2 (Masing)", usize::MAX, extrema_case, masing),
         p("intersection", "H: branches from different histories meet at one point with different slopes (Fig. 8b)", 1, nominal_hysteresis_case, intersection),
-    ]
+    ],
+    )
 }
 
 fn build(factory: &ModelFactory, case: &Case) -> Result<Box<dyn ActuatorModel>, Outcome> {

@@ -46,20 +46,6 @@ pub(crate) fn run_properties<F: ?Sized + Sync>(
     })
 }
 
-/// Rerun property `name` on one case (to reproduce a counterexample).
-pub(crate) fn recheck<F: ?Sized>(
-    properties: &[Property<F>],
-    name: &str,
-    case: &Case,
-    factory: &F,
-    settings: &ConformanceSettings,
-) -> Option<Outcome> {
-    properties
-        .iter()
-        .find(|p| p.name == name)
-        .map(|p| (p.check)(case, factory, settings))
-}
-
 fn run_property<F: ?Sized>(
     pi: usize,
     p: &Property<F>,

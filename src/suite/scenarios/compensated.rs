@@ -4,13 +4,11 @@
 
 use super::{
     compensator_output, fig3_staircase, flag, input, model_output, range, time, time_axis, tip,
-    Claim, Column, Scenario, ScenarioContext, ScenarioError, ScenarioTrace, Traces,
+    Claim, Scenario, ScenarioContext, ScenarioError, ScenarioTrace, Traces,
 };
 use crate::operators::compensator::CompensatorSettings;
 use crate::operators::supply::Supply;
 use crate::suite::plots::{panel, scaled, series, Figure, COLORS, GREY};
-
-pub struct Compensated;
 
 /// Output at the last upward and the last downward zero crossing of the
 /// input (linear interpolation): their gap is the loop width at zero input.
@@ -32,109 +30,96 @@ fn loop_width_at_zero(u: &[f64], y: &[f64]) -> f64 {
     }
 }
 
-impl Scenario for Compensated {
-    fn id(&self) -> &'static str {
-        "compensated"
+pub(super) static SCENARIO: Scenario = Scenario {
+    id: "compensated",
+    paper: "Fig. 10",
+    description:
+        "the staircase of Fig. 3 (as desired effective voltage) through W^-1 then W and the beam",
+    decimation: 20,
+    columns: &[
+        time(),
+        input("y_d"),
+        compensator_output("u"),
+        flag("saturated"),
+        compensator_output("u_fs"),
+        compensator_output("u_bs"),
+        model_output("y"),
+        tip("tip"),
+    ],
+    compute,
+    figure,
+    claims,
+};
+
+fn compute(ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
+    let y_d = fig3_staircase(500.0);
+    let mut comp = ctx.compensator(SCENARIO.id, CompensatorSettings::default())?;
+    let supply = Supply::default();
+    let (mut u, mut sat, mut fs, mut bs) = (vec![], vec![], vec![], vec![]);
+    for &t in &y_d {
+        let c = comp.compensate(t);
+        let (p, _) = supply.patch_voltages_saturating(c.u);
+        u.push(c.u);
+        sat.push(if c.saturated { 1.0 } else { 0.0 });
+        fs.push(p.front);
+        bs.push(p.back);
     }
-    fn paper(&self) -> &'static str {
-        "Fig. 10"
-    }
-    fn description(&self) -> &'static str {
-        "the staircase of Fig. 3 (as desired effective voltage) through W^-1 then W and the beam"
-    }
-    fn decimation(&self) -> usize {
-        20
-    }
-    fn columns(&self) -> Vec<Column> {
-        vec![
-            time(),
-            input("y_d"),
-            compensator_output("u"),
-            flag("saturated"),
-            compensator_output("u_fs"),
-            compensator_output("u_bs"),
-            model_output("y"),
-            tip("tip"),
-        ]
-    }
-    fn compute(&self, ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
-        let y_d = fig3_staircase(500.0);
-        let mut comp = ctx.compensator(self.id(), CompensatorSettings::default())?;
-        let supply = Supply::default();
-        let (mut u, mut sat, mut fs, mut bs) = (vec![], vec![], vec![], vec![]);
-        for &t in &y_d {
-            let c = comp.compensate(t);
-            let (p, _) = supply.patch_voltages_saturating(c.u);
-            u.push(c.u);
-            sat.push(if c.saturated { 1.0 } else { 0.0 });
-            fs.push(p.front);
-            bs.push(p.back);
-        }
-        let y = ctx.plant(self.id())?.run(&u);
-        let tip = ctx.beam().simulate(&y);
-        Ok(ScenarioTrace {
-            columns: vec![
-                ("t", time_axis(y_d.len())),
-                ("y_d", y_d),
-                ("u", u),
-                ("saturated", sat),
-                ("u_fs", fs),
-                ("u_bs", bs),
-                ("y", y),
-                ("tip", tip),
-            ],
-        })
-    }
-    fn figure(&self, tr: &ScenarioTrace, all: &Traces) -> Option<Figure> {
-        let t = tr.col("t");
-        let mut loops = Vec::new();
-        if let Some(st) = all.get("staircase") {
-            loops.push(series(
-                "without compensation: W[u] over u",
-                st.col("u"),
-                st.col("w"),
-                GREY,
-            ));
-        }
+    let y = ctx.plant(SCENARIO.id)?.run(&u);
+    let tip = ctx.beam().simulate(&y);
+    Ok(ScenarioTrace::of(
+        &SCENARIO,
+        vec![time_axis(y_d.len()), y_d, u, sat, fs, bs, y, tip],
+    ))
+}
+fn figure(tr: &ScenarioTrace, all: &Traces) -> Option<Figure> {
+    let t = tr.col("t");
+    let mut loops = Vec::new();
+    if let Some(st) = all.get("staircase") {
         loops.push(series(
-            "with compensation: W[W^-1[y_d]] over y_d",
-            tr.col("y_d"),
-            tr.col("y"),
-            COLORS[0],
+            "without compensation: W[u] over u",
+            st.col("u"),
+            st.col("w"),
+            GREY,
         ));
-        Some(Figure {
-            title: "Fig. 10 — compensated staircase: linear input-output".into(),
-            panels: vec![
-                panel("loops", "commanded (V)", "effective voltage (V)", loops),
-                panel(
-                    "patch voltages from the compensator",
-                    "t (s)",
-                    "V",
-                    vec![
-                        series("u_fs", t, tr.col("u_fs"), COLORS[1]),
-                        series("u_bs", t, tr.col("u_bs"), COLORS[2]),
-                    ],
-                ),
-                panel(
-                    "tip deflection",
-                    "t (s)",
-                    "w(L) (mm)",
-                    vec![series("tip", t, &scaled(tr.col("tip"), 1e3), COLORS[0])],
-                ),
-            ],
-        })
     }
-    fn claims(&self, tr: &ScenarioTrace, all: &Traces) -> Vec<Claim> {
-        let Some(st) = all.get("staircase") else {
-            return Vec::new();
-        };
-        let before = 100.0 * loop_width_at_zero(st.col("u"), st.col("w")) / range(st.col("w"));
-        let after = 100.0 * loop_width_at_zero(tr.col("y_d"), tr.col("y")) / range(tr.col("y"));
-        vec![Claim {
+    loops.push(series(
+        "with compensation: W[W^-1[y_d]] over y_d",
+        tr.col("y_d"),
+        tr.col("y"),
+        COLORS[0],
+    ));
+    Some(Figure {
+        title: "Fig. 10 — compensated staircase: linear input-output".into(),
+        panels: vec![
+            panel("loops", "commanded (V)", "effective voltage (V)", loops),
+            panel(
+                "patch voltages from the compensator",
+                "t (s)",
+                "V",
+                vec![
+                    series("u_fs", t, tr.col("u_fs"), COLORS[1]),
+                    series("u_bs", t, tr.col("u_bs"), COLORS[2]),
+                ],
+            ),
+            panel(
+                "tip deflection",
+                "t (s)",
+                "w(L) (mm)",
+                vec![series("tip", t, &scaled(tr.col("tip"), 1e3), COLORS[0])],
+            ),
+        ],
+    })
+}
+fn claims(tr: &ScenarioTrace, all: &Traces) -> Vec<Claim> {
+    let Some(st) = all.get("staircase") else {
+        return Vec::new();
+    };
+    let before = 100.0 * loop_width_at_zero(st.col("u"), st.col("w")) / range(st.col("w"));
+    let after = 100.0 * loop_width_at_zero(tr.col("y_d"), tr.col("y")) / range(tr.col("y"));
+    vec![Claim {
             figure: "Figs. 3, 10",
             claim: "the compensator removes the hysteresis loop (width at zero input, % of the output range)",
             measured: format!("{before:.2} % before, {after:.1e} % after"),
             holds: before > 1.0 && after < 1e-6,
         }]
-    }
 }

@@ -10,134 +10,117 @@ use crate::operators::compensator::CompensatorSettings;
 use crate::operators::supply::Supply;
 use crate::suite::plots::{panel, scaled, series, window, Figure, COLORS, GREY};
 
-pub struct Feedforward;
+pub(super) static SCENARIO: Scenario = Scenario {
+    id: "feedforward",
+    paper: "Fig. 14",
+    description: "1 mm in 75 ms from 2.9 s (sigma 1.1) through compensator, W and beam",
+    decimation: 1,
+    columns: &[
+        time(),
+        Column {
+            unit: "m",
+            abs_tol: 1e-15,
+            rel_tol: 1e-10,
+            justification: "N(d/dt) z_d from order-30 derivatives accurate to 1e-10 of their scale",
+            ..model_output("y_d")
+        },
+        Column {
+            abs_tol: 1e-8,
+            rel_tol: 1e-10,
+            justification: "D(d/dt) z_d: derivatives to 1e-10 of their scale, 30 factors applied",
+            ..model_output("u_d")
+        },
+        compensator_output("u"),
+        compensator_output("u_fs"),
+        compensator_output("u_bs"),
+        model_output("w"),
+        tip("tip"),
+    ],
+    compute,
+    figure,
+    claims,
+};
 
-impl Scenario for Feedforward {
-    fn id(&self) -> &'static str {
-        "feedforward"
+fn compute(ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
+    let err = |e: &dyn std::fmt::Display| ScenarioError::new(SCENARIO.id, e);
+    let flat = FlatParametrization::new(&ctx.modal).map_err(|e| err(&e))?;
+    let ff = design(&flat, &FeedforwardSettings::default()).map_err(|e| err(&e))?;
+    let supply = Supply::default();
+    let (lo, hi) = supply.balanced_limits();
+    let mut comp = ctx.compensator(SCENARIO.id, CompensatorSettings::with_limits(lo, hi))?;
+    let (mut u, mut fs, mut bs) = (vec![], vec![], vec![]);
+    for &v in &ff.u_d {
+        let c = comp.compensate(v);
+        let (p, _) = supply.patch_voltages_saturating(c.u);
+        u.push(c.u);
+        fs.push(p.front);
+        bs.push(p.back);
     }
-    fn paper(&self) -> &'static str {
-        "Fig. 14"
-    }
-    fn description(&self) -> &'static str {
-        "1 mm in 75 ms from 2.9 s (sigma 1.1) through compensator, W and beam"
-    }
-    fn decimation(&self) -> usize {
-        1
-    }
-    fn columns(&self) -> Vec<Column> {
-        vec![
-            time(),
-            Column {
-                unit: "m",
-                abs_tol: 1e-15,
-                rel_tol: 1e-10,
-                justification:
-                    "N(d/dt) z_d from order-30 derivatives accurate to 1e-10 of their scale",
-                ..model_output("y_d")
-            },
-            Column {
-                abs_tol: 1e-8,
-                rel_tol: 1e-10,
-                justification:
-                    "D(d/dt) z_d: derivatives to 1e-10 of their scale, 30 factors applied",
-                ..model_output("u_d")
-            },
-            compensator_output("u"),
-            compensator_output("u_fs"),
-            compensator_output("u_bs"),
-            model_output("w"),
-            tip("tip"),
-        ]
-    }
-    fn compute(&self, ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
-        let err = |e: &dyn std::fmt::Display| ScenarioError::new(self.id(), e);
-        let flat = FlatParametrization::new(&ctx.modal).map_err(|e| err(&e))?;
-        let ff = design(&flat, &FeedforwardSettings::default()).map_err(|e| err(&e))?;
-        let supply = Supply::default();
-        let (lo, hi) = supply.balanced_limits();
-        let mut comp = ctx.compensator(self.id(), CompensatorSettings::with_limits(lo, hi))?;
-        let (mut u, mut fs, mut bs) = (vec![], vec![], vec![]);
-        for &v in &ff.u_d {
-            let c = comp.compensate(v);
-            let (p, _) = supply.patch_voltages_saturating(c.u);
-            u.push(c.u);
-            fs.push(p.front);
-            bs.push(p.back);
-        }
-        let w = ctx.plant(self.id())?.run(&u);
-        let tip = ctx.beam().simulate(&w);
-        Ok(ScenarioTrace {
-            columns: vec![
-                ("t", ff.t),
-                ("y_d", ff.y_d),
-                ("u_d", ff.u_d),
-                ("u", u),
-                ("u_fs", fs),
-                ("u_bs", bs),
-                ("w", w),
-                ("tip", tip),
-            ],
-        })
-    }
-    fn figure(&self, tr: &ScenarioTrace, _: &Traces) -> Option<Figure> {
-        let t = tr.col("t");
-        let (tw, cs) = window(t, &[tr.col("y_d"), tr.col("tip")], 2.85, 3.1);
-        let (td, ds) = window(t, &[tr.col("y_d"), tr.col("tip")], 2.96, 2.99);
-        let (tu, us) = window(t, &[tr.col("u_fs"), tr.col("u_bs")], 2.85, 3.1);
-        Some(Figure {
-            title: "Fig. 14 — flatness-based feedforward with compensation: 1 mm in 75 ms".into(),
-            panels: vec![
-                panel(
-                    "tracking",
-                    "t (s)",
-                    "w(L) (mm)",
-                    vec![
-                        series("desired y_d", &tw, &scaled(&cs[0], 1e3), GREY),
-                        series("simulated tip", &tw, &scaled(&cs[1], 1e3), COLORS[0]),
-                    ],
-                ),
-                panel(
-                    "detail at the end of the transition",
-                    "t (s)",
-                    "w(L) (mm)",
-                    vec![
-                        series("desired y_d", &td, &scaled(&ds[0], 1e3), GREY),
-                        series("simulated tip", &td, &scaled(&ds[1], 1e3), COLORS[0]),
-                    ],
-                ),
-                panel(
-                    "patch voltages",
-                    "t (s)",
-                    "V",
-                    vec![
-                        series("u_fs", &tu, &us[0], COLORS[1]),
-                        series("u_bs", &tu, &us[1], COLORS[2]),
-                    ],
-                ),
-            ],
-        })
-    }
-    fn claims(&self, tr: &ScenarioTrace, _: &Traces) -> Vec<Claim> {
-        let t = tr.col("t");
-        let (y_d, tip) = (tr.col("y_d"), tr.col("tip"));
-        let y_t = y_d[y_d.len() - 1];
-        let err = tip
-            .iter()
-            .zip(y_d)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
-        let k_end = at_time(t, 2.975);
-        let resid = tip[k_end + 1..]
-            .iter()
-            .map(|v| (v - y_t).abs())
-            .fold(0.0, f64::max);
-        let umax = tr
-            .col("u_fs")
-            .iter()
-            .chain(tr.col("u_bs"))
-            .fold(f64::NEG_INFINITY, |m, v| m.max(*v));
-        vec![Claim {
+    let w = ctx.plant(SCENARIO.id)?.run(&u);
+    let tip = ctx.beam().simulate(&w);
+    Ok(ScenarioTrace::of(
+        &SCENARIO,
+        vec![ff.t, ff.y_d, ff.u_d, u, fs, bs, w, tip],
+    ))
+}
+fn figure(tr: &ScenarioTrace, _: &Traces) -> Option<Figure> {
+    let t = tr.col("t");
+    let (tw, cs) = window(t, &[tr.col("y_d"), tr.col("tip")], 2.85, 3.1);
+    let (td, ds) = window(t, &[tr.col("y_d"), tr.col("tip")], 2.96, 2.99);
+    let (tu, us) = window(t, &[tr.col("u_fs"), tr.col("u_bs")], 2.85, 3.1);
+    Some(Figure {
+        title: "Fig. 14 — flatness-based feedforward with compensation: 1 mm in 75 ms".into(),
+        panels: vec![
+            panel(
+                "tracking",
+                "t (s)",
+                "w(L) (mm)",
+                vec![
+                    series("desired y_d", &tw, &scaled(&cs[0], 1e3), GREY),
+                    series("simulated tip", &tw, &scaled(&cs[1], 1e3), COLORS[0]),
+                ],
+            ),
+            panel(
+                "detail at the end of the transition",
+                "t (s)",
+                "w(L) (mm)",
+                vec![
+                    series("desired y_d", &td, &scaled(&ds[0], 1e3), GREY),
+                    series("simulated tip", &td, &scaled(&ds[1], 1e3), COLORS[0]),
+                ],
+            ),
+            panel(
+                "patch voltages",
+                "t (s)",
+                "V",
+                vec![
+                    series("u_fs", &tu, &us[0], COLORS[1]),
+                    series("u_bs", &tu, &us[1], COLORS[2]),
+                ],
+            ),
+        ],
+    })
+}
+fn claims(tr: &ScenarioTrace, _: &Traces) -> Vec<Claim> {
+    let t = tr.col("t");
+    let (y_d, tip) = (tr.col("y_d"), tr.col("tip"));
+    let y_t = y_d[y_d.len() - 1];
+    let err = tip
+        .iter()
+        .zip(y_d)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    let k_end = at_time(t, 2.975);
+    let resid = tip[k_end + 1..]
+        .iter()
+        .map(|v| (v - y_t).abs())
+        .fold(0.0, f64::max);
+    let umax = tr
+        .col("u_fs")
+        .iter()
+        .chain(tr.col("u_bs"))
+        .fold(f64::NEG_INFINITY, |m, v| m.max(*v));
+    vec![Claim {
             figure: "Fig. 14",
             claim: "1 mm in 75 ms (< one natural period) open loop: tracking error and residual vibration (% of the stroke)",
             measured: format!(
@@ -147,5 +130,4 @@ impl Scenario for Feedforward {
             ),
             holds: err < 0.01 * y_t && resid < 1e-3 * y_t && umax <= 1500.0,
         }]
-    }
 }

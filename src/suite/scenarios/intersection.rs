@@ -2,13 +2,11 @@
 //! plane with the input increasing, with different slopes there.
 
 use super::{
-    input, model_output, ramps, time, time_axis, Column, Scenario, ScenarioContext, ScenarioError,
-    ScenarioTrace, Traces,
+    input, model_output, no_claims, ramps, time, time_axis, Scenario, ScenarioContext,
+    ScenarioError, ScenarioTrace, Traces,
 };
 use crate::operators::traits::Operator;
 use crate::suite::plots::{panel, series, window, Figure, Series, COLORS};
-
-pub struct Intersection;
 
 const NAMES: [(&str, &str, &str); 3] = [
     ("u_a", "h_a", "virgin curve"),
@@ -16,75 +14,69 @@ const NAMES: [(&str, &str, &str); 3] = [
     ("u_c", "h_c", "after 900 V, -465.7 V"),
 ];
 
-impl Scenario for Intersection {
-    fn id(&self) -> &'static str {
-        "intersection"
+pub(super) static SCENARIO: Scenario = Scenario {
+    id: "intersection",
+    paper: "Fig. 8b",
+    description: "three histories of H reaching one point with the input increasing",
+    decimation: 10,
+    columns: &[
+        time(),
+        input("u_a"),
+        model_output("h_a"),
+        input("u_b"),
+        model_output("h_b"),
+        input("u_c"),
+        model_output("h_c"),
+    ],
+    compute,
+    figure,
+    claims: no_claims,
+};
+
+fn compute(ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
+    // the virgin curve to 200 V, and branches rising from reversals on the
+    // descending branches from 1000 V and 900 V that cross it at 200 V
+    let paths = [
+        ramps(&[300.0], 400.0),
+        ramps(&[1000.0, -483.5, 300.0], 400.0),
+        ramps(&[900.0, -465.7, 300.0], 400.0),
+    ];
+    let n = paths.iter().map(Vec::len).max().unwrap_or(0);
+    let mut columns = vec![("t", time_axis(n))];
+    for (p, (un, hn, _)) in paths.iter().zip(NAMES) {
+        let mut u = p.clone();
+        let last = *u.last().expect("a path has samples");
+        u.resize(n, last); // hold the end value
+        let h = ctx.model.hysteresis().clone().run(&u);
+        columns.push((un, u));
+        columns.push((hn, h));
     }
-    fn paper(&self) -> &'static str {
-        "Fig. 8b"
-    }
-    fn description(&self) -> &'static str {
-        "three histories of H reaching one point with the input increasing"
-    }
-    fn decimation(&self) -> usize {
-        10
-    }
-    fn columns(&self) -> Vec<Column> {
-        vec![
-            time(),
-            input("u_a"),
-            model_output("h_a"),
-            input("u_b"),
-            model_output("h_b"),
-            input("u_c"),
-            model_output("h_c"),
-        ]
-    }
-    fn compute(&self, ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
-        // the virgin curve to 200 V, and branches rising from reversals on the
-        // descending branches from 1000 V and 900 V that cross it at 200 V
-        let paths = [
-            ramps(&[300.0], 400.0),
-            ramps(&[1000.0, -483.5, 300.0], 400.0),
-            ramps(&[900.0, -465.7, 300.0], 400.0),
-        ];
-        let n = paths.iter().map(Vec::len).max().unwrap_or(0);
-        let mut columns = vec![("t", time_axis(n))];
-        for (p, (un, hn, _)) in paths.iter().zip(NAMES) {
-            let mut u = p.clone();
-            let last = *u.last().expect("a path has samples");
-            u.resize(n, last); // hold the end value
-            let h = ctx.model.hysteresis().clone().run(&u);
-            columns.push((un, u));
-            columns.push((hn, h));
-        }
-        Ok(ScenarioTrace { columns })
-    }
-    fn figure(&self, tr: &ScenarioTrace, _: &Traces) -> Option<Figure> {
-        let all: Vec<Series> = NAMES
-            .iter()
-            .enumerate()
-            .map(|(i, (u, h, l))| series(l, tr.col(u), tr.col(h), COLORS[i]))
-            .collect();
-        let zoom: Vec<Series> = NAMES
-            .iter()
-            .enumerate()
-            .map(|(i, (u, h, l))| {
-                let (x, ys) = window(tr.col(u), &[tr.col(h)], 150.0, 250.0);
-                series(l, &x, &ys[0], COLORS[i])
-            })
-            .collect();
-        Some(Figure {
-            title: "Fig. 8b — intersection property: branches crossing at one point".into(),
-            panels: vec![
-                panel("three histories of H", "u (V)", "H[u] (V)", all),
-                panel(
-                    "detail: one point, input increasing, three slopes",
-                    "u (V)",
-                    "H[u] (V)",
-                    zoom,
-                ),
-            ],
+    Ok(ScenarioTrace { columns })
+}
+fn figure(tr: &ScenarioTrace, _: &Traces) -> Option<Figure> {
+    let all: Vec<Series> = NAMES
+        .iter()
+        .enumerate()
+        .map(|(i, (u, h, l))| series(l, tr.col(u), tr.col(h), COLORS[i]))
+        .collect();
+    let zoom: Vec<Series> = NAMES
+        .iter()
+        .enumerate()
+        .map(|(i, (u, h, l))| {
+            let (x, ys) = window(tr.col(u), &[tr.col(h)], 150.0, 250.0);
+            series(l, &x, &ys[0], COLORS[i])
         })
-    }
+        .collect();
+    Some(Figure {
+        title: "Fig. 8b — intersection property: branches crossing at one point".into(),
+        panels: vec![
+            panel("three histories of H", "u (V)", "H[u] (V)", all),
+            panel(
+                "detail: one point, input increasing, three slopes",
+                "u (V)",
+                "H[u] (V)",
+                zoom,
+            ),
+        ],
+    })
 }

@@ -2,64 +2,57 @@
 //! Masing congruence, seen in the input–output plane.
 
 use super::{
-    input, model_output, ramps, time, time_axis, Column, Scenario, ScenarioContext, ScenarioError,
-    ScenarioTrace, Traces,
+    input, model_output, no_claims, ramps, time, time_axis, Scenario, ScenarioContext,
+    ScenarioError, ScenarioTrace, Traces,
 };
 use crate::operators::traits::Operator;
 use crate::suite::plots::{panel, series, Figure, COLORS};
 
-pub struct MinorLoops;
+pub(super) static SCENARIO: Scenario = Scenario {
+    id: "minor-loops",
+    paper: "Fig. 8a",
+    description: "nested reversals inside the major loop: Madelung rules, Masing congruence",
+    decimation: 10,
+    columns: &[time(), input("u"), model_output("w"), model_output("h")],
+    compute,
+    figure,
+    claims: no_claims,
+};
 
-impl Scenario for MinorLoops {
-    fn id(&self) -> &'static str {
-        "minor-loops"
-    }
-    fn paper(&self) -> &'static str {
-        "Fig. 8a"
-    }
-    fn description(&self) -> &'static str {
-        "nested reversals inside the major loop: Madelung rules, Masing congruence"
-    }
-    fn decimation(&self) -> usize {
-        10
-    }
-    fn columns(&self) -> Vec<Column> {
-        vec![time(), input("u"), model_output("w"), model_output("h")]
-    }
-    fn compute(&self, ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
-        let u = ramps(
-            &[
-                900.0, -900.0, 600.0, -300.0, 400.0, 0.0, 300.0, -300.0, 400.0, 0.0, 300.0, -900.0,
-                900.0,
-            ],
-            400.0,
-        );
-        let w = ctx.plant(self.id())?.run(&u);
-        let h = ctx.model.hysteresis().clone().run(&u);
-        Ok(ScenarioTrace {
-            columns: vec![("t", time_axis(u.len())), ("u", u), ("w", w), ("h", h)],
-        })
-    }
-    fn figure(&self, tr: &ScenarioTrace, _: &Traces) -> Option<Figure> {
-        Some(Figure {
-            title: "Fig. 8a — nested minor loops: Madelung rules, Masing congruence".into(),
-            panels: vec![
-                panel(
-                    "loops",
-                    "u (V)",
-                    "effective voltage (V)",
-                    vec![
-                        series("H[u]", tr.col("u"), tr.col("h"), COLORS[2]),
-                        series("W[u]", tr.col("u"), tr.col("w"), COLORS[1]),
-                    ],
-                ),
-                panel(
-                    "input",
-                    "t (s)",
-                    "u (V)",
-                    vec![series("u", tr.col("t"), tr.col("u"), COLORS[0])],
-                ),
-            ],
-        })
-    }
+fn compute(ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
+    let u = ramps(
+        &[
+            900.0, -900.0, 600.0, -300.0, 400.0, 0.0, 300.0, -300.0, 400.0, 0.0, 300.0, -900.0,
+            900.0,
+        ],
+        400.0,
+    );
+    let w = ctx.plant(SCENARIO.id)?.run(&u);
+    let h = ctx.model.hysteresis().clone().run(&u);
+    Ok(ScenarioTrace::of(
+        &SCENARIO,
+        vec![time_axis(u.len()), u, w, h],
+    ))
+}
+fn figure(tr: &ScenarioTrace, _: &Traces) -> Option<Figure> {
+    Some(Figure {
+        title: "Fig. 8a — nested minor loops: Madelung rules, Masing congruence".into(),
+        panels: vec![
+            panel(
+                "loops",
+                "u (V)",
+                "effective voltage (V)",
+                vec![
+                    series("H[u]", tr.col("u"), tr.col("h"), COLORS[2]),
+                    series("W[u]", tr.col("u"), tr.col("w"), COLORS[1]),
+                ],
+            ),
+            panel(
+                "input",
+                "t (s)",
+                "u (V)",
+                vec![series("u", tr.col("t"), tr.col("u"), COLORS[0])],
+            ),
+        ],
+    })
 }

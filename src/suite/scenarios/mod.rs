@@ -13,7 +13,7 @@
 //! | `step` | Figs. 12–13 | a step through the beam with and without compensation |
 //! | `feedforward` | Fig. 14 | rest-to-rest move through compensator, `W` and beam |
 //!
-//! A scenario is one file implementing [`Scenario`]: its id and paper
+//! A scenario is one file with a [`Scenario`] static: its id and paper
 //! figure, its columns with units and golden tolerances ([`Column`]), how it
 //! runs, its figure and the paper's claims it measures. [`SCENARIOS`] lists
 //! them; adding a scenario is a new file and one line there. A trace whose
@@ -53,44 +53,68 @@ mod staircase;
 mod step;
 
 /// Every scenario, in the order of the paper.
-pub static SCENARIOS: &[&dyn Scenario] = &[
-    &rectangle::Rectangle,
-    &staircase::StaircaseLoop,
-    &minor_loops::MinorLoops,
-    &intersection::Intersection,
-    &log_creep::LogCreep,
-    &identification::Identification,
-    &compensated::Compensated,
-    &step::Step,
-    &feedforward::Feedforward,
+pub static SCENARIOS: &[&Scenario] = &[
+    &rectangle::SCENARIO,
+    &staircase::SCENARIO,
+    &minor_loops::SCENARIO,
+    &intersection::SCENARIO,
+    &log_creep::SCENARIO,
+    &identification::SCENARIO,
+    &compensated::SCENARIO,
+    &step::SCENARIO,
+    &feedforward::SCENARIO,
 ];
 
 /// Look a scenario up by id.
-pub fn scenario(id: &str) -> Option<&'static dyn Scenario> {
-    SCENARIOS.iter().copied().find(|s| s.id() == id)
+pub fn scenario(id: &str) -> Option<&'static Scenario> {
+    SCENARIOS.iter().copied().find(|s| s.id == id)
 }
 
-/// One of the paper's experiments, reproduced.
-pub trait Scenario: Sync {
-    /// Short id, also the golden file's stem (`golden/<id>.csv`).
-    fn id(&self) -> &'static str;
-    /// The paper's figure or section.
-    fn paper(&self) -> &'static str;
-    /// What it does and shows.
-    fn description(&self) -> &'static str;
+/// One of the paper's experiments, reproduced: its id (also the golden
+/// file's stem, `golden/<id>.csv`), the paper's figure or section, what it
+/// shows, the decimation of its golden file, its columns with units and
+/// tolerances, how it runs, its figure and the paper's claims it measures.
+pub struct Scenario {
+    pub id: &'static str,
+    pub paper: &'static str,
+    pub description: &'static str,
     /// Keep every `decimation`-th row in the golden file.
-    fn decimation(&self) -> usize;
-    /// The columns of its trace, in order, with units and tolerances.
-    fn columns(&self) -> Vec<Column>;
+    pub decimation: usize,
+    /// The columns of its trace, in order.
+    pub columns: &'static [Column],
     /// Compute the trace at the full sample rate.
-    fn compute(&self, ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError>;
-    /// Its figure (`all` holds every scenario's full-rate trace, for overlays).
-    fn figure(&self, _trace: &ScenarioTrace, _all: &Traces) -> Option<Figure> {
-        None
-    }
+    pub compute: fn(&ScenarioContext) -> Result<ScenarioTrace, ScenarioError>,
+    /// Its figure (the second argument holds every scenario's full-rate
+    /// trace, for overlays).
+    pub figure: fn(&ScenarioTrace, &Traces) -> Option<Figure>,
     /// The paper's claims this scenario measures.
-    fn claims(&self, _trace: &ScenarioTrace, _all: &Traces) -> Vec<Claim> {
-        Vec::new()
+    pub claims: fn(&ScenarioTrace, &Traces) -> Vec<Claim>,
+}
+
+/// For a scenario without a figure.
+pub fn no_figure(_: &ScenarioTrace, _: &Traces) -> Option<Figure> {
+    None
+}
+
+/// For a scenario that measures no claim.
+pub fn no_claims(_: &ScenarioTrace, _: &Traces) -> Vec<Claim> {
+    Vec::new()
+}
+
+impl Scenario {
+    /// Compute the trace at the full sample rate.
+    pub fn compute(&self, ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
+        (self.compute)(ctx)
+    }
+
+    /// Its figure, if it has one.
+    pub fn figure(&self, trace: &ScenarioTrace, all: &Traces) -> Option<Figure> {
+        (self.figure)(trace, all)
+    }
+
+    /// The claims it measures.
+    pub fn claims(&self, trace: &ScenarioTrace, all: &Traces) -> Vec<Claim> {
+        (self.claims)(trace, all)
     }
 }
 
@@ -259,6 +283,14 @@ pub struct ScenarioTrace {
 }
 
 impl ScenarioTrace {
+    /// The trace of `info`'s columns, one vector of values per column in
+    /// their order ([`run`] checks that every declared column came).
+    pub fn of(info: &Scenario, values: Vec<Vec<f64>>) -> Self {
+        ScenarioTrace {
+            columns: info.columns.iter().map(|c| c.name).zip(values).collect(),
+        }
+    }
+
     /// A column by name.
     pub fn column(&self, name: &str) -> Option<&[f64]> {
         self.columns
@@ -295,19 +327,19 @@ impl ScenarioTrace {
 }
 
 /// Run a scenario and check its trace against its declared columns.
-pub fn run(scenario: &dyn Scenario, ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
+pub fn run(scenario: &Scenario, ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
     let trace = scenario.compute(ctx)?;
-    let declared: Vec<&str> = scenario.columns().iter().map(|c| c.name).collect();
+    let declared: Vec<&str> = scenario.columns.iter().map(|c| c.name).collect();
     let found: Vec<&str> = trace.columns.iter().map(|c| c.0).collect();
     if declared != found {
         return Err(ScenarioError::new(
-            scenario.id(),
+            scenario.id,
             format!("computed columns {found:?} differ from the declared {declared:?}"),
         ));
     }
     if let Some((name, _)) = trace.columns.iter().find(|c| c.1.len() != trace.len()) {
         return Err(ScenarioError::new(
-            scenario.id(),
+            scenario.id,
             format!("column {name} has a different length"),
         ));
     }
@@ -316,10 +348,7 @@ pub fn run(scenario: &dyn Scenario, ctx: &ScenarioContext) -> Result<ScenarioTra
 
 /// Run every scenario at the full rate.
 pub fn run_all(ctx: &ScenarioContext) -> Result<Traces, ScenarioError> {
-    SCENARIOS
-        .iter()
-        .map(|s| Ok((s.id(), run(*s, ctx)?)))
-        .collect()
+    SCENARIOS.iter().map(|s| Ok((s.id, run(s, ctx)?))).collect()
 }
 
 /// `t_k = k T_s`.

@@ -2,121 +2,107 @@
 //! compensation (creep drift) and with it (the linear beam's step response).
 
 use super::{
-    at_time, compensator_output, input, model_output, samples, time, time_axis, tip, Claim, Column,
+    at_time, compensator_output, input, model_output, samples, time, time_axis, tip, Claim,
     Scenario, ScenarioContext, ScenarioError, ScenarioTrace, Traces,
 };
 use crate::operators::compensator::CompensatorSettings;
 use crate::operators::nominal::SAMPLE_TIME;
 use crate::suite::plots::{panel, scaled, series, Figure, COLORS, GREY};
 
-pub struct Step;
+pub(super) static SCENARIO: Scenario = Scenario {
+    id: "step",
+    paper: "Figs. 12-13",
+    description: "a 100 V step at 1 s held 44 s through the beam, without and with compensation",
+    decimation: 25,
+    columns: &[
+        time(),
+        input("v"),
+        model_output("w_raw"),
+        tip("tip_raw"),
+        compensator_output("u"),
+        model_output("w"),
+        tip("tip"),
+    ],
+    compute,
+    figure,
+    claims,
+};
 
-impl Scenario for Step {
-    fn id(&self) -> &'static str {
-        "step"
-    }
-    fn paper(&self) -> &'static str {
-        "Figs. 12-13"
-    }
-    fn description(&self) -> &'static str {
-        "a 100 V step at 1 s held 44 s through the beam, without and with compensation"
-    }
-    fn decimation(&self) -> usize {
-        25
-    }
-    fn columns(&self) -> Vec<Column> {
-        vec![
-            time(),
-            input("v"),
-            model_output("w_raw"),
-            tip("tip_raw"),
-            compensator_output("u"),
-            model_output("w"),
-            tip("tip"),
-        ]
-    }
-    fn compute(&self, ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
-        let n = samples(45.0);
-        let v: Vec<f64> = (0..n)
-            .map(|k| {
-                if k as f64 * SAMPLE_TIME < 1.0 {
-                    0.0
-                } else {
-                    100.0
-                }
-            })
-            .collect();
-        // without compensation: the voltage step goes straight to W
-        let w_raw = ctx.plant(self.id())?.run(&v);
-        let tip_raw = ctx.beam().simulate(&w_raw);
-        // with: the compensator shapes the voltage so that W gives the step
-        let mut comp = ctx.compensator(self.id(), CompensatorSettings::default())?;
-        let u: Vec<f64> = v.iter().map(|&t| comp.compensate(t).u).collect();
-        let w = ctx.plant(self.id())?.run(&u);
-        let tip = ctx.beam().simulate(&w);
-        Ok(ScenarioTrace {
-            columns: vec![
-                ("t", time_axis(n)),
-                ("v", v),
-                ("w_raw", w_raw),
-                ("tip_raw", tip_raw),
-                ("u", u),
-                ("w", w),
-                ("tip", tip),
-            ],
+fn compute(ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
+    let n = samples(45.0);
+    let v: Vec<f64> = (0..n)
+        .map(|k| {
+            if k as f64 * SAMPLE_TIME < 1.0 {
+                0.0
+            } else {
+                100.0
+            }
         })
-    }
-    fn figure(&self, tr: &ScenarioTrace, _: &Traces) -> Option<Figure> {
-        let t = tr.col("t");
-        Some(Figure {
-            title: "Figs. 12-13 — step response with and without compensation".into(),
-            panels: vec![
-                panel(
-                    "tip deflection",
-                    "t (s)",
-                    "w(L) (mm)",
-                    vec![
-                        series(
-                            "without compensation",
-                            t,
-                            &scaled(tr.col("tip_raw"), 1e3),
-                            GREY,
-                        ),
-                        series(
-                            "with compensation",
-                            t,
-                            &scaled(tr.col("tip"), 1e3),
-                            COLORS[0],
-                        ),
-                    ],
-                ),
-                panel(
-                    "balanced voltage",
-                    "t (s)",
-                    "u (V)",
-                    vec![
-                        series("step (uncompensated)", t, tr.col("v"), GREY),
-                        series("compensator output", t, tr.col("u"), COLORS[1]),
-                    ],
-                ),
-            ],
-        })
-    }
-    fn claims(&self, tr: &ScenarioTrace, _: &Traces) -> Vec<Claim> {
-        let t = tr.col("t");
-        let (k0, k1) = (at_time(t, 1.2), at_time(t, 41.2));
-        let drift = |w: &[f64]| 100.0 * (w[k1] - w[k0]) / w[k0];
-        let before = drift(tr.col("w_raw"));
-        let after = drift(tr.col("w"));
-        let tip = tr.col("tip");
-        let fin = tip[tip.len() - 1];
-        let peak = tip.iter().fold(f64::NEG_INFINITY, |m, v| m.max(*v));
-        let ks = at_time(t, 1.0);
-        let settle = (ks..tip.len())
-            .rev()
-            .find(|&k| (tip[k] - fin).abs() > 0.02 * fin.abs())
-            .map_or(0.0, |k| t[k + 1] - t[ks]);
-        vec![
+        .collect();
+    // without compensation: the voltage step goes straight to W
+    let w_raw = ctx.plant(SCENARIO.id)?.run(&v);
+    let tip_raw = ctx.beam().simulate(&w_raw);
+    // with: the compensator shapes the voltage so that W gives the step
+    let mut comp = ctx.compensator(SCENARIO.id, CompensatorSettings::default())?;
+    let u: Vec<f64> = v.iter().map(|&t| comp.compensate(t).u).collect();
+    let w = ctx.plant(SCENARIO.id)?.run(&u);
+    let tip = ctx.beam().simulate(&w);
+    Ok(ScenarioTrace::of(
+        &SCENARIO,
+        vec![time_axis(n), v, w_raw, tip_raw, u, w, tip],
+    ))
+}
+fn figure(tr: &ScenarioTrace, _: &Traces) -> Option<Figure> {
+    let t = tr.col("t");
+    Some(Figure {
+        title: "Figs. 12-13 — step response with and without compensation".into(),
+        panels: vec![
+            panel(
+                "tip deflection",
+                "t (s)",
+                "w(L) (mm)",
+                vec![
+                    series(
+                        "without compensation",
+                        t,
+                        &scaled(tr.col("tip_raw"), 1e3),
+                        GREY,
+                    ),
+                    series(
+                        "with compensation",
+                        t,
+                        &scaled(tr.col("tip"), 1e3),
+                        COLORS[0],
+                    ),
+                ],
+            ),
+            panel(
+                "balanced voltage",
+                "t (s)",
+                "u (V)",
+                vec![
+                    series("step (uncompensated)", t, tr.col("v"), GREY),
+                    series("compensator output", t, tr.col("u"), COLORS[1]),
+                ],
+            ),
+        ],
+    })
+}
+fn claims(tr: &ScenarioTrace, _: &Traces) -> Vec<Claim> {
+    let t = tr.col("t");
+    let (k0, k1) = (at_time(t, 1.2), at_time(t, 41.2));
+    let drift = |w: &[f64]| 100.0 * (w[k1] - w[k0]) / w[k0];
+    let before = drift(tr.col("w_raw"));
+    let after = drift(tr.col("w"));
+    let tip = tr.col("tip");
+    let fin = tip[tip.len() - 1];
+    let peak = tip.iter().fold(f64::NEG_INFINITY, |m, v| m.max(*v));
+    let ks = at_time(t, 1.0);
+    let settle = (ks..tip.len())
+        .rev()
+        .find(|&k| (tip[k] - fin).abs() > 0.02 * fin.abs())
+        .map_or(0.0, |k| t[k + 1] - t[ks]);
+    vec![
             Claim {
                 figure: "Figs. 2, 12",
                 claim: "creep drift of a 100 V step over 40 s (% of the value 0.2 s after the step)",
@@ -135,5 +121,4 @@ impl Scenario for Step {
                 holds: peak > fin && settle > 0.0,
             },
         ]
-    }
 }
