@@ -186,7 +186,7 @@ fn main() {
         "timer: lfence+rdtsc, {:.3} ns per tick (calibrated against Instant), empty bracket median {:.1} ns (included below); {placement}; AVX2 path: {}",
         ns_per_tick,
         timer.median,
-        simd::avx2_in_use()
+        simd::Kernels::detect().is_avx2()
     );
     println!(
         "{:<28} {:>10} {:>10} {:>11} {:>10} {:>12} {:>10} {:>8}",

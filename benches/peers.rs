@@ -138,7 +138,7 @@ fn main() {
         .collect();
     println!(
         "{ROUNDS} rounds of {STEPS} steps each, interleaved; AVX2 path: {}",
-        mfcbeam::realtime::simd::avx2_in_use()
+        mfcbeam::realtime::simd::Kernels::detect().is_avx2()
     );
     println!(
         "{:<40} {:>10} {:>12}",

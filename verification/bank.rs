@@ -122,7 +122,7 @@ fn each_channel_is_a_single_compensator_bit_for_bit() {
 
 #[test]
 fn the_avx2_step_gives_the_portable_bits() {
-    eprintln!("AVX2 in use on this CPU: {}", simd::avx2_in_use());
+    eprintln!("kernels on this CPU: {:?}", simd::Kernels::detect());
     let mut rng = Rng::new(7);
     for seed in 0..40u64 {
         let file = random_model(&mut rng, 12, ModelShape::Any);
@@ -139,6 +139,54 @@ fn the_avx2_step_gives_the_portable_bits() {
             let t = t as f32;
             assert_eq!(a32.compensate(t), b32.compensate_portable(t), "seed {seed}");
         }
+    }
+}
+
+/// The choice bites: where the CPU has AVX2 the AVX2 kernels run (the `f64`
+/// compensator's `H⁻¹` and creep pass, the bank's lane blocks in `f64` and
+/// `f32`), the portable entry points never run them, and without AVX2
+/// nothing does. (The calls are counted per thread, with debug assertions.)
+#[test]
+fn the_avx2_kernels_run_exactly_where_the_cpu_has_avx2() {
+    if !cfg!(debug_assertions) {
+        return; // not counted
+    }
+    let avx2 = simd::Kernels::detect().is_avx2();
+    eprintln!("AVX2 on this CPU: {avx2}");
+    let calls = simd::avx2_kernel_calls;
+    let settings = CompensatorSettings::default();
+    let p = mfcbeam::realtime::nominal::PARAMETERS;
+
+    let mut c = Single::<f64>::new(&p, settings).unwrap();
+    let before = calls();
+    c.compensate_portable(300.0);
+    assert_eq!(calls(), before, "the portable f64 step ran AVX2 kernels");
+    c.compensate(350.0);
+    // H⁻¹ and the creep pass
+    assert_eq!(calls() - before, if avx2 { 2 } else { 0 });
+
+    // f32 single steps are vectorised by the compiler, no explicit kernels
+    let mut c32 = Single::<f32>::new(&p, settings).unwrap();
+    let before = calls();
+    c32.compensate(300.0);
+    assert_eq!(calls(), before);
+
+    for channels in [4, 8] {
+        let mut b64 = CompensatorBank::<f64>::uniform(&p, channels, settings).unwrap();
+        let mut b32 = CompensatorBank::<f32>::uniform(&p, channels, settings).unwrap();
+        let mut out64 = vec![Default::default(); channels];
+        let mut out32 = vec![Default::default(); channels];
+        let before = calls();
+        b64.compensate_portable(&vec![300.0; channels], &mut out64)
+            .unwrap();
+        b32.compensate_portable(&vec![300.0; channels], &mut out32)
+            .unwrap();
+        assert_eq!(calls(), before, "the portable bank ran AVX2 kernels");
+        b64.compensate(&vec![350.0; channels], &mut out64).unwrap();
+        let after64 = calls();
+        assert_eq!(after64 > before, avx2, "f64 bank, {channels} channels");
+        b32.compensate(&vec![350.0; channels], &mut out32).unwrap();
+        assert_eq!(calls() > after64, avx2, "f32 bank, {channels} channels");
     }
 }
 

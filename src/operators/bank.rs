@@ -22,7 +22,7 @@ use crate::realtime::inverse::inverse_parameters_into;
 use crate::realtime::parameters::{check_length, ModelParameters};
 use crate::realtime::play::{clamp, play};
 use crate::realtime::real::Real;
-use crate::realtime::simd::dispatch;
+use crate::realtime::simd::{self, Kernels};
 use crate::realtime::CompensatorSettings;
 
 /// Channels are padded to a multiple of this (the widest block).
@@ -230,11 +230,10 @@ impl<T: Real> CompensatorBank<T> {
         check_length("bank.out", self.channels, out.len())?;
         self.io.targets[..self.channels].copy_from_slice(targets);
         if simd {
-            // one feature test per step, not one per row
-            let avx = crate::realtime::simd::avx2_in_use();
-            dispatch(|| self.step_all(avx));
+            // the kernels chosen once per step, not per row
+            Kernels::detect().run(|k| self.step_all(k));
         } else {
-            self.step_all(false);
+            self.step_all(Kernels::Portable);
         }
         for (c, o) in out.iter_mut().enumerate() {
             *o = Compensated {
@@ -260,14 +259,14 @@ impl<T: Real> CompensatorBank<T> {
     }
 
     #[inline(always)]
-    fn step_all(&mut self, avx: bool) {
+    fn step_all(&mut self, k: Kernels) {
         if core::mem::size_of::<T>() == 4 {
             for c0 in (0..self.padded).step_by(8) {
-                self.step_block::<8>(c0, avx);
+                self.step_block::<8>(c0, k);
             }
         } else {
             for c0 in (0..self.padded).step_by(4) {
-                self.step_block::<4>(c0, avx);
+                self.step_block::<4>(c0, k);
             }
         }
     }
@@ -275,7 +274,7 @@ impl<T: Real> CompensatorBank<T> {
     /// Channels `c0..c0 + W`: what `Compensator::compensate` does, lane
     /// by lane, in its order of operations.
     #[inline(always)]
-    fn step_block<const W: usize>(&mut self, c0: usize, avx: bool) {
+    fn step_block<const W: usize>(&mut self, c0: usize, k: Kernels) {
         let (n, nc, m) = (self.plays, self.creep_thresholds, self.eigenvalues);
         let cs = self.padded;
         let p = &self.p;
@@ -310,29 +309,13 @@ impl<T: Real> CompensatorBank<T> {
             for (q, sum) in sums.iter_mut().enumerate() {
                 let i = i0 + q;
                 let x = block(&mut self.inv_x, i * cs + c0);
-                inverse_play_fast(
-                    avx,
-                    x,
-                    lane(&p.inv_r, i),
-                    lane(&p.inv_w, i),
-                    &y,
-                    &fault,
-                    sum,
-                );
+                inverse_play_fast(k, x, lane(&p.inv_r, i), lane(&p.inv_w, i), &y, &fault, sum);
             }
         }
         for i in full..n {
             let x = block(&mut self.inv_x, i * cs + c0);
             let sum = &mut sums[i - full];
-            inverse_play_fast(
-                avx,
-                x,
-                lane(&p.inv_r, i),
-                lane(&p.inv_w, i),
-                &y,
-                &fault,
-                sum,
-            );
+            inverse_play_fast(k, x, lane(&p.inv_r, i), lane(&p.inv_w, i), &y, &fault, sum);
         }
         let mut v = [T::ZERO; W];
         for l in 0..W {
@@ -376,7 +359,7 @@ impl<T: Real> CompensatorBank<T> {
                 let i = i0 + q;
                 let (r, w) = (lane(&p.creep_r, i), lane(&p.creep_w, i));
                 creep_row_fast(
-                    avx,
+                    k,
                     &mut self.chi,
                     (i * m * cs + c0, cs),
                     &p.gains,
@@ -392,7 +375,7 @@ impl<T: Real> CompensatorBank<T> {
             let (r, w) = (lane(&p.creep_r, i), lane(&p.creep_w, i));
             let a = &mut acc[i - full];
             creep_row_fast(
-                avx,
+                k,
                 &mut self.chi,
                 (i * m * cs + c0, cs),
                 &p.gains,
@@ -521,12 +504,11 @@ fn creep_row<T: Real, const W: usize>(
     }
 }
 
-/// [`inverse_play`] in AVX registers for `f64 × 4` and `f32 × 8` when `avx`
-/// (the CPU has AVX2): the same operations lane by lane (see
-/// `creep::advance_fast`), so the same bits.
+/// [`inverse_play`] on `k`'s kernels: 256-bit registers for `f64 × 4` and
+/// `f32 × 8` with AVX2, the same operations lane by lane, so the same bits.
 #[inline(always)]
 fn inverse_play_fast<T: Real, const W: usize>(
-    avx: bool,
+    k: Kernels,
     x: &mut [T; W],
     r: [T; W],
     w: [T; W],
@@ -535,21 +517,19 @@ fn inverse_play_fast<T: Real, const W: usize>(
     sum: &mut [T; W],
 ) {
     #[cfg(target_arch = "x86_64")]
-    if avx && W * core::mem::size_of::<T>() == 32 {
+    if let Some(lanes) = simd::lanes::<T, W>(k) {
         let mask: [T; W] = fault.map(|f| if f { T::NEG_INFINITY } else { T::ZERO });
-        // SAFETY: 32-byte arrays of f64 × 4 or f32 × 8 (checked by size and
-        // TypeId inside); the CPU has AVX2.
-        unsafe { avx::inverse_play(x, &r, &w, y, &mask, sum) };
+        lanes.inverse_play(x, &r, &w, y, &mask, sum);
         return;
     }
     inverse_play(x, r, w, y, fault, sum)
 }
 
-/// [`creep_row`] in AVX registers, as [`inverse_play_fast`].
+/// [`creep_row`] on `k`'s kernels, as [`inverse_play_fast`].
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn creep_row_fast<T: Real, const W: usize>(
-    avx: bool,
+    k: Kernels,
     chi: &mut [T],
     at: (usize, usize),
     gains: &[T],
@@ -560,137 +540,9 @@ fn creep_row_fast<T: Real, const W: usize>(
     acc: &mut [T; W],
 ) {
     #[cfg(target_arch = "x86_64")]
-    if avx && W * core::mem::size_of::<T>() == 32 {
-        let (e0, step) = at;
-        let (ps, pb, m) = params;
-        assert!(
-            e0 + (m.max(1) - 1) * step + W <= chi.len()
-                && (m.max(1) - 1) * ps + pb + W <= gains.len()
-        );
-        // SAFETY: every block read lies inside chi and gains (asserted
-        // above); 32-byte lane arrays; the CPU has AVX2.
-        unsafe { avx::creep_row(chi, e0, step, gains, ps, pb, m, u, &r, &w, acc) };
+    if let Some(lanes) = simd::lanes::<T, W>(k) {
+        lanes.creep_row(chi, at, gains, params, u, &r, &w, acc);
         return;
     }
     creep_row(chi, at, gains, params, u, r, w, acc)
-}
-
-#[cfg(target_arch = "x86_64")]
-mod avx {
-    //! The bank's two inner kernels on 256-bit registers, for `f64 × 4` and
-    //! `f32 × 8` (any other `T` or width is never passed: the callers check
-    //! that a lane array is 32 bytes, and `T` is `f32` or `f64`).
-    use core::arch::x86_64::*;
-    use core::mem::size_of;
-
-    use crate::realtime::real::Real;
-
-    /// 32 bytes of lanes, either type.
-    #[derive(Clone, Copy)]
-    struct V(__m256d, __m256);
-
-    #[inline(always)]
-    fn is_f64<T>() -> bool {
-        size_of::<T>() == 8
-    }
-
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    unsafe fn load<T>(p: *const T) -> V {
-        if is_f64::<T>() {
-            V(_mm256_loadu_pd(p as *const f64), _mm256_setzero_ps())
-        } else {
-            V(_mm256_setzero_pd(), _mm256_loadu_ps(p as *const f32))
-        }
-    }
-
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    unsafe fn store<T>(p: *mut T, v: V) {
-        if is_f64::<T>() {
-            _mm256_storeu_pd(p as *mut f64, v.0)
-        } else {
-            _mm256_storeu_ps(p as *mut f32, v.1)
-        }
-    }
-
-    macro_rules! op {
-        ($name:ident, $pd:ident, $ps:ident) => {
-            #[target_feature(enable = "avx2")]
-            #[inline]
-            unsafe fn $name<T>(a: V, b: V) -> V {
-                if is_f64::<T>() {
-                    V($pd(a.0, b.0), a.1)
-                } else {
-                    V(a.0, $ps(a.1, b.1))
-                }
-            }
-        };
-    }
-    op!(add, _mm256_add_pd, _mm256_add_ps);
-    op!(sub, _mm256_sub_pd, _mm256_sub_ps);
-    op!(mul, _mm256_mul_pd, _mm256_mul_ps);
-    op!(min, _mm256_min_pd, _mm256_min_ps);
-    op!(max, _mm256_max_pd, _mm256_max_ps);
-
-    /// `a` where the lane of `mask` has its sign bit set, else `b`.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    unsafe fn select<T>(mask: V, a: V, b: V) -> V {
-        if is_f64::<T>() {
-            V(_mm256_blendv_pd(b.0, a.0, mask.0), a.1)
-        } else {
-            V(a.0, _mm256_blendv_ps(b.1, a.1, mask.1))
-        }
-    }
-
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    pub(super) unsafe fn inverse_play<T: Real, const W: usize>(
-        x: &mut [T; W],
-        r: &[T; W],
-        w: &[T; W],
-        y: &[T; W],
-        fault: &[T; W],
-        sum: &mut [T; W],
-    ) {
-        let (xv, rv, yv) = (load(x.as_ptr()), load(r.as_ptr()), load(y.as_ptr()));
-        let new = max::<T>(min::<T>(xv, add::<T>(yv, rv)), sub::<T>(yv, rv));
-        let s = add::<T>(load(sum.as_ptr()), mul::<T>(load(w.as_ptr()), new));
-        store(sum.as_mut_ptr(), s);
-        store(x.as_mut_ptr(), select::<T>(load(fault.as_ptr()), xv, new));
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    pub(super) unsafe fn creep_row<T: Real, const W: usize>(
-        chi: &mut [T],
-        e0: usize,
-        step: usize,
-        gains: &[T],
-        ps: usize,
-        pb: usize,
-        m: usize,
-        u: &[T; W],
-        r: &[T; W],
-        w: &[T; W],
-        acc: &mut [T; W],
-    ) {
-        let (uv, rv) = (load(u.as_ptr()), load(r.as_ptr()));
-        let (lower, upper) = (sub::<T>(uv, rv), add::<T>(uv, rv));
-        let mut rows = V(_mm256_setzero_pd(), _mm256_setzero_ps());
-        let p = chi.as_mut_ptr();
-        for j in 0..m {
-            let g = load(gains.as_ptr().add(j * ps + pb));
-            let at = p.add(e0 + j * step);
-            let x = load(at);
-            let c = max::<T>(min::<T>(x, upper), lower);
-            let x = add::<T>(x, mul::<T>(g, sub::<T>(c, x)));
-            store(at, x);
-            rows = add::<T>(rows, x);
-        }
-        let a = add::<T>(load(acc.as_ptr()), mul::<T>(load(w.as_ptr()), rows));
-        store(acc.as_mut_ptr(), a);
-    }
 }

@@ -19,7 +19,7 @@ use crate::realtime::parameters::{
     check_admissible, check_finite, check_length, check_limits, ModelParameters,
 };
 use crate::realtime::real::Real;
-use crate::realtime::simd::dispatch;
+use crate::realtime::simd::{self, Kernels};
 use crate::realtime::storage::{Buffer, Storage};
 
 /// One compensator output sample.
@@ -50,14 +50,15 @@ pub(crate) struct HysteresisPair<'a, T> {
 /// `u = sat(H⁻¹[y])`, and on saturation the inverse plays re-seated on the
 /// branch of `u` (22). Returns `(u, saturated)`.
 #[inline(always)]
-pub(crate) fn invert_saturating<T: Real, const SIMD: bool>(
+pub(crate) fn invert_saturating<T: Real>(
+    k: Kernels,
     p: HysteresisPair<'_, T>,
     y: T,
     lower: T,
     upper: T,
 ) -> (T, bool) {
     p.scratch.copy_from_slice(p.inv_state);
-    let v = hysteresis::step_fast::<T, SIMD>(p.inv_state, p.inv_thresholds, p.inv_weights, y);
+    let v = simd::hysteresis_step(k, p.inv_state, p.inv_thresholds, p.inv_weights, y);
     let (u, saturated) = if v < lower {
         (lower, true)
     } else if v > upper {
@@ -77,7 +78,7 @@ pub(crate) fn invert_saturating<T: Real, const SIMD: bool>(
 #[inline(never)]
 fn reseat<T: Real>(p: HysteresisPair<'_, T>, u: T) {
     forward_state_in_place(p.sums, p.scratch);
-    hysteresis::advance_plays::<T, false>(p.scratch, p.thresholds, u);
+    hysteresis::advance_plays(p.scratch, p.thresholds, u);
     inverse_state_into(p.weights, p.sums, p.scratch, p.inv_state);
 }
 
@@ -281,15 +282,14 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     /// The voltage for the target `target`; allocation-free, O(n + n_C m).
     #[inline]
     pub fn compensate(&mut self, target: T) -> Compensated<T> {
-        dispatch(|| self.compensate_with::<true>(target))
+        Kernels::detect().run(|k| self.compensate_with(k, target))
     }
 
-    /// [`Compensator::compensate`] compiled for the caller's instruction
-    /// set, without run-time dispatch (the same bits; for tests and for
-    /// callers that dispatch a whole loop themselves).
+    /// [`Compensator::compensate`] on the portable kernels (the same bits;
+    /// for tests).
     #[inline(always)]
     pub fn compensate_portable(&mut self, target: T) -> Compensated<T> {
-        self.compensate_with::<false>(target)
+        self.compensate_with(Kernels::Portable, target)
     }
 
     /// A whole signal into caller buffers, every flag kept; one
@@ -305,13 +305,13 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         check_length("u", targets.len(), u.len())?;
         check_length("saturated", targets.len(), saturated.len())?;
         check_length("fault", targets.len(), fault.len())?;
-        Ok(dispatch(|| {
+        Ok(Kernels::detect().run(|k| {
             let (mut clipped, mut faults) = (0, 0);
-            for (k, &t) in targets.iter().enumerate() {
-                let out = self.compensate_with::<true>(t);
-                u[k] = out.u;
-                saturated[k] = out.saturated;
-                fault[k] = out.fault;
+            for (i, &t) in targets.iter().enumerate() {
+                let out = self.compensate_with(k, t);
+                u[i] = out.u;
+                saturated[i] = out.saturated;
+                fault[i] = out.fault;
                 clipped += usize::from(out.saturated);
                 faults += usize::from(out.fault);
             }
@@ -320,7 +320,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     }
 
     #[inline(always)]
-    fn compensate_with<const SIMD: bool>(&mut self, target: T) -> Compensated<T> {
+    fn compensate_with(&mut self, k: Kernels, target: T) -> Compensated<T> {
         if !target.is_finite() {
             return self.hold();
         }
@@ -329,7 +329,8 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             None => T::ZERO,
         };
         let (inv_r, inv_w, inv_x) = self.inverse.parts_mut();
-        let (u, saturated) = invert_saturating::<T, SIMD>(
+        let (u, saturated) = invert_saturating(
+            k,
             HysteresisPair {
                 inv_thresholds: inv_r,
                 inv_weights: inv_w,
@@ -345,7 +346,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         );
         self.last_u = u;
         if let Some(op) = &mut self.creep {
-            op.advance_with::<SIMD>(u);
+            op.advance_with(k, u);
         }
         Compensated {
             u,

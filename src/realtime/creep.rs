@@ -17,7 +17,7 @@ use crate::realtime::hysteresis::reduce;
 use crate::realtime::parameters::{check_finite, check_length, CreepParameters};
 use crate::realtime::play::clamp;
 use crate::realtime::real::Real;
-use crate::realtime::simd::dispatch;
+use crate::realtime::simd::{self, Kernels};
 use crate::realtime::storage::{Buffer, Storage};
 
 /// `1 − e^{−a T_s}` without cancellation (`−expm1(−aT_s)`; the literal form
@@ -92,7 +92,7 @@ pub(crate) fn advance<T: Real>(
 /// The thresholds `full..n` that do not fill a block, one by one, into the
 /// lanes `i − full` (shared by [`advance`] and its AVX copy).
 #[inline(always)]
-fn advance_tail<T: Real>(
+pub(crate) fn advance_tail<T: Real>(
     chi: &mut [T],
     thresholds: &[T],
     gains: &[T],
@@ -113,82 +113,6 @@ fn advance_tail<T: Real>(
         }
         acc[i - full] += weights[i] * row;
     }
-}
-
-/// [`advance`], with the `f64` blocks in explicit AVX registers when `SIMD`
-/// is set and the CPU has AVX2 (LLVM's own vectorisation of the lane arrays
-/// stays at 128 bits and shuffles). The same operations in the same order:
-/// `vminpd(x, hi)` is `if x < hi { x } else { hi }` and `vmaxpd(t, lo)` is
-/// `if t > lo { t } else { lo }`, so the bits are those of [`advance`]
-/// (`verification/bank.rs` compares them).
-#[inline(always)]
-pub(crate) fn advance_fast<T: Real, const SIMD: bool>(
-    chi: &mut [T],
-    thresholds: &[T],
-    gains: &[T],
-    weights: &[T],
-    v: T,
-    last_input: &mut T,
-) -> T {
-    #[cfg(all(feature = "std", target_arch = "x86_64"))]
-    if SIMD && crate::realtime::simd::avx2_in_use() {
-        use crate::realtime::simd::{as_f64, as_f64_mut};
-        if let (Some(chi), Some(r), Some(g), Some(w)) = (
-            as_f64_mut(chi),
-            as_f64(thresholds),
-            as_f64(gains),
-            as_f64(weights),
-        ) {
-            let v = if v.is_finite() { v } else { *last_input };
-            *last_input = v;
-            // SAFETY: the CPU has AVX2 (checked above).
-            return T::from_f64(unsafe { avx2_f64(chi, r, g, w, v.to_f64()) });
-        }
-    }
-    advance(chi, thresholds, gains, weights, v, last_input)
-}
-
-/// The blocks of [`advance`] for `f64` in AVX registers; `v` is finite.
-#[cfg(all(feature = "std", target_arch = "x86_64"))]
-#[target_feature(enable = "avx2")]
-#[inline]
-unsafe fn avx2_f64(
-    chi: &mut [f64],
-    thresholds: &[f64],
-    gains: &[f64],
-    weights: &[f64],
-    v: f64,
-) -> f64 {
-    use core::arch::x86_64::*;
-    let n = thresholds.len();
-    let m = gains.len();
-    assert!(weights.len() == n && chi.len() == n * m);
-    let full = n - n % LANES;
-    let vv = _mm256_set1_pd(v);
-    let mut acc = _mm256_setzero_pd();
-    let p = chi.as_mut_ptr();
-    for i0 in (0..full).step_by(LANES) {
-        // SAFETY (all pointer accesses): i0 + 4 ≤ n and j < m, so every
-        // block lies inside `chi` (n·m) and the parameter slices (n).
-        let r = _mm256_loadu_pd(thresholds.as_ptr().add(i0));
-        let lower = _mm256_sub_pd(vv, r);
-        let upper = _mm256_add_pd(vv, r);
-        let mut rows = _mm256_setzero_pd();
-        for (j, &g) in gains.iter().enumerate() {
-            let at = p.add(j * n + i0);
-            let x = _mm256_loadu_pd(at);
-            let c = _mm256_max_pd(_mm256_min_pd(x, upper), lower);
-            let x = _mm256_add_pd(x, _mm256_mul_pd(_mm256_set1_pd(g), _mm256_sub_pd(c, x)));
-            _mm256_storeu_pd(at, x);
-            rows = _mm256_add_pd(rows, x);
-        }
-        let w = _mm256_loadu_pd(weights.as_ptr().add(i0));
-        acc = _mm256_add_pd(acc, _mm256_mul_pd(w, rows));
-    }
-    let mut lanes = [0.0f64; LANES];
-    _mm256_storeu_pd(lanes.as_mut_ptr(), acc);
-    advance_tail(chi, thresholds, gains, weights, v, full, &mut lanes);
-    reduce(lanes)
 }
 
 /// The output `Σ_i (w_i/m) Σ_j χ_ij` of a state, summed in the order
@@ -373,20 +297,21 @@ impl<T: Real, S: Storage> Creep<T, S> {
     /// the state.
     #[inline]
     pub fn advance(&mut self, v: T) -> T {
-        dispatch(|| self.advance_with::<true>(v))
+        Kernels::detect().run(|k| self.advance_with(k, v))
     }
 
     /// [`Creep::advance`] compiled for the caller's instruction set, no
     /// run-time dispatch (the same bits).
     #[inline(always)]
     pub fn advance_portable(&mut self, v: T) -> T {
-        self.advance_with::<false>(v)
+        self.advance_with(Kernels::Portable, v)
     }
 
-    /// With `SIMD`, the explicit AVX blocks where the CPU has them.
+    /// On the kernels `k`.
     #[inline(always)]
-    pub(crate) fn advance_with<const SIMD: bool>(&mut self, v: T) -> T {
-        self.output = advance_fast::<T, SIMD>(
+    pub(crate) fn advance_with(&mut self, k: Kernels, v: T) -> T {
+        self.output = simd::creep_advance(
+            k,
             &mut self.chi,
             &self.thresholds,
             &self.gains,

@@ -42,99 +42,12 @@ pub(crate) fn step<T: Real>(state: &mut [T], thresholds: &[T], weights: &[T], v:
     reduce(acc)
 }
 
-/// [`step`], with the `f64` blocks in explicit AVX registers when `SIMD` is
-/// set and the CPU has AVX2: the same operations in the same order, so the
-/// same bits (see [`crate::realtime::creep::advance_fast`]).
-#[inline(always)]
-pub(crate) fn step_fast<T: Real, const SIMD: bool>(
-    state: &mut [T],
-    thresholds: &[T],
-    weights: &[T],
-    v: T,
-) -> T {
-    #[cfg(all(feature = "std", target_arch = "x86_64"))]
-    if SIMD && crate::realtime::simd::avx2_in_use() {
-        use crate::realtime::simd::{as_f64, as_f64_mut};
-        let v = if v.is_finite() { v } else { state[0] };
-        if let (Some(x), Some(r), Some(w)) =
-            (as_f64_mut(state), as_f64(thresholds), as_f64(weights))
-        {
-            // SAFETY: the CPU has AVX2 (checked above).
-            return T::from_f64(unsafe { avx2_f64(x, r, w, v.to_f64()) });
-        }
-    }
-    step(state, thresholds, weights, v)
-}
-
-/// The blocks of [`step`] for `f64` in AVX registers; `v` is finite.
-#[cfg(all(feature = "std", target_arch = "x86_64"))]
-#[target_feature(enable = "avx2")]
-#[inline]
-unsafe fn avx2_f64(state: &mut [f64], thresholds: &[f64], weights: &[f64], v: f64) -> f64 {
-    use core::arch::x86_64::*;
-    let n = state.len();
-    assert!(thresholds.len() == n && weights.len() == n);
-    let full = n - n % 4;
-    let vv = _mm256_set1_pd(v);
-    let mut acc = _mm256_setzero_pd();
-    for i0 in (0..full).step_by(4) {
-        // SAFETY: i0 + 4 ≤ n for all three slices.
-        let at = state.as_mut_ptr().add(i0);
-        let r = _mm256_loadu_pd(thresholds.as_ptr().add(i0));
-        let x = _mm256_loadu_pd(at);
-        let x = _mm256_max_pd(_mm256_min_pd(x, _mm256_add_pd(vv, r)), _mm256_sub_pd(vv, r));
-        _mm256_storeu_pd(at, x);
-        acc = _mm256_add_pd(
-            acc,
-            _mm256_mul_pd(_mm256_loadu_pd(weights.as_ptr().add(i0)), x),
-        );
-    }
-    let mut lanes = [0.0f64; 4];
-    _mm256_storeu_pd(lanes.as_mut_ptr(), acc);
-    for i in full..n {
-        state[i] = play(v, thresholds[i], state[i]);
-        lanes[i - full] += weights[i] * state[i];
-    }
-    reduce(lanes)
-}
-
 /// Advance the plays with `v` (20), without the output (the compensator's
-/// copy of the plant's plays); AVX for `f64` as in [`step_fast`].
+/// copy of the plant's plays, after a saturated sample).
 #[inline(always)]
-pub(crate) fn advance_plays<T: Real, const SIMD: bool>(state: &mut [T], thresholds: &[T], v: T) {
-    #[cfg(all(feature = "std", target_arch = "x86_64"))]
-    if SIMD && crate::realtime::simd::avx2_in_use() {
-        use crate::realtime::simd::{as_f64, as_f64_mut};
-        if let (Some(x), Some(r)) = (as_f64_mut(state), as_f64(thresholds)) {
-            // SAFETY: the CPU has AVX2 (checked above).
-            unsafe { avx2_plays_f64(x, r, v.to_f64()) };
-            return;
-        }
-    }
+pub(crate) fn advance_plays<T: Real>(state: &mut [T], thresholds: &[T], v: T) {
     for (x, &r) in state.iter_mut().zip(thresholds) {
         *x = play(v, r, *x);
-    }
-}
-
-#[cfg(all(feature = "std", target_arch = "x86_64"))]
-#[target_feature(enable = "avx2")]
-#[inline]
-unsafe fn avx2_plays_f64(state: &mut [f64], thresholds: &[f64], v: f64) {
-    use core::arch::x86_64::*;
-    let n = state.len();
-    assert!(thresholds.len() == n);
-    let full = n - n % 4;
-    let vv = _mm256_set1_pd(v);
-    for i0 in (0..full).step_by(4) {
-        // SAFETY: i0 + 4 ≤ n for both slices.
-        let at = state.as_mut_ptr().add(i0);
-        let r = _mm256_loadu_pd(thresholds.as_ptr().add(i0));
-        let x = _mm256_loadu_pd(at);
-        let x = _mm256_max_pd(_mm256_min_pd(x, _mm256_add_pd(vv, r)), _mm256_sub_pd(vv, r));
-        _mm256_storeu_pd(at, x);
-    }
-    for i in full..n {
-        state[i] = play(v, thresholds[i], state[i]);
     }
 }
 

@@ -133,7 +133,7 @@ impl RoundingBounds<'_> {
     }
 
     /// `W[W⁻¹[y]] − y` when the plant's creep runs the compensator's own
-    /// arithmetic (this crate's `FixedModel` after its `FixedCompensator`, in
+    /// arithmetic (this crate's `Model` after its `Compensator`, in
     /// one precision): both creep outputs agree bit for bit, which leaves
     /// `H[H⁻¹[z]] − z` for `z = y − offset − C` and the roundings of forming
     /// `z` and `H + C + offset` (an error in `z` comes back through `H∘H⁻¹`
