@@ -135,10 +135,8 @@ pub(crate) fn output<T: Real>(chi: &[T], weights: &[T]) -> T {
 /// non-negative partial sums (17), in `T`, kept in storage `S`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Creep<T: Real, S: Storage> {
+    // what a step reads and writes first, the parameters as given after
     thresholds: S::Creep<T>,
-    weights: S::Creep<T>,
-    eigenvalues: S::Creep<T>,
-    sample_time: f64,
     /// `1 − e^{−a_j T_s}` per eigenvalue and `w_i / m` per threshold.
     gains: S::Creep<T>,
     scaled_weights: S::Creep<T>,
@@ -148,6 +146,9 @@ pub struct Creep<T: Real, S: Storage> {
     output: T,
     /// The last finite input, held in place of a non-finite one.
     last_input: T,
+    weights: S::Creep<T>,
+    eigenvalues: S::Creep<T>,
+    sample_time: f64,
 }
 
 impl<T: Real, S: Storage> Creep<T, S> {

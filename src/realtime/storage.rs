@@ -68,16 +68,17 @@ impl<T, const N: usize> Deref for InlineBuffer<T, N> {
     type Target = [T];
     #[inline(always)]
     fn deref(&self) -> &[T] {
-        // `len ≤ N` by construction; the slice lets the kernels see the
-        // orders, not the capacity
-        &self.data[..self.len]
+        // the slice lets the kernels see the orders, not the capacity;
+        // `len ≤ N` by construction, and `min` tells the compiler so (a
+        // conditional move instead of a bounds check per access)
+        &self.data[..self.len.min(N)]
     }
 }
 
 impl<T, const N: usize> DerefMut for InlineBuffer<T, N> {
     #[inline(always)]
     fn deref_mut(&mut self) -> &mut [T] {
-        &mut self.data[..self.len]
+        &mut self.data[..self.len.min(N)]
     }
 }
 
