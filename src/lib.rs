@@ -48,9 +48,9 @@
 //! ## Features
 //!
 //! Without default features the crate is [`realtime`]: `#![no_std]`, no
-//! allocator, every operator and the compensator in `f32` or `f64` in
-//! storage fixed at compile time (dependencies: `thiserror`, `libm`). The
-//! feature `std` adds the heap operators ([`operators`]), model files
+//! allocator, every operator and the compensator as one generic type each,
+//! in `f32` or `f64`, in storage fixed at compile time (dependency: `libm`).
+//! The feature `std` adds heap storage and the traits ([`operators`]), model files
 //! ([`io`]), the naive references and the conformance checks ([`suite`];
 //! `serde`, `serde_json`). `identification` (faer), `beam` (faer, nalgebra,
 //! levenberg-marquardt), `feedforward`, `suite` (scenarios, golden traces,
@@ -59,9 +59,9 @@
 //!
 //! ## Two tiers
 //!
-//! Most users call [`io::read_model`], [`operators::compensator::Compensator::new`]
-//! and [`operators::traits::Operator::run`]. The real-time path is
-//! [`operators::compensator::Compensator::compensate`] (and every operator's
+//! Most users call [`io::read_model`], `model.compensator(settings)` and
+//! [`operators::traits::Operator::run`]. The real-time path is
+//! [`realtime::Compensator::compensate`] (and every operator's
 //! [`operators::traits::Operator::step`]): one sample, no allocation, no I/O;
 //! state can be snapshotted and restored ([`operators::traits::Snapshot`]) so
 //! that runs split and resume bit-identically.

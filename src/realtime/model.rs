@@ -96,8 +96,9 @@ impl<T: Real, S: Storage> Model<T, S> {
 
     /// Set the play states of `H` and (flattened, `state[i * m + j]`) the
     /// creep states; both are checked before either changes. `creep: None`
-    /// leaves `C` in its zero state.
-    pub fn set_state(
+    /// leaves `C` in its zero state. (With `std`, `Snapshot::set_state`
+    /// takes the model file's rows instead.)
+    pub fn set_state_flat(
         &mut self,
         hysteresis: &[f64],
         creep: Option<&[f64]>,
