@@ -256,7 +256,16 @@ fn step_response_fit_recovers_noise_free_parameters() {
         .iter()
         .map(|n| FitParameter::around(&start, n).unwrap())
         .collect();
-    let fit = fit_step_response(&start, &params, kind, 2e-4, &u, &y).unwrap();
+    let fit = fit_step_response(
+        &start,
+        &params,
+        kind,
+        2e-4,
+        &u,
+        &y,
+        StepFitOptions::SIMULATED,
+    )
+    .unwrap();
     for (i, n) in FIT.iter().enumerate() {
         let t = parameter(&truth, n).unwrap();
         assert!(
@@ -283,7 +292,16 @@ fn step_response_fit_with_noise_lands_within_three_standard_errors() {
         .iter()
         .map(|n| FitParameter::around(&start, n).unwrap())
         .collect();
-    let fit = fit_step_response(&start, &params, kind, 2e-4, &u, &noisy).unwrap();
+    let fit = fit_step_response(
+        &start,
+        &params,
+        kind,
+        2e-4,
+        &u,
+        &noisy,
+        StepFitOptions::SIMULATED,
+    )
+    .unwrap();
     for (i, n) in FIT.iter().enumerate() {
         let t = parameter(&truth, n).unwrap();
         let se = fit.standard_errors[i];
@@ -316,9 +334,17 @@ fn non_identifiable_subset_is_refused_with_its_parameters_named() {
         .iter()
         .map(|n| FitParameter::around(&truth, n).unwrap())
         .collect();
-    let e = fit_step_response(&truth, &params, kind, 2e-4, &u, &y)
-        .unwrap_err()
-        .to_string();
+    let e = fit_step_response(
+        &truth,
+        &params,
+        kind,
+        2e-4,
+        &u,
+        &y,
+        StepFitOptions::SIMULATED,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("not identifiable"), "{e}");
     for n in names {
         assert!(e.contains(n), "{n} missing: {e}");
@@ -337,7 +363,7 @@ fn non_identifiable_subset_is_refused_with_its_parameters_named() {
 fn the_continuous_step_model_matches_the_zoh_simulation_at_the_samples() {
     let (truth, kind, u, y) = fit_setup();
     let params = [FitParameter::around(&truth, "youngs_modulus").unwrap()];
-    let fit = fit_step_response_with(
+    let fit = fit_step_response(
         &truth,
         &params,
         kind,
@@ -392,8 +418,8 @@ fn a_measured_step_with_offset_and_unknown_step_time_is_fitted() {
         .iter()
         .map(|n| FitParameter::around(&start, n).unwrap())
         .collect();
-    let fit = fit_step_response_with(&start, &params, kind, ts, &u, &y, StepFitOptions::default())
-        .unwrap();
+    let fit =
+        fit_step_response(&start, &params, kind, ts, &u, &y, StepFitOptions::default()).unwrap();
     for (i, n) in FIT.iter().enumerate() {
         let t = parameter(&truth, n).unwrap();
         let se = fit.standard_errors[i];
@@ -419,7 +445,8 @@ fn a_measured_step_with_offset_and_unknown_step_time_is_fitted() {
     );
     assert!((fit.rms_residual / (0.005 * stroke) - 1.0).abs() < 0.1);
     // without the step time and offset the same record fits much worse
-    let plain = fit_step_response(&start, &params, kind, ts, &u, &y).unwrap();
+    let plain =
+        fit_step_response(&start, &params, kind, ts, &u, &y, StepFitOptions::SIMULATED).unwrap();
     assert!(
         plain.rms_residual > 1.5 * fit.rms_residual,
         "{} vs {}",

@@ -8,7 +8,7 @@
 //! clamped to their bounds. Their Jacobian columns are central differences
 //! (step 1e-4 in `ln θ`).
 //!
-//! A measured record ([`fit_step_response_with`]) has two more unknowns: the
+//! A measured record ([`StepFitOptions::default`]) has two more unknowns: the
 //! sensor's offset, and the time of the step, which a logger does not place
 //! on a sample. For a single step `u_0 → u_1` at time `t_s` the response is
 //! `y_k = offset + G(0) u_0 + (u_1 − u_0) s(k T_s − t_s)` with `s` the beam's
@@ -190,6 +190,14 @@ pub struct StepFitOptions {
     /// Fit the time of the step (continuous, not a sample index): the input
     /// must then be a single step, `u_0` before and `u_1` after.
     pub step_time: bool,
+}
+
+impl StepFitOptions {
+    /// A record simulated from rest: no offset, the step where `u` has it.
+    pub const SIMULATED: Self = Self {
+        offset: false,
+        step_time: false,
+    };
 }
 
 impl Default for StepFitOptions {
@@ -377,31 +385,13 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for StepProblem<'_> {
     }
 }
 
-/// Fit `parameters` of `start` so that the simulated response to `u` matches
-/// `y` in the least-squares sense, from a record simulated from rest (no
-/// offset, the step where `u` has it). See [`fit_step_response_with`] for a
-/// measured record.
-pub fn fit_step_response(
-    start: &BeamParameters,
-    parameters: &[FitParameter],
-    kind: BeamModelKind,
-    sample_time: f64,
-    u: &[f64],
-    y: &[f64],
-) -> Result<BeamFit, BeamError> {
-    let options = StepFitOptions {
-        offset: false,
-        step_time: false,
-    };
-    fit_step_response_with(start, parameters, kind, sample_time, u, y, options)
-}
-
 /// Fit `parameters` of `start` to a measured tip response `y` to the input
 /// `u`, with an output offset and a continuous step time as `options` say,
 /// by Levenberg–Marquardt (the `levenberg-marquardt` crate) in log
 /// coordinates within the parameters' bounds. A subset the response cannot
-/// identify is refused first, naming the parameters.
-pub fn fit_step_response_with(
+/// identify is refused first, naming the parameters. A record simulated from
+/// rest takes [`StepFitOptions::SIMULATED`].
+pub fn fit_step_response(
     start: &BeamParameters,
     parameters: &[FitParameter],
     kind: BeamModelKind,

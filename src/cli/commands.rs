@@ -451,13 +451,13 @@ fn beam_identify(a: &BeamIdentifyArgs) -> Result<()> {
         .map(|n| FitParameter::around(&beam, n.trim()))
         .collect::<std::result::Result<Vec<_>, _>>()
         .context("--fit")?;
-    use mfcbeam::beam::step_response_fit::{fit_step_response_with, StepFitOptions, StepInput};
+    use mfcbeam::beam::step_response_fit::{fit_step_response, StepFitOptions, StepInput};
     let step = StepInput::detect(&u).ok();
     let options = StepFitOptions {
         offset: !a.no_offset,
         step_time: !a.no_step_time && step.is_some(),
     };
-    let fit = fit_step_response_with(&beam, &params, a.model.kind(), ts, &u, &y, options)
+    let fit = fit_step_response(&beam, &params, a.model.kind(), ts, &u, &y, options)
         .with_context(|| a.input.display().to_string())?;
     write_json(&a.output, &fit.beam)?;
     eprintln!("parameter                       start            fitted           std. error");

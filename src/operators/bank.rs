@@ -301,26 +301,11 @@ impl<T: Real> CompensatorBank<T> {
             let at = i * cs + c0;
             self.scratch[at..at + W].copy_from_slice(&self.inv_x[at..at + W]);
         }
-        let mut sums = [[T::ZERO; W]; 4];
-        // lane q of the partial sums takes the plays i ≡ q mod 4, as
-        // hysteresis::step does; a constant q keeps the sums in registers
-        let full = n - n % 4;
-        for i0 in (0..full).step_by(4) {
-            for (q, sum) in sums.iter_mut().enumerate() {
-                let i = i0 + q;
-                let x = block(&mut self.inv_x, i * cs + c0);
-                inverse_play_fast(k, x, lane(&p.inv_r, i), lane(&p.inv_w, i), &y, &fault, sum);
-            }
-        }
-        for i in full..n {
-            let x = block(&mut self.inv_x, i * cs + c0);
-            let sum = &mut sums[i - full];
-            inverse_play_fast(k, x, lane(&p.inv_r, i), lane(&p.inv_w, i), &y, &fault, sum);
-        }
-        let mut v = [T::ZERO; W];
-        for l in 0..W {
-            v[l] = reduce([sums[0][l], sums[1][l], sums[2][l], sums[3][l]]);
-        }
+        let inv_x = &mut self.inv_x;
+        let v = sum_by_fours(n, |i, sum| {
+            let x = block(inv_x, i * cs + c0);
+            inverse_play(k, x, lane(&p.inv_r, i), lane(&p.inv_w, i), &y, &fault, sum);
+        });
 
         // clip; a faulted lane holds its last voltage (x_0 of H)
         let mut u = [T::ZERO; W];
@@ -352,46 +337,16 @@ impl<T: Real> CompensatorBank<T> {
             };
             self.creep_last[c0 + l] = uc[l];
         }
-        let mut acc = [[T::ZERO; W]; 4];
-        let full = nc - nc % 4;
-        for i0 in (0..full).step_by(4) {
-            for (q, a) in acc.iter_mut().enumerate() {
-                let i = i0 + q;
-                let (r, w) = (lane(&p.creep_r, i), lane(&p.creep_w, i));
-                creep_row_fast(
-                    k,
-                    &mut self.chi,
-                    (i * m * cs + c0, cs),
-                    &p.gains,
-                    (ps, pb, m),
-                    &uc,
-                    r,
-                    w,
-                    a,
-                );
-            }
-        }
-        for i in full..nc {
+        let chi = &mut self.chi;
+        let creep = sum_by_fours(nc, |i, acc| {
             let (r, w) = (lane(&p.creep_r, i), lane(&p.creep_w, i));
-            let a = &mut acc[i - full];
-            creep_row_fast(
-                k,
-                &mut self.chi,
-                (i * m * cs + c0, cs),
-                &p.gains,
-                (ps, pb, m),
-                &uc,
-                r,
-                w,
-                a,
-            );
-        }
-        for l in 0..W {
-            self.creep_out[c0 + l] = reduce([acc[0][l], acc[1][l], acc[2][l], acc[3][l]]);
-            self.io.u[c0 + l] = u[l];
-            self.io.saturated[c0 + l] = saturated[l];
-            self.io.fault[c0 + l] = fault[l];
-        }
+            let at = (i * m * cs + c0, cs);
+            creep_row(k, chi, at, &p.gains, (ps, pb, m), &uc, r, w, acc);
+        });
+        self.creep_out[c0..c0 + W].copy_from_slice(&creep);
+        self.io.u[c0..c0 + W].copy_from_slice(&u);
+        self.io.saturated[c0..c0 + W].copy_from_slice(&saturated);
+        self.io.fault[c0..c0 + W].copy_from_slice(&fault);
     }
 
     /// The saturated lanes as the single compensator re-seats: the plays of
@@ -438,6 +393,32 @@ struct Io<T> {
     fault: Vec<bool>,
 }
 
+/// `Σ_i f(i)` over `i < count` as `hysteresis::step` and `creep::advance`
+/// sum: `f` adds term `i` into the partial sum `i mod 4` (whole blocks of
+/// four first, so that a constant index keeps the partial sums in
+/// registers), then the four partial sums are reduced.
+#[inline(always)]
+fn sum_by_fours<T: Real, const W: usize>(
+    count: usize,
+    mut f: impl FnMut(usize, &mut [T; W]),
+) -> [T; W] {
+    let mut sums = [[T::ZERO; W]; 4];
+    let full = count - count % 4;
+    for i0 in (0..full).step_by(4) {
+        for (q, sum) in sums.iter_mut().enumerate() {
+            f(i0 + q, sum);
+        }
+    }
+    for i in full..count {
+        f(i, &mut sums[i - full]);
+    }
+    let mut total = [T::ZERO; W];
+    for l in 0..W {
+        total[l] = reduce([sums[0][l], sums[1][l], sums[2][l], sums[3][l]]);
+    }
+    total
+}
+
 #[inline(always)]
 fn lane<T: Real, const W: usize>(v: &[T], at: usize) -> [T; W] {
     v[at..at + W].try_into().unwrap()
@@ -449,8 +430,11 @@ fn block<T: Real, const W: usize>(v: &mut [T], at: usize) -> &mut [T; W] {
 }
 
 /// One play of `H⁻¹` (22) over `W` channels; a faulted lane keeps its state.
+/// On `k`'s kernels: 256-bit registers for `f64 × 4` and `f32 × 8` with
+/// AVX2, the same operations lane by lane, so the same bits.
 #[inline(always)]
 fn inverse_play<T: Real, const W: usize>(
+    k: Kernels,
     x: &mut [T; W],
     r: [T; W],
     w: [T; W],
@@ -458,6 +442,12 @@ fn inverse_play<T: Real, const W: usize>(
     fault: &[bool; W],
     sum: &mut [T; W],
 ) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(lanes) = simd::lanes::<T, W>(k) {
+        let mask: [T; W] = fault.map(|f| if f { T::NEG_INFINITY } else { T::ZERO });
+        lanes.inverse_play(x, &r, &w, y, &mask, sum);
+        return;
+    }
     for l in 0..W {
         let new = clamp(x[l], y[l] - r[l], y[l] + r[l]);
         sum[l] += w[l] * new;
@@ -467,10 +457,12 @@ fn inverse_play<T: Real, const W: usize>(
 
 /// The `m` creep operators of one threshold over `W` channels (20), summed
 /// as `creep::advance` sums them; `at = (first element, stride per
-/// eigenvalue)`, `params = (stride, offset, m)` of the parameter arrays.
+/// eigenvalue)`, `params = (stride, offset, m)` of the parameter arrays; on
+/// `k`'s kernels, as [`inverse_play`].
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn creep_row<T: Real, const W: usize>(
+    k: Kernels,
     chi: &mut [T],
     at: (usize, usize),
     gains: &[T],
@@ -480,6 +472,11 @@ fn creep_row<T: Real, const W: usize>(
     w: [T; W],
     acc: &mut [T; W],
 ) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(lanes) = simd::lanes::<T, W>(k) {
+        lanes.creep_row(chi, at, gains, params, u, &r, &w, acc);
+        return;
+    }
     let (e0, step) = at;
     let (ps, pb, m) = params;
     let mut lower = [T::ZERO; W];
@@ -502,47 +499,4 @@ fn creep_row<T: Real, const W: usize>(
     for l in 0..W {
         acc[l] += w[l] * rows[l];
     }
-}
-
-/// [`inverse_play`] on `k`'s kernels: 256-bit registers for `f64 × 4` and
-/// `f32 × 8` with AVX2, the same operations lane by lane, so the same bits.
-#[inline(always)]
-fn inverse_play_fast<T: Real, const W: usize>(
-    k: Kernels,
-    x: &mut [T; W],
-    r: [T; W],
-    w: [T; W],
-    y: &[T; W],
-    fault: &[bool; W],
-    sum: &mut [T; W],
-) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(lanes) = simd::lanes::<T, W>(k) {
-        let mask: [T; W] = fault.map(|f| if f { T::NEG_INFINITY } else { T::ZERO });
-        lanes.inverse_play(x, &r, &w, y, &mask, sum);
-        return;
-    }
-    inverse_play(x, r, w, y, fault, sum)
-}
-
-/// [`creep_row`] on `k`'s kernels, as [`inverse_play_fast`].
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn creep_row_fast<T: Real, const W: usize>(
-    k: Kernels,
-    chi: &mut [T],
-    at: (usize, usize),
-    gains: &[T],
-    params: (usize, usize, usize),
-    u: &[T; W],
-    r: [T; W],
-    w: [T; W],
-    acc: &mut [T; W],
-) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(lanes) = simd::lanes::<T, W>(k) {
-        lanes.creep_row(chi, at, gains, params, u, &r, &w, acc);
-        return;
-    }
-    creep_row(chi, at, gains, params, u, r, w, acc)
 }

@@ -8,6 +8,9 @@ use crate::operators::hysteresis::HysteresisOperator;
 use crate::operators::model::{HysteresisCreepModel, ModelFile};
 use crate::operators::traits::{ActuatorCompensator, ActuatorModel, InverseHysteresis};
 use crate::realtime::{Compensator, CompensatorSettings, Hysteresis, Inline, Model, Real};
+use crate::suite::reference::{
+    naive_inverse_hysteresis, BisectionCompensator, NaiveCompensator, NaiveModel,
+};
 
 /// `ε₃₂/ε₆₄ = 2²⁹`: the [`ConformanceSettings::tolerance_scale`] of an `f32`
 /// implementation. Every tolerance is a sum of terms linear in `ε` (first-order
@@ -67,9 +70,7 @@ pub fn heap_inverse_hysteresis(file: &ModelFile) -> Result<Box<dyn InverseHyster
 
 /// Factory of the naive reference model.
 pub fn reference_model(file: &ModelFile) -> Result<Box<dyn ActuatorModel>, ModelError> {
-    Ok(Box::new(crate::suite::reference::NaiveModel::from_file(
-        file,
-    )?))
+    Ok(Box::new(NaiveModel::from_file(file)?))
 }
 
 /// Factory of the naive reference compensator.
@@ -77,18 +78,14 @@ pub fn reference_compensator(
     file: &ModelFile,
     settings: CompensatorSettings,
 ) -> Result<Box<dyn ActuatorCompensator>, ModelError> {
-    Ok(Box::new(
-        crate::suite::reference::NaiveCompensator::from_file(file, settings)?,
-    ))
+    Ok(Box::new(NaiveCompensator::from_file(file, settings)?))
 }
 
 /// Factory of the naive reference inverse hysteresis operator.
 pub fn reference_inverse_hysteresis(
     file: &ModelFile,
 ) -> Result<Box<dyn InverseHysteresis>, ModelError> {
-    Ok(Box::new(crate::suite::reference::naive_inverse_hysteresis(
-        file,
-    )?))
+    Ok(Box::new(naive_inverse_hysteresis(file)?))
 }
 
 /// Factory of the numerical (bisection) compensator.
@@ -96,7 +93,5 @@ pub fn bisection_compensator(
     file: &ModelFile,
     settings: CompensatorSettings,
 ) -> Result<Box<dyn ActuatorCompensator>, ModelError> {
-    Ok(Box::new(
-        crate::suite::reference::BisectionCompensator::from_file(file, settings)?,
-    ))
+    Ok(Box::new(BisectionCompensator::from_file(file, settings)?))
 }

@@ -286,6 +286,15 @@ fn extrema(case: &Case) -> Option<(&[f64], f64)> {
     })
 }
 
+/// The extrema of an extrema case, its last turning point `p1 = e_k` and
+/// the reversal `p2 = p1 + g (e_{k−1} − p1)` inside the last branch
+/// (Madelung II and III).
+fn last_reversal(case: &Case) -> Option<(&[f64], f64, f64)> {
+    let (e, g) = extrema(case)?;
+    let p1 = e[e.len() - 1];
+    Some((e, p1, p1 + g * (e[e.len() - 2] - p1)))
+}
+
 const SUB: usize = 3;
 
 fn madelung_i(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
@@ -318,12 +327,9 @@ fn madelung_i(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> O
 }
 
 fn madelung_ii(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
-    let Some((e, g)) = extrema(case) else {
+    let Some((e, p1, p2)) = last_reversal(case) else {
         return Outcome::Skipped;
     };
-    let k = e.len() - 1;
-    let p1 = e[k];
-    let p2 = p1 + g * (e[k - 1] - p1);
     let mut cand = candidate!(build(factory, case));
     let first = path(e, SUB);
     let y_p1 = *cand.run(&first).last().expect("a path has samples");
@@ -337,13 +343,10 @@ fn madelung_ii(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> 
 }
 
 fn madelung_iii(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
-    let Some((e, g)) = extrema(case) else {
+    let Some((e, p1, p2)) = last_reversal(case) else {
         return Outcome::Skipped;
     };
-    let k = e.len() - 1;
-    let p1 = e[k];
-    let p2 = p1 + g * (e[k - 1] - p1);
-    let dir = (p1 - e[k - 1]).signum();
+    let dir = (p1 - e[e.len() - 2]).signum();
     let onward = segment(p1, p1 + dir * 0.5 * reach(&case.model), 9);
     let (mut a, mut b) = candidate!(two(|| build(factory, case)));
     a.run(&path(e, SUB));

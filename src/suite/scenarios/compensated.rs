@@ -2,13 +2,9 @@
 //! the compensator `W⁻¹` (21), the plant `W` and the beam: the input–output
 //! relation becomes linear.
 
-use super::{
-    compensator_output, fig3_staircase, flag, input, model_output, range, time, time_axis, tip,
-    Claim, Scenario, ScenarioContext, ScenarioError, ScenarioTrace, Traces,
-};
+use super::*;
 use crate::operators::compensator::CompensatorSettings;
 use crate::operators::supply::Supply;
-use crate::suite::plots::{panel, scaled, series, Figure, COLORS, GREY};
 
 /// Output at the last upward and the last downward zero crossing of the
 /// input (linear interpolation): their gap is the loop width at zero input.
@@ -54,25 +50,17 @@ pub(super) static SCENARIO: Scenario = Scenario {
 fn compute(ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
     let y_d = fig3_staircase(500.0);
     let mut comp = ctx.compensator(SCENARIO.id, CompensatorSettings::default())?;
-    let supply = Supply::default();
-    let (mut u, mut sat, mut fs, mut bs) = (vec![], vec![], vec![], vec![]);
-    for &t in &y_d {
-        let c = comp.compensate(t);
-        let (p, _) = supply.patch_voltages_saturating(c.u);
-        u.push(c.u);
-        sat.push(if c.saturated { 1.0 } else { 0.0 });
-        fs.push(p.front);
-        bs.push(p.back);
-    }
-    let y = ctx.plant(SCENARIO.id)?.run(&u);
+    let r = SuppliedRun::new(comp.as_mut(), &y_d, &Supply::default());
+    let y = ctx.plant(SCENARIO.id)?.run(&r.u);
     let tip = ctx.beam().simulate(&y);
+    let t = time_axis(y_d.len());
     Ok(ScenarioTrace::of(
         &SCENARIO,
-        vec![time_axis(y_d.len()), y_d, u, sat, fs, bs, y, tip],
+        vec![t, y_d, r.u, r.saturated, r.front, r.back, y, tip],
     ))
 }
 fn figure(tr: &ScenarioTrace, all: &Traces) -> Option<Figure> {
-    let t = tr.col("t");
+    let patches = [("u_fs", "u_fs", COLORS[1]), ("u_bs", "u_bs", COLORS[2])];
     let mut loops = Vec::new();
     if let Some(st) = all.get("staircase") {
         loops.push(series(
@@ -92,21 +80,8 @@ fn figure(tr: &ScenarioTrace, all: &Traces) -> Option<Figure> {
         title: "Fig. 10 — compensated staircase: linear input-output".into(),
         panels: vec![
             panel("loops", "commanded (V)", "effective voltage (V)", loops),
-            panel(
-                "patch voltages from the compensator",
-                "t (s)",
-                "V",
-                vec![
-                    series("u_fs", t, tr.col("u_fs"), COLORS[1]),
-                    series("u_bs", t, tr.col("u_bs"), COLORS[2]),
-                ],
-            ),
-            panel(
-                "tip deflection",
-                "t (s)",
-                "w(L) (mm)",
-                vec![series("tip", t, &scaled(tr.col("tip"), 1e3), COLORS[0])],
-            ),
+            tr.time_panel("patch voltages from the compensator", "V", 1.0, &patches),
+            tr.tip_panel(COLORS[0]),
         ],
     })
 }

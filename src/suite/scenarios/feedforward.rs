@@ -1,14 +1,10 @@
 //! Fig. 14: the flatness-based rest-to-rest move of the tip, 1 mm in 75 ms
 //! from 2.9 s (σ = 1.1), through the compensator, `W` and the beam.
 
-use super::{
-    at_time, compensator_output, model_output, time, tip, Claim, Column, Scenario, ScenarioContext,
-    ScenarioError, ScenarioTrace, Traces,
-};
+use super::*;
 use crate::feedforward::{design, FeedforwardSettings, FlatParametrization};
 use crate::operators::compensator::CompensatorSettings;
 use crate::operators::supply::Supply;
-use crate::suite::plots::{panel, scaled, series, window, Figure, COLORS, GREY};
 
 pub(super) static SCENARIO: Scenario = Scenario {
     id: "feedforward",
@@ -48,56 +44,28 @@ fn compute(ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
     let supply = Supply::default();
     let (lo, hi) = supply.balanced_limits();
     let mut comp = ctx.compensator(SCENARIO.id, CompensatorSettings::with_limits(lo, hi))?;
-    let (mut u, mut fs, mut bs) = (vec![], vec![], vec![]);
-    for &v in &ff.u_d {
-        let c = comp.compensate(v);
-        let (p, _) = supply.patch_voltages_saturating(c.u);
-        u.push(c.u);
-        fs.push(p.front);
-        bs.push(p.back);
-    }
-    let w = ctx.plant(SCENARIO.id)?.run(&u);
+    let r = SuppliedRun::new(comp.as_mut(), &ff.u_d, &supply);
+    let w = ctx.plant(SCENARIO.id)?.run(&r.u);
     let tip = ctx.beam().simulate(&w);
     Ok(ScenarioTrace::of(
         &SCENARIO,
-        vec![ff.t, ff.y_d, ff.u_d, u, fs, bs, w, tip],
+        vec![ff.t, ff.y_d, ff.u_d, r.u, r.front, r.back, w, tip],
     ))
 }
 fn figure(tr: &ScenarioTrace, _: &Traces) -> Option<Figure> {
-    let t = tr.col("t");
-    let (tw, cs) = window(t, &[tr.col("y_d"), tr.col("tip")], 2.85, 3.1);
-    let (td, ds) = window(t, &[tr.col("y_d"), tr.col("tip")], 2.96, 2.99);
-    let (tu, us) = window(t, &[tr.col("u_fs"), tr.col("u_bs")], 2.85, 3.1);
+    let (transition, end) = (tr.window(2.85, 3.1), tr.window(2.96, 2.99));
+    let tracking = [
+        ("y_d", "desired y_d", GREY),
+        ("tip", "simulated tip", COLORS[0]),
+    ];
+    let patches = [("u_fs", "u_fs", COLORS[1]), ("u_bs", "u_bs", COLORS[2])];
+    let detail = "detail at the end of the transition";
     Some(Figure {
         title: "Fig. 14 — flatness-based feedforward with compensation: 1 mm in 75 ms".into(),
         panels: vec![
-            panel(
-                "tracking",
-                "t (s)",
-                "w(L) (mm)",
-                vec![
-                    series("desired y_d", &tw, &scaled(&cs[0], 1e3), GREY),
-                    series("simulated tip", &tw, &scaled(&cs[1], 1e3), COLORS[0]),
-                ],
-            ),
-            panel(
-                "detail at the end of the transition",
-                "t (s)",
-                "w(L) (mm)",
-                vec![
-                    series("desired y_d", &td, &scaled(&ds[0], 1e3), GREY),
-                    series("simulated tip", &td, &scaled(&ds[1], 1e3), COLORS[0]),
-                ],
-            ),
-            panel(
-                "patch voltages",
-                "t (s)",
-                "V",
-                vec![
-                    series("u_fs", &tu, &us[0], COLORS[1]),
-                    series("u_bs", &tu, &us[1], COLORS[2]),
-                ],
-            ),
+            transition.time_panel("tracking", "w(L) (mm)", 1e3, &tracking),
+            end.time_panel(detail, "w(L) (mm)", 1e3, &tracking),
+            transition.time_panel("patch voltages", "V", 1.0, &patches),
         ],
     })
 }

@@ -2,14 +2,9 @@
 //! the plant's response, and the output of the model identified from it by
 //! (23)–(25).
 
-use super::{
-    input, model_output, range, time, time_axis, Claim, Scenario, ScenarioContext, ScenarioError,
-    ScenarioTrace, Traces,
-};
+use super::*;
 use crate::identification::{identify, IdentificationSettings};
 use crate::operators::nominal::SAMPLE_TIME;
-use crate::operators::traits::Operator;
-use crate::suite::plots::{panel, series, Figure, COLORS};
 use crate::suite::signal::Staircase;
 
 pub(super) static SCENARIO: Scenario = Scenario {

@@ -1,12 +1,7 @@
 //! Fig. 8b: three histories of `H` reaching one point of the input–output
 //! plane with the input increasing, with different slopes there.
 
-use super::{
-    input, model_output, no_claims, ramps, time, time_axis, Scenario, ScenarioContext,
-    ScenarioError, ScenarioTrace, Traces,
-};
-use crate::operators::traits::Operator;
-use crate::suite::plots::{panel, series, window, Figure, Series, COLORS};
+use super::*;
 
 const NAMES: [(&str, &str, &str); 3] = [
     ("u_a", "h_a", "virgin curve"),

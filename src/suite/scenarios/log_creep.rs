@@ -1,13 +1,8 @@
 //! Fig. 9: a staircase with 20 s plateaus; after each step the creep part
 //! grows linearly in `log t` between `1/a_1` and `1/a_m` (15), (24).
 
-use super::{
-    at_time, input, model_output, time, time_axis, Claim, Scenario, ScenarioContext, ScenarioError,
-    ScenarioTrace, Traces,
-};
+use super::*;
 use crate::operators::nominal::SAMPLE_TIME;
-use crate::operators::traits::Operator;
-use crate::suite::plots::{panel, series, Figure, COLORS};
 use crate::suite::signal::Staircase;
 
 pub(super) static SCENARIO: Scenario = Scenario {
@@ -70,11 +65,11 @@ fn figure(tr: &ScenarioTrace, _: &Traces) -> Option<Figure> {
                 "C - C(t_step) (V)",
                 curves,
             ),
-            panel(
+            tr.time_panel(
                 "effective voltage",
-                "t (s)",
                 "W[u] (V)",
-                vec![series("W[u]", t, tr.col("w"), COLORS[1])],
+                1.0,
+                &[("w", "W[u]", COLORS[1])],
             ),
         ],
     })

@@ -1,12 +1,7 @@
 //! Fig. 8a: nested reversals inside the major loop — the Madelung rules and
 //! Masing congruence, seen in the input–output plane.
 
-use super::{
-    input, model_output, no_claims, ramps, time, time_axis, Scenario, ScenarioContext,
-    ScenarioError, ScenarioTrace, Traces,
-};
-use crate::operators::traits::Operator;
-use crate::suite::plots::{panel, series, Figure, COLORS};
+use super::*;
 
 pub(super) static SCENARIO: Scenario = Scenario {
     id: "minor-loops",
@@ -35,24 +30,12 @@ fn compute(ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
     ))
 }
 fn figure(tr: &ScenarioTrace, _: &Traces) -> Option<Figure> {
+    let loops = [("u", "h", "H[u]", COLORS[2]), ("u", "w", "W[u]", COLORS[1])];
     Some(Figure {
         title: "Fig. 8a — nested minor loops: Madelung rules, Masing congruence".into(),
         panels: vec![
-            panel(
-                "loops",
-                "u (V)",
-                "effective voltage (V)",
-                vec![
-                    series("H[u]", tr.col("u"), tr.col("h"), COLORS[2]),
-                    series("W[u]", tr.col("u"), tr.col("w"), COLORS[1]),
-                ],
-            ),
-            panel(
-                "input",
-                "t (s)",
-                "u (V)",
-                vec![series("u", tr.col("t"), tr.col("u"), COLORS[0])],
-            ),
+            tr.loop_panel("loops", "u (V)", "effective voltage (V)", &loops),
+            tr.time_panel("input", "u (V)", 1.0, &[("u", "u", COLORS[0])]),
         ],
     })
 }

@@ -39,8 +39,18 @@ use crate::operators::model::HysteresisCreepModel;
 use crate::operators::nominal::{nominal_model, SAMPLE_TIME};
 use crate::operators::traits::{ActuatorCompensator, ActuatorModel};
 use crate::suite::conformance::{heap_compensator, heap_model, CompensatorFactory, ModelFactory};
-use crate::suite::plots::Figure;
+use crate::suite::plots::{panel, scaled, series, Figure, Panel};
 use crate::suite::signal::Staircase;
+
+// what every scenario file uses, brought in by its `use super::*`
+#[allow(unused_imports)]
+use crate::operators::supply::Supply;
+#[allow(unused_imports)]
+use crate::operators::traits::Operator;
+#[allow(unused_imports)]
+use crate::suite::plots::{window, Series, COLORS, GREY};
+#[allow(unused_imports)]
+use plotters::style::RGBColor;
 
 mod compensated;
 mod feedforward;
@@ -314,6 +324,54 @@ impl ScenarioTrace {
         self.len() == 0
     }
 
+    /// A panel of columns over `t`: `(column, label, colour)` each, times
+    /// `scale` (1e3 shows a deflection in metres as millimetres).
+    pub(crate) fn time_panel(
+        &self,
+        title: &str,
+        y_label: &str,
+        scale: f64,
+        curves: &[(&str, &str, RGBColor)],
+    ) -> Panel {
+        let t = self.col("t");
+        let curves = curves.iter();
+        let series =
+            curves.map(|&(c, label, color)| series(label, t, &scaled(self.col(c), scale), color));
+        panel(title, "t (s)", y_label, series.collect())
+    }
+
+    /// A panel of input–output loops: `(x column, y column, label, colour)`
+    /// each.
+    pub(crate) fn loop_panel(
+        &self,
+        title: &str,
+        x_label: &str,
+        y_label: &str,
+        curves: &[(&str, &str, &str, RGBColor)],
+    ) -> Panel {
+        let curves = curves.iter();
+        let series =
+            curves.map(|&(x, y, label, color)| series(label, self.col(x), self.col(y), color));
+        panel(title, x_label, y_label, series.collect())
+    }
+
+    /// The tip deflection over `t`, in millimetres.
+    pub(crate) fn tip_panel(&self, color: RGBColor) -> Panel {
+        self.time_panel("tip deflection", "w(L) (mm)", 1e3, &[("tip", "tip", color)])
+    }
+
+    /// The rows with `lo ≤ t ≤ hi` (for a detail of a figure).
+    pub(crate) fn window(&self, lo: f64, hi: f64) -> ScenarioTrace {
+        let t = self.col("t");
+        let rows: Vec<usize> = (0..t.len()).filter(|&k| t[k] >= lo && t[k] <= hi).collect();
+        let columns = self.columns.iter();
+        ScenarioTrace {
+            columns: columns
+                .map(|(n, v)| (*n, rows.iter().map(|&k| v[k]).collect()))
+                .collect(),
+        }
+    }
+
     /// Every `k`-th row, starting with the first.
     pub fn decimated(&self, k: usize) -> ScenarioTrace {
         ScenarioTrace {
@@ -349,6 +407,39 @@ pub fn run(scenario: &Scenario, ctx: &ScenarioContext) -> Result<ScenarioTrace, 
 /// Run every scenario at the full rate.
 pub fn run_all(ctx: &ScenarioContext) -> Result<Traces, ScenarioError> {
     SCENARIOS.iter().map(|s| Ok((s.id, run(s, ctx)?))).collect()
+}
+
+/// A compensator's run over `targets`: its voltage, its saturation flags
+/// (0/1) and the patch voltages the supply makes of that voltage.
+pub(crate) struct SuppliedRun {
+    pub u: Vec<f64>,
+    pub saturated: Vec<f64>,
+    pub front: Vec<f64>,
+    pub back: Vec<f64>,
+}
+
+impl SuppliedRun {
+    pub(crate) fn new(
+        comp: &mut dyn ActuatorCompensator,
+        targets: &[f64],
+        supply: &Supply,
+    ) -> Self {
+        let mut run = SuppliedRun {
+            u: Vec::with_capacity(targets.len()),
+            saturated: Vec::with_capacity(targets.len()),
+            front: Vec::with_capacity(targets.len()),
+            back: Vec::with_capacity(targets.len()),
+        };
+        for &y in targets {
+            let c = comp.compensate(y);
+            let (p, _) = supply.patch_voltages_saturating(c.u);
+            run.u.push(c.u);
+            run.saturated.push(if c.saturated { 1.0 } else { 0.0 });
+            run.front.push(p.front);
+            run.back.push(p.back);
+        }
+        run
+    }
 }
 
 /// `t_k = k T_s`.

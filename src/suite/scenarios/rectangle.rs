@@ -1,12 +1,8 @@
 //! Fig. 2: a rectangular voltage, `u = 500 V` on `[5, 45)` s, else 0, for
 //! 90 s: the creep after each edge and the remanent offset at the end.
 
-use super::{
-    at_time, input, model_output, samples, time, time_axis, tip, Claim, Scenario, ScenarioContext,
-    ScenarioError, ScenarioTrace, Traces,
-};
+use super::*;
 use crate::operators::nominal::SAMPLE_TIME;
-use crate::suite::plots::{panel, scaled, series, Figure, COLORS};
 
 pub(super) static SCENARIO: Scenario = Scenario {
     id: "rectangle",
@@ -36,28 +32,12 @@ fn compute(ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
     Ok(ScenarioTrace::of(&SCENARIO, vec![time_axis(n), u, w, tip]))
 }
 fn figure(tr: &ScenarioTrace, _: &Traces) -> Option<Figure> {
-    let t = tr.col("t");
     Some(Figure {
         title: "Fig. 2 — rectangular voltage: creep and remanent offset".into(),
         panels: vec![
-            panel(
-                "input",
-                "t (s)",
-                "u (V)",
-                vec![series("u", t, tr.col("u"), COLORS[0])],
-            ),
-            panel(
-                "effective voltage W[u]",
-                "t (s)",
-                "W[u] (V)",
-                vec![series("W[u]", t, tr.col("w"), COLORS[1])],
-            ),
-            panel(
-                "tip deflection",
-                "t (s)",
-                "w(L) (mm)",
-                vec![series("tip", t, &scaled(tr.col("tip"), 1e3), COLORS[2])],
-            ),
+            tr.time_panel("input", "u (V)", 1.0, &[("u", "u", COLORS[0])]),
+            tr.time_panel("W[u]", "W[u] (V)", 1.0, &[("w", "W[u]", COLORS[1])]),
+            tr.tip_panel(COLORS[2]),
         ],
     })
 }

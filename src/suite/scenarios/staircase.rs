@@ -1,12 +1,7 @@
 //! Fig. 3: a smooth staircase over the full range `[−1000, 1000]` V: the
 //! hysteresis loop, with the vertical creep sections at each plateau.
 
-use super::{
-    fig3_staircase, input, model_output, no_claims, time, time_axis, tip, Scenario,
-    ScenarioContext, ScenarioError, ScenarioTrace, Traces,
-};
-use crate::operators::traits::Operator;
-use crate::suite::plots::{panel, series, Figure, COLORS};
+use super::*;
 
 pub(super) static SCENARIO: Scenario = Scenario {
     id: "staircase",
@@ -36,33 +31,16 @@ fn compute(ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
     ))
 }
 fn figure(tr: &ScenarioTrace, _: &Traces) -> Option<Figure> {
-    let t = tr.col("t");
+    let signals = [("u", "u", COLORS[0]), ("w", "W[u]", COLORS[1])];
+    let loops = [
+        ("u", "w", "W[u] (with creep)", COLORS[1]),
+        ("u", "h", "H[u] (hysteresis only)", COLORS[2]),
+    ];
     Some(Figure {
         title: "Fig. 3 — staircase over the full range: hysteresis with creep".into(),
         panels: vec![
-            panel(
-                "time",
-                "t (s)",
-                "V",
-                vec![
-                    series("u", t, tr.col("u"), COLORS[0]),
-                    series("W[u]", t, tr.col("w"), COLORS[1]),
-                ],
-            ),
-            panel(
-                "hysteresis loop",
-                "u (V)",
-                "effective voltage (V)",
-                vec![
-                    series("W[u] (with creep)", tr.col("u"), tr.col("w"), COLORS[1]),
-                    series(
-                        "H[u] (hysteresis only)",
-                        tr.col("u"),
-                        tr.col("h"),
-                        COLORS[2],
-                    ),
-                ],
-            ),
+            tr.time_panel("time", "V", 1.0, &signals),
+            tr.loop_panel("hysteresis loop", "u (V)", "effective voltage (V)", &loops),
         ],
     })
 }

@@ -1,13 +1,9 @@
 //! Figs. 12–13: a 100 V step at 1 s held 44 s through the beam, without
 //! compensation (creep drift) and with it (the linear beam's step response).
 
-use super::{
-    at_time, compensator_output, input, model_output, samples, time, time_axis, tip, Claim,
-    Scenario, ScenarioContext, ScenarioError, ScenarioTrace, Traces,
-};
+use super::*;
 use crate::operators::compensator::CompensatorSettings;
 use crate::operators::nominal::SAMPLE_TIME;
-use crate::suite::plots::{panel, scaled, series, Figure, COLORS, GREY};
 
 pub(super) static SCENARIO: Scenario = Scenario {
     id: "step",
@@ -53,38 +49,19 @@ fn compute(ctx: &ScenarioContext) -> Result<ScenarioTrace, ScenarioError> {
     ))
 }
 fn figure(tr: &ScenarioTrace, _: &Traces) -> Option<Figure> {
-    let t = tr.col("t");
+    let tips = [
+        ("tip_raw", "without compensation", GREY),
+        ("tip", "with compensation", COLORS[0]),
+    ];
+    let voltages = [
+        ("v", "step (uncompensated)", GREY),
+        ("u", "compensator output", COLORS[1]),
+    ];
     Some(Figure {
         title: "Figs. 12-13 — step response with and without compensation".into(),
         panels: vec![
-            panel(
-                "tip deflection",
-                "t (s)",
-                "w(L) (mm)",
-                vec![
-                    series(
-                        "without compensation",
-                        t,
-                        &scaled(tr.col("tip_raw"), 1e3),
-                        GREY,
-                    ),
-                    series(
-                        "with compensation",
-                        t,
-                        &scaled(tr.col("tip"), 1e3),
-                        COLORS[0],
-                    ),
-                ],
-            ),
-            panel(
-                "balanced voltage",
-                "t (s)",
-                "u (V)",
-                vec![
-                    series("step (uncompensated)", t, tr.col("v"), GREY),
-                    series("compensator output", t, tr.col("u"), COLORS[1]),
-                ],
-            ),
+            tr.time_panel("tip deflection", "w(L) (mm)", 1e3, &tips),
+            tr.time_panel("balanced voltage", "u (V)", 1.0, &voltages),
         ],
     })
 }
