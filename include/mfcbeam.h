@@ -44,24 +44,30 @@
 #define MFCBEAM_MAX_CREEP 144
 
 /**
+ * Terms of the superposition operator `S` it holds (thresholds including
+ * the zero one: four dead zones per side).
+ */
+#define MFCBEAM_MAX_SUPERPOSITION 9
+
+/**
  * Words of `MfcbeamCompensatorStorageF32`.
  */
-#define MFCBEAM_COMPENSATOR_F32_WORDS 535
+#define MFCBEAM_COMPENSATOR_F32_WORDS 549
 
 /**
  * Words of `MfcbeamCompensatorStorageF64`.
  */
-#define MFCBEAM_COMPENSATOR_F64_WORDS 1054
+#define MFCBEAM_COMPENSATOR_F64_WORDS 1076
 
 /**
  * Words of `MfcbeamModelStorageF32`.
  */
-#define MFCBEAM_MODEL_F32_WORDS 483
+#define MFCBEAM_MODEL_F32_WORDS 497
 
 /**
  * Words of `MfcbeamModelStorageF64`.
  */
-#define MFCBEAM_MODEL_F64_WORDS 952
+#define MFCBEAM_MODEL_F64_WORDS 974
 
 #if defined(MFCBEAM_STD)
 /**
@@ -88,11 +94,15 @@ typedef struct MfcbeamCompensatorStorageF32 {
 } MfcbeamCompensatorStorageF32;
 
 /**
- * The model `W = H + C + offset`: hysteresis thresholds `0 = r_0 < … < r_n`
- * and weights with positive partial sums (`hysteresis_len` each); creep
- * thresholds and weights (`creep_len` each; 0 for no creep) and
- * `eigenvalue_count` eigenvalues `a_j > 0` (1/s); the sample time (s) and
- * an output offset (V). The arrays are read during `*_init` only.
+ * The model `W = S[H + C] + offset`: hysteresis thresholds
+ * `0 = r_0 < … < r_n` and weights with positive partial sums
+ * (`hysteresis_len` each); creep thresholds and weights (`creep_len` each;
+ * 0 for no creep) and `eigenvalue_count` eigenvalues `a_j > 0` (1/s); the
+ * sample time (s) and an output offset (V); the superposition operator's
+ * thresholds (increasing, one of them 0) and weights (`superposition_len`
+ * each; 0 for none, `S` the identity). The arrays are read during `*_init`
+ * only. The `S` fields come last, so an initializer that stops after
+ * `offset` leaves them zero: no `S`.
  */
 typedef struct MfcbeamParameters {
   double sample_time;
@@ -105,6 +115,9 @@ typedef struct MfcbeamParameters {
   const double *creep_eigenvalues;
   size_t eigenvalue_count;
   double offset;
+  const double *superposition_thresholds;
+  const double *superposition_weights;
+  size_t superposition_len;
 } MfcbeamParameters;
 
 /**

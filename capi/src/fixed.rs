@@ -22,19 +22,25 @@ pub const MFCBEAM_MAX_PLAYS: usize = 24;
 /// Elementary creep operators (creep thresholds × eigenvalues) it holds.
 pub const MFCBEAM_MAX_CREEP: usize = 144;
 
-/// Words of `MfcbeamCompensatorStorageF32`.
-pub const MFCBEAM_COMPENSATOR_F32_WORDS: usize = 535;
-/// Words of `MfcbeamCompensatorStorageF64`.
-pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 1054;
-/// Words of `MfcbeamModelStorageF32`.
-pub const MFCBEAM_MODEL_F32_WORDS: usize = 483;
-/// Words of `MfcbeamModelStorageF64`.
-pub const MFCBEAM_MODEL_F64_WORDS: usize = 952;
+/// Terms of the superposition operator `S` it holds (thresholds including
+/// the zero one: four dead zones per side).
+pub const MFCBEAM_MAX_SUPERPOSITION: usize = 9;
 
-type CompensatorF32 = Compensator<f32, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>;
-type CompensatorF64 = Compensator<f64, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>;
-type ModelF32 = Model<f32, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>;
-type ModelF64 = Model<f64, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>;
+/// Words of `MfcbeamCompensatorStorageF32`.
+pub const MFCBEAM_COMPENSATOR_F32_WORDS: usize = 549;
+/// Words of `MfcbeamCompensatorStorageF64`.
+pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 1076;
+/// Words of `MfcbeamModelStorageF32`.
+pub const MFCBEAM_MODEL_F32_WORDS: usize = 497;
+/// Words of `MfcbeamModelStorageF64`.
+pub const MFCBEAM_MODEL_F64_WORDS: usize = 974;
+
+type CompensatorF32 =
+    Compensator<f32, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>;
+type CompensatorF64 =
+    Compensator<f64, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>;
+type ModelF32 = Model<f32, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>;
+type ModelF64 = Model<f64, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>;
 
 /// Caller-owned storage for a compensator in `f32` (declare it, statically
 /// or on the stack, then `*_init` it; nothing to free).
@@ -144,7 +150,10 @@ unsafe fn compensator_from<T: Real>(
     parameters: *const MfcbeamParameters,
     lower: f64,
     upper: f64,
-) -> Result<Compensator<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>, Failure> {
+) -> Result<
+    Compensator<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>,
+    Failure,
+> {
     // SAFETY: forwarded from the caller.
     let p = unsafe { parameters.as_ref() }.ok_or(Failure::Null("parameters"))?;
     // SAFETY: forwarded from the caller.
@@ -159,7 +168,10 @@ unsafe fn compensator_from<T: Real>(
 /// As [`compensator_from`].
 unsafe fn model_from<T: Real>(
     parameters: *const MfcbeamParameters,
-) -> Result<Model<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>, Failure> {
+) -> Result<
+    Model<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>,
+    Failure,
+> {
     // SAFETY: forwarded from the caller.
     let p = unsafe { parameters.as_ref() }.ok_or(Failure::Null("parameters"))?;
     // SAFETY: forwarded from the caller.
@@ -174,7 +186,10 @@ unsafe fn compensator_from_json<T: Real>(
     json: *const c_char,
     lower: f64,
     upper: f64,
-) -> Result<Compensator<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>, Failure> {
+) -> Result<
+    Compensator<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>,
+    Failure,
+> {
     // SAFETY: forwarded from the caller.
     let file = unsafe { model_file(json) }?;
     Compensator::from_file(&file, CompensatorSettings::with_limits(lower, upper))
@@ -186,7 +201,10 @@ unsafe fn compensator_from_json<T: Real>(
 /// `json` is NULL or NUL-terminated.
 unsafe fn model_from_json<T: Real>(
     json: *const c_char,
-) -> Result<Model<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>, Failure> {
+) -> Result<
+    Model<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>,
+    Failure,
+> {
     // SAFETY: forwarded from the caller.
     let file = unsafe { model_file(json) }?;
     Model::from_file(&file).map_err(|e| Failure::Text(e.to_string()))
@@ -199,7 +217,11 @@ unsafe fn model_from_json<T: Real>(
 unsafe fn compensate<S, T: Real>(storage: *mut S, target: T, flags: *mut c_int) -> T {
     // SAFETY: forwarded from the caller.
     unsafe {
-        match value::<S, Compensator<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP>>>(storage) {
+        match value::<
+            S,
+            Compensator<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>,
+        >(storage)
+        {
             Some(c) => {
                 let out = c.compensate(target);
                 set_flags(flags, flags_of(out.saturated, out.fault));

@@ -1,14 +1,20 @@
 //! Model parameters as C arrays.
 
-use mfcbeam_rs::realtime::{CreepParameters, HysteresisParameters, ModelParameters};
+use mfcbeam_rs::realtime::{
+    CreepParameters, HysteresisParameters, ModelParameters, SuperpositionParameters,
+};
 
 use crate::error::Failure;
 
-/// The model `W = H + C + offset`: hysteresis thresholds `0 = r_0 < … < r_n`
-/// and weights with positive partial sums (`hysteresis_len` each); creep
-/// thresholds and weights (`creep_len` each; 0 for no creep) and
-/// `eigenvalue_count` eigenvalues `a_j > 0` (1/s); the sample time (s) and
-/// an output offset (V). The arrays are read during `*_init` only.
+/// The model `W = S[H + C] + offset`: hysteresis thresholds
+/// `0 = r_0 < … < r_n` and weights with positive partial sums
+/// (`hysteresis_len` each); creep thresholds and weights (`creep_len` each;
+/// 0 for no creep) and `eigenvalue_count` eigenvalues `a_j > 0` (1/s); the
+/// sample time (s) and an output offset (V); the superposition operator's
+/// thresholds (increasing, one of them 0) and weights (`superposition_len`
+/// each; 0 for none, `S` the identity). The arrays are read during `*_init`
+/// only. The `S` fields come last, so an initializer that stops after
+/// `offset` leaves them zero: no `S`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy)]
 pub struct MfcbeamParameters {
@@ -22,6 +28,9 @@ pub struct MfcbeamParameters {
     pub creep_eigenvalues: *const f64,
     pub eigenvalue_count: usize,
     pub offset: f64,
+    pub superposition_thresholds: *const f64,
+    pub superposition_weights: *const f64,
+    pub superposition_len: usize,
 }
 
 /// `len` values at `ptr`, refusing a NULL pointer with a non-zero length.
@@ -76,10 +85,24 @@ impl MfcbeamParameters {
                     )?,
                 })
             };
+            let superposition = if self.superposition_len == 0 {
+                None
+            } else {
+                let len = self.superposition_len;
+                Some(SuperpositionParameters {
+                    thresholds: slice(
+                        self.superposition_thresholds,
+                        len,
+                        "superposition_thresholds",
+                    )?,
+                    weights: slice(self.superposition_weights, len, "superposition_weights")?,
+                })
+            };
             Ok(ModelParameters {
                 sample_time: self.sample_time,
                 hysteresis,
                 creep,
+                superposition,
                 offset: self.offset,
             })
         }

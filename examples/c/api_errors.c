@@ -76,7 +76,7 @@ int main(void) {
 
     const double r[2] = {0.0, 100.0}, w[2] = {0.5, 0.25};
     const double rc[1] = {0.0}, wc[1] = {0.05}, a[2] = {50.0, 0.5};
-    MfcbeamParameters p = {0.0002, r, w, 2, rc, wc, 1, a, 2, 0.0};
+    MfcbeamParameters p = {0.0002, r, w, 2, rc, wc, 1, a, 2, 0.0, NULL, NULL, 0};
     static MfcbeamCompensatorStorageF32 comp;
     static MfcbeamModelStorageF32 plant;
     err[0] = 0;
@@ -97,6 +97,32 @@ int main(void) {
     mfcbeam_compensate_f32(&comp, 1e6f, &flags);
     check(flags == MFCBEAM_FLAG_SATURATED, "unreachable target saturates", NULL);
 
+    /* an asymmetric superposition operator S after H + C: slopes 1.3, 1, 0.6 */
+    const double rs[3] = {-40.0, 0.0, 30.0}, ws[3] = {0.3, 1.0, -0.4};
+    MfcbeamParameters asym = p;
+    asym.superposition_thresholds = rs;
+    asym.superposition_weights = ws;
+    asym.superposition_len = 3;
+    err[0] = 0;
+    check(mfcbeam_compensator_f32_init(&comp, &asym, -500.0, 500.0, err, sizeof err) == 0, "init with S", err);
+    err[0] = 0;
+    check(mfcbeam_model_f32_init(&plant, &asym, err, sizeof err) == 0, "model init with S", err);
+    worst = 0.0;
+    for (int k = 0; k < 2000; k++) {
+        float y = (float)(60.0 * sin(k * 0.01));
+        float out = mfcbeam_model_f32_step(&plant, mfcbeam_compensate_f32(&comp, y, &flags));
+        if (fabs(out - y) > worst) worst = fabs(out - y);
+    }
+    snprintf(line, sizeof line, "max |W[W^-1[y]] - y| = %.3g V", worst);
+    check(worst < 1e-3 && flags == 0, "f32 identity through S", line);
+    const double ws_bad[3] = {0.3, 1.0, -1.0};
+    asym.superposition_weights = ws_bad;
+    err[0] = 0;
+    check(mfcbeam_compensator_f32_init(&comp, &asym, -500.0, 500.0, err, sizeof err) == -1 &&
+              strstr(err, "superposition"),
+          "a decreasing S", err);
+    mfcbeam_compensator_f32_init(&comp, &p, -500.0, 500.0, err, sizeof err);
+
     MfcbeamParameters bad = p;
     bad.hysteresis_weights = NULL;
     err[0] = 0;
@@ -110,7 +136,7 @@ int main(void) {
     check(mfcbeam_compensator_f32_init(NULL, &p, -500.0, 500.0, err, sizeof err) == -1, "NULL storage", err);
     double many[MFCBEAM_MAX_PLAYS + 1], ones[MFCBEAM_MAX_PLAYS + 1];
     for (int i = 0; i <= MFCBEAM_MAX_PLAYS; i++) many[i] = i, ones[i] = 1.0;
-    MfcbeamParameters big = {0.0002, many, ones, MFCBEAM_MAX_PLAYS + 1, NULL, NULL, 0, NULL, 0, 0.0};
+    MfcbeamParameters big = {0.0002, many, ones, MFCBEAM_MAX_PLAYS + 1, NULL, NULL, 0, NULL, 0, 0.0, NULL, NULL, 0};
     static MfcbeamCompensatorStorageF64 comp64;
     err[0] = 0;
     check(mfcbeam_compensator_f64_init(&comp64, &big, -1.0, 1.0, err, sizeof err) == -1 && strstr(err, "capacity"),

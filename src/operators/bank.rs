@@ -14,6 +14,7 @@
 use std::vec;
 use std::vec::Vec;
 
+use crate::operators::heap::Heap;
 use crate::realtime::compensator::Compensated;
 use crate::realtime::creep::creep_gain;
 use crate::realtime::error::ParameterError;
@@ -23,6 +24,7 @@ use crate::realtime::parameters::{check_length, ModelParameters};
 use crate::realtime::play::{clamp, play};
 use crate::realtime::real::Real;
 use crate::realtime::simd::{self, Kernels};
+use crate::realtime::superposition::Superposition;
 use crate::realtime::CompensatorSettings;
 
 /// Channels are padded to a multiple of this (the widest block).
@@ -31,7 +33,7 @@ const PAD: usize = 8;
 /// Parameters of every channel, element-major: `p[e · stride + c]`; with one
 /// shared model `stride` is one block and every block reads offset 0.
 #[derive(Debug, Clone, PartialEq)]
-struct Parameters<T> {
+struct Parameters<T: Real> {
     inv_r: Vec<T>,
     inv_w: Vec<T>,
     r: Vec<T>,
@@ -41,6 +43,8 @@ struct Parameters<T> {
     creep_w: Vec<T>,
     gains: Vec<T>,
     offset: Vec<T>,
+    /// `S⁻¹` of each lane's model, if it has `S`.
+    inverse_superposition: Vec<Option<Superposition<T, Heap>>>,
     stride: usize,
     shared: bool,
 }
@@ -139,6 +143,7 @@ impl<T: Real> CompensatorBank<T> {
             creep_w: param(nc),
             gains: param(m),
             offset: param(1),
+            inverse_superposition: vec![None; stride],
             stride,
             shared,
         };
@@ -168,6 +173,9 @@ impl<T: Real> CompensatorBank<T> {
                 }
             }
             p.offset[c] = T::from_f64(model.offset);
+            if let Some(sp) = &model.superposition {
+                p.inverse_superposition[c] = Some(Superposition::inverse_of(sp)?);
+            }
         }
         Ok(Self {
             channels,
@@ -287,7 +295,11 @@ impl<T: Real> CompensatorBank<T> {
         for l in 0..W {
             let t = self.io.targets[c0 + l];
             fault[l] = !t.is_finite();
-            let y_l = t - offset[l] - self.creep_out[c0 + l];
+            let target = match &p.inverse_superposition[pb + l] {
+                Some(s) => s.apply(t - offset[l]),
+                None => t - offset[l],
+            };
+            let y_l = target - self.creep_out[c0 + l];
             // hysteresis::step holds a non-finite input out
             y[l] = if y_l.is_finite() {
                 y_l

@@ -1,10 +1,11 @@
-//! The hysteresis and creep model `W = H + C`, equations (4) and (6), and its
-//! file form (`docs/FILES.md`).
+//! The hysteresis and creep model `W = S[H + C]`, equations (4) and (6), and
+//! its file form (`docs/FILES.md`).
 //!
-//! `W[v]_k = H[v]_k + C[v]_k` (plus an optional constant output offset, a
+//! `W[v]_k = S[H[v]_k + C[v]_k]` (plus an optional constant output offset, a
 //! measurement's sensor offset): `W` maps the balanced patch voltage `u` (V) to
 //! the effective voltage (V) that drives the linear beam. `creep` may be absent
-//! (pure hysteresis).
+//! (pure hysteresis), and so may `superposition` (`S` the identity: the
+//! paper's symmetric model).
 
 use serde::{Deserialize, Serialize};
 
@@ -13,6 +14,7 @@ use crate::operators::heap::Heap;
 use crate::operators::traits::{ActuatorModel, Snapshot};
 use crate::realtime::{
     CreepParameters, HysteresisParameters, Model, ModelParameters, Real, Storage,
+    SuperpositionParameters,
 };
 
 /// `W = H + C + offset` in `f64` on the heap: what most programs use.
@@ -41,6 +43,14 @@ pub struct CreepData {
     pub state: Option<Vec<Vec<f64>>>,
 }
 
+/// The superposition operator `S` of a model file (memory-free: no state).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SuperpositionData {
+    pub thresholds: Vec<f64>,
+    pub weights: Vec<f64>,
+}
+
 /// A model file as it is stored (JSON).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -49,6 +59,9 @@ pub struct ModelFile {
     pub hysteresis: HysteresisData,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub creep: Option<CreepData>,
+    /// `S` after `H + C`; absent means the identity.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub superposition: Option<SuperpositionData>,
     /// Constant output offset (unit of the output): `y = W[u] + offset`.
     /// Absent means 0.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -88,6 +101,13 @@ impl ModelFile {
                 weights: &c.weights,
                 eigenvalues: &c.eigenvalues,
             }),
+            superposition: self
+                .superposition
+                .as_ref()
+                .map(|s| SuperpositionParameters {
+                    thresholds: &s.thresholds,
+                    weights: &s.weights,
+                }),
             offset: self.offset.unwrap_or(0.0),
         }
     }
@@ -141,6 +161,10 @@ impl<T: Real, S: Storage> Model<T, S> {
                 weights: f64s(c.weights()),
                 eigenvalues: f64s(c.eigenvalues()),
                 state: Some(Snapshot::state(c)),
+            }),
+            superposition: self.superposition().map(|s| SuperpositionData {
+                thresholds: f64s(s.thresholds()),
+                weights: f64s(s.weights()),
             }),
             offset: (offset != 0.0).then_some(offset),
         }

@@ -1,7 +1,8 @@
 //! The compensator `W⁻¹` (21) and its per-sample kernel.
 //!
-//! `v_k = H⁻¹[ς_k − offset − C_k]`: explicit, because `C_k` depends on inputs
-//! up to `u_{k−1}` only. `v_k` is clipped to the supply limits; when it was
+//! `v_k = H⁻¹[S⁻¹[ς_k − offset] − C_k]`: explicit, because `C_k` depends on
+//! inputs up to `u_{k−1}` only (`S⁻¹` is the identity for the paper's
+//! symmetric model). `v_k` is clipped to the supply limits; when it was
 //! clipped, the plays of `H` the actuator holds are recovered from those of
 //! `H⁻¹` before the sample (the state rule of (22) solved backwards), advanced
 //! with the voltage actually applied, and the inverse plays re-seated from
@@ -21,6 +22,7 @@ use crate::realtime::parameters::{
 use crate::realtime::real::Real;
 use crate::realtime::simd::{self, Kernels};
 use crate::realtime::storage::{Buffer, Storage};
+use crate::realtime::superposition::Superposition;
 
 /// One compensator output sample.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -155,6 +157,8 @@ pub struct Compensator<T: Real, S: Storage> {
     /// The voltage of the last sample (held for a non-finite target).
     last_u: T,
     pub(crate) creep: Option<Creep<T, S>>,
+    /// `S⁻¹` by its inverse rules, if the model has `S`.
+    inverse_superposition: Option<Superposition<T, S>>,
     offset: T,
     lower: T,
     upper: T,
@@ -184,6 +188,10 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             last_u: T::ZERO,
             creep: match &parameters.creep {
                 Some(cp) => Some(Creep::from_parameters(cp, parameters.sample_time)?),
+                None => None,
+            },
+            inverse_superposition: match &parameters.superposition {
+                Some(sp) => Some(Superposition::inverse_of(sp)?),
                 None => None,
             },
             offset: T::from_f64(parameters.offset),
@@ -265,6 +273,11 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         CompensatorSettings::with_limits(self.lower.to_f64(), self.upper.to_f64())
     }
 
+    /// `S⁻¹` as its inverse rules give it, if the model has `S`.
+    pub fn inverse_superposition(&self) -> Option<&Superposition<T, S>> {
+        self.inverse_superposition.as_ref()
+    }
+
     /// `H⁻¹` as the rules (22) give it, in its current state.
     pub fn inverse_hysteresis(&self) -> &Hysteresis<T, S> {
         &self.inverse
@@ -328,6 +341,10 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             Some(op) => op.output(),
             None => T::ZERO,
         };
+        let y = match &self.inverse_superposition {
+            Some(s) => s.apply(target - self.offset),
+            None => target - self.offset,
+        };
         let (inv_r, inv_w, inv_x) = self.inverse.parts_mut();
         let (u, saturated) = invert_saturating(
             k,
@@ -340,7 +357,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
                 sums: &self.sums,
                 scratch: &mut self.scratch,
             },
-            target - self.offset - c,
+            y - c,
             self.lower,
             self.upper,
         );

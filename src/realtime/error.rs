@@ -49,6 +49,15 @@ pub enum ParameterError {
         index: usize,
         sum: f64,
     },
+    /// The thresholds of a superposition operator must include 0.
+    NoZeroThreshold { field: &'static str },
+    /// A slope of a superposition operator is not positive: the sum of its
+    /// weights from the zero threshold out to `index` (on that side).
+    SlopeNotPositive {
+        field: &'static str,
+        index: usize,
+        sum: f64,
+    },
     /// A creep eigenvalue must be finite and positive.
     NonPositiveEigenvalue {
         field: &'static str,
@@ -92,6 +101,8 @@ impl ParameterError {
             | P::LengthMismatch { field, .. }
             | P::PartialSumNotPositive { field, .. }
             | P::PartialSumNegative { field, .. }
+            | P::NoZeroThreshold { field }
+            | P::SlopeNotPositive { field, .. }
             | P::NonPositiveEigenvalue { field, .. }
             | P::InadmissibleState { field, .. }
             | P::ChannelMismatch { field, .. }
@@ -149,6 +160,13 @@ impl fmt::Display for Message<'_> {
             P::PartialSumNegative { index, sum, .. } => write!(
                 f,
                 "{field}: partial sum w[0] + ... + w[{index}] = {sum} must be >= 0 (condition (17))"
+            ),
+            P::NoZeroThreshold { .. } => {
+                write!(f, "{field}: one threshold must be exactly 0")
+            }
+            P::SlopeNotPositive { index, sum, .. } => write!(
+                f,
+                "{field}: the weights summed from the zero threshold out to [{index}] give the slope {sum}, which must be > 0 (S must increase)"
             ),
             P::NonPositiveEigenvalue { index, value, .. } => write!(
                 f,

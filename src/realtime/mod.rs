@@ -13,7 +13,9 @@
 //!
 //! * [`Hysteresis`] — `H` (10) over plays (20);
 //! * [`Creep`] — `C` (16) of log(t)-creep operators (13)–(15);
-//! * [`Model`] — `W = H + C + offset` (4), (6);
+//! * [`Superposition`] — the memory-free `S` of the modified PI model, which
+//!   makes the loops asymmetric, and its inverse;
+//! * [`Model`] — `W = S[H + C] + offset` (4), (6);
 //! * [`Compensator`] — `W⁻¹` (21) with saturation ([`CompensatorSettings`]),
 //!   the inverse rules (22), the fault flag for a non-finite target and the
 //!   model's offset.
@@ -48,13 +50,17 @@ pub mod real;
 pub mod rounding;
 pub mod simd;
 pub mod storage;
+pub mod superposition;
 
 pub use compensator::{Compensated, Compensator, CompensatorSettings};
 pub use creep::Creep;
 pub use error::ParameterError;
 pub use hysteresis::Hysteresis;
 pub use model::Model;
-pub use parameters::{CreepParameters, HysteresisParameters, ModelParameters};
+pub use parameters::{
+    CreepParameters, HysteresisParameters, ModelParameters, SuperpositionParameters,
+};
 pub use real::Real;
 pub use rounding::RoundingBounds;
 pub use storage::{Buffer, Inline, InlineBuffer, Storage};
+pub use superposition::Superposition;

@@ -1,7 +1,8 @@
-//! The actuator model `W[v] = H[v] + C[v] + offset` (4), (6): `W` maps the
-//! balanced patch voltage `u` (V) to the effective voltage that drives the
-//! linear beam; the offset is a measurement's sensor offset. `C` may be
-//! absent (pure hysteresis).
+//! The actuator model `W[v] = S[H[v] + C[v]] + offset` (4), (6): `W` maps
+//! the balanced patch voltage `u` (V) to the effective voltage that drives
+//! the linear beam; the offset is a measurement's sensor offset. `C` may be
+//! absent (pure hysteresis), and so may the superposition operator `S` (the
+//! identity: the paper's symmetric model `H + C + offset`).
 
 use crate::realtime::creep::Creep;
 use crate::realtime::error::ParameterError;
@@ -11,14 +12,16 @@ use crate::realtime::parameters::{
 };
 use crate::realtime::real::Real;
 use crate::realtime::storage::Storage;
+use crate::realtime::superposition::Superposition;
 
-/// `W = H + C + offset` (6) in `T`, kept in storage `S`.
+/// `W = S[H + C] + offset` (6) in `T`, kept in storage `S`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Model<T: Real, S: Storage> {
     sample_time: f64,
     offset: T,
     hysteresis: Hysteresis<T, S>,
     creep: Option<Creep<T, S>>,
+    superposition: Option<Superposition<T, S>>,
 }
 
 impl<T: Real, S: Storage> Model<T, S> {
@@ -33,10 +36,15 @@ impl<T: Real, S: Storage> Model<T, S> {
                 Some(c) => Some(Creep::from_parameters(c, parameters.sample_time)?),
                 None => None,
             },
+            superposition: match &parameters.superposition {
+                Some(s) => Some(Superposition::from_parameters(s)?),
+                None => None,
+            },
         })
     }
 
-    /// `W` of an `H` and an optional `C` (in their states), without offset.
+    /// `W` of an `H` and an optional `C` (in their states), without `S` and
+    /// offset.
     /// The creep operator's sample time must equal `sample_time`.
     pub fn from_parts(
         sample_time: f64,
@@ -57,7 +65,14 @@ impl<T: Real, S: Storage> Model<T, S> {
             offset: T::ZERO,
             hysteresis,
             creep,
+            superposition: None,
         })
+    }
+
+    /// The same model with the superposition operator `S` after `H + C`.
+    pub fn with_superposition(mut self, superposition: Option<Superposition<T, S>>) -> Self {
+        self.superposition = superposition;
+        self
     }
 
     /// The same model with output offset `offset`: `y = W[u] + offset`.
@@ -92,6 +107,11 @@ impl<T: Real, S: Storage> Model<T, S> {
 
     pub fn creep_mut(&mut self) -> Option<&mut Creep<T, S>> {
         self.creep.as_mut()
+    }
+
+    /// The superposition operator `S`, if any (none: the identity).
+    pub fn superposition(&self) -> Option<&Superposition<T, S>> {
+        self.superposition.as_ref()
     }
 
     /// Set the play states of `H` and (flattened, `state[i * m + j]`) the
@@ -137,6 +157,10 @@ impl<T: Real, S: Storage> Model<T, S> {
             Some(c) => h + c.step(v),
             None => h,
         };
+        let w = match &self.superposition {
+            Some(s) => s.apply(w),
+            None => w,
+        };
         w + self.offset
     }
 
@@ -164,6 +188,7 @@ impl<S: Storage> Model<f64, S> {
                 weights: c.weights(),
                 eigenvalues: c.eigenvalues(),
             }),
+            superposition: self.superposition.as_ref().map(|s| s.parameters()),
             offset: self.offset,
         }
     }

@@ -7,9 +7,10 @@
 use crate::realtime::parameters::{CreepParameters, HysteresisParameters, ModelParameters};
 use crate::realtime::storage::Inline;
 
-/// Inline storage for exactly the paper's orders: 12 plays and 12 × 5
-/// elementary creep operators (`Compensator<f32, nominal::Capacity>`).
-pub type Capacity = Inline<PLAYS, CREEP>;
+/// Inline storage for exactly the paper's orders: 12 plays, 12 × 5
+/// elementary creep operators and no superposition operator (the paper's
+/// actuator is symmetric) (`Compensator<f32, nominal::Capacity>`).
+pub type Capacity = Inline<PLAYS, CREEP, 0>;
 
 /// Plays of the paper's model (`n = 11`).
 pub const PLAYS: usize = 12;
@@ -53,5 +54,6 @@ pub const PARAMETERS: ModelParameters<'static> = ModelParameters {
         weights: &CREEP_WEIGHTS,
         eigenvalues: &CREEP_EIGENVALUES,
     }),
+    superposition: None,
     offset: 0.0,
 };

@@ -1,6 +1,7 @@
-//! The parameters of `W = H + C` (4), (6), borrowed from the caller, and the
-//! admissibility conditions (11), (12), (17), (18) every constructor checks
-//! (the `std` operators use the same checks).
+//! The parameters of `W = S[H + C] + offset` (4), (6), borrowed from the
+//! caller, and the admissibility conditions (11), (12), (17), (18) and those
+//! of the superposition operator `S` every constructor checks (the `std`
+//! operators use the same checks).
 
 use crate::realtime::error::ParameterError;
 
@@ -21,13 +22,25 @@ pub struct CreepParameters<'a> {
     pub eigenvalues: &'a [f64],
 }
 
-/// The model `W[v] = H[v] + C[v] + offset` at sample time `T_s`, in the
-/// virgin state.
+/// The superposition operator `S[z] = Σ_i w_i d_{r_i}(z)` (Kuhnen's modified
+/// PI operator): thresholds strictly increasing with exactly one equal to 0,
+/// and weights whose sums from the zero threshold outward, on each side,
+/// are positive (the slopes of `S`, so that `S` is strictly increasing).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SuperpositionParameters<'a> {
+    pub thresholds: &'a [f64],
+    pub weights: &'a [f64],
+}
+
+/// The model `W[v] = S[H[v] + C[v]] + offset` at sample time `T_s`, in the
+/// virgin state; without `S` (`None`, the identity) it is the paper's
+/// `H + C + offset`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ModelParameters<'a> {
     pub sample_time: f64,
     pub hysteresis: HysteresisParameters<'a>,
     pub creep: Option<CreepParameters<'a>>,
+    pub superposition: Option<SuperpositionParameters<'a>>,
     pub offset: f64,
 }
 
@@ -55,6 +68,40 @@ impl CreepParameters<'_> {
     }
 }
 
+impl SuperpositionParameters<'_> {
+    pub fn validate(&self) -> Result<(), ParameterError> {
+        let field = "superposition.thresholds";
+        let r = self.thresholds;
+        if r.is_empty() {
+            return Err(ParameterError::Empty { field });
+        }
+        check_finite(field, r)?;
+        check_increasing(field, r)?;
+        let zero = zero_index(r).ok_or(ParameterError::NoZeroThreshold { field })?;
+        let field = "superposition.weights";
+        check_finite(field, self.weights)?;
+        check_length(field, r.len(), self.weights.len())?;
+        // the slope on each segment: the weights summed outward from r = 0
+        let slope = |indices: &mut dyn Iterator<Item = usize>| {
+            let mut sum = 0.0;
+            for index in indices {
+                sum += self.weights[index];
+                if sum <= 0.0 {
+                    return Err(ParameterError::SlopeNotPositive { field, index, sum });
+                }
+            }
+            Ok(())
+        };
+        slope(&mut (zero..r.len()))?;
+        slope(&mut core::iter::once(zero).chain((0..zero).rev()))
+    }
+}
+
+/// The index of the zero threshold of a superposition operator.
+pub(crate) fn zero_index(thresholds: &[f64]) -> Option<usize> {
+    thresholds.iter().position(|&r| r == 0.0)
+}
+
 impl ModelParameters<'_> {
     /// Every condition on the parameters, the first one broken named.
     pub fn validate(&self) -> Result<(), ParameterError> {
@@ -62,6 +109,9 @@ impl ModelParameters<'_> {
         self.hysteresis.validate()?;
         if let Some(c) = &self.creep {
             c.validate(self.sample_time)?;
+        }
+        if let Some(s) = &self.superposition {
+            s.validate()?;
         }
         check_finite("offset", core::slice::from_ref(&self.offset))
     }
@@ -119,6 +169,11 @@ pub(crate) fn check_thresholds(field: &'static str, r: &[f64]) -> Result<(), Par
     if r[0] != 0.0 {
         return Err(ParameterError::FirstThresholdNotZero { field, value: r[0] });
     }
+    check_increasing(field, r)
+}
+
+/// Strictly increasing.
+fn check_increasing(field: &'static str, r: &[f64]) -> Result<(), ParameterError> {
     for i in 1..r.len() {
         if r[i] <= r[i - 1] {
             return Err(ParameterError::ThresholdsNotIncreasing {

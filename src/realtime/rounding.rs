@@ -18,10 +18,17 @@
 //!   slow operator's increment drops below half an ulp of `χ` and it stalls:
 //!   the bound carries `Σ_j (1/g_j + 2)` per threshold.
 //!
+//! * The superposition operator `S` is a sum of `k` dead zones, rounded as
+//!   the hysteresis sum is; an error in its argument comes out scaled by its
+//!   steepest slope `σ_max`, and `S⁻¹` (slopes `1/σ`) amplifies by
+//!   `1/σ_min`. Its inverse parameters carry a relative rounding of order
+//!   `k ε` each.
+//!
 //! Every bound is linear in `ε`: for another precision, pass its `ε`.
 
 use crate::realtime::creep::creep_gain;
-use crate::realtime::parameters::ModelParameters;
+use crate::realtime::parameters::{zero_index, ModelParameters};
+use crate::realtime::superposition::inverse_parameters_into;
 
 /// The bounds of one model at precision `eps`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -94,9 +101,83 @@ impl RoundingBounds<'_> {
         2.0 * self.eps * self.parameters.offset.abs()
     }
 
-    /// Two implementations of `W` on inputs up to `v_max`.
+    /// The smallest and the largest slope of `S` (`(1, 1)` without `S`).
+    pub fn superposition_slopes(&self) -> (f64, f64) {
+        let Some(s) = &self.parameters.superposition else {
+            return (1.0, 1.0);
+        };
+        let zero = zero_index(s.thresholds).unwrap_or(0);
+        let w = s.weights;
+        let (mut lo, mut hi) = (w[zero], w[zero]);
+        for side in [
+            &mut (zero + 1..w.len()) as &mut dyn Iterator<Item = usize>,
+            &mut (0..zero).rev(),
+        ] {
+            let mut slope = w[zero];
+            for j in side {
+                slope += w[j];
+                (lo, hi) = (lo.min(slope), hi.max(slope));
+            }
+        }
+        (lo, hi)
+    }
+
+    /// `|H + C|` for inputs up to `v_max`: the argument of `S`.
+    fn inner_max(&self, v_max: f64) -> f64 {
+        let p = &self.parameters;
+        let creep = p.creep.as_ref().map_or(0.0, |c| abs_sum(c.weights));
+        (abs_sum(p.hysteresis.weights) + creep) * self.state_bound(v_max)
+    }
+
+    /// Evaluating `S` for arguments up to `z_max` (0 without `S`).
+    pub fn superposition_sum(&self, z_max: f64) -> f64 {
+        let Some(s) = &self.parameters.superposition else {
+            return 0.0;
+        };
+        let k = s.weights.len() as f64 + 1.0;
+        let r_max = s.thresholds.iter().fold(0.0f64, |m, r| m.max(r.abs()));
+        4.0 * k * self.eps * abs_sum(s.weights) * (z_max + r_max)
+    }
+
+    /// Evaluating `S⁻¹` (from the inverse rules) for arguments up to
+    /// `y_max`: its own sum, and its parameters' rounding (relative `4 k ε`
+    /// each, the thresholds' through the slope `1/σ_min`). 0 without `S`.
+    pub fn inverse_superposition_sum(&self, y_max: f64) -> f64 {
+        let Some(s) = &self.parameters.superposition else {
+            return 0.0;
+        };
+        let zero = zero_index(s.thresholds).unwrap_or(0);
+        let (mut w_inv, mut r_inv) = (0.0, 0.0f64);
+        inverse_parameters_into(s.thresholds, s.weights, zero, |_, r, w| {
+            w_inv += w.abs();
+            r_inv = r_inv.max(r.abs());
+        });
+        let k = s.weights.len() as f64 + 1.0;
+        let (s_min, _) = self.superposition_slopes();
+        let x = y_max + r_inv;
+        4.0 * k * self.eps * w_inv * x + 4.0 * k * k * self.eps * x / s_min
+    }
+
+    /// Two implementations of `W` on inputs up to `v_max`: the inner sums
+    /// through `S`'s steepest slope, and `S`'s own rounding.
     pub fn model(&self, v_max: f64) -> f64 {
-        2.0 * (self.hysteresis_sum(v_max) + self.creep_sum(v_max) + self.offset())
+        let (_, s_max) = self.superposition_slopes();
+        let inner = self.hysteresis_sum(v_max) + self.creep_sum(v_max);
+        let outer = self.superposition_sum(self.inner_max(v_max));
+        2.0 * (s_max * inner + outer + self.offset())
+    }
+
+    /// `|S⁻¹[y − offset]|` for `|y| ≤ y_max` (`y_max + |offset|` without
+    /// `S`), and the rounding of forming it.
+    fn inner_target(&self, y_max: f64) -> (f64, f64) {
+        let y = y_max + self.parameters.offset.abs();
+        match &self.parameters.superposition {
+            None => (y, 0.0),
+            Some(_) => (
+                y / self.superposition_slopes().0,
+                self.inverse_superposition_sum(y),
+            ),
+        }
     }
 
     /// `Σ_j |r'_j|`-scale and `Σ|w'_j|` of `H⁻¹` as (22) gives them.
@@ -138,20 +219,30 @@ impl RoundingBounds<'_> {
     /// `H[H⁻¹[z]] − z` for `z = y − offset − C` and the roundings of forming
     /// `z` and `H + C + offset` (an error in `z` comes back through `H∘H⁻¹`
     /// with slope 1).
+    ///
+    /// With `S`, the error in `H + C` comes back through `S` (slope at most
+    /// `σ_max`), with the roundings of `S⁻¹` and of `S` itself.
     pub fn identity(&self, v_max: f64, y_max: f64) -> f64 {
         let p = &self.parameters;
         let creep_out = p
             .creep
             .as_ref()
             .map_or(0.0, |c| abs_sum(c.weights) * self.state_bound(v_max));
-        let z = y_max + creep_out + p.offset.abs();
-        self.inverse(v_max, z) + 4.0 * self.eps * z
+        let (target, target_error) = self.inner_target(y_max);
+        let z = target + creep_out;
+        let inner = self.inverse(v_max, z) + 4.0 * self.eps * z + target_error;
+        let (_, s_max) = self.superposition_slopes();
+        s_max * inner + self.superposition_sum(self.inner_max(v_max).max(z))
     }
 
     /// The compensator `W⁻¹` against `W` (either order) or against another
     /// compensator: the inverse bound with the creep sum's rounding carried
     /// through `1/s_min`, twice (the creep states follow slightly different
     /// inputs, a contraction, so once more at most).
+    ///
+    /// With `S`, the argument of `H⁻¹` is `S⁻¹[y − offset] − C` and carries
+    /// `S⁻¹`'s rounding; compared in the output domain, everything comes
+    /// back through `S` (slope at most `σ_max`) with `S`'s own rounding.
     pub fn compensator(&self, v_max: f64, y_max: f64) -> f64 {
         let p = &self.parameters;
         let creep = self.creep_sum(v_max);
@@ -160,9 +251,12 @@ impl RoundingBounds<'_> {
             .as_ref()
             .map_or(0.0, |c| abs_sum(c.weights) * self.state_bound(v_max));
         let off = self.offset();
-        2.0 * (self.inverse(v_max, y_max + creep_out + p.offset.abs())
-            + 2.0 * (creep + off) / self.min_slope()
-            + creep
-            + off)
+        let (target, target_error) = self.inner_target(y_max);
+        let errors = creep + off + target_error;
+        let inner = 2.0
+            * (self.inverse(v_max, target + creep_out) + 2.0 * errors / self.min_slope() + errors);
+        let (_, s_max) = self.superposition_slopes();
+        let outer = self.superposition_sum(self.inner_max(v_max).max(target + creep_out));
+        s_max.max(1.0) * inner + 2.0 * outer
     }
 }

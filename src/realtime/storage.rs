@@ -6,9 +6,11 @@
 //! storage a parameter of one `Matrix`): the mathematics and the per-sample
 //! kernels are written once and run on either
 //!
-//! * [`Inline<PLAYS, CREEP>`]: arrays of a capacity fixed at compile time
-//!   inside the object (at most `PLAYS` plays, at most `CREEP` elementary
-//!   creep operators); no allocator, for `no_std` firmware and C storage;
+//! * [`Inline<PLAYS, CREEP, SUPERPOSITION>`]: arrays of a capacity fixed at
+//!   compile time inside the object (at most `PLAYS` plays, at most `CREEP`
+//!   elementary creep operators, at most `SUPERPOSITION` terms of the
+//!   superposition operator, 9 unless given: four dead zones per side); no
+//!   allocator, for `no_std` firmware and C storage;
 //! * `Heap` (with the `std` feature, in `crate::operators`): vectors sized
 //!   at run time.
 //!
@@ -28,6 +30,8 @@ pub trait Storage: Sized + Copy + Debug + PartialEq + 'static {
     /// Room for one value per elementary creep operator (and the shorter
     /// lists of `C`: thresholds, weights, eigenvalues).
     type Creep<T: Real>: Buffer<T>;
+    /// Room for one value per term of the superposition operator `S`.
+    type Superposition<T: Real>: Buffer<T>;
 }
 
 /// A list of `len` values, zero-initialised, seen as a slice of exactly
@@ -37,14 +41,18 @@ pub trait Buffer<T: Real>: Clone + Debug + PartialEq + Deref<Target = [T]> + Der
     fn zeroed(field: &'static str, len: usize) -> Result<Self, ParameterError>;
 }
 
-/// Inline storage: at most `PLAYS` plays and `CREEP` elementary creep
-/// operators, in arrays inside the object.
+/// Inline storage: at most `PLAYS` plays, `CREEP` elementary creep
+/// operators and `SUPERPOSITION` terms of `S` (thresholds including the zero
+/// one), in arrays inside the object.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Inline<const PLAYS: usize, const CREEP: usize>;
+pub struct Inline<const PLAYS: usize, const CREEP: usize, const SUPERPOSITION: usize = 9>;
 
-impl<const PLAYS: usize, const CREEP: usize> Storage for Inline<PLAYS, CREEP> {
+impl<const PLAYS: usize, const CREEP: usize, const SUPERPOSITION: usize> Storage
+    for Inline<PLAYS, CREEP, SUPERPOSITION>
+{
     type Plays<T: Real> = InlineBuffer<T, PLAYS>;
     type Creep<T: Real> = InlineBuffer<T, CREEP>;
+    type Superposition<T: Real> = InlineBuffer<T, SUPERPOSITION>;
 }
 
 /// Up to `N` values in an array, `len` of them in use.

@@ -6,7 +6,9 @@
 //! sequential sums in the paper's order for (10) and (16), a nested
 //! threshold-then-eigenvalue loop for the creep operators (15), (20), the
 //! direct `O(n²)` sums of the transformation rules (22), and the explicit
-//! compensator (21). [`BisectionCompensator`] inverts `W` numerically, the
+//! compensator (21); the superposition operator as its sum of dead zones, and
+//! its inverse by locating the segment of the piecewise-linear `S` that holds
+//! the value (not by the inverse rules). [`BisectionCompensator`] inverts `W` numerically, the
 //! way an operator without an analytic inverse (a Preisach model) must be
 //! inverted; it is the peer the analytic inverse is benchmarked against.
 //!
@@ -127,6 +129,80 @@ impl NaiveCreep {
     }
 }
 
+/// The superposition operator `S[z] = Σ w_i d_{r_i}(z)`, textbook form.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NaiveSuperposition {
+    /// Thresholds `r_i`, increasing, one of them 0.
+    pub r: Vec<f64>,
+    /// Weights `w_i`.
+    pub w: Vec<f64>,
+    /// `S(r_i)`, and the slopes below the first and above the last threshold.
+    at_thresholds: Vec<f64>,
+    outer_slopes: (f64, f64),
+}
+
+impl NaiveSuperposition {
+    /// From checked parameters.
+    pub fn new(r: Vec<f64>, w: Vec<f64>) -> Self {
+        let mut s = Self {
+            r,
+            w,
+            at_thresholds: Vec::new(),
+            outer_slopes: (0.0, 0.0),
+        };
+        s.at_thresholds = s.r.iter().map(|&r| s.evaluate(r)).collect();
+        // difference quotients over a step as wide as the thresholds' span,
+        // so that the rounding of S(r) is small against the difference
+        let (first, last) = (s.r[0], s.r[s.r.len() - 1]);
+        let step = (last - first).max(1.0);
+        s.outer_slopes = (
+            (s.evaluate(first) - s.evaluate(first - step)) / step,
+            (s.evaluate(last + step) - s.evaluate(last)) / step,
+        );
+        s
+    }
+
+    /// `S[z]`: each dead zone, weighted, summed in order.
+    pub fn evaluate(&self, z: f64) -> f64 {
+        let mut y = 0.0;
+        for (&r, &w) in self.r.iter().zip(&self.w) {
+            let d = if r > 0.0 {
+                f64::max(z - r, 0.0)
+            } else if r < 0.0 {
+                f64::min(z - r, 0.0)
+            } else {
+                z
+            };
+            y += w * d;
+        }
+        y
+    }
+
+    /// `S⁻¹[y]`: the segment of `S` whose values hold `y`, and the straight
+    /// line through its ends.
+    pub fn invert(&self, y: f64) -> f64 {
+        let (r, s) = (&self.r, &self.at_thresholds);
+        let n = r.len();
+        if y <= s[0] {
+            return r[0] + (y - s[0]) / self.outer_slopes.0;
+        }
+        if y >= s[n - 1] {
+            return r[n - 1] + (y - s[n - 1]) / self.outer_slopes.1;
+        }
+        let k = (0..n - 1).rfind(|&k| s[k] <= y).unwrap_or(0);
+        r[k] + (y - s[k]) * (r[k + 1] - r[k]) / (s[k + 1] - s[k])
+    }
+}
+
+/// The superposition operator of a (validated) model file, if any.
+fn naive_superposition(file: &ModelFile) -> Option<NaiveSuperposition> {
+    let s = file.superposition.as_ref()?;
+    Some(NaiveSuperposition::new(
+        s.thresholds.clone(),
+        s.weights.clone(),
+    ))
+}
+
 /// Hysteresis and creep parts of a validated model file.
 fn naive_parts(file: &ModelFile) -> Result<(NaiveHysteresis, Option<NaiveCreep>), ModelError> {
     // validation (11), (12), (17), (18), admissibility, shapes: the one rule set
@@ -152,13 +228,15 @@ fn naive_parts(file: &ModelFile) -> Result<(NaiveHysteresis, Option<NaiveCreep>)
     Ok((hysteresis, creep))
 }
 
-/// The model `W = H + C` (6), textbook form.
+/// The model `W = S[H + C]` (6), textbook form.
 #[derive(Debug, Clone, PartialEq)]
 pub struct NaiveModel {
     /// `H`.
     pub hysteresis: NaiveHysteresis,
     /// `C`, if the model has creep.
     pub creep: Option<NaiveCreep>,
+    /// `S`, if the model has one.
+    pub superposition: Option<NaiveSuperposition>,
     /// Output offset.
     pub offset: f64,
 }
@@ -170,6 +248,7 @@ impl NaiveModel {
         Ok(Self {
             hysteresis,
             creep,
+            superposition: naive_superposition(file),
             offset: file.offset.unwrap_or(0.0),
         })
     }
@@ -191,6 +270,10 @@ impl Operator for NaiveModel {
                 h + out
             }
             None => h,
+        };
+        let w = match &self.superposition {
+            Some(s) => s.evaluate(w),
+            None => w,
         };
         w + self.offset
     }
@@ -232,6 +315,7 @@ pub struct NaiveCompensator {
     forward: NaiveHysteresis,
     inverse: NaiveHysteresis,
     creep: Option<NaiveCreep>,
+    superposition: Option<NaiveSuperposition>,
     offset: f64,
     last_request: f64,
 }
@@ -252,6 +336,7 @@ impl NaiveCompensator {
             initial: (forward.clone(), creep.clone()),
             forward,
             creep,
+            superposition: naive_superposition(file),
             offset: file.offset.unwrap_or(0.0),
             last_request: 0.0,
         })
@@ -273,7 +358,11 @@ impl ActuatorCompensator for NaiveCompensator {
             };
         }
         let c = self.creep.as_ref().map_or(0.0, NaiveCreep::output);
-        let v = self.inverse.step(target - self.offset - c);
+        let y = match &self.superposition {
+            Some(s) => s.invert(target - self.offset),
+            None => target - self.offset,
+        };
+        let v = self.inverse.step(y - c);
         self.last_request = v;
         let (u, saturated) = clip(v, &self.settings);
         self.forward.step(u);
@@ -299,6 +388,23 @@ impl ActuatorCompensator for NaiveCompensator {
         self.inverse = h.inverse();
         self.forward = h;
         self.creep = c;
+    }
+}
+
+/// The forward map a bisection searches: `v ↦ S[H_state(v) + C_k]`, or
+/// `H_state(v)` without `S`.
+struct Forward<'a> {
+    h: &'a NaiveHysteresis,
+    c: f64,
+    s: Option<&'a NaiveSuperposition>,
+}
+
+impl Forward<'_> {
+    fn evaluate(&self, v: f64) -> f64 {
+        match self.s {
+            Some(s) => s.evaluate(self.h.evaluate(v) + self.c),
+            None => self.h.evaluate(v),
+        }
     }
 }
 
@@ -342,11 +448,17 @@ impl ActuatorCompensator for BisectionCompensator {
             };
         }
         let c = self.model.creep.as_ref().map_or(0.0, NaiveCreep::output);
-        let goal = target - self.model.offset - c;
         let h = &self.model.hysteresis;
+        // S[H(v) + C_k] = ς_k − offset; without S, H(v) = ς_k − offset − C_k
+        let s = self.model.superposition.as_ref();
+        let goal = match s {
+            Some(_) => target - self.model.offset,
+            None => target - self.model.offset - c,
+        };
+        let h = Forward { h, c, s };
         // A bracket: the limits, or where they are infinite, doubling steps
         // away from the last input (the state of the play with r = 0).
-        let centre = h.x.first().copied().unwrap_or(0.0);
+        let centre = h.h.x.first().copied().unwrap_or(0.0);
         let mut lo = self.settings.lower_limit;
         if !lo.is_finite() {
             let mut width = 1.0f64;

@@ -9,7 +9,11 @@
  * `simulate` reads column `u` and appends `y = W[u]`; `compensate` reads
  * column `y_d` and appends `u = W^-1[y_d]` and `saturated`. The model file's
  * `state` is honoured: x_init of (8) for the plays, chi at the first sample
- * for creep; its `offset` is added to the output (subtracted from a target). Numbers are written with %.17g, which reads back bit-identically.
+ * for creep; its `offset` is added to the output (subtracted from a target).
+ * An optional `superposition` S (thresholds with one 0, weights) acts on
+ * H + C: y = S[H + C] + offset, and W^-1 applies S^-1 (its inverse rules)
+ * to the target first. Numbers are written with %.17g, which reads back
+ * bit-identically.
  */
 #include <math.h>
 #include <stdio.h>
@@ -170,6 +174,45 @@ static void creep_advance(Creep *c, double v) {
         }
 }
 
+/* The superposition operator: S[z] = sum_i w_i d_i(z), one-sided dead
+ * zones d_i(z) = max(z - r_i, 0) above r = 0, min(z - r_i, 0) below. */
+typedef struct {
+    size_t n, zero;
+    double *r, *w;
+} Sup;
+
+static double sup_eval(const Sup *s, double z) {
+    double y = 0.0;
+    for (size_t i = 0; i < s->n; i++) {
+        double d = z - s->r[i];
+        if (s->r[i] > 0.0) d = fmax(d, 0.0);
+        if (s->r[i] < 0.0) d = fmin(d, 0.0);
+        y += s->w[i] * d;
+    }
+    return y;
+}
+
+/* S^-1: thresholds S(r_i), weights 1/w_0 and -w_i / (slope_out slope_in),
+ * each side outward from the zero threshold. */
+static Sup sup_inverse(const Sup *s) {
+    Sup inv = {s->n, s->zero, malloc(s->n * sizeof(double)), malloc(s->n * sizeof(double))};
+    inv.r[s->zero] = 0.0;
+    inv.w[s->zero] = 1.0 / s->w[s->zero];
+    for (int side = -1; side <= 1; side += 2) {
+        double slope = s->w[s->zero], value = 0.0;
+        size_t inner = s->zero;
+        for (long j = (long)s->zero + side; j >= 0 && j < (long)s->n; j += side) {
+            value += slope * (s->r[j] - s->r[inner]);
+            double outer = slope + s->w[j];
+            inv.r[j] = value;
+            inv.w[j] = -s->w[j] / (outer * slope);
+            slope = outer;
+            inner = (size_t)j;
+        }
+    }
+    return inv;
+}
+
 static char *slurp(const char *path) {
     FILE *f = fopen(path, "rb");
     if (!f) die("cannot open", path);
@@ -240,6 +283,17 @@ int main(int argc, char **argv) {
                 c.chi[i * c.m + j] = st->items[i].items[j].num;
     }
 
+    Sup sup = {0}, sup_inv = {0};
+    const Json *sj = get(&root, "superposition");
+    if (sj && sj->kind == 3) {
+        size_t n2;
+        sup.r = numbers(get(sj, "thresholds"), &sup.n);
+        sup.w = numbers(get(sj, "weights"), &n2);
+        while (sup.zero < sup.n && sup.r[sup.zero] != 0.0) sup.zero++;
+        if (sup.zero == sup.n || n2 != sup.n) die("model file", "bad superposition");
+        sup_inv = sup_inverse(&sup);
+    }
+
     /* the trace: header, then rows passed through with the new columns */
     char *csv = slurp(input);
     FILE *out = fopen(output, "w");
@@ -265,15 +319,17 @@ int main(int argc, char **argv) {
         if (!p) die("short row in", input);
         double v = strtod(p, NULL);
         if (simulate) {
-            double y = pi_step(&h, v) + offset;
+            double z = pi_step(&h, v);
             if (c.n) {
-                y += creep_output(&c);
+                z += creep_output(&c);
                 creep_advance(&c, v);
             }
+            double y = (sup.n ? sup_eval(&sup, z) : z) + offset;
             fprintf(out, "%s,%.17g\n", line, y);
         } else {
             double cr = c.n ? creep_output(&c) : 0.0;
-            double want_v = pi_step(&inv, v - offset - cr);
+            double target = sup.n ? sup_eval(&sup_inv, v - offset) : v - offset;
+            double want_v = pi_step(&inv, target - cr);
             double u = fmin(fmax(want_v, lo), hi);
             int saturated = u != want_v;
             pi_step(&h, u);

@@ -9,7 +9,9 @@ contract, written for `mfcbeam conform` (Python standard library only).
 `y_d` and appends `u = W^-1[y_d]` and `saturated` (0/1). The model file's
 `state` is honoured as the contract says: the hysteresis state is x_init of
 (8), the creep state is chi at the first sample; its `offset` is added to the
-output (and subtracted from a compensator's target).
+output (and subtracted from a compensator's target). An optional
+`superposition` S acts on H + C: y = S[H + C] + offset, and W^-1 applies
+S^-1 to the target first.
 
 `--fault NAME` injects a known fault, so that the conformance test can show
 each one is caught: creep-vk, threshold, sign, no-flag, delay, ignore-state.
@@ -78,6 +80,37 @@ class Creep:
         return out
 
 
+class Superposition:
+    """S[z] = sum_i w_i d_i(z), one-sided dead zones around the zero threshold."""
+
+    def __init__(self, r, w):
+        self.r, self.w = list(r), list(w)
+
+    def __call__(self, z):
+        return sum(
+            w * (max(z - r, 0.0) if r > 0 else min(z - r, 0.0) if r < 0 else z)
+            for r, w in zip(self.r, self.w)
+        )
+
+    def inverse(self):
+        """Thresholds S(r_i); weights 1/w_0 and -w_i / (slope outward * slope inward),
+        the slopes as direct sums from the zero threshold."""
+        zero = self.r.index(0.0)
+
+        def slope(j):  # the slope just outside r_j (towards larger |r|)
+            span = range(zero, j + 1) if j >= zero else range(j, zero + 1)
+            return sum(self.w[i] for i in span)
+
+        def inward(j):
+            return slope(j - 1) if j > zero else slope(j + 1)
+
+        w = [
+            1.0 / self.w[zero] if j == zero else -self.w[j] / (slope(j) * inward(j))
+            for j in range(len(self.r))
+        ]
+        return Superposition([self(r) for r in self.r], w)
+
+
 def load(path, fault):
     with open(path) as f:
         m = json.load(f)
@@ -110,25 +143,30 @@ def load(path, fault):
         if chi is None:
             chi = [[0.0] * len(c["eigenvalues"]) for _ in c["thresholds"]]
         creep = Creep(c["thresholds"], c["weights"], c["eigenvalues"], ts, chi, fault)
-    return hyst, creep, m.get("offset", 0.0)
+    sup = m.get("superposition")
+    sup = Superposition(sup["thresholds"], sup["weights"]) if sup is not None else None
+    return hyst, creep, sup, m.get("offset", 0.0)
 
 
-def simulate(hyst, creep, offset, u, fault):
+def simulate(hyst, creep, sup, offset, u, fault):
     y, last = [], 0.0
     for v in u:
-        out = hyst.step(v) + (creep.step(v) if creep else 0.0) + offset
+        z = hyst.step(v) + (creep.step(v) if creep else 0.0)
+        out = (sup(z) if sup else z) + offset
         if fault == "delay":
             out, last = last, out
         y.append(out)
     return y
 
 
-def compensate(hyst, creep, offset, targets, lo, hi, fault):
+def compensate(hyst, creep, sup, offset, targets, lo, hi, fault):
     inverse = hyst.inverse()
+    sup_inv = sup.inverse() if sup else None
     us, flags, last = [], [], 0.0
     for t in targets:
         c = creep.output() if creep else 0.0
-        v = inverse.step(t - offset - c)
+        y = sup_inv(t - offset) if sup_inv else t - offset
+        v = inverse.step(y - c)
         u = min(max(v, lo), hi)
         saturated = u != v
         hyst.step(u)
@@ -166,7 +204,7 @@ def main(argv):
     fault = opts.get("fault")
     if fault is not None and fault not in FAULTS:
         fail(f"unknown fault {fault} (one of {', '.join(FAULTS)})")
-    hyst, creep, offset = load(opts["model"], fault)
+    hyst, creep, sup, offset = load(opts["model"], fault)
     with open(opts["input"], newline="") as f:
         rows = list(csv.reader(f))
     header, body = rows[0], rows[1:]
@@ -176,10 +214,10 @@ def main(argv):
     values = [float(row[header.index(column)]) for row in body]
     if kind == "simulate":
         extra = ["y"]
-        cols = [[repr(y)] for y in simulate(hyst, creep, offset, values, fault)]
+        cols = [[repr(y)] for y in simulate(hyst, creep, sup, offset, values, fault)]
     else:
         lo, hi = (float(x) for x in opts.get("limits", "-inf,inf").split(","))
-        us, flags = compensate(hyst, creep, offset, values, lo, hi, fault)
+        us, flags = compensate(hyst, creep, sup, offset, values, lo, hi, fault)
         extra = ["u", "saturated"]
         cols = [[repr(u), "1" if s else "0"] for u, s in zip(us, flags)]
     with open(opts["output"], "w", newline="") as f:

@@ -1,7 +1,7 @@
 //! Seeded generators of conformance cases: admissible random models, inputs
 //! of several shapes, nested extrema for the branching rules.
 
-use crate::operators::model::{CreepData, HysteresisData, ModelFile};
+use crate::operators::model::{CreepData, HysteresisData, ModelFile, SuperpositionData};
 use crate::suite::reference::NaiveModel;
 
 /// SplitMix64: small, seeded, the same on every platform.
@@ -89,6 +89,7 @@ pub fn random_model(rng: &mut Rng, max_plays: usize, shape: ModelShape) -> Model
             state: None,
         },
         creep,
+        superposition: None,
         offset: None,
     };
     let mut file = file;
@@ -97,14 +98,92 @@ pub fn random_model(rng: &mut Rng, max_plays: usize, shape: ModelShape) -> Model
     if shape == ModelShape::Any && rng.chance(0.3) {
         file.offset = Some(rng.uniform(-0.2, 0.2) * reach(&file));
     }
-    if shape == ModelShape::Any && rng.chance(0.5) {
+    let mut file = if shape == ModelShape::Any && rng.chance(0.5) {
         let reach = reach(&file);
         let len = rng.int(1, 60);
         let history = random_input(rng, len, 1.2 * reach);
         with_state_after(&file, &history)
     } else {
         file
+    };
+    // drawn last, so that the rest of a case is what it was without `S`
+    if shape != ModelShape::HysteresisOnly && rng.chance(0.4) {
+        file.superposition = Some(random_superposition(rng, reach(&file)));
     }
+    file
+}
+
+/// A random admissible superposition operator for `H + C` of reach about
+/// `scale`: 0 to 3 dead zones per side, thresholds in `(0, 0.8 scale)`,
+/// slopes in `[0.2, 2]`; with probability 0.3 odd (mirrored sides).
+pub fn random_superposition(rng: &mut Rng, scale: f64) -> SuperpositionData {
+    let side = |rng: &mut Rng, n: usize, w0: f64| -> (Vec<f64>, Vec<f64>) {
+        let mut r: Vec<f64> = (0..n).map(|_| rng.uniform(0.02, 0.8) * scale).collect();
+        r.sort_by(f64::total_cmp);
+        r.dedup();
+        let mut slope = w0;
+        let w = r
+            .iter()
+            .map(|_| {
+                let next = rng.uniform(0.2, 2.0);
+                let w = next - slope;
+                slope = next;
+                w
+            })
+            .collect();
+        (r, w)
+    };
+    let w0 = rng.uniform(0.2, 2.0);
+    let n = rng.int(0, 3);
+    let positive = side(rng, n, w0);
+    let negative = if rng.chance(0.3) {
+        positive.clone()
+    } else {
+        let n = rng.int(0, 3);
+        side(rng, n, w0)
+    };
+    let mut thresholds: Vec<f64> = negative.0.iter().rev().map(|r| -r).collect();
+    let mut weights: Vec<f64> = negative.1.iter().rev().copied().collect();
+    thresholds.push(0.0);
+    weights.push(w0);
+    thresholds.extend(&positive.0);
+    weights.extend(&positive.1);
+    SuperpositionData {
+        thresholds,
+        weights,
+    }
+}
+
+/// A model that is a random `S` alone (`H` one play of threshold 0 and
+/// weight 1, the identity; no creep), at a scale between 1 and 1000, and an
+/// input sweeping up and down across all of its thresholds.
+pub fn superposition_model(rng: &mut Rng, samples: usize) -> (ModelFile, Vec<f64>) {
+    let scale = 10f64.powf(rng.uniform(0.0, 3.0));
+    let file = ModelFile {
+        sample_time: 2e-4,
+        hysteresis: HysteresisData {
+            thresholds: vec![0.0],
+            weights: vec![1.0],
+            state: None,
+        },
+        creep: None,
+        superposition: Some(random_superposition(rng, scale)),
+        offset: rng.chance(0.5).then(|| rng.uniform(-0.2, 0.2) * scale),
+    };
+    let input = random_input(rng, samples.max(2), 1.2 * scale);
+    (file, input)
+}
+
+/// Whether `S` is odd (`S[−z] = −S[z]`): mirrored thresholds and weights,
+/// or absent.
+pub fn superposition_is_odd(file: &ModelFile) -> bool {
+    let Some(s) = &file.superposition else {
+        return true;
+    };
+    let n = s.thresholds.len();
+    (0..n).all(|i| {
+        s.thresholds[i] == -s.thresholds[n - 1 - i] && s.weights[i] == s.weights[n - 1 - i]
+    })
 }
 
 fn increasing(rng: &mut Rng, n: usize) -> Vec<f64> {

@@ -4,7 +4,10 @@
 //! file, the saturation flags and the recovery after saturation.
 
 use super::candidate;
-use super::cases::{random_input, random_model, reach, with_state_after, ModelShape, Rng};
+use super::cases::{
+    random_input, random_model, reach, superposition_is_odd, superposition_model, with_state_after,
+    ModelShape, Rng,
+};
 use super::{compare, fail, refused, tolerance, two, Case, ConformanceReport, ConformanceSettings};
 use super::{CompensatorFactory, Outcome, Properties, Property};
 use crate::error::ModelError;
@@ -31,6 +34,8 @@ pub fn compensator_properties<'a>() -> Properties<CompensatorFactory<'a>> {
         p("agreement", "W⁻¹ equals the naive reference compensator (21), (22) on random models, states and targets", usize::MAX, target_case, agreement),
         p("model_after_compensator", "W[W⁻¹[y]] = y from matched states (no limits)", usize::MAX, target_case, model_after_compensator),
         p("compensator_after_model", "W⁻¹[W[v]] = v from matched states (no limits)", usize::MAX, voltage_case, compensator_after_model),
+        p("superposition_inverse", "S alone (H the identity, no creep): S[S⁻¹[y]] = y (no limits)", usize::MAX, superposition_target_case, model_after_compensator),
+        p("superposition_left_inverse", "S alone: S⁻¹[S[z]] = z (no limits)", usize::MAX, superposition_voltage_case, compensator_after_model),
         p("paper_staircase", "the Fig. 10 staircase on the nominal model: W[W⁻¹[y_d]] = y_d, nothing saturated", 1, paper_case, model_after_compensator),
         p("odd_symmetry", "W⁻¹[-y] = -W⁻¹[y] from the virgin state with symmetric limits", usize::MAX, virgin_case, odd_symmetry),
         p("split_and_resume", "a compensator from the model file's state continues W⁻¹∘W (state semantics)", usize::MAX, voltage_case, split_and_resume),
@@ -83,6 +88,24 @@ fn voltage_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
         input,
         limits: None,
     }
+}
+
+/// `S` alone ([`superposition_model`]) and random arguments `z`.
+fn superposition_voltage_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
+    let n = rng.int(4, s.max_samples);
+    let (model, input) = superposition_model(rng, n);
+    Case {
+        model,
+        input,
+        limits: None,
+    }
+}
+
+/// `S` alone and targets `S[z]` of random arguments.
+fn superposition_target_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
+    let mut case = superposition_voltage_case(rng, s, 0);
+    case.input = plant(&case).run(&case.input);
+    case
 }
 
 fn virgin_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
@@ -187,6 +210,9 @@ fn compensator_after_model(
 }
 
 fn odd_symmetry(case: &Case, factory: &CompensatorFactory, s: &ConformanceSettings) -> Outcome {
+    if !superposition_is_odd(&case.model) {
+        return Outcome::Skipped; // an asymmetric S makes W asymmetric
+    }
     let mut virgin = case.clone();
     virgin.model.hysteresis.state = None;
     if let Some(c) = &mut virgin.model.creep {

@@ -7,14 +7,15 @@
 
 use super::candidate;
 use super::cases::{
-    nested_extrema, path, random_input, random_model, reach, refine, segment, valid_extrema,
-    with_state_after, ModelShape, Rng,
+    nested_extrema, path, random_input, random_model, reach, refine, segment, superposition_is_odd,
+    superposition_model, valid_extrema, with_state_after, ModelShape, Rng,
 };
 use super::{compare, fail, refused, tolerance, two, Case, ConformanceReport, ConformanceSettings};
 use super::{ModelFactory, Outcome, Properties, Property};
 use crate::error::ModelError;
 use crate::operators::nominal::nominal_model_file;
 use crate::operators::traits::{ActuatorModel, Operator};
+use crate::realtime::RoundingBounds;
 use crate::suite::reference::NaiveModel;
 use crate::suite::signal::Staircase;
 
@@ -38,6 +39,7 @@ pub fn model_properties<'a>() -> Properties<ModelFactory<'a>> {
         p("split_and_resume", "a run resumed from the model file's state continues the whole run (state semantics)", usize::MAX, any_case, split_and_resume),
         p("rate_independence", "H: samples inserted on monotone segments change nothing at the original samples (7)", usize::MAX, hysteresis_case, rate_independence),
         p("monotonicity", "H: on a monotone input the output moves the same way with slope >= s_min (11)", usize::MAX, hysteresis_case, monotonicity),
+        p("superposition_monotone", "S alone: on an increasing input each output step lies between its smallest and largest slope times the input step", usize::MAX, superposition_case, superposition_monotone),
         p("lipschitz", "H: |H[u] - H[v]| <= (sum |w_i|) max |u - v| from one state (10)", usize::MAX, hysteresis_case, lipschitz),
         p("madelung_turning_point", "H: a minor loop wiped out earlier leaves the curve from a turning point unchanged (Madelung i)", usize::MAX, extrema_case, madelung_i),
         p("madelung_return_point", "H: from p1 to p2 and back returns exactly to p1 (Madelung ii, return-point memory)", usize::MAX, extrema_case, madelung_ii),
@@ -69,6 +71,18 @@ fn signal_case(rng: &mut Rng, s: &ConformanceSettings, shape: ModelShape) -> Cas
     let model = random_model(rng, s.max_plays, shape);
     let n = input_len(rng, s);
     let input = random_input(rng, n, 1.2 * reach(&model));
+    Case {
+        model,
+        input,
+        limits: None,
+    }
+}
+
+/// `S` alone ([`superposition_model`]) on a sorted input: a monotone sweep.
+fn superposition_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
+    let n = input_len(rng, s);
+    let (model, mut input) = superposition_model(rng, n);
+    input.sort_by(f64::total_cmp);
     Case {
         model,
         input,
@@ -148,7 +162,42 @@ fn agreement(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Ou
     compare(&case.input, &expected, &found, tol, "W")
 }
 
+/// On an increasing input, `S` alone moves by between `σ_min` and `σ_max`
+/// times each input step (its smallest and largest slope): each output step
+/// is compared with itself clamped into that interval, within the rounding
+/// of two outputs.
+fn superposition_monotone(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
+    if case.model.superposition.is_none() {
+        return Outcome::Skipped;
+    }
+    let (lo, hi) = RoundingBounds {
+        parameters: case.model.parameters(),
+        state_max: 0.0,
+        eps: f64::EPSILON,
+    }
+    .superposition_slopes();
+    let mut cand = candidate!(build(factory, case));
+    let v = &case.input;
+    let found: Vec<f64> = cand.run(v).windows(2).map(|y| y[1] - y[0]).collect();
+    let expected: Vec<f64> = v
+        .windows(2)
+        .zip(&found)
+        .map(|(v, &dy)| dy.clamp(lo * (v[1] - v[0]), hi * (v[1] - v[0])))
+        .collect();
+    let tol = 2.0 * s.tolerance_scale * tolerance::model(&case.model, max_abs(v));
+    compare(
+        v,
+        &expected,
+        &found,
+        tol,
+        "output step against [σ_min, σ_max] × input step",
+    )
+}
+
 fn odd_symmetry(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
+    if !superposition_is_odd(&case.model) {
+        return Outcome::Skipped; // an asymmetric S makes W asymmetric
+    }
     let mut model = case.model.clone();
     model.hysteresis.state = None;
     if let Some(c) = &mut model.creep {
