@@ -1033,3 +1033,152 @@ fn lab_data_inputs_are_accepted_or_refused_with_one_line() {
         assert_clean_failure(&mfcbeam(&all), &[needle], Some(&model_out));
     }
 }
+
+/// The nominal model with an asymmetric superposition operator, as a file.
+fn asymmetric_model(d: &TempDir) -> PathBuf {
+    let mut file = mfcbeam::io::read_model_file(Path::new(MODEL)).unwrap();
+    file.superposition = Some(mfcbeam::operators::model::SuperpositionData {
+        thresholds: vec![-500.0, -200.0, 0.0, 150.0, 400.0],
+        weights: vec![0.25, -0.25, 1.0, -0.2, -0.15],
+    });
+    file.offset = Some(3.0);
+    let p = d.path("asym.json");
+    fs::write(&p, serde_json::to_string(&file).unwrap()).unwrap();
+    p
+}
+
+#[test]
+fn a_model_with_a_superposition_operator_runs_through_every_command() {
+    let d = TempDir::new("superposition");
+    let model = asymmetric_model(&d);
+    let ok = |out: Output| {
+        let err = String::from_utf8_lossy(&out.stderr).to_string();
+        assert!(out.status.success(), "{err}");
+        err
+    };
+    // invert: S⁻¹ by its rules, its kinks at S(r_i)
+    let out = mfcbeam(&["invert", "--model", s(&model)]);
+    ok(out.clone());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let kinks: Vec<f64> = v["inverse_superposition"]["thresholds"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert_eq!(kinks, [-425.0, -200.0, 0.0, 150.0, 350.0]);
+    // simulate equals the library bit for bit; compensate then simulate is
+    // the identity
+    let sig = d.path("sig.csv");
+    ok(mfcbeam(&[
+        "signal",
+        "--periods",
+        "3",
+        "--amplitude",
+        "900",
+        "--plateau",
+        "0.1",
+        "--output",
+        s(&sig),
+    ]));
+    let data = d.path("data.csv");
+    ok(mfcbeam(&[
+        "simulate",
+        "--model",
+        s(&model),
+        "--input",
+        s(&sig),
+        "--output",
+        s(&data),
+    ]));
+    let trace = Trace::read(&data).unwrap();
+    let (u, y) = (trace.column("u").unwrap(), trace.column("y").unwrap());
+    let w = mfcbeam::io::read_model(&model).unwrap();
+    assert_eq!(w.clone().run(&u), y);
+    let targets = d.path("targets.csv");
+    let t: Vec<f64> = u.iter().map(|x| 0.5 * x).collect();
+    let text: String = std::iter::once("y_d\n".to_string())
+        .chain(t.iter().map(|x| format!("{x:?}\n")))
+        .collect();
+    fs::write(&targets, text).unwrap();
+    let comp = d.path("comp.csv");
+    ok(mfcbeam(&[
+        "compensate",
+        "--model",
+        s(&model),
+        "--input",
+        s(&targets),
+        "--output",
+        s(&comp),
+        "--no-limits",
+    ]));
+    let uc = Trace::read(&comp).unwrap().column("u").unwrap();
+    let back = w.clone().run(&uc);
+    let worst = back
+        .iter()
+        .zip(&t)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-9, "{worst}");
+    // identify with and without S: S is reported, and fits better
+    let fit = |m: &str| {
+        let out_model = d.path(&format!("id{m}.json"));
+        let report = ok(mfcbeam(&[
+            "identify",
+            "--input",
+            s(&data),
+            "--output",
+            s(&out_model),
+            "--superposition",
+            m,
+        ]));
+        let rms: f64 = report
+            .lines()
+            .find(|l| l.starts_with("rms error"))
+            .and_then(|l| l.split_whitespace().nth(2))
+            .unwrap()
+            .parse()
+            .unwrap();
+        (
+            report,
+            rms,
+            mfcbeam::io::read_model_file(&out_model).unwrap(),
+        )
+    };
+    let (_, rms0, file0) = fit("0");
+    let (report2, rms2, file2) = fit("2");
+    assert!(file0.superposition.is_none());
+    assert_eq!(file2.superposition.as_ref().unwrap().thresholds.len(), 5);
+    assert!(report2.contains("superposition S"), "{report2}");
+    assert!(rms2 < 0.5 * rms0, "{rms2} vs {rms0}");
+    // a decreasing S: exit 2, one line naming the field
+    let mut bad = mfcbeam::io::read_model_file(&model).unwrap();
+    bad.superposition.as_mut().unwrap().weights[3] = -1.5;
+    let bad_path = d.path("bad.json");
+    fs::write(&bad_path, serde_json::to_string(&bad).unwrap()).unwrap();
+    let out_path = d.path("never.csv");
+    let out = mfcbeam(&[
+        "simulate",
+        "--model",
+        s(&bad_path),
+        "--input",
+        s(&sig),
+        "--output",
+        s(&out_path),
+    ]);
+    assert_clean_failure(
+        &out,
+        &["bad.json", "superposition.weights"],
+        Some(&out_path),
+    );
+    // kinks outside the output's range are refused by name
+    let out = mfcbeam(&[
+        "identify",
+        "--input",
+        s(&data),
+        "--output",
+        s(&d.path("x.json")),
+        "--superposition-kinks=1e6",
+    ]);
+    assert_clean_failure(&out, &["superposition_kinks"], None);
+}

@@ -27,11 +27,11 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Run the model W = H + C on column `u`; writes IN's columns plus `y = W[u]`.
+    /// Run the model W = S[H + C] + offset on column `u`; writes IN's columns plus `y = W[u]`.
     Simulate(SimulateArgs),
     /// Run the compensator W⁻¹ on column `y_d`; writes IN's columns plus `u` and `saturated`.
     Compensate(CompensateArgs),
-    /// Print H⁻¹ (thresholds, weights, state) of a model as JSON, by the rules (22).
+    /// Print H⁻¹ (thresholds, weights, state) of a model as JSON, by the rules (22), and S⁻¹ if the model has a superposition operator.
     Invert(InvertArgs),
     /// Identify a model (weights by constrained least squares, (23)–(25)) from
     /// columns `t`, `u`, `y`; prints the fit report on stderr.
@@ -131,6 +131,16 @@ pub struct IdentifyArgs {
     /// Explicit creep eigenvalues (1/s) instead of (24).
     #[arg(long, value_delimiter = ',', num_args = 1..)]
     pub eigenvalues: Option<Vec<f64>>,
+    /// Dead zones per side of a superposition operator S after H + C (the
+    /// modified PI model for asymmetric loops, fitted by Kuhnen's error
+    /// model); 0 fits the paper's symmetric model.
+    #[arg(long, value_name = "M", default_value_t = IdentificationSettings::default().superposition)]
+    pub superposition: usize,
+    /// Explicit kinks of S⁻¹ on the output axis `y1,y2,...` instead of the
+    /// rule (M per side evenly over the output's half-range around its
+    /// mid-point).
+    #[arg(long, value_delimiter = ',', num_args = 1.., allow_hyphen_values = true)]
+    pub superposition_kinks: Option<Vec<f64>>,
     /// Fix the output offset at 0 instead of fitting it.
     #[arg(long)]
     pub no_offset: bool,

@@ -13,6 +13,7 @@ use mfcbeam::identification::{
 };
 use mfcbeam::io::{read_beam, read_model, write_atomic, write_json, Trace};
 use mfcbeam::operators::compensator::CompensatorSettings;
+use mfcbeam::operators::heap::Heap;
 use mfcbeam::operators::nominal::SAMPLE_TIME;
 use mfcbeam::operators::traits::Operator;
 use mfcbeam::suite::signal::{time_axis, Staircase};
@@ -81,19 +82,39 @@ struct InverseJson<'a> {
     weights: &'a [f64],
     state: &'a [f64],
     /// The model's output offset: the compensator applies `H⁻¹` to
-    /// `target − offset − C`.
+    /// `S⁻¹[target − offset] − C`.
     #[serde(skip_serializing_if = "Option::is_none")]
     offset: Option<f64>,
+    /// `S⁻¹` by its inverse rules, when the model has `S`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    inverse_superposition: Option<InverseSuperpositionJson>,
+}
+
+#[derive(Serialize)]
+struct InverseSuperpositionJson {
+    thresholds: Vec<f64>,
+    weights: Vec<f64>,
 }
 
 fn invert(a: &InvertArgs) -> Result<()> {
     let model = read_model(&a.model)?;
     let inv = model.hysteresis().inverse();
+    let inverse_superposition = match model.superposition() {
+        None => None,
+        Some(s) => {
+            let s_inv = mfcbeam::realtime::Superposition::<f64, Heap>::inverse_of(&s.parameters())?;
+            Some(InverseSuperpositionJson {
+                thresholds: s_inv.thresholds().to_vec(),
+                weights: s_inv.weights().to_vec(),
+            })
+        }
+    };
     let json = serde_json::to_string_pretty(&InverseJson {
         thresholds: inv.thresholds(),
         weights: inv.weights(),
         state: inv.play_states(),
         offset: (model.offset() != 0.0).then_some(model.offset()),
+        inverse_superposition,
     })?;
     print_stdout(&json)
 }
@@ -134,6 +155,8 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
         creep_thresholds: a.creep_thresholds.clone(),
         eigenvalues: a.eigenvalues.clone(),
         epsilon_h: a.epsilon_h,
+        superposition: a.superposition,
+        superposition_kinks: a.superposition_kinks.clone(),
     };
     let id =
         identify_model(&u, &y, ts, &settings).with_context(|| a.input.display().to_string())?;

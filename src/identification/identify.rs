@@ -9,7 +9,9 @@ use faer::Mat;
 
 use super::regressor::regressor_factor;
 use super::report::{check_finite, first_at_max, range};
-use super::settings::{thresholds_23, IdentificationError, IdentificationSettings};
+use super::settings::{
+    superposition_kinks, thresholds_23, IdentificationError, IdentificationSettings,
+};
 use super::solve::{nnls, null_space_members, singular_values, weights_from_sums, RANK_TOLERANCE};
 use super::{ActiveConstraint, FitErrors, FitReport, UnexcitedOperator};
 use crate::error::ModelError;
@@ -17,6 +19,11 @@ use crate::operators::creep::{log_spaced_eigenvalues, CreepOperator};
 use crate::operators::hysteresis::HysteresisOperator;
 use crate::operators::model::HysteresisCreepModel;
 use crate::operators::traits::Operator;
+use crate::realtime::{Superposition, SuperpositionParameters};
+
+/// The smallest slope of the fitted `S⁻¹` relative to its slope 1 at the
+/// output's mid-point: `S` is then at most 1000 times steeper there.
+pub const EPSILON_S: f64 = 1e-3;
 
 /// The identified model (virgin state, fitted offset) and its fit report.
 #[derive(Debug, Clone)]
@@ -50,7 +57,7 @@ pub fn identify(
         skip_reason: plan.skip_reason,
         fit: FitErrors::of(&fit, y, first..end),
         holdout: (end < n).then(|| FitErrors::of(&fit, y, end..n)),
-        offset: solution.offset,
+        offset: model.offset(),
         condition_number: regression.condition_number,
         rank: regression.rank,
         unknowns,
@@ -60,6 +67,9 @@ pub fn identify(
         unexcited: plan.unexcited,
         kkt_residual: solution.kkt_residual,
         iterations: solution.iterations,
+        superposition: model
+            .superposition()
+            .map(|s| (s.thresholds().to_vec(), s.weights().to_vec())),
     };
     Ok(Identification { model, report })
 }
@@ -79,7 +89,22 @@ struct FitPlan {
     eigenvalues: Vec<f64>,
     epsilon_h: f64,
     unexcited: Vec<UnexcitedOperator>,
+    /// `S⁻¹`'s kinks relative to `centre` (the positive side outward, then
+    /// the negative side outward; empty without `S`), how many are positive,
+    /// and the output's mid-point `c`.
+    r_s: Vec<f64>,
+    ns_pos: usize,
+    centre: f64,
 }
+
+/// The four groups of columns with partial-sum bounds: the plays, the creep
+/// operators, and the dead zones of `S⁻¹` above and below the mid-point.
+const GROUPS: [&str; 4] = [
+    "hysteresis",
+    "creep",
+    "superposition above",
+    "superposition below",
+];
 
 impl FitPlan {
     /// Check the data and settings and fix every choice the fit makes.
@@ -134,7 +159,42 @@ impl FitPlan {
             .eigenvalues
             .clone()
             .unwrap_or_else(|| log_spaced_eigenvalues(settings.creep_eigenvalues, sample_time));
-        let unknowns = r_h.len() + r_c.len() + usize::from(settings.fit_offset);
+        let (lo, hi) = y[first..end]
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            });
+        // with the offset fixed at 0 the zero of S⁻¹ stays at y = 0
+        let centre = if settings.fit_offset {
+            0.5 * (lo + hi)
+        } else {
+            0.0
+        };
+        let mut r_s = match &settings.superposition_kinks {
+            Some(k) => k.iter().map(|x| x - centre).collect(),
+            None => superposition_kinks(settings.superposition, hi - centre, centre - lo),
+        };
+        if let Some(&bad) = r_s
+            .iter()
+            .find(|&&r| !(r > lo - centre && r < hi - centre && r != 0.0))
+        {
+            return Err(IdentificationError::InvalidSetting {
+                field: "superposition_kinks",
+                reason: format!(
+                    "{} is not strictly inside the fitted output's range ({lo}, {hi}) or is its mid-point",
+                    bad + centre
+                ),
+            });
+        }
+        // positive side outward, then negative side outward
+        r_s.sort_by(|a, b| {
+            (*a < 0.0)
+                .cmp(&(*b < 0.0))
+                .then(a.abs().total_cmp(&b.abs()))
+        });
+        r_s.dedup();
+        let ns_pos = r_s.iter().filter(|&&r| r > 0.0).count();
+        let unknowns = r_h.len() + r_c.len() + r_s.len() + usize::from(settings.fit_offset);
         let needed = 2 * unknowns + 1;
         if end - first < needed {
             return Err(IdentificationError::TooFewSamples {
@@ -171,42 +231,76 @@ impl FitPlan {
             eigenvalues,
             epsilon_h,
             unexcited,
+            r_s,
+            ns_pos,
+            centre,
         })
     }
 
-    /// Number of excited operators: the unknown weights.
+    /// Number of unknown weights: the excited operators and `S⁻¹`'s dead
+    /// zones.
     fn excited(&self) -> usize {
-        self.nh + self.nc
+        self.nh + self.nc + self.r_s.len()
     }
 
-    /// Column `j` of the regressor's weights as an operator of the model.
+    /// The columns of each group (`GROUPS`), in order.
+    fn group_ranges(&self) -> [std::ops::Range<usize>; 4] {
+        let (a, b) = (self.nh, self.nh + self.nc);
+        let c = b + self.ns_pos;
+        [0..a, a..b, b..c, c..self.excited()]
+    }
+
+    /// The group of column `j` and `j`'s index in it.
+    fn group_of(&self, j: usize) -> (usize, usize) {
+        let groups = self.group_ranges();
+        let g = groups.iter().position(|r| r.contains(&j)).unwrap_or(3);
+        (g, j - groups[g].start)
+    }
+
+    /// Column `j` of the regressor's weights as an operator of the model
+    /// (a dead zone of `S⁻¹` by its kink on the output axis, counted
+    /// outward from 1).
     fn operator(&self, j: usize) -> UnexcitedOperator {
-        if j < self.nh {
-            UnexcitedOperator {
-                group: "hysteresis",
-                index: j,
-                threshold: self.r_h[j],
-            }
-        } else {
-            UnexcitedOperator {
-                group: "creep",
-                index: j - self.nh,
-                threshold: self.r_c[j - self.nh],
-            }
+        let (g, index) = self.group_of(j);
+        let (index, threshold) = match g {
+            0 => (index, self.r_h[index]),
+            1 => (index, self.r_c[index]),
+            _ => (index + 1, self.centre + self.r_s[j - self.nh - self.nc]),
+        };
+        UnexcitedOperator {
+            group: GROUPS[g],
+            index,
+            threshold,
         }
     }
 
-    /// The lower bound of partial sum `j`: `ε_H` (11) or 0 (17).
+    /// The lower bound of partial sum `j`: `ε_H` (11), 0 (17), or for
+    /// `S⁻¹` (whose linear weight is 1) `ε_S − 1`, so that every slope
+    /// `1 + Σ w'` is at least `ε_S`.
     fn bound(&self, j: usize) -> f64 {
-        if j < self.nh {
-            self.epsilon_h
-        } else {
-            0.0
+        match self.group_of(j).0 {
+            0 => self.epsilon_h,
+            1 => 0.0,
+            _ => EPSILON_S - 1.0,
         }
+    }
+
+    /// `S⁻¹`'s parameters on `ς − c` (kinks increasing, the zero one
+    /// included, its weight 1) from the fitted weights of its columns.
+    fn inverse_superposition(&self, w_s: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let (pos, neg) = (self.ns_pos, self.r_s.len() - self.ns_pos);
+        let mut r: Vec<f64> = self.r_s[pos..].iter().rev().copied().collect();
+        let mut w: Vec<f64> = w_s[pos..].iter().rev().copied().collect();
+        r.push(0.0);
+        w.push(1.0);
+        r.extend_from_slice(&self.r_s[..pos]);
+        w.extend_from_slice(&w_s[..pos]);
+        debug_assert_eq!(r.len(), pos + neg + 1);
+        (r, w)
     }
 
     /// The model with the solved weights (unexcited operators weigh 0).
-    fn model(&self, solution: &Solution) -> Result<HysteresisCreepModel, ModelError> {
+    fn model(&self, solution: &Solution) -> Result<HysteresisCreepModel, IdentificationError> {
         let hysteresis = HysteresisOperator::new(self.r_h.clone(), solution.w_h.clone())?;
         let creep = if self.r_c.is_empty() {
             None
@@ -218,10 +312,25 @@ impl FitPlan {
                 self.sample_time,
             )?)
         };
-        Ok(
-            HysteresisCreepModel::from_parts(self.sample_time, hysteresis, creep)?
-                .with_offset(solution.offset),
-        )
+        let model = HysteresisCreepModel::from_parts(self.sample_time, hysteresis, creep)?;
+        if self.r_s.is_empty() {
+            return Ok(model.with_offset(solution.offset));
+        }
+        // H + C + d = S⁻¹[ς − c], so ς = S[H + C + d] + c: S shifted along its
+        // input by d, and the constant S(d) + c as the output offset
+        let (r_inv, w_inv) = self.inverse_superposition(&solution.w_s);
+        let s = Superposition::<f64, crate::operators::heap::Heap>::inverse_of(
+            &SuperpositionParameters {
+                thresholds: &r_inv,
+                weights: &w_inv,
+            },
+        )?;
+        let d = solution.offset;
+        let (r, w) = shifted_superposition(s.thresholds(), s.weights(), d)?;
+        let shifted = Superposition::new(&r, &w)?;
+        Ok(model
+            .with_superposition(Some(shifted))
+            .with_offset(self.centre + s.apply(d)))
     }
 }
 
@@ -253,6 +362,7 @@ impl Regression {
             plan.fit_offset,
             &plan.r_h[..plan.nh],
             creep,
+            (!plan.r_s.is_empty()).then_some((plan.r_s.as_slice(), plan.centre)),
         );
         let p = plan.excited();
         let r = Self::weights_block(&factor, plan);
@@ -290,10 +400,12 @@ impl Regression {
         let r = Self::weights_block(&self.factor, plan);
         let c: Vec<f64> = (0..p).map(|i| self.factor[(q + i, q + p)]).collect();
         // M = R D: column j of R D is R_j − R_{j+1} within each group
+        let groups = plan.group_ranges();
         let m = Mat::from_fn(p, p, |i, j| {
-            let next = j + 1;
-            let same_group = (j < nh && next < nh) || (j >= nh && next < p);
-            r[(i, j)] - if same_group { r[(i, next)] } else { 0.0 }
+            let same_group = groups
+                .iter()
+                .any(|g| g.contains(&j) && g.contains(&(j + 1)));
+            r[(i, j)] - if same_group { r[(i, j + 1)] } else { 0.0 }
         });
         let d: Vec<f64> = (0..p)
             .map(|i| c[i] - (0..p).map(|j| m[(i, j)] * plan.bound(j)).sum::<f64>())
@@ -314,11 +426,14 @@ impl Regression {
         // weights from partial sums, such that the recomputed sums hold
         let mut w_h = weights_from_sums(&sums[..nh], plan.epsilon_h);
         w_h.resize(plan.r_h.len(), 0.0);
-        let mut w_c = weights_from_sums(&sums[nh..], 0.0);
+        let mut w_c = weights_from_sums(&sums[groups[1].clone()], 0.0);
         w_c.resize(plan.r_c.len(), 0.0);
+        let s_bound = EPSILON_S - 1.0;
+        let mut w_s = weights_from_sums(&sums[groups[2].clone()], s_bound);
+        w_s.extend(weights_from_sums(&sums[groups[3].clone()], s_bound));
         // the offset from the first row of the factor: r_00 o + r_0j w_j = c_0
         let offset = if plan.fit_offset && self.factor[(0, 0)] != 0.0 {
-            let w_all = w_h[..nh].iter().chain(&w_c[..plan.nc]);
+            let w_all = w_h[..nh].iter().chain(&w_c[..plan.nc]).chain(&w_s);
             let dot: f64 = w_all
                 .enumerate()
                 .map(|(j, w)| self.factor[(0, 1 + j)] * w)
@@ -330,6 +445,7 @@ impl Regression {
         Ok(Solution {
             w_h,
             w_c,
+            w_s,
             offset,
             active_constraints,
             kkt_residual: solution.kkt_residual,
@@ -343,8 +459,67 @@ impl Regression {
 struct Solution {
     w_h: Vec<f64>,
     w_c: Vec<f64>,
+    /// The weights of `S⁻¹`'s dead zones, in column order.
+    w_s: Vec<f64>,
     offset: f64,
     active_constraints: Vec<ActiveConstraint>,
     kkt_residual: f64,
     iterations: usize,
+}
+
+/// `S_d(z) = S(z + d) − S(d)` as a superposition operator: the kinks move to
+/// `r_i − d`; a kink that changes side changes the sign of its weight (a
+/// weight is the change of slope going outward); the new zero threshold
+/// carries the slope of `S` at `d`.
+fn shifted_superposition(
+    r: &[f64],
+    w: &[f64],
+    d: f64,
+) -> Result<(Vec<f64>, Vec<f64>), IdentificationError> {
+    let zero = r.iter().position(|&x| x == 0.0).unwrap_or(0);
+    let mut slope = w[zero];
+    let mut kinks: Vec<(f64, f64)> = Vec::with_capacity(r.len());
+    for (i, (&ri, &wi)) in r.iter().zip(w).enumerate() {
+        if i == zero {
+            continue;
+        }
+        let t = ri - d;
+        if t == 0.0 {
+            return Err(IdentificationError::NotSolved {
+                reason: format!("the fitted shift {d} of S lies on its kink {ri}"),
+            });
+        }
+        // kinks between 0 and d: the slope at d has passed them
+        if (ri > 0.0 && ri < d) || (ri < 0.0 && ri > d) {
+            slope += wi;
+        }
+        let same_side = (ri > 0.0) == (t > 0.0);
+        kinks.push((t, if same_side { wi } else { -wi }));
+    }
+    kinks.push((0.0, slope));
+    kinks.sort_by(|a, b| a.0.total_cmp(&b.0));
+    Ok(kinks.into_iter().unzip())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_shifted_superposition_is_s_moved_along_its_input() {
+        let (r, w) = (vec![-2.0, 0.0, 1.0, 3.0], vec![0.5, 1.0, -0.25, 0.5]);
+        let s = Superposition::<f64, crate::operators::heap::Heap>::new(&r, &w).unwrap();
+        for d in [-3.0, -1.0, 0.4, 2.0, 5.0] {
+            let (rs, ws) = shifted_superposition(&r, &w, d).unwrap();
+            let t = Superposition::<f64, crate::operators::heap::Heap>::new(&rs, &ws).unwrap();
+            for k in 0..=80 {
+                let z = -8.0 + 0.2 * k as f64;
+                let (a, b) = (t.apply(z), s.apply(z + d) - s.apply(d));
+                assert!(
+                    (a - b).abs() <= 1e-14 * (1.0 + b.abs()),
+                    "d {d}, z {z}: {a} vs {b}"
+                );
+            }
+        }
+    }
 }

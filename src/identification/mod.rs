@@ -59,5 +59,8 @@ pub use identify::{identify, Identification};
 pub use report::{
     first_at_max, validate, ActiveConstraint, FitErrors, FitReport, UnexcitedOperator,
 };
-pub use settings::{holdout_samples, thresholds_23, IdentificationError, IdentificationSettings};
+pub use settings::{
+    holdout_samples, superposition_kinks, thresholds_23, IdentificationError,
+    IdentificationSettings,
+};
 pub use solve::RANK_TOLERANCE;

@@ -1,7 +1,9 @@
 //! Stage 1 of an identification: the regressor `[1 | Φ | ς]` of (25) — play
 //! outputs (20), log(t)-creep outputs (15) and the measurement — streamed
 //! through a tall-skinny QR, so only its small triangular factor is ever
-//! stored.
+//! stored. With a superposition operator (Kuhnen's error model) the
+//! measurement enters through the dead zones of `S⁻¹` as well:
+//! `[1 | Φ | −d_{r'}(ς − c) | ς − c]`.
 
 use faer::reborrow::ReborrowMut;
 use faer::Mat;
@@ -22,6 +24,10 @@ const CHUNK: usize = 4096;
 /// rows are stacked under the factor so far and factored again (a streaming
 /// "tall-skinny" QR), which gives the factor of the whole (up to the signs
 /// of its rows) with the same backward stability.
+///
+/// `superposition = (kinks, c)`: the columns `−d_{r'}(ς_k − c)` of `S⁻¹`'s
+/// dead zones at `kinks` (relative to `c`), and `ς − c` as the right-hand
+/// side (the weight of `S⁻¹`'s linear term fixed at 1).
 pub(crate) fn regressor_factor(
     u: &[f64],
     y: &[f64],
@@ -29,10 +35,12 @@ pub(crate) fn regressor_factor(
     offset: bool,
     r_h: &[f64],
     mut creep: Option<CreepOperator>,
+    superposition: Option<(&[f64], f64)>,
 ) -> Mat<f64> {
     let nh = r_h.len();
     let nc = creep.as_ref().map_or(0, |c| c.thresholds().len());
-    let p = nh + nc;
+    let (kinks, centre) = superposition.unwrap_or((&[], 0.0));
+    let p = nh + nc + kinks.len();
     let q = usize::from(offset);
     let cols = q + p + 1;
     // the factor so far in the first `cols` rows, the new chunk below it
@@ -66,7 +74,21 @@ pub(crate) fn regressor_factor(
         for (j, &cj) in creep_row.iter().enumerate() {
             stack[(row, q + nh + j)] = cj;
         }
-        stack[(row, q + p)] = y[k];
+        match superposition {
+            None => stack[(row, q + p)] = y[k],
+            Some(_) => {
+                let z = y[k] - centre;
+                for (j, &r) in kinks.iter().enumerate() {
+                    let d = if r > 0.0 {
+                        (z - r).max(0.0)
+                    } else {
+                        (z - r).min(0.0)
+                    };
+                    stack[(row, q + nh + nc + j)] = -d;
+                }
+                stack[(row, q + p)] = z;
+            }
+        }
         filled += 1;
         if filled == CHUNK || k + 1 == rows.end {
             fold_chunk(&mut stack, cols, filled, have_r);

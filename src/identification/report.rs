@@ -10,7 +10,9 @@ use crate::operators::traits::Operator;
 /// A constraint that holds with equality at the solution.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ActiveConstraint {
-    /// `"hysteresis"` or `"creep"`.
+    /// `"hysteresis"`, `"creep"`, `"superposition above"` or
+    /// `"superposition below"` (the dead zones of `S⁻¹` above and below the
+    /// output's mid-point; their partial sums are the slopes of `S⁻¹` less 1).
     pub group: &'static str,
     /// `j` of the partial sum `Σ_{i≤j} w_i`.
     pub index: usize,
@@ -104,6 +106,9 @@ pub struct FitReport {
     pub kkt_residual: f64,
     /// Steps of the active-set method.
     pub iterations: usize,
+    /// The fitted superposition operator `S` (thresholds, weights), if one
+    /// was fitted.
+    pub superposition: Option<(Vec<f64>, Vec<f64>)>,
 }
 
 /// A percentage with four significant digits, in exponent form when tiny.
@@ -158,6 +163,14 @@ impl std::fmt::Display for FitReport {
             )?;
         }
         writeln!(f, "offset               {:.6e}", self.offset)?;
+        if let Some((r, w)) = &self.superposition {
+            let list = |x: &[f64]| {
+                let s: Vec<String> = x.iter().map(|v| format!("{v:.6e}")).collect();
+                s.join(", ")
+            };
+            writeln!(f, "superposition S      thresholds [{}]", list(r))?;
+            writeln!(f, "                     weights    [{}]", list(w))?;
+        }
         writeln!(f, "cond(Phi)            {:.3e}", self.condition_number)?;
         writeln!(
             f,
@@ -174,11 +187,21 @@ impl std::fmt::Display for FitReport {
             writeln!(f, "active constraints   none")?;
         } else {
             for c in &self.active_constraints {
-                writeln!(
-                    f,
-                    "active constraint    {} partial sum 0..={} = {}",
-                    c.group, c.index, c.bound
-                )?;
+                if c.group.starts_with("superposition") {
+                    writeln!(
+                        f,
+                        "active constraint    slope of S^-1 {} its kink {} = {}",
+                        c.group,
+                        c.index,
+                        1.0 + c.bound
+                    )?;
+                } else {
+                    writeln!(
+                        f,
+                        "active constraint    {} partial sum 0..={} = {}",
+                        c.group, c.index, c.bound
+                    )?;
+                }
             }
         }
         for u in &self.unexcited {

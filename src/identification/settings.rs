@@ -73,6 +73,14 @@ pub struct IdentificationSettings {
     pub fit_from: Option<usize>,
     /// Samples at the end left out of the fit, for validation (default 0).
     pub holdout: usize,
+    /// Dead zones per side of a superposition operator `S` after `H + C`
+    /// (the modified PI model, fitted by Kuhnen's error model); 0 (the
+    /// default) fits the paper's symmetric model.
+    pub superposition: usize,
+    /// Explicit kinks of `S⁻¹` on the output axis (the unit of `y`) instead
+    /// of the rule ([`superposition_kinks`]); they must lie strictly inside
+    /// the fitted output's range and differ from its mid-point.
+    pub superposition_kinks: Option<Vec<f64>>,
 }
 
 impl Default for IdentificationSettings {
@@ -89,6 +97,8 @@ impl Default for IdentificationSettings {
             fit_offset: true,
             fit_from: None,
             holdout: 0,
+            superposition: 0,
+            superposition_kinks: None,
         }
     }
 }
@@ -137,6 +147,11 @@ impl IdentificationSettings {
             };
         check("hysteresis_thresholds", &self.hysteresis_thresholds)?;
         check("creep_thresholds", &self.creep_thresholds)?;
+        if let Some(k) = &self.superposition_kinks {
+            if k.iter().any(|x| !x.is_finite()) {
+                return bad("superposition_kinks", "must be finite numbers");
+            }
+        }
         if let Some(a) = &self.eigenvalues {
             if a.is_empty() || a.iter().any(|&x| !(x.is_finite() && x > 0.0)) {
                 return bad("eigenvalues", "must be finite numbers > 0");
@@ -165,6 +180,18 @@ pub fn thresholds_23(count: usize, r_max: f64) -> Vec<f64> {
     (0..count)
         .map(|i| (i as f64 * r_max) / count as f64)
         .collect()
+}
+
+/// The kinks of `S⁻¹` on the output axis, relative to the centre `c` (the
+/// mid-point of the fitted output; 0 when no offset is fitted): `m` per
+/// side, evenly between `c` and the output's extreme on that side,
+/// `c + i·above/(m + 1)` and `c − i·below/(m + 1)`, `i = 1..m`, so the
+/// outermost stay inside the range and every dead zone is excited. The
+/// positive side outward, then the negative side outward.
+pub fn superposition_kinks(m: usize, above: f64, below: f64) -> Vec<f64> {
+    let step = |i: usize, h: f64| (i as f64 * h) / (m + 1) as f64;
+    let up = (1..=m).map(|i| step(i, above));
+    up.chain((1..=m).map(|i| -step(i, below))).collect()
 }
 
 #[cfg(test)]
