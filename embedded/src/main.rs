@@ -1,8 +1,10 @@
 //! The paper's Fig. 10 staircase through `W⁻¹` and then `W` on a Cortex-M4
 //! (QEMU `mps2-an386`), in `f32` and in `f64`, with the paper-sized
-//! `Compensator` and `Model` of `mfcbeam::realtime` in `nominal::Capacity`.
+//! `Compensator` and `Model` of `mfcbeam::realtime` in `nominal::Capacity`,
+//! and in `f32` for an asymmetric actuator: the nominal `H + C` followed by
+//! a superposition operator `S` (`Inline<12, 60, 5>`).
 //!
-//! Prints, per precision, the worst identity error `max|W[W⁻¹[y]] − y|`
+//! Prints, per run, the worst identity error `max|W[W⁻¹[y]] − y|`
 //! against its rounding bound (`RoundingBounds::identity`), and the cost of
 //! one compensator step from the cycle counter, then exits through
 //! semihosting: 0 when every identity error is within its bound, 1 otherwise.
@@ -22,7 +24,20 @@ use core::panic::PanicInfo;
 use cortex_m::peripheral::{syst::SystClkSource, DWT, SYST};
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::{debug, hio};
-use mfcbeam::realtime::{nominal, Compensator, CompensatorSettings, Model, Real, RoundingBounds};
+use mfcbeam::realtime::{
+    nominal, Compensator, CompensatorSettings, Inline, Model, ModelParameters, Real,
+    RoundingBounds, Storage, SuperpositionParameters,
+};
+
+/// The asymmetric actuator's `S`: slopes 0.75 and 1.0 below, 1 in the
+/// middle, 0.8 and 0.65 above.
+const ASYMMETRIC: ModelParameters<'static> = ModelParameters {
+    superposition: Some(SuperpositionParameters {
+        thresholds: &[-500.0, -200.0, 0.0, 150.0, 400.0],
+        weights: &[0.25, -0.25, 1.0, -0.2, -0.15],
+    }),
+    ..nominal::PARAMETERS
+};
 
 /// MPS2's core clock (the SysTick reference with the core clock source).
 const CORE_CLOCK_HZ: u32 = 25_000_000;
@@ -112,14 +127,10 @@ struct Outcome {
     ticks_sum: u64,
 }
 
-fn run<T: Real>(counter: &Counter) -> Outcome {
-    let p = &nominal::PARAMETERS;
-    let mut comp = Compensator::<T, nominal::Capacity>::new(
-        p,
-        CompensatorSettings::with_limits(-1000.0, 1000.0),
-    )
-    .expect("nominal model");
-    let mut plant = Model::<T, nominal::Capacity>::new(p).expect("nominal model");
+fn run<T: Real, St: Storage>(counter: &Counter, p: &ModelParameters<'_>) -> Outcome {
+    let mut comp = Compensator::<T, St>::new(p, CompensatorSettings::with_limits(-1000.0, 1000.0))
+        .expect("valid model");
+    let mut plant = Model::<T, St>::new(p).expect("valid model");
     let mut o = Outcome {
         identity: 0.0,
         bound: 0.0,
@@ -182,7 +193,13 @@ fn main() -> ! {
         );
         let _ = writeln!(o, "counter: {} at {} Hz", counter.name(), CORE_CLOCK_HZ);
     }
-    for (name, o) in [("f32", run::<f32>(&counter)), ("f64", run::<f64>(&counter))] {
+    type Asymmetric = Inline<{ nominal::PLAYS }, { nominal::CREEP }, 5>;
+    let nominal = &nominal::PARAMETERS;
+    for (name, o) in [
+        ("f32", run::<f32, nominal::Capacity>(&counter, nominal)),
+        ("f64", run::<f64, nominal::Capacity>(&counter, nominal)),
+        ("f32 with S", run::<f32, Asymmetric>(&counter, &ASYMMETRIC)),
+    ] {
         let pass = o.identity <= o.bound && o.saturated == 0;
         ok &= pass;
         if let Some(out) = out.as_mut() {

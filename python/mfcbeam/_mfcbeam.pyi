@@ -22,8 +22,9 @@ class ModelState(TypedDict):
     """Creep states, shape (creep thresholds, eigenvalues); None without creep."""
 
 class Model:
-    """The hysteresis and creep model W = H + C (plus an output offset): it
-    maps the balanced patch voltage u (V) to the effective voltage y.
+    """The hysteresis and creep model W = S[H + C] + offset (S, the optional
+    superposition operator of asymmetric loops): it maps the balanced patch
+    voltage u (V) to the effective voltage y.
 
     Stateful: `simulate` continues from the current state; `reset()` returns
     to the virgin state."""
@@ -47,6 +48,9 @@ class Model:
     @property
     def offset(self) -> float:
         """Constant output offset."""
+    @property
+    def superposition(self) -> Optional[Tuple[List[float], List[float]]]:
+        """The superposition operator S after H + C as (thresholds, weights), or None."""
     @property
     def state(self) -> ModelState:
         """The current play and creep states."""
@@ -118,6 +122,7 @@ class FitReport(TypedDict):
     epsilon_h: float
     kkt_residual: float
     iterations: int
+    superposition: Optional[Tuple[List[float], List[float]]]
     active_constraints: List[ActiveConstraint]
     unexcited: List[NamedOperator]
     undetermined: List[NamedOperator]
@@ -140,9 +145,13 @@ def identify(
     fit_from: Optional[int] = None,
     holdout: float = 0.0,
     validate: Optional[Tuple[ArrayLike, ArrayLike]] = None,
+    superposition: int = 0,
+    superposition_kinks: Optional[ArrayLike] = None,
 ) -> Tuple[Model, FitReport]:
-    """Identify W = H + C from input u (V) and measured y, at `sample_time`
-    (s) or timestamps `t`; returns the model and the fit report."""
+    """Identify W = S[H + C] + offset from input u (V) and measured y, at
+    `sample_time` (s) or timestamps `t` (`superposition=M`: M dead zones of S
+    per side; 0, the paper's symmetric model); returns the model and the fit
+    report."""
 
 class Modes(TypedDict):
     frequencies_hz: FloatArray

@@ -14,7 +14,7 @@ use mfcbeam::io::TimeAxis;
 use crate::arrays::{optional_signal, signal, value_error};
 use crate::model::Model;
 
-/// Identify a model W = H + C from the input u (V) and the measured output y
+/// Identify a model W = S[H + C] + offset from the input u (V) and the measured output y
 /// sampled at `sample_time` (s), or at the timestamps `t` (s, mean step;
 /// at most 1 % jitter).
 ///
@@ -23,6 +23,12 @@ use crate::model::Model;
 /// always has an inverse. The operators start virgin at the first sample;
 /// by default the fit starts where |u| first reaches max|u| (every play's
 /// state is known from there), and an output offset is fitted.
+///
+/// `superposition=M` fits a superposition operator S with M dead zones per
+/// side after H + C (the modified PI model, for asymmetric loops) by
+/// Kuhnen's error model; `superposition_kinks` places S⁻¹'s kinks on the
+/// output axis instead of the rule. 0 (the default) is the paper's
+/// symmetric model.
 ///
 /// `holdout` is the fraction of the record at the end left out of the fit
 /// and reported; `validate=(u2, y2)` reports the errors on another record.
@@ -34,7 +40,8 @@ use crate::model::Model;
     u, y, *, sample_time = None, t = None,
     hysteresis_operators = 12, creep_operators = 12, creep_eigenvalues = 5,
     hysteresis_thresholds = None, creep_thresholds = None, eigenvalues = None,
-    epsilon_h = None, fit_offset = true, fit_from = None, holdout = 0.0, validate = None
+    epsilon_h = None, fit_offset = true, fit_from = None, holdout = 0.0, validate = None,
+    superposition = 0, superposition_kinks = None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify<'py>(
@@ -54,6 +61,8 @@ pub fn identify<'py>(
     fit_from: Option<usize>,
     holdout: f64,
     validate: Option<(Bound<'py, PyAny>, Bound<'py, PyAny>)>,
+    superposition: usize,
+    superposition_kinks: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<(Model, Bound<'py, PyDict>)> {
     let u = signal("u", u)?;
     let y = signal("y", y)?;
@@ -75,6 +84,8 @@ pub fn identify<'py>(
         fit_offset,
         fit_from,
         holdout,
+        superposition,
+        superposition_kinks: optional_signal("superposition_kinks", superposition_kinks)?,
     };
     let (id, validated) = py
         .detach(move || {
@@ -124,6 +135,7 @@ pub fn identify<'py>(
     d.set_item("active_constraints", active)?;
     d.set_item("unexcited", operators(py, &r.unexcited)?)?;
     d.set_item("undetermined", operators(py, &r.undetermined)?)?;
+    d.set_item("superposition", r.superposition.clone())?;
     d.set_item("text", r.to_string())?;
     Ok((Model { inner: id.model }, d))
 }

@@ -95,6 +95,15 @@ impl Model {
         self.inner.offset()
     }
 
+    /// The superposition operator S after H + C as (thresholds, weights), or
+    /// None (S the identity: the paper's symmetric model).
+    #[getter]
+    fn superposition(&self) -> Option<(Vec<f64>, Vec<f64>)> {
+        self.inner
+            .superposition()
+            .map(|s| (s.thresholds().to_vec(), s.weights().to_vec()))
+    }
+
     /// The current state: a dict with "hysteresis" (the play states, one per
     /// threshold) and "creep" (one row of eigenvalue states per creep
     /// threshold, or None without creep).

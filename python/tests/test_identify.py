@@ -120,3 +120,37 @@ def test_compensator_of_the_identified_model(record):
     n, p = report["fitted"][1] - report["fitted"][0], report["unknowns"] + 1
     err = np.sqrt(np.mean((y - y_d) ** 2))
     assert err < 5 * SIGMA * np.sqrt(p / n), err
+
+
+def asymmetric_nominal():
+    """The nominal model followed by an asymmetric superposition operator."""
+    m = json.loads(mfcbeam.Model.nominal().to_json())
+    m["superposition"] = {
+        "thresholds": [-500.0, -200.0, 0.0, 150.0, 400.0],
+        "weights": [0.25, -0.25, 1.0, -0.2, -0.15],
+    }
+    m["offset"] = OFFSET
+    return mfcbeam.Model.from_json(json.dumps(m))
+
+
+def test_superposition_agrees_with_the_cli_and_fits_an_asymmetric_loop(cli, record):
+    truth = asymmetric_nominal()
+    assert truth.superposition[0] == [-500.0, -200.0, 0.0, 150.0, 400.0]
+    u = record["u"]
+    rng = np.random.default_rng(2211)
+    y = truth.simulate(u) + rng.normal(0.0, SIGMA, len(u))
+    src = cli.write_csv("asym.csv", {"t": record["t"], "u": u, "y": y})
+    out = cli.tmp / "asym.json"
+    r = cli.run("identify", "--input", src, "--output", out, "--superposition", "3")
+    model, report = mfcbeam.identify(u, y, t=record["t"], superposition=3)
+    ours = json.loads(model.to_json())
+    assert not np.any(ours["hysteresis"].pop("state")) and not np.any(ours["creep"].pop("state"))
+    assert ours == json.loads(out.read_text())
+    assert report["text"] in r.stderr
+    thresholds, weights = report["superposition"]
+    assert model.superposition == (thresholds, weights)
+    assert len(thresholds) == 7 and 0.0 in thresholds
+    # the symmetric model cannot follow the asymmetric loop
+    _, symmetric = mfcbeam.identify(u, y, t=record["t"])
+    assert symmetric["superposition"] is None
+    assert report["rms"] < 0.5 * symmetric["rms"]

@@ -174,6 +174,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         settings: CompensatorSettings,
     ) -> Result<Self, ParameterError> {
         parameters.validate()?;
+        let (ts, superposition) = (parameters.sample_time, parameters.superposition.as_ref());
         settings.validate()?;
         let h = &parameters.hysteresis;
         let n = h.thresholds.len();
@@ -186,14 +187,12 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             sums: zeros()?,
             scratch: zeros()?,
             last_u: T::ZERO,
-            creep: match &parameters.creep {
-                Some(cp) => Some(Creep::from_parameters(cp, parameters.sample_time)?),
-                None => None,
-            },
-            inverse_superposition: match &parameters.superposition {
-                Some(sp) => Some(Superposition::inverse_of(sp)?),
-                None => None,
-            },
+            creep: parameters
+                .creep
+                .as_ref()
+                .map(|c| Creep::from_parameters(c, ts))
+                .transpose()?,
+            inverse_superposition: superposition.map(Superposition::inverse_of).transpose()?,
             offset: T::from_f64(parameters.offset),
             // rounded inward: an f32 limit rounded to nearest can lie outside
             lower: T::from_f64_up(settings.lower_limit),

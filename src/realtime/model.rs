@@ -28,18 +28,19 @@ impl<T: Real, S: Storage> Model<T, S> {
     /// `W` with checked parameters, in the virgin state.
     pub fn new(parameters: &ModelParameters<'_>) -> Result<Self, ParameterError> {
         parameters.validate()?;
+        let (ts, superposition) = (parameters.sample_time, parameters.superposition.as_ref());
         Ok(Self {
             sample_time: parameters.sample_time,
             offset: T::from_f64(parameters.offset),
             hysteresis: Hysteresis::from_parameters(&parameters.hysteresis)?,
-            creep: match &parameters.creep {
-                Some(c) => Some(Creep::from_parameters(c, parameters.sample_time)?),
-                None => None,
-            },
-            superposition: match &parameters.superposition {
-                Some(s) => Some(Superposition::from_parameters(s)?),
-                None => None,
-            },
+            creep: parameters
+                .creep
+                .as_ref()
+                .map(|c| Creep::from_parameters(c, ts))
+                .transpose()?,
+            superposition: superposition
+                .map(Superposition::from_parameters)
+                .transpose()?,
         })
     }
 

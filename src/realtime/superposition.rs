@@ -136,15 +136,6 @@ impl<T: Real, St: Storage> Superposition<T, St> {
         apply(&self.thresholds, &self.weights, self.zero, z)
     }
 
-    /// The number of terms (thresholds, the zero one included).
-    pub fn len(&self) -> usize {
-        self.thresholds.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.thresholds.is_empty()
-    }
-
     /// The thresholds `r_i`, increasing, one of them 0.
     pub fn thresholds(&self) -> &[T] {
         &self.thresholds

@@ -2,6 +2,7 @@
 //! of several shapes, nested extrema for the branching rules.
 
 use crate::operators::model::{CreepData, HysteresisData, ModelFile, SuperpositionData};
+use crate::suite::conformance::Case;
 use crate::suite::reference::NaiveModel;
 
 /// SplitMix64: small, seeded, the same on every platform.
@@ -156,8 +157,8 @@ pub fn random_superposition(rng: &mut Rng, scale: f64) -> SuperpositionData {
 
 /// A model that is a random `S` alone (`H` one play of threshold 0 and
 /// weight 1, the identity; no creep), at a scale between 1 and 1000, and an
-/// input sweeping up and down across all of its thresholds.
-pub fn superposition_model(rng: &mut Rng, samples: usize) -> (ModelFile, Vec<f64>) {
+/// input sweeping up and down across all of its thresholds (no limits).
+pub fn superposition_model(rng: &mut Rng, samples: usize) -> Case {
     let scale = 10f64.powf(rng.uniform(0.0, 3.0));
     let file = ModelFile {
         sample_time: 2e-4,
@@ -171,7 +172,11 @@ pub fn superposition_model(rng: &mut Rng, samples: usize) -> (ModelFile, Vec<f64
         offset: rng.chance(0.5).then(|| rng.uniform(-0.2, 0.2) * scale),
     };
     let input = random_input(rng, samples.max(2), 1.2 * scale);
-    (file, input)
+    Case {
+        model: file,
+        input,
+        limits: None,
+    }
 }
 
 /// Whether `S` is odd (`S[−z] = −S[z]`): mirrored thresholds and weights,

@@ -71,11 +71,15 @@ fn outputs(c: &[Compensated]) -> Vec<f64> {
     c.iter().map(|c| c.u).collect()
 }
 
-/// Random model and targets `W[v]` of a random input `v` (reachable).
-fn target_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
-    let mut case = voltage_case(rng, s, 0);
+/// The case with its input replaced by the targets `W[v]` of it (reachable).
+fn targets_of(mut case: Case) -> Case {
     case.input = plant(&case).run(&case.input);
     case
+}
+
+/// Random model and targets `W[v]` of a random input `v`.
+fn target_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
+    targets_of(voltage_case(rng, s, 0))
 }
 
 /// Random model and random voltages `v` (the property maps them through `W`).
@@ -93,19 +97,12 @@ fn voltage_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
 /// `S` alone ([`superposition_model`]) and random arguments `z`.
 fn superposition_voltage_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
     let n = rng.int(4, s.max_samples);
-    let (model, input) = superposition_model(rng, n);
-    Case {
-        model,
-        input,
-        limits: None,
-    }
+    superposition_model(rng, n)
 }
 
 /// `S` alone and targets `S[z]` of random arguments.
 fn superposition_target_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
-    let mut case = superposition_voltage_case(rng, s, 0);
-    case.input = plant(&case).run(&case.input);
-    case
+    targets_of(superposition_voltage_case(rng, s, 0))
 }
 
 fn virgin_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
@@ -113,13 +110,11 @@ fn virgin_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
     let n = rng.int(4, s.max_samples);
     let r = reach(&model);
     let input = random_input(rng, n, 1.2 * r);
-    let mut case = Case {
+    targets_of(Case {
         model,
         input,
         limits: Some((-0.8 * r, 0.8 * r)),
-    };
-    case.input = plant(&case).run(&case.input);
-    case
+    })
 }
 
 fn paper_case(_: &mut Rng, _: &ConformanceSettings, _: usize) -> Case {

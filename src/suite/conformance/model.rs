@@ -81,13 +81,9 @@ fn signal_case(rng: &mut Rng, s: &ConformanceSettings, shape: ModelShape) -> Cas
 /// `S` alone ([`superposition_model`]) on a sorted input: a monotone sweep.
 fn superposition_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
     let n = input_len(rng, s);
-    let (model, mut input) = superposition_model(rng, n);
-    input.sort_by(f64::total_cmp);
-    Case {
-        model,
-        input,
-        limits: None,
-    }
+    let mut case = superposition_model(rng, n);
+    case.input.sort_by(f64::total_cmp);
+    case
 }
 
 fn any_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
