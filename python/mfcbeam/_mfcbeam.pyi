@@ -122,6 +122,8 @@ class FitReport(TypedDict):
     epsilon_h: float
     kkt_residual: float
     iterations: int
+    weights: List[float]
+    standard_errors: List[float]
     superposition: Optional[Tuple[List[float], List[float]]]
     active_constraints: List[ActiveConstraint]
     unexcited: List[NamedOperator]

@@ -135,6 +135,8 @@ pub fn identify<'py>(
     d.set_item("active_constraints", active)?;
     d.set_item("unexcited", operators(py, &r.unexcited)?)?;
     d.set_item("undetermined", operators(py, &r.undetermined)?)?;
+    d.set_item("weights", r.weights.clone())?;
+    d.set_item("standard_errors", r.standard_errors.clone())?;
     d.set_item("superposition", r.superposition.clone())?;
     d.set_item("text", r.to_string())?;
     Ok((Model { inner: id.model }, d))

@@ -97,6 +97,9 @@ def test_report_fields(record):
         assert np.isfinite(report[key]) and report[key] > 0, key
     for c in report["active_constraints"]:
         assert c["group"] in ("hysteresis", "creep") and c["index"] >= 0
+    assert len(report["weights"]) == len(report["standard_errors"]) == 8 + 4
+    assert all(se > 0 for se in report["standard_errors"])
+    assert report["superposition"] is None
     assert json.loads(model.to_json())["creep"]["eigenvalues"] == [
         1 / (10.0 ** j * record["ts"]) for j in range(1, 5)
     ]

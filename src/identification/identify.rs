@@ -46,6 +46,7 @@ pub fn identify(
     let regression = Regression::of(u, y, &plan)?;
     let solution = regression.solve(&plan)?;
     let model = plan.model(&solution)?;
+    let standard_errors = regression.standard_errors(&plan);
     // the fit of the model as it will be used, from the virgin state
     let fit = model.clone().run(u);
     let n = u.len();
@@ -67,6 +68,13 @@ pub fn identify(
         unexcited: plan.unexcited,
         kkt_residual: solution.kkt_residual,
         iterations: solution.iterations,
+        weights: solution.w_h[..plan.nh]
+            .iter()
+            .chain(&solution.w_c[..plan.nc])
+            .chain(&solution.w_s)
+            .copied()
+            .collect(),
+        standard_errors,
         superposition: model
             .superposition()
             .map(|s| (s.thresholds().to_vec(), s.weights().to_vec())),
@@ -384,6 +392,38 @@ impl Regression {
             condition_number,
             undetermined,
         })
+    }
+
+    /// Standard errors of the weights in column order, as least squares
+    /// without the bounds gives them: `σ̂ √((RᵀR)⁻¹)_jj` with `σ̂` the residual
+    /// (the factor's last diagonal entry) over `√(N − p − q)`; infinite when
+    /// the rank is deficient.
+    fn standard_errors(&self, plan: &FitPlan) -> Vec<f64> {
+        let (p, q) = (plan.excited(), usize::from(plan.fit_offset));
+        if self.rank < p {
+            return vec![f64::INFINITY; p];
+        }
+        let r = Self::weights_block(&self.factor, plan);
+        let dof = plan.fitted.len().saturating_sub(p + q).max(1) as f64;
+        let sigma = self.factor[(q + p, q + p)].abs() / dof.sqrt();
+        // R⁻¹ column by column (back substitution), then its row norms
+        let mut inv = Mat::<f64>::zeros(p, p);
+        for k in 0..p {
+            for i in (0..=k).rev() {
+                let rhs = if i == k { 1.0 } else { 0.0 };
+                let sum: f64 = (i + 1..=k).map(|j| r[(i, j)] * inv[(j, k)]).sum();
+                inv[(i, k)] = (rhs - sum) / r[(i, i)];
+            }
+        }
+        (0..p)
+            .map(|j| {
+                sigma
+                    * (0..p)
+                        .map(|k| inv[(j, k)] * inv[(j, k)])
+                        .sum::<f64>()
+                        .sqrt()
+            })
+            .collect()
     }
 
     /// `R` of the weights: the factor with the offset eliminated (its first

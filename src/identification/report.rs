@@ -106,6 +106,14 @@ pub struct FitReport {
     pub kkt_residual: f64,
     /// Steps of the active-set method.
     pub iterations: usize,
+    /// The solved weights in the regressor's column order: the excited
+    /// plays, the excited creep operators, then the dead zones of `S⁻¹`
+    /// (above the output's mid-point outward, then below it outward).
+    pub weights: Vec<f64>,
+    /// Their standard errors as unconstrained least squares gives them (the
+    /// residual's RMS times `√((RᵀR)⁻¹)_jj`); meaningful where no
+    /// constraint is active, infinite when the rank is deficient.
+    pub standard_errors: Vec<f64>,
     /// The fitted superposition operator `S` (thresholds, weights), if one
     /// was fitted.
     pub superposition: Option<(Vec<f64>, Vec<f64>)>,
