@@ -101,6 +101,17 @@ class NamedOperator(TypedDict):
     index: int
     threshold: float
 
+class ValidationRow(TypedDict):
+    name: str
+    start: int
+    rate: Optional[float]
+    samples: int
+    rms: float
+    rms_percent: float
+    max: float
+    max_percent: float
+    output_range: float
+
 class FitReport(TypedDict):
     sample_time: float
     jitter: Optional[float]
@@ -115,6 +126,7 @@ class FitReport(TypedDict):
     output_range: float
     holdout: Optional[FitErrors]
     validation: Optional[FitErrors]
+    validations: List[ValidationRow]
     offset: float
     condition_number: float
     rank: int
@@ -146,9 +158,10 @@ def identify(
     fit_offset: bool = True,
     fit_from: Optional[int] = None,
     holdout: float = 0.0,
-    validate: Optional[Tuple[ArrayLike, ArrayLike]] = None,
+    validate: Union[None, Tuple[ArrayLike, ArrayLike], List[Tuple[ArrayLike, ArrayLike]]] = None,
     superposition: int = 0,
     superposition_kinks: Optional[ArrayLike] = None,
+    validate_from: Optional[int] = None,
 ) -> Tuple[Model, FitReport]:
     """Identify W = S[H + C] + offset from input u (V) and measured y, at
     `sample_time` (s) or timestamps `t` (`superposition=M`: M dead zones of S

@@ -6,7 +6,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use mfcbeam::identification::{
-    holdout_samples, identify as identify_model, validate as validate_model, FitErrors,
+    holdout_samples, identify as identify_model, validate_record, FitErrors, FitStart,
     IdentificationSettings, UnexcitedOperator,
 };
 use mfcbeam::io::TimeAxis;
@@ -31,7 +31,11 @@ use crate::model::Model;
 /// symmetric model.
 ///
 /// `holdout` is the fraction of the record at the end left out of the fit
-/// and reported; `validate=(u2, y2)` reports the errors on another record.
+/// and reported; `validate=(u2, y2)` reports the errors on another record,
+/// `validate=[(u2, y2), (u3, y3), ...]` on several (report["validations"]:
+/// one row per record with its input's dominant rate), each from
+/// `validate_from` (default: `fit_from`, else where its |u| first reaches
+/// max|u|).
 ///
 /// Returns (model, report): the identified model (virgin state) and a dict
 /// of the figures the command line prints; report["text"] is that text.
@@ -41,7 +45,7 @@ use crate::model::Model;
     hysteresis_operators = 12, creep_operators = 12, creep_eigenvalues = 5,
     hysteresis_thresholds = None, creep_thresholds = None, eigenvalues = None,
     epsilon_h = None, fit_offset = true, fit_from = None, holdout = 0.0, validate = None,
-    superposition = 0, superposition_kinks = None
+    superposition = 0, superposition_kinks = None, validate_from = None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify<'py>(
@@ -60,18 +64,41 @@ pub fn identify<'py>(
     fit_offset: bool,
     fit_from: Option<usize>,
     holdout: f64,
-    validate: Option<(Bound<'py, PyAny>, Bound<'py, PyAny>)>,
+    validate: Option<Bound<'py, PyAny>>,
     superposition: usize,
     superposition_kinks: Option<&Bound<'py, PyAny>>,
+    validate_from: Option<usize>,
 ) -> PyResult<(Model, Bound<'py, PyDict>)> {
     let u = signal("u", u)?;
     let y = signal("y", y)?;
     let t = optional_signal("t", t)?;
     let (ts, jitter) = sample_time_of(sample_time, t.as_deref(), u.len())?;
     let holdout = holdout_samples(holdout, u.len()).map_err(value_error)?;
-    let validation = match validate {
-        None => None,
-        Some((vu, vy)) => Some((signal("validate[0]", &vu)?, signal("validate[1]", &vy)?)),
+    // a tuple is one record, a list several
+    let mut validation = Vec::new();
+    if let Some(v) = validate {
+        let records: Vec<(String, Bound<'py, PyAny>)> = if v.is_instance_of::<PyList>() {
+            let list = v.cast::<PyList>()?;
+            list.iter()
+                .enumerate()
+                .map(|(i, r)| (format!("validate[{i}]"), r))
+                .collect()
+        } else {
+            vec![("validate".to_string(), v)]
+        };
+        for (name, record) in records {
+            let (vu, vy): (Bound<'py, PyAny>, Bound<'py, PyAny>) =
+                record.extract().map_err(|_| {
+                    PyValueError::new_err(format!("{name}: must be a pair (u, y) of arrays"))
+                })?;
+            let vu = signal(&format!("{name}[0]"), &vu)?;
+            let vy = signal(&format!("{name}[1]"), &vy)?;
+            validation.push((name, vu, vy));
+        }
+    }
+    let start = match (validate_from, fit_from) {
+        (Some(k), _) | (None, Some(k)) => FitStart::Sample(k),
+        (None, None) => FitStart::FirstAtMax,
     };
     let settings = IdentificationSettings {
         hysteresis_operators,
@@ -90,15 +117,21 @@ pub fn identify<'py>(
     let (id, validated) = py
         .detach(move || {
             let id = identify_model(&u, &y, ts, &settings)?;
-            let validated = match &validation {
-                None => None,
-                Some((vu, vy)) => Some(validate_model(&id.model, vu, vy).map_err(|e| {
+            let mut validated = Vec::new();
+            for (name, vu, vy) in &validation {
+                let from = start.resolve(vu, ts);
+                validated.push(validate_record(&id.model, name, vu, vy, from).map_err(|e| {
                     mfcbeam::identification::IdentificationError::InvalidSetting {
                         field: "validate",
-                        reason: e.to_string(),
+                        reason: match e {
+                            mfcbeam::identification::IdentificationError::LengthMismatch {
+                                ..
+                            } if name == "validate" => e.to_string(),
+                            _ => format!("{name}: {e}"),
+                        },
                     }
-                })?),
-            };
+                })?);
+            }
             Ok::<_, mfcbeam::identification::IdentificationError>((id, validated))
         })
         .map_err(value_error)?;
@@ -116,7 +149,20 @@ pub fn identify<'py>(
     d.set_item("max_percent", r.fit.max_percent())?;
     d.set_item("output_range", r.fit.output_range)?;
     d.set_item("holdout", r.holdout.map(|h| errors(py, &h)).transpose()?)?;
-    d.set_item("validation", validated.map(|v| errors(py, &v)).transpose()?)?;
+    let first = validated
+        .first()
+        .map(|v| errors(py, &v.errors))
+        .transpose()?;
+    d.set_item("validation", first)?;
+    let rows = PyList::empty(py);
+    for v in &validated {
+        let row = errors(py, &v.errors)?;
+        row.set_item("name", &v.name)?;
+        row.set_item("start", v.from)?;
+        row.set_item("rate", v.rate)?;
+        rows.append(row)?;
+    }
+    d.set_item("validations", rows)?;
     d.set_item("offset", r.offset)?;
     d.set_item("condition_number", r.condition_number)?;
     d.set_item("rank", r.rank)?;

@@ -157,3 +157,32 @@ def test_superposition_agrees_with_the_cli_and_fits_an_asymmetric_loop(cli, reco
     _, symmetric = mfcbeam.identify(u, y, t=record["t"])
     assert symmetric["superposition"] is None
     assert report["rms"] < 0.5 * symmetric["rms"]
+
+
+def test_several_validation_records_give_one_row_each_with_the_input_rate(record):
+    ts = record["ts"]
+    model = mfcbeam.Model.nominal()
+
+    def triangles(rate):
+        k = np.arange(int(1.0 / ts))
+        phase = (k * ts * rate) % 1.0
+        u = 800.0 * np.where(phase < 0.5, 4 * phase - 1, 3 - 4 * phase)
+        return u, model.copy().simulate(u)
+
+    records = [triangles(20.0), triangles(50.0)]
+    fitted, report = mfcbeam.identify(
+        record["u"], record["y"], sample_time=ts, validate=records, validate_from=250
+    )
+    rows = report["validations"]
+    assert [r["name"] for r in rows] == ["validate[0]", "validate[1]"]
+    assert all(r["start"] == 250 and r["samples"] == len(records[0][0]) - 250 for r in rows)
+    for r, rate in zip(rows, (20.0, 50.0)):
+        assert abs(r["rate"] - rate) <= 0.01 * rate
+    assert report["validation"] == {k: v for k, v in rows[0].items() if k not in ("name", "start", "rate")}
+    # a single tuple still works and is the first row
+    _, single = mfcbeam.identify(
+        record["u"], record["y"], sample_time=ts, validate=records[0], validate_from=250
+    )
+    assert single["validation"] == report["validation"]
+    with pytest.raises(ValueError, match=r"validate\[1\]: must be a pair"):
+        mfcbeam.identify(record["u"], record["y"], sample_time=ts, validate=[records[0], 3])

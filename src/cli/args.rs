@@ -10,7 +10,7 @@ use clap::{Args, Parser, Subcommand};
 
 use mfcbeam::beam::step_response_fit::BeamModelKind;
 use mfcbeam::feedforward::FeedforwardSettings;
-use mfcbeam::identification::IdentificationSettings;
+use mfcbeam::identification::{FitStart, IdentificationSettings};
 use mfcbeam::operators::nominal::SAMPLE_TIME;
 use mfcbeam::suite::conformance::ConformanceSettings;
 
@@ -144,19 +144,25 @@ pub struct IdentifyArgs {
     /// Fix the output offset at 0 instead of fitting it.
     #[arg(long)]
     pub no_offset: bool,
-    /// First sample to fit (0: assume the virgin state at the first sample);
-    /// default: where |u| first reaches max|u|, from where every play's
-    /// state is fixed by the input.
-    #[arg(long, value_name = "SAMPLE")]
-    pub fit_from: Option<usize>,
+    /// First sample to fit, as a sample (`1000`; 0: assume the virgin state
+    /// at the first sample) or a time after the first sample (`0.1s`: leave
+    /// a start transient out); default: where |u| first reaches max|u|, from
+    /// where every play's state is fixed by the input.
+    #[arg(long, value_name = "SAMPLE|SECONDSs")]
+    pub fit_from: Option<FitStart>,
     /// Leave this fraction of the data at the end out of the fit and report
     /// the errors on it.
     #[arg(long, value_name = "FRACTION", allow_hyphen_values = true)]
     pub holdout: Option<f64>,
-    /// Another measurement (columns `u`, `y`) to report the identified model's
-    /// errors on.
+    /// Another measurement (columns `u`, `y`, and `t` or the fit's sample
+    /// time) to report the identified model's errors on; may be given
+    /// several times (a table, one row per record, with its input's rate).
     #[arg(long, value_name = "OTHER.csv")]
-    pub validate: Option<PathBuf>,
+    pub validate: Vec<PathBuf>,
+    /// Where the validation records' errors start (a sample or a time like
+    /// `0.1s`); default: as --fit-from (or where |u| first reaches max|u|).
+    #[arg(long, value_name = "SAMPLE|SECONDSs")]
+    pub validate_from: Option<FitStart>,
     /// Draw measured and model output over the input, and the residual over
     /// time (`.png` or `.svg`).
     #[arg(long, value_name = "FILE")]

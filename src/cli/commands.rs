@@ -9,7 +9,8 @@ use serde::Serialize;
 use mfcbeam::beam::step_response_fit::{modal_model, simulate_response, FitParameter};
 use mfcbeam::beam::BeamParameters;
 use mfcbeam::identification::{
-    holdout_samples, identify as identify_model, IdentificationSettings,
+    dominant_rate, holdout_samples, identify as identify_model, validate_record,
+    IdentificationSettings, ValidationRow, ValidationTable,
 };
 use mfcbeam::io::{read_beam, read_model, write_atomic, write_json, Trace};
 use mfcbeam::operators::compensator::CompensatorSettings;
@@ -131,14 +132,14 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
     let y = trace.column("y")?;
     let holdout =
         holdout_samples(a.holdout.unwrap_or(0.0), u.len()).map_err(|e| anyhow!("--{e}"))?;
-    let validation = match &a.validate {
-        None => None,
-        Some(path) => {
-            let other = Trace::read(path)?;
-            other.check_time_column(ts)?;
-            Some((path, other.column("u")?, other.column("y")?))
-        }
-    };
+    let mut validation = Vec::new();
+    for path in &a.validate {
+        let other = Trace::read(path)?;
+        other.check_time_column(ts)?;
+        validation.push((path, other.column("u")?, other.column("y")?));
+    }
+    let fit_from = a.fit_from.map(|f| f.resolve(&u, ts));
+    let validate_from = a.validate_from.or(a.fit_from).unwrap_or_default();
     if let Some(p) = &a.plot {
         if !matches!(p.extension().and_then(|e| e.to_str()), Some("png" | "svg")) {
             bail!("--plot: {}: name a .png or .svg file", p.display());
@@ -146,7 +147,7 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
     }
     let settings = IdentificationSettings {
         fit_offset: !a.no_offset,
-        fit_from: a.fit_from,
+        fit_from,
         holdout,
         hysteresis_operators: a.hysteresis_operators,
         creep_operators: a.creep_operators,
@@ -160,16 +161,24 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
     };
     let id =
         identify_model(&u, &y, ts, &settings).with_context(|| a.input.display().to_string())?;
-    let validated = match &validation {
-        None => None,
-        Some((path, vu, vy)) => Some(
-            mfcbeam::identification::validate(&id.model, vu, vy)
-                .with_context(|| path.display().to_string())?,
-        ),
-    };
+    let mut rows = Vec::new();
+    for (path, vu, vy) in &validation {
+        let from = validate_from.resolve(vu, ts);
+        let name = path.display().to_string();
+        rows.push(validate_record(&id.model, &name, vu, vy, from).with_context(|| name.clone())?);
+    }
     if let Some(p) = &a.plot {
         let fit = id.model.clone().run(&u);
-        mfcbeam::suite::plots::write_identification_plot(p, &u, &y, &fit, ts, &id.report.fitted)
+        let others: Vec<(String, Vec<f64>)> = validation
+            .iter()
+            .map(|(path, vu, vy)| {
+                let fit = id.model.clone().run(vu);
+                let e = fit.iter().zip(vy.iter()).map(|(a, b)| a - b).collect();
+                (path.display().to_string(), e)
+            })
+            .collect();
+        let fitted = &id.report.fitted;
+        mfcbeam::suite::plots::write_identification_plot(p, &u, &y, &fit, ts, fitted, &others)
             .map_err(anyhow::Error::msg)?;
     }
     write_json(&a.output, &id.model.to_file().without_state())?;
@@ -180,16 +189,17 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
         );
     }
     eprint!("{}", id.report);
-    if let (Some((path, ..)), Some(v)) = (&validation, validated) {
-        eprintln!(
-            "validation           {}: {} samples from max|u| on, rms {:.6e} ({:.4} %), max {:.6e} ({:.4} %)",
-            path.display(),
-            v.samples,
-            v.rms,
-            v.rms_percent(),
-            v.max,
-            v.max_percent()
-        );
+    if !rows.is_empty() {
+        // the fitted record first, then one row per validation record
+        let input = a.input.display().to_string();
+        let mut table = vec![ValidationRow {
+            name: input,
+            from: id.report.fitted.start,
+            errors: id.report.fit,
+            rate: dominant_rate(&u, ts),
+        }];
+        table.extend(rows);
+        eprint!("{}", ValidationTable(table));
     }
     if let Some(p) = &a.plot {
         eprintln!("mfcbeam: wrote {}", p.display());

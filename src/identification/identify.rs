@@ -8,6 +8,7 @@
 use faer::Mat;
 
 use super::regressor::regressor_factor;
+use super::report::StartCheck;
 use super::report::{check_finite, first_at_max, range};
 use super::settings::{
     superposition_kinks, thresholds_23, IdentificationError, IdentificationSettings,
@@ -75,6 +76,7 @@ pub fn identify(
             .copied()
             .collect(),
         standard_errors,
+        start: StartCheck::of(&fit, y, first..end),
         superposition: model
             .superposition()
             .map(|s| (s.thresholds().to_vec(), s.weights().to_vec())),

@@ -54,6 +54,7 @@ mod regressor;
 pub mod report;
 pub mod settings;
 mod solve;
+pub mod validation;
 
 pub use identify::{identify, Identification};
 pub use report::{
@@ -64,3 +65,4 @@ pub use settings::{
     IdentificationSettings,
 };
 pub use solve::RANK_TOLERANCE;
+pub use validation::{dominant_rate, validate_record, FitStart, ValidationRow, ValidationTable};

@@ -117,6 +117,41 @@ pub struct FitReport {
     /// The fitted superposition operator `S` (thresholds, weights), if one
     /// was fitted.
     pub superposition: Option<(Vec<f64>, Vec<f64>)>,
+    /// The first 5 % of the fitted samples against the rest.
+    pub start: StartCheck,
+}
+
+/// The errors at the start of the fitted samples against the rest: a start
+/// transient the model does not describe (a jump that rings the stage)
+/// shows as a start much worse than the rest.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StartCheck {
+    /// Samples in the start (5 % of the fitted ones, at least 1).
+    pub samples: usize,
+    /// RMS error of the start and of the rest.
+    pub rms: f64,
+    pub rest_rms: f64,
+}
+
+impl StartCheck {
+    /// A start more than this many times worse than the rest is warned of.
+    pub const RATIO: f64 = 2.0;
+
+    /// Of `fit` against `y` on the fitted samples `range`.
+    pub fn of(fit: &[f64], y: &[f64], range: std::ops::Range<usize>) -> Self {
+        let samples = (range.len() / 20).max(1).min(range.len());
+        let split = range.start + samples;
+        Self {
+            samples,
+            rms: FitErrors::of(fit, y, range.start..split).rms,
+            rest_rms: FitErrors::of(fit, y, split..range.end).rms,
+        }
+    }
+
+    /// Whether the start is much worse than the rest.
+    pub fn is_transient(&self) -> bool {
+        self.rms > Self::RATIO * self.rest_rms
+    }
 }
 
 /// A percentage with four significant digits, in exponent form when tiny.
@@ -170,6 +205,12 @@ impl std::fmt::Display for FitReport {
                 percent(h.max_percent())
             )?;
         }
+        let st = &self.start;
+        writeln!(
+            f,
+            "start                first {} fitted samples: rms {:.6e}, the rest {:.6e}",
+            st.samples, st.rms, st.rest_rms
+        )?;
         writeln!(f, "offset               {:.6e}", self.offset)?;
         if let Some((r, w)) = &self.superposition {
             let list = |x: &[f64]| {
@@ -211,6 +252,16 @@ impl std::fmt::Display for FitReport {
                     )?;
                 }
             }
+        }
+        if st.is_transient() {
+            writeln!(
+                f,
+                "warning: the first {} fitted samples fit {:.1} times worse than the rest ({:.3e} against {:.3e} rms): a start transient the model does not describe? (--fit-from 0.1s leaves a start out)",
+                st.samples,
+                st.rms / st.rest_rms.max(f64::MIN_POSITIVE),
+                st.rms,
+                st.rest_rms
+            )?;
         }
         for u in &self.unexcited {
             writeln!(

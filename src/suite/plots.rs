@@ -215,34 +215,44 @@ pub fn write_identification_plot(
     fit: &[f64],
     sample_time: f64,
     fitted: &std::ops::Range<usize>,
+    validation: &[(String, Vec<f64>)],
 ) -> Result<(), String> {
-    let t: Vec<f64> = (0..u.len()).map(|k| k as f64 * sample_time).collect();
+    let time = |n: usize| -> Vec<f64> { (0..n).map(|k| k as f64 * sample_time).collect() };
     let r = fitted.clone();
     let e: Vec<f64> = fit.iter().zip(y).map(|(a, b)| a - b).collect();
+    let mut panels = vec![
+        panel(
+            "output over input (fitted samples)",
+            "u",
+            "y",
+            vec![
+                series("measured", &u[r.clone()], &y[r.clone()], COLORS[0]),
+                series("identified model", &u[r.clone()], &fit[r], COLORS[1]),
+            ],
+        ),
+        panel(
+            "residual (model - measured) over time",
+            "t (s)",
+            "residual",
+            vec![series("residual", &time(e.len()), &e, COLORS[2])],
+        ),
+    ];
+    if !validation.is_empty() {
+        let curves = validation
+            .iter()
+            .enumerate()
+            .map(|(i, (name, e))| series(name, &time(e.len()), e, COLORS[(i + 3) % COLORS.len()]))
+            .collect();
+        panels.push(panel(
+            "validation records: residual over time",
+            "t (s)",
+            "residual",
+            curves,
+        ));
+    }
     let fig = Figure {
         title: "identification: measurement and identified model".into(),
-        panels: vec![
-            panel(
-                "output over input (fitted samples)",
-                "u",
-                "y",
-                vec![
-                    series("measured", &u[r.clone()], &y[r.clone()], COLORS[0]),
-                    series(
-                        "identified model",
-                        &u[r.clone()],
-                        &fit[r.clone()],
-                        COLORS[1],
-                    ),
-                ],
-            ),
-            panel(
-                "residual (model - measured) over time",
-                "t (s)",
-                "residual",
-                vec![series("residual", &t, &e, COLORS[2])],
-            ),
-        ],
+        panels,
     };
     write_figure_file(&fig, path)
 }
