@@ -5,7 +5,6 @@
 use super::settings::IdentificationError;
 use super::solve::RANK_TOLERANCE;
 use crate::operators::model::HysteresisCreepModel;
-use crate::operators::traits::Operator;
 
 /// A constraint that holds with equality at the solution.
 #[derive(Debug, Clone, PartialEq)]
@@ -304,24 +303,15 @@ pub fn first_at_max(v: &[f64]) -> usize {
 }
 
 /// Errors of `model` (run from the virgin state over the whole record) on a
-/// validation record, from the first sample at which `|u|` reaches `max|u|`.
+/// validation record, from the first sample at which `|u|` reaches `max|u|`
+/// ([`super::validate_record`] from there).
 pub fn validate(
     model: &HysteresisCreepModel,
     u: &[f64],
     y: &[f64],
 ) -> Result<FitErrors, IdentificationError> {
-    if u.len() != y.len() {
-        return Err(IdentificationError::LengthMismatch {
-            u: u.len(),
-            y: y.len(),
-        });
-    }
-    check_finite("u", u)?;
-    check_finite("y", y)?;
-    let mut m = model.clone();
-    m.reset();
-    let fit = m.run(u);
-    Ok(FitErrors::of(&fit, y, first_at_max(u)..u.len()))
+    let from = first_at_max(u);
+    Ok(super::validate_record(model, "", u, y, from)?.errors)
 }
 
 pub(super) fn range(x: &[f64]) -> f64 {
