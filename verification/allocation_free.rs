@@ -1,6 +1,6 @@
 //! The per-sample `step` of every operator, of the compensator and of a
-//! compensator bank allocates nothing: counted with a global allocator that
-//! records every allocation.
+//! compensator bank, with and without a superposition operator, allocates
+//! nothing: counted with a global allocator that records every allocation.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -88,6 +88,22 @@ fn steps_and_in_place_runs_allocate_nothing() {
         CompensatorSettings::with_limits(-300.0, 300.0),
     )
     .unwrap();
+    // with an asymmetric superposition operator S: W = S[H + C], W⁻¹ with S⁻¹
+    let mut file = model.to_file();
+    file.superposition = Some(mfcbeam::operators::model::SuperpositionData {
+        thresholds: vec![-500.0, -200.0, 0.0, 150.0, 400.0],
+        weights: vec![0.25, -0.25, 1.0, -0.2, -0.15],
+    });
+    let mut w_s = HysteresisCreepModel::from_file(&file).unwrap();
+    let s_settings = CompensatorSettings::with_limits(-300.0, 300.0);
+    let mut comp_s = w_s.compensator(s_settings).unwrap();
+    let mut bank_s = mfcbeam::operators::bank::CompensatorBank::<f64>::uniform(
+        &file.parameters(),
+        5,
+        s_settings,
+    )
+    .unwrap();
+    let mut bank_s_out = [mfcbeam::realtime::Compensated::<f64>::default(); 5];
     let mut targets = [0.0f32; 19];
     let mut bank_out = [mfcbeam::realtime::Compensated::<f32>::default(); 19];
 
@@ -108,6 +124,8 @@ fn steps_and_in_place_runs_allocate_nothing() {
                 *t = (v as f32) * (1.0 + c as f32 / 19.0);
             }
             bank.compensate(&targets, &mut bank_out).unwrap();
+            std::hint::black_box(w_s.step(comp_s.compensate(v).u));
+            bank_s.compensate(&[v; 5], &mut bank_s_out).unwrap();
         }
         targets[3] = f32::NAN;
         bank.compensate(&targets, &mut bank_out).unwrap();
