@@ -2,6 +2,8 @@
 //! the error contract (exit 2, one line naming file and row or field, no
 //! panic, no partial output file).
 
+mod common;
+
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -1132,13 +1134,7 @@ fn a_model_with_a_superposition_operator_runs_through_every_command() {
             "--superposition",
             m,
         ]));
-        let rms: f64 = report
-            .lines()
-            .find(|l| l.starts_with("rms error"))
-            .and_then(|l| l.split_whitespace().nth(2))
-            .unwrap()
-            .parse()
-            .unwrap();
+        let rms = common::report_rms(&report);
         (
             report,
             rms,

@@ -367,13 +367,7 @@ fn an_asymmetric_logger_file_is_fitted_with_and_without_a_superposition_operator
         eprintln!("--superposition {m}:\n{err}");
         assert!(out.status.success(), "{err}");
         assert!(fs::metadata(&plot).unwrap().len() > 1000);
-        let rms: f64 = err
-            .lines()
-            .find(|l| l.starts_with("rms error"))
-            .and_then(|l| l.split_whitespace().nth(2))
-            .unwrap()
-            .parse()
-            .unwrap();
+        let rms = common::report_rms(&err);
         (err, rms)
     };
     let (_, rms_sym) = fit("0");

@@ -56,7 +56,7 @@ pub mod settings;
 mod solve;
 pub mod validation;
 
-pub use identify::{identify, Identification};
+pub use identify::{identify, Identification, EPSILON_S};
 pub use report::{
     first_at_max, validate, ActiveConstraint, FitErrors, FitReport, UnexcitedOperator,
 };

@@ -172,3 +172,13 @@ pub fn inverse_rounding(h: &HysteresisOperator, v_max: f64, y_max: f64) -> f64 {
     let xi = y_max + reach(&inv);
     pi_rounding(h, x) / min_slope(h) + pi_rounding(&inv, xi) + pi_rounding(h, x)
 }
+
+/// The rms error (first number) of an `identify` report's `rms error` line.
+pub fn report_rms(report: &str) -> f64 {
+    report
+        .lines()
+        .find(|l| l.starts_with("rms error"))
+        .and_then(|l| l.split_whitespace().nth(2))
+        .and_then(|x| x.parse().ok())
+        .unwrap_or_else(|| panic!("no rms error in the report:\n{report}"))
+}
