@@ -50,24 +50,31 @@
 #define MFCBEAM_MAX_SUPERPOSITION 9
 
 /**
+ * Samples of dead time a model in caller-owned storage holds (a
+ * compensator holds none: it inverts the memory part, and its caller
+ * shifts the target by the delay).
+ */
+#define MFCBEAM_MAX_DELAY 16
+
+/**
  * Words of `MfcbeamCompensatorStorageF32`.
  */
-#define MFCBEAM_COMPENSATOR_F32_WORDS 549
+#define MFCBEAM_COMPENSATOR_F32_WORDS 550
 
 /**
  * Words of `MfcbeamCompensatorStorageF64`.
  */
-#define MFCBEAM_COMPENSATOR_F64_WORDS 1076
+#define MFCBEAM_COMPENSATOR_F64_WORDS 1077
 
 /**
  * Words of `MfcbeamModelStorageF32`.
  */
-#define MFCBEAM_MODEL_F32_WORDS 497
+#define MFCBEAM_MODEL_F32_WORDS 508
 
 /**
  * Words of `MfcbeamModelStorageF64`.
  */
-#define MFCBEAM_MODEL_F64_WORDS 974
+#define MFCBEAM_MODEL_F64_WORDS 993
 
 #if defined(MFCBEAM_STD)
 /**
@@ -100,9 +107,12 @@ typedef struct MfcbeamCompensatorStorageF32 {
  * 0 for no creep) and `eigenvalue_count` eigenvalues `a_j > 0` (1/s); the
  * sample time (s) and an output offset (V); the superposition operator's
  * thresholds (increasing, one of them 0) and weights (`superposition_len`
- * each; 0 for none, `S` the identity). The arrays are read during `*_init`
- * only. The `S` fields come last, so an initializer that stops after
- * `offset` leaves them zero: no `S`.
+ * each; 0 for none, `S` the identity); the dead time `delay` in whole
+ * samples (`y_k = S[H + C]_{max(k−d, 0)} + offset`; at most
+ * `MFCBEAM_MAX_DELAY` in caller-owned model storage). The arrays are read
+ * during `*_init` only. The `S` fields and `delay` come last, so an
+ * initializer that stops after `offset` leaves them zero: no `S`, no dead
+ * time.
  */
 typedef struct MfcbeamParameters {
   double sample_time;
@@ -118,6 +128,7 @@ typedef struct MfcbeamParameters {
   const double *superposition_thresholds;
   const double *superposition_weights;
   size_t superposition_len;
+  size_t delay;
 } MfcbeamParameters;
 
 /**
@@ -186,6 +197,24 @@ int mfcbeam_compensator_f32_init_json(struct MfcbeamCompensatorStorageF32 *stora
 float mfcbeam_compensate_f32(struct MfcbeamCompensatorStorageF32 *storage,
                              float target,
                              int *flags);
+
+/**
+ * The model's dead time `d` (samples): the compensator inverts the memory
+ * part, so the target given at sample `k` is the one wanted at `k + d`.
+ * 0 for NULL or uninitialised storage.
+ *
+ * # Safety
+ * `storage` NULL or an `MfcbeamCompensatorStorageF32`.
+ */
+size_t mfcbeam_compensator_f32_delay(struct MfcbeamCompensatorStorageF32 *storage);
+
+/**
+ * As [`mfcbeam_compensator_f32_delay`], for an `MfcbeamCompensatorStorageF64`.
+ *
+ * # Safety
+ * `storage` NULL or an `MfcbeamCompensatorStorageF64`.
+ */
+size_t mfcbeam_compensator_f64_delay(struct MfcbeamCompensatorStorageF64 *storage);
 
 /**
  * Back to the virgin state. Nothing for NULL or uninitialised storage.
@@ -376,6 +405,18 @@ struct MfcbeamCompensatorHandle *mfcbeam_compensator_from_json(const char *json,
  * `comp` is NULL or a live handle; `flags` is NULL or writable.
  */
 double mfcbeam_compensate(struct MfcbeamCompensatorHandle *comp, double target, int *flags);
+#endif
+
+#if defined(MFCBEAM_STD)
+/**
+ * The model's dead time `d` (samples): the compensator inverts the memory
+ * part, so the target given at sample `k` is the one wanted at `k + d`
+ * (a planned trajectory is known ahead). 0 for NULL.
+ *
+ * # Safety
+ * As [`mfcbeam_compensate`].
+ */
+size_t mfcbeam_compensator_delay(const struct MfcbeamCompensatorHandle *comp);
 #endif
 
 #if defined(MFCBEAM_STD)

@@ -118,7 +118,7 @@ fn the_c_example_conforms() {
 /// Each fault of the Python example is caught, and every counterexample
 /// written is small and complete.
 #[test]
-#[ignore = "slow (7 faulty Python candidates shrunk, about 2.5 min): .ci/run runs it with --ignored"]
+#[ignore = "slow (9 faulty Python candidates shrunk, about 3 min): .ci/run runs it with --ignored"]
 fn faulty_variants_fail_with_small_counterexamples() {
     let faults = [
         ("model", "simulate", "creep-vk"),
@@ -126,8 +126,10 @@ fn faulty_variants_fail_with_small_counterexamples() {
         ("model", "simulate", "sign"),
         ("model", "simulate", "delay"),
         ("model", "simulate", "ignore-state"),
+        ("model", "simulate", "ignore-dead-time"),
         ("compensator", "compensate", "no-flag"),
         ("compensator", "compensate", "ignore-state"),
+        ("compensator", "compensate", "ignore-dead-time"),
     ];
     for (kind, command, fault) in faults {
         let d = TempDir::new(&format!("fault-{fault}-{kind}"));

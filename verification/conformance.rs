@@ -183,6 +183,30 @@ impl ActuatorCompensator for NoFlag {
     fn reset(&mut self) {
         self.0.reset();
     }
+    fn delay(&self) -> usize {
+        Compensator::delay(&self.0)
+    }
+}
+
+/// A compensator that does not preview its targets by the dead time.
+struct NoPreview(Compensator<f64, Heap>);
+
+impl ActuatorCompensator for NoPreview {
+    fn compensate(&mut self, target: f64) -> Compensated {
+        self.0.compensate(target)
+    }
+    fn reset(&mut self) {
+        self.0.reset();
+    }
+}
+
+/// The model file without its dead time.
+fn undelayed(file: &ModelFile) -> ModelFile {
+    ModelFile {
+        delay: None,
+        delay_state: None,
+        ..file.clone()
+    }
 }
 
 /// The model file with its last threshold moved by 1e-6 relative.
@@ -283,6 +307,24 @@ fn injected_faults_are_caught_with_small_counterexamples() {
     assert_caught(
         &check_compensator(&no_flag, &s).unwrap(),
         "saturated flag dropped",
+    );
+
+    let no_dead_time = |f: &ModelFile| heap_model(&undelayed(f));
+    assert_caught(
+        &check_model(&no_dead_time, &s).unwrap(),
+        "dead time ignored",
+    );
+
+    let no_preview = |f: &ModelFile,
+                      c: CompensatorSettings|
+     -> Result<Box<dyn ActuatorCompensator>, ModelError> {
+        Ok(Box::new(NoPreview(
+            HysteresisCreepModel::from_file(f)?.compensator(c)?,
+        )))
+    };
+    assert_caught(
+        &check_compensator(&no_preview, &s).unwrap(),
+        "targets not previewed by the dead time",
     );
 
     let inv_threshold = |f: &ModelFile| heap_inverse_hysteresis(&shifted(f));

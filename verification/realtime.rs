@@ -107,10 +107,11 @@ fn paper_sized_storage_and_its_footprint() {
     // (r, w, a, g, w/m, χ) of 60; then one length per array (13), the
     // sample time, offset, limits, the last voltage, creep output and last
     // input, and the creep's presence; `S⁻¹` with capacity 0 (the paper's
-    // model has none) is two lengths, its zero index and its presence.
+    // model has none) is two lengths, its zero index and its presence; the
+    // model's dead time is one count (the compensator has no delay line).
     for (bytes, size) in [(f32_bytes, 4), (f64_bytes, 8)] {
         let arrays = (7 * 12 + 6 * 60) * size;
-        let lengths = (13 + 4) * std::mem::size_of::<usize>();
+        let lengths = (13 + 5) * std::mem::size_of::<usize>();
         eprintln!("Compensator<_, nominal::Capacity>: {bytes} bytes with {size}-byte numbers ({arrays} in arrays)");
         assert!(
             bytes >= arrays + lengths && bytes <= arrays + lengths + 8 * 8,
@@ -158,6 +159,7 @@ fn parameters_beyond_the_capacity_are_refused() {
             eigenvalues: &[10.0],
         }),
         superposition: None,
+        delay: 0,
         offset: 0.0,
     };
     let mut w = Model::<f32, nominal::Capacity>::new(&small).unwrap();

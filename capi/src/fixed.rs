@@ -26,21 +26,36 @@ pub const MFCBEAM_MAX_CREEP: usize = 144;
 /// the zero one: four dead zones per side).
 pub const MFCBEAM_MAX_SUPERPOSITION: usize = 9;
 
-/// Words of `MfcbeamCompensatorStorageF32`.
-pub const MFCBEAM_COMPENSATOR_F32_WORDS: usize = 549;
-/// Words of `MfcbeamCompensatorStorageF64`.
-pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 1076;
-/// Words of `MfcbeamModelStorageF32`.
-pub const MFCBEAM_MODEL_F32_WORDS: usize = 497;
-/// Words of `MfcbeamModelStorageF64`.
-pub const MFCBEAM_MODEL_F64_WORDS: usize = 974;
+/// Samples of dead time a model in caller-owned storage holds (a
+/// compensator holds none: it inverts the memory part, and its caller
+/// shifts the target by the delay).
+pub const MFCBEAM_MAX_DELAY: usize = 16;
 
-type CompensatorF32 =
-    Compensator<f32, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>;
-type CompensatorF64 =
-    Compensator<f64, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>;
-type ModelF32 = Model<f32, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>;
-type ModelF64 = Model<f64, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>;
+/// Words of `MfcbeamCompensatorStorageF32`.
+pub const MFCBEAM_COMPENSATOR_F32_WORDS: usize = 550;
+/// Words of `MfcbeamCompensatorStorageF64`.
+pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 1077;
+/// Words of `MfcbeamModelStorageF32`.
+pub const MFCBEAM_MODEL_F32_WORDS: usize = 508;
+/// Words of `MfcbeamModelStorageF64`.
+pub const MFCBEAM_MODEL_F64_WORDS: usize = 993;
+
+type CompensatorF32 = Compensator<
+    f32,
+    Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION, MFCBEAM_MAX_DELAY>,
+>;
+type CompensatorF64 = Compensator<
+    f64,
+    Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION, MFCBEAM_MAX_DELAY>,
+>;
+type ModelF32 = Model<
+    f32,
+    Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION, MFCBEAM_MAX_DELAY>,
+>;
+type ModelF64 = Model<
+    f64,
+    Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION, MFCBEAM_MAX_DELAY>,
+>;
 
 /// Caller-owned storage for a compensator in `f32` (declare it, statically
 /// or on the stack, then `*_init` it; nothing to free).
@@ -151,7 +166,10 @@ unsafe fn compensator_from<T: Real>(
     lower: f64,
     upper: f64,
 ) -> Result<
-    Compensator<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>,
+    Compensator<
+        T,
+        Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION, MFCBEAM_MAX_DELAY>,
+    >,
     Failure,
 > {
     // SAFETY: forwarded from the caller.
@@ -169,7 +187,10 @@ unsafe fn compensator_from<T: Real>(
 unsafe fn model_from<T: Real>(
     parameters: *const MfcbeamParameters,
 ) -> Result<
-    Model<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>,
+    Model<
+        T,
+        Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION, MFCBEAM_MAX_DELAY>,
+    >,
     Failure,
 > {
     // SAFETY: forwarded from the caller.
@@ -187,7 +208,10 @@ unsafe fn compensator_from_json<T: Real>(
     lower: f64,
     upper: f64,
 ) -> Result<
-    Compensator<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>,
+    Compensator<
+        T,
+        Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION, MFCBEAM_MAX_DELAY>,
+    >,
     Failure,
 > {
     // SAFETY: forwarded from the caller.
@@ -202,7 +226,10 @@ unsafe fn compensator_from_json<T: Real>(
 unsafe fn model_from_json<T: Real>(
     json: *const c_char,
 ) -> Result<
-    Model<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>,
+    Model<
+        T,
+        Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION, MFCBEAM_MAX_DELAY>,
+    >,
     Failure,
 > {
     // SAFETY: forwarded from the caller.
@@ -219,7 +246,15 @@ unsafe fn compensate<S, T: Real>(storage: *mut S, target: T, flags: *mut c_int) 
     unsafe {
         match value::<
             S,
-            Compensator<T, Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION>>,
+            Compensator<
+                T,
+                Inline<
+                    MFCBEAM_MAX_PLAYS,
+                    MFCBEAM_MAX_CREEP,
+                    MFCBEAM_MAX_SUPERPOSITION,
+                    MFCBEAM_MAX_DELAY,
+                >,
+            >,
         >(storage)
         {
             Some(c) => {
@@ -294,6 +329,32 @@ pub unsafe extern "C" fn mfcbeam_compensate_f32(
 ) -> f32 {
     // SAFETY: forwarded from the caller.
     unsafe { compensate(storage, target, flags) }
+}
+
+/// The model's dead time `d` (samples): the compensator inverts the memory
+/// part, so the target given at sample `k` is the one wanted at `k + d`.
+/// 0 for NULL or uninitialised storage.
+///
+/// # Safety
+/// `storage` NULL or an `MfcbeamCompensatorStorageF32`.
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_compensator_f32_delay(
+    storage: *mut MfcbeamCompensatorStorageF32,
+) -> usize {
+    // SAFETY: forwarded from the caller.
+    unsafe { value::<_, CompensatorF32>(storage) }.map_or(0, |c| c.delay())
+}
+
+/// As [`mfcbeam_compensator_f32_delay`], for an `MfcbeamCompensatorStorageF64`.
+///
+/// # Safety
+/// `storage` NULL or an `MfcbeamCompensatorStorageF64`.
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_compensator_f64_delay(
+    storage: *mut MfcbeamCompensatorStorageF64,
+) -> usize {
+    // SAFETY: forwarded from the caller.
+    unsafe { value::<_, CompensatorF64>(storage) }.map_or(0, |c| c.delay())
 }
 
 /// Back to the virgin state. Nothing for NULL or uninitialised storage.

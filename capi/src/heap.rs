@@ -175,6 +175,18 @@ pub unsafe extern "C" fn mfcbeam_compensate(
     }
 }
 
+/// The model's dead time `d` (samples): the compensator inverts the memory
+/// part, so the target given at sample `k` is the one wanted at `k + d`
+/// (a planned trajectory is known ahead). 0 for NULL.
+///
+/// # Safety
+/// As [`mfcbeam_compensate`].
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_compensator_delay(comp: *const MfcbeamCompensatorHandle) -> usize {
+    // SAFETY: as above.
+    unsafe { comp.as_ref() }.map_or(0, |c| c.inner.delay())
+}
+
 /// Back to the virgin state (of the model, not of the file's `state`).
 /// Nothing for NULL.
 ///

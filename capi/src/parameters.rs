@@ -12,9 +12,12 @@ use crate::error::Failure;
 /// 0 for no creep) and `eigenvalue_count` eigenvalues `a_j > 0` (1/s); the
 /// sample time (s) and an output offset (V); the superposition operator's
 /// thresholds (increasing, one of them 0) and weights (`superposition_len`
-/// each; 0 for none, `S` the identity). The arrays are read during `*_init`
-/// only. The `S` fields come last, so an initializer that stops after
-/// `offset` leaves them zero: no `S`.
+/// each; 0 for none, `S` the identity); the dead time `delay` in whole
+/// samples (`y_k = S[H + C]_{max(k−d, 0)} + offset`; at most
+/// `MFCBEAM_MAX_DELAY` in caller-owned model storage). The arrays are read
+/// during `*_init` only. The `S` fields and `delay` come last, so an
+/// initializer that stops after `offset` leaves them zero: no `S`, no dead
+/// time.
 #[repr(C)]
 #[derive(Debug, Clone, Copy)]
 pub struct MfcbeamParameters {
@@ -31,6 +34,7 @@ pub struct MfcbeamParameters {
     pub superposition_thresholds: *const f64,
     pub superposition_weights: *const f64,
     pub superposition_len: usize,
+    pub delay: usize,
 }
 
 /// `len` values at `ptr`, refusing a NULL pointer with a non-zero length.
@@ -103,6 +107,7 @@ impl MfcbeamParameters {
                 hysteresis,
                 creep,
                 superposition,
+                delay: self.delay,
                 offset: self.offset,
             })
         }

@@ -76,7 +76,7 @@ int main(void) {
 
     const double r[2] = {0.0, 100.0}, w[2] = {0.5, 0.25};
     const double rc[1] = {0.0}, wc[1] = {0.05}, a[2] = {50.0, 0.5};
-    MfcbeamParameters p = {0.0002, r, w, 2, rc, wc, 1, a, 2, 0.0, NULL, NULL, 0};
+    MfcbeamParameters p = {0.0002, r, w, 2, rc, wc, 1, a, 2, 0.0, NULL, NULL, 0, 0};
     static MfcbeamCompensatorStorageF32 comp;
     static MfcbeamModelStorageF32 plant;
     err[0] = 0;
@@ -123,6 +123,32 @@ int main(void) {
           "a decreasing S", err);
     mfcbeam_compensator_f32_init(&comp, &p, -500.0, 500.0, err, sizeof err);
 
+    /* a dead time of 3 samples: the compensator inverts the memory part, so
+       the caller gives it the target 3 samples ahead */
+    MfcbeamParameters delayed = p;
+    delayed.delay = 3;
+    static MfcbeamCompensatorStorageF64 comp_d;
+    static MfcbeamModelStorageF64 plant_d;
+    err[0] = 0;
+    check(mfcbeam_compensator_f64_init(&comp_d, &delayed, -500.0, 500.0, err, sizeof err) == 0 &&
+              mfcbeam_compensator_f64_delay(&comp_d) == 3,
+          "init with a dead time", err);
+    err[0] = 0;
+    check(mfcbeam_model_f64_init(&plant_d, &delayed, err, sizeof err) == 0, "model init with a dead time", err);
+    worst = 0.0;
+    for (int k = 0; k < 2000; k++) {
+        double ahead = 60.0 * sin((k + 3) * 0.01), y = 60.0 * sin(k * 0.01);
+        double out = mfcbeam_model_f64_step(&plant_d, mfcbeam_compensate_f64(&comp_d, ahead, &flags));
+        if (k >= 3 && fabs(out - y) > worst) worst = fabs(out - y);
+    }
+    snprintf(line, sizeof line, "max |W[W^-1[y]] - y| from sample 3 = %.3g V", worst);
+    check(worst < 1e-9, "f64 identity through a dead time", line);
+    delayed.delay = MFCBEAM_MAX_DELAY + 1;
+    err[0] = 0;
+    check(mfcbeam_model_f64_init(&plant_d, &delayed, err, sizeof err) == -1 && strstr(err, "delay"),
+          "a dead time beyond the capacity", err);
+    check(mfcbeam_compensator_f64_delay(NULL) == 0, "the delay of NULL storage", NULL);
+
     MfcbeamParameters bad = p;
     bad.hysteresis_weights = NULL;
     err[0] = 0;
@@ -136,7 +162,7 @@ int main(void) {
     check(mfcbeam_compensator_f32_init(NULL, &p, -500.0, 500.0, err, sizeof err) == -1, "NULL storage", err);
     double many[MFCBEAM_MAX_PLAYS + 1], ones[MFCBEAM_MAX_PLAYS + 1];
     for (int i = 0; i <= MFCBEAM_MAX_PLAYS; i++) many[i] = i, ones[i] = 1.0;
-    MfcbeamParameters big = {0.0002, many, ones, MFCBEAM_MAX_PLAYS + 1, NULL, NULL, 0, NULL, 0, 0.0, NULL, NULL, 0};
+    MfcbeamParameters big = {0.0002, many, ones, MFCBEAM_MAX_PLAYS + 1, NULL, NULL, 0, NULL, 0, 0.0, NULL, NULL, 0, 0};
     static MfcbeamCompensatorStorageF64 comp64;
     err[0] = 0;
     check(mfcbeam_compensator_f64_init(&comp64, &big, -1.0, 1.0, err, sizeof err) == -1 && strstr(err, "capacity"),

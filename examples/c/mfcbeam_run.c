@@ -11,8 +11,10 @@
  * u = W^-1[y_d] and `saturated`. Without --f32 it uses the heap handles
  * (mfcbeam_model_from_json, mfcbeam_compensator_from_json, f64); with --f32
  * the caller-owned storage (MfcbeamModelStorageF32, MfcbeamCompensatorStorageF32) that a
- * target without a heap would use. Errors: one line on stderr, exit 2, no
- * output file.
+ * target without a heap would use. A model with a dead time of d samples
+ * is compensated with the target d samples ahead (mfcbeam_compensator_delay:
+ * the compensator inverts the memory part; a file's target is known ahead).
+ * Errors: one line on stderr, exit 2, no output file.
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -124,18 +126,20 @@ int main(int argc, char **argv) {
     } else if (!single) {
         MfcbeamCompensatorHandle *c = mfcbeam_compensator_from_json(json, lower, upper, err, sizeof err);
         if (!c) die(model, err);
+        size_t d = mfcbeam_compensator_delay(c);
         for (size_t k = 0; k < t.rows; k++) {
             int flags = 0;
-            out[k] = mfcbeam_compensate(c, t.values[k], &flags);
+            out[k] = mfcbeam_compensate(c, t.values[k + d < t.rows ? k + d : t.rows - 1], &flags);
             sat[k] = flags & MFCBEAM_FLAG_SATURATED;
         }
         mfcbeam_compensator_free(c);
     } else {
         static MfcbeamCompensatorStorageF32 c;
         if (mfcbeam_compensator_f32_init_json(&c, json, lower, upper, err, sizeof err) != 0) die(model, err);
+        size_t d = mfcbeam_compensator_f32_delay(&c);
         for (size_t k = 0; k < t.rows; k++) {
             int flags = 0;
-            out[k] = mfcbeam_compensate_f32(&c, (float)t.values[k], &flags);
+            out[k] = mfcbeam_compensate_f32(&c, (float)t.values[k + d < t.rows ? k + d : t.rows - 1], &flags);
             sat[k] = flags & MFCBEAM_FLAG_SATURATED;
         }
     }

@@ -20,6 +20,8 @@ class ModelState(TypedDict):
     """Play states, one per hysteresis threshold."""
     creep: Optional[FloatArray]
     """Creep states, shape (creep thresholds, eigenvalues); None without creep."""
+    delay: Optional[FloatArray]
+    """The values waiting in the dead time, oldest first; None without one or before the first sample."""
 
 class Model:
     """The hysteresis and creep model W = S[H + C] + offset (S, the optional
@@ -52,6 +54,9 @@ class Model:
     def superposition(self) -> Optional[Tuple[List[float], List[float]]]:
         """The superposition operator S after H + C as (thresholds, weights), or None."""
     @property
+    def delay(self) -> int:
+        """The dead time d (samples): y_k = S[H + C]_{max(k-d, 0)} + offset."""
+    @property
     def state(self) -> ModelState:
         """The current play and creep states."""
     def to_json(self) -> str:
@@ -71,10 +76,17 @@ class Compensator:
         self, model: Model, limits: Optional[Tuple[float, float]] = (-1000.0, 1000.0)
     ) -> None:
         """`limits=None`: no saturation. Raises ValueError unless lower < upper."""
-    def compensate(self, y_d: ArrayLike) -> Tuple[FloatArray, BoolArray, BoolArray]:
-        """(u, saturated, fault) for the targets y_d, from the current state."""
+    def compensate(
+        self, y_d: ArrayLike, *, preview: bool = False
+    ) -> Tuple[FloatArray, BoolArray, BoolArray]:
+        """(u, saturated, fault) for the targets y_d, from the current state.
+        With a dead time d, y_d[k] is the target for sample k + d (a stream);
+        `preview=True` shifts a whole planned y_d by d instead."""
     def reset(self) -> None:
         """Return to the virgin state."""
+    @property
+    def delay(self) -> int:
+        """The model's dead time d (samples)."""
     @property
     def limits(self) -> Tuple[float, float]:
         """(lower, upper) in V; infinite without limits."""
@@ -112,6 +124,13 @@ class ValidationRow(TypedDict):
     max_percent: float
     output_range: float
 
+class DelayRow(TypedDict):
+    delay: int
+    fit: FitErrors
+    holdout: Optional[FitErrors]
+    validations: List[FitErrors]
+    score: float
+
 class FitReport(TypedDict):
     sample_time: float
     jitter: Optional[float]
@@ -137,6 +156,9 @@ class FitReport(TypedDict):
     weights: List[float]
     standard_errors: List[float]
     superposition: Optional[Tuple[List[float], List[float]]]
+    delay: int
+    delays: Optional[List[DelayRow]]
+    delay_criterion: Optional[str]
     active_constraints: List[ActiveConstraint]
     unexcited: List[NamedOperator]
     undetermined: List[NamedOperator]
@@ -162,11 +184,13 @@ def identify(
     superposition: int = 0,
     superposition_kinks: Optional[ArrayLike] = None,
     validate_from: Optional[int] = None,
+    delay: Union[None, int, str] = None,
+    max_delay: int = 10,
 ) -> Tuple[Model, FitReport]:
     """Identify W = S[H + C] + offset from input u (V) and measured y, at
     `sample_time` (s) or timestamps `t` (`superposition=M`: M dead zones of S
-    per side; 0, the paper's symmetric model); returns the model and the fit
-    report."""
+    per side; 0, the paper's symmetric model; `delay=d` or "auto": a dead
+    time); returns the model and the fit report."""
 
 class Modes(TypedDict):
     frequencies_hz: FloatArray

@@ -6,8 +6,9 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use mfcbeam::identification::{
-    holdout_samples, identify as identify_model, validate_record, FitErrors, FitStart,
-    IdentificationSettings, UnexcitedOperator,
+    check_record, holdout_samples, identify as identify_model, search_delay, validate_record,
+    DelayCriterion, DelaySetting, FitErrors, FitStart, IdentificationError, IdentificationSettings,
+    Record, UnexcitedOperator,
 };
 use mfcbeam::io::TimeAxis;
 
@@ -37,6 +38,12 @@ use crate::model::Model;
 /// `validate_from` (default: `fit_from`, else where its |u| first reaches
 /// max|u|).
 ///
+/// `delay=d` fits a dead time of d whole samples (y_k is fitted by the
+/// memory part at k − d); `delay="auto"` fits every d in 0..=max_delay and
+/// keeps the best on the validation records (else the hold-out, else the
+/// fit): report["delays"] holds each one's errors and
+/// report["delay_criterion"] what chose it.
+///
 /// Returns (model, report): the identified model (virgin state) and a dict
 /// of the figures the command line prints; report["text"] is that text.
 #[pyfunction]
@@ -45,7 +52,8 @@ use crate::model::Model;
     hysteresis_operators = 12, creep_operators = 12, creep_eigenvalues = 5,
     hysteresis_thresholds = None, creep_thresholds = None, eigenvalues = None,
     epsilon_h = None, fit_offset = true, fit_from = None, holdout = 0.0, validate = None,
-    superposition = 0, superposition_kinks = None, validate_from = None
+    superposition = 0, superposition_kinks = None, validate_from = None,
+    delay = None, max_delay = mfcbeam::identification::DEFAULT_MAX_DELAY
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify<'py>(
@@ -68,7 +76,22 @@ pub fn identify<'py>(
     superposition: usize,
     superposition_kinks: Option<&Bound<'py, PyAny>>,
     validate_from: Option<usize>,
+    delay: Option<&Bound<'py, PyAny>>,
+    max_delay: usize,
 ) -> PyResult<(Model, Bound<'py, PyDict>)> {
+    let delay = match delay {
+        None => DelaySetting::Fixed(0),
+        Some(d) => match d.extract::<usize>() {
+            Ok(n) => DelaySetting::Fixed(n),
+            Err(_) => d
+                .extract::<String>()
+                .ok()
+                .and_then(|s| (s == "auto").then_some(DelaySetting::Auto))
+                .ok_or_else(|| {
+                    PyValueError::new_err("delay: a number of samples >= 0 or \"auto\"")
+                })?,
+        },
+    };
     let u = signal("u", u)?;
     let y = signal("y", y)?;
     let t = optional_signal("t", t)?;
@@ -113,26 +136,48 @@ pub fn identify<'py>(
         holdout,
         superposition,
         superposition_kinks: optional_signal("superposition_kinks", superposition_kinks)?,
+        delay: match delay {
+            DelaySetting::Fixed(d) => d,
+            DelaySetting::Auto => 0,
+        },
     };
-    let (id, validated) = py
+    let (id, validated, search) = py
         .detach(move || {
-            let id = identify_model(&u, &y, ts, &settings)?;
-            let mut validated = Vec::new();
-            for (name, vu, vy) in &validation {
-                let from = start.resolve(vu, ts);
-                validated.push(validate_record(&id.model, name, vu, vy, from).map_err(|e| {
-                    mfcbeam::identification::IdentificationError::InvalidSetting {
+            let records: Vec<Record> = validation
+                .iter()
+                .map(|(name, vu, vy)| Record {
+                    name,
+                    u: vu,
+                    y: vy,
+                    from: start.resolve(vu, ts),
+                })
+                .collect();
+            // a bad record named before anything is fitted
+            for r in &records {
+                check_record(r.name, r.u, r.y, r.from).map_err(|e| {
+                    IdentificationError::InvalidSetting {
                         field: "validate",
                         reason: match e {
-                            mfcbeam::identification::IdentificationError::LengthMismatch {
-                                ..
-                            } if name == "validate" => e.to_string(),
-                            _ => format!("{name}: {e}"),
+                            IdentificationError::LengthMismatch { .. } if r.name == "validate" => {
+                                e.to_string()
+                            }
+                            _ => format!("{}: {e}", r.name),
                         },
                     }
-                })?);
+                })?;
             }
-            Ok::<_, mfcbeam::identification::IdentificationError>((id, validated))
+            let (id, search) = match delay {
+                DelaySetting::Fixed(_) => (identify_model(&u, &y, ts, &settings)?, None),
+                DelaySetting::Auto => {
+                    let (id, search) = search_delay(&u, &y, ts, &settings, max_delay, &records)?;
+                    (id, Some(search))
+                }
+            };
+            let mut validated = Vec::new();
+            for r in &records {
+                validated.push(validate_record(&id.model, r.name, r.u, r.y, r.from)?);
+            }
+            Ok::<_, IdentificationError>((id, validated, search))
         })
         .map_err(value_error)?;
     let r = &id.report;
@@ -184,7 +229,41 @@ pub fn identify<'py>(
     d.set_item("weights", r.weights.clone())?;
     d.set_item("standard_errors", r.standard_errors.clone())?;
     d.set_item("superposition", r.superposition.clone())?;
-    d.set_item("text", r.to_string())?;
+    d.set_item("delay", r.delay)?;
+    let mut text = r.to_string();
+    match &search {
+        None => {
+            d.set_item("delays", py.None())?;
+            d.set_item("delay_criterion", py.None())?;
+        }
+        Some(search) => {
+            let rows = PyList::empty(py);
+            for row in &search.rows {
+                let e = PyDict::new(py);
+                e.set_item("delay", row.delay)?;
+                e.set_item("fit", errors(py, &row.fit)?)?;
+                e.set_item("holdout", row.holdout.map(|h| errors(py, &h)).transpose()?)?;
+                let v = PyList::empty(py);
+                for errs in &row.validations {
+                    v.append(errors(py, errs)?)?;
+                }
+                e.set_item("validations", v)?;
+                e.set_item("score", row.score)?;
+                rows.append(e)?;
+            }
+            d.set_item("delays", rows)?;
+            d.set_item(
+                "delay_criterion",
+                match search.criterion {
+                    DelayCriterion::Validation => "validation",
+                    DelayCriterion::Holdout => "holdout",
+                    DelayCriterion::Fit => "fit",
+                },
+            )?;
+            text.push_str(&search.to_string());
+        }
+    }
+    d.set_item("text", text)?;
     Ok((Model { inner: id.model }, d))
 }
 

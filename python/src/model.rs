@@ -104,9 +104,16 @@ impl Model {
             .map(|s| (s.thresholds().to_vec(), s.weights().to_vec()))
     }
 
+    /// The dead time d (samples): y_k = S[H + C]_{max(k−d, 0)} + offset.
+    #[getter]
+    fn delay(&self) -> usize {
+        self.inner.delay()
+    }
+
     /// The current state: a dict with "hysteresis" (the play states, one per
-    /// threshold) and "creep" (one row of eigenvalue states per creep
-    /// threshold, or None without creep).
+    /// threshold), "creep" (one row of eigenvalue states per creep
+    /// threshold, or None without creep) and "delay" (the d values waiting
+    /// in the dead time, oldest first, or None).
     #[getter]
     fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let s = self.inner.state();
@@ -119,6 +126,7 @@ impl Model {
             )?,
             None => d.set_item("creep", py.None())?,
         }
+        d.set_item("delay", s.delay.map(|x| to_numpy(py, x)))?;
         Ok(d)
     }
 
@@ -195,17 +203,30 @@ impl Compensator {
     /// current state. Returns three arrays of the same length: u (float64,
     /// V), saturated (bool: u was clipped to a limit) and fault (bool: the
     /// target was not finite, so the previous u is held).
+    ///
+    /// With a dead time d (`delay`) the compensator inverts the memory part:
+    /// y_d[k] is the target for sample k + d, and a stream continues across
+    /// calls. `preview=True` treats y_d as a whole planned signal and shifts
+    /// it by d (the last d samples hold the last target), as the command
+    /// line's `compensate` does: then W[u] = y_d from sample d on.
     #[allow(clippy::type_complexity)]
+    #[pyo3(signature = (y_d, *, preview = false))]
     fn compensate<'py>(
         &mut self,
         py: Python<'py>,
         y_d: &Bound<'py, PyAny>,
+        preview: bool,
     ) -> PyResult<(
         Bound<'py, PyArray1<f64>>,
         Bound<'py, PyArray1<bool>>,
         Bound<'py, PyArray1<bool>>,
     )> {
-        let y_d = signal("y_d", y_d)?;
+        let mut y_d = signal("y_d", y_d)?;
+        if preview {
+            let given = y_d.clone();
+            mfcbeam::realtime::preview_into(&given, self.inner.delay(), &mut y_d)
+                .map_err(value_error)?;
+        }
         let inner = &mut self.inner;
         let (u, saturated, fault) = py
             .detach(move || {
@@ -227,6 +248,13 @@ impl Compensator {
     /// Return to the virgin state (forward plays, inverse plays and creep).
     fn reset(&mut self) {
         self.inner.reset();
+    }
+
+    /// The model's dead time d (samples): the target given for sample k is
+    /// the one wanted at k + d (see `compensate`).
+    #[getter]
+    fn delay(&self) -> usize {
+        self.inner.delay()
     }
 
     /// The saturation limits (lower, upper) in V; infinite without limits.

@@ -10,7 +10,7 @@ use clap::{Args, Parser, Subcommand};
 
 use mfcbeam::beam::step_response_fit::BeamModelKind;
 use mfcbeam::feedforward::FeedforwardSettings;
-use mfcbeam::identification::{FitStart, IdentificationSettings};
+use mfcbeam::identification::{DelaySetting, FitStart, IdentificationSettings, DEFAULT_MAX_DELAY};
 use mfcbeam::operators::nominal::SAMPLE_TIME;
 use mfcbeam::suite::conformance::ConformanceSettings;
 
@@ -163,6 +163,15 @@ pub struct IdentifyArgs {
     /// `0.1s`); default: as --fit-from (or where |u| first reaches max|u|).
     #[arg(long, value_name = "SAMPLE|SECONDSs")]
     pub validate_from: Option<FitStart>,
+    /// Dead time between input and output in whole samples, or `auto`: fit
+    /// every one in 0..=--max-delay and keep the best on the --validate
+    /// records (else the --holdout, else the fit), with a table of the
+    /// errors of each.
+    #[arg(long, value_name = "N|auto", default_value = "0")]
+    pub delay: DelaySetting,
+    /// The largest dead time `--delay auto` tries (samples).
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_DELAY)]
+    pub max_delay: usize,
     /// Draw measured and model output over the input, and the residual over
     /// time (`.png` or `.svg`).
     #[arg(long, value_name = "FILE")]

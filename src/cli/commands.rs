@@ -9,8 +9,8 @@ use serde::Serialize;
 use mfcbeam::beam::step_response_fit::{modal_model, simulate_response, FitParameter};
 use mfcbeam::beam::BeamParameters;
 use mfcbeam::identification::{
-    dominant_rate, holdout_samples, identify as identify_model, validate_record,
-    IdentificationSettings, ValidationRow, ValidationTable,
+    check_record, dominant_rate, holdout_samples, identify as identify_model, search_delay,
+    validate_record, DelaySetting, IdentificationSettings, Record, ValidationRow, ValidationTable,
 };
 use mfcbeam::io::{read_beam, read_model, write_atomic, write_json, Trace};
 use mfcbeam::operators::compensator::CompensatorSettings;
@@ -58,10 +58,13 @@ fn compensate(a: &CompensateArgs) -> Result<()> {
     let mut trace = Trace::read(&a.files.input)?;
     trace.check_time_column(model.sample_time())?;
     let y_d = trace.column("y_d")?;
+    // a planned target is known ahead: previewed by the dead time
+    let mut targets = vec![0.0; y_d.len()];
+    mfcbeam::realtime::preview_into(&y_d, comp.delay(), &mut targets)?;
     let mut u = vec![0.0; y_d.len()];
     let mut sat = vec![false; y_d.len()];
     let mut fault = vec![false; y_d.len()];
-    let (count, _) = comp.compensate_into(&y_d, &mut u, &mut sat, &mut fault)?;
+    let (count, _) = comp.compensate_into(&targets, &mut u, &mut sat, &mut fault)?;
     trace.push_column("u", &u)?;
     trace.push_text_column(
         "saturated",
@@ -158,14 +161,40 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
         epsilon_h: a.epsilon_h,
         superposition: a.superposition,
         superposition_kinks: a.superposition_kinks.clone(),
+        delay: match a.delay {
+            DelaySetting::Fixed(d) => d,
+            DelaySetting::Auto => 0,
+        },
     };
-    let id =
-        identify_model(&u, &y, ts, &settings).with_context(|| a.input.display().to_string())?;
+    let names: Vec<String> = validation
+        .iter()
+        .map(|(path, _, _)| path.display().to_string())
+        .collect();
+    let records: Vec<Record> = validation
+        .iter()
+        .zip(&names)
+        .map(|((_, vu, vy), name)| Record {
+            name,
+            u: vu,
+            y: vy,
+            from: validate_from.resolve(vu, ts),
+        })
+        .collect();
+    // a record's own errors first, so that a bad one is named by its file
+    for r in &records {
+        check_record(r.name, r.u, r.y, r.from).with_context(|| r.name.to_string())?;
+    }
+    let (id, search) = match a.delay {
+        DelaySetting::Fixed(_) => (identify_model(&u, &y, ts, &settings), None),
+        DelaySetting::Auto => match search_delay(&u, &y, ts, &settings, a.max_delay, &records) {
+            Ok((id, search)) => (Ok(id), Some(search)),
+            Err(e) => (Err(e), None),
+        },
+    };
+    let id = id.with_context(|| a.input.display().to_string())?;
     let mut rows = Vec::new();
-    for (path, vu, vy) in &validation {
-        let from = validate_from.resolve(vu, ts);
-        let name = path.display().to_string();
-        rows.push(validate_record(&id.model, &name, vu, vy, from).with_context(|| name.clone())?);
+    for r in &records {
+        rows.push(validate_record(&id.model, r.name, r.u, r.y, r.from)?);
     }
     if let Some(p) = &a.plot {
         let fit = id.model.clone().run(&u);
@@ -189,6 +218,9 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
         );
     }
     eprint!("{}", id.report);
+    if let Some(search) = &search {
+        eprint!("{search}");
+    }
     if !rows.is_empty() {
         // the fitted record first, then one row per validation record
         let input = a.input.display().to_string();

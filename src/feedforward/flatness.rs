@@ -316,7 +316,9 @@ pub struct CompensatedFeedforward {
     pub peak: f64,
 }
 
-/// `u_d → W⁻¹ → (u_fs, u_bs)` with the supply limits of (1).
+/// `u_d → W⁻¹ → (u_fs, u_bs)` with the supply limits of (1); a model with
+/// dead time `d` gets `u_d` `d` samples ahead (the trajectory is planned),
+/// so that `W[u] = u_d` from sample `d` on.
 pub fn compensate(
     u_d: &[f64],
     model: &HysteresisCreepModel,
@@ -331,8 +333,8 @@ pub fn compensate(
         saturated: Vec::with_capacity(u_d.len()),
         peak: 0.0,
     };
-    for &v in u_d {
-        let c = comp.compensate(v);
+    for k in 0..u_d.len() {
+        let c = comp.compensate(crate::realtime::preview(u_d, comp.delay(), k));
         let (p, _) = supply.patch_voltages_saturating(c.u);
         out.u.push(c.u);
         out.u_fs.push(p.front);

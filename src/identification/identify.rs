@@ -37,25 +37,51 @@ pub struct Identification {
 /// `sample_time`. The operators start from the virgin state at the first
 /// sample; the fit uses the samples from `settings.fit_from` (default: where
 /// `|u|` first reaches `max|u|`) to the end less `settings.holdout`.
+///
+/// With a dead time `d = settings.delay` the output `y_k` is fitted by the
+/// memory part's output at `k − d`: the weights are those of the record
+/// `u_0 … u_{n−1−d}` against `y_d … y_{n−1}` (`fit_from` still counts
+/// samples of `y`), and the model carries `d`.
 pub fn identify(
     u: &[f64],
     y: &[f64],
     sample_time: f64,
     settings: &IdentificationSettings,
 ) -> Result<Identification, IdentificationError> {
-    let plan = FitPlan::new(u, y, sample_time, settings)?;
-    let regression = Regression::of(u, y, &plan)?;
+    if u.len() != y.len() {
+        return Err(IdentificationError::LengthMismatch {
+            u: u.len(),
+            y: y.len(),
+        });
+    }
+    check_finite("u", u)?;
+    check_finite("y", y)?;
+    let (n, d) = (u.len(), settings.delay);
+    if d >= n {
+        return Err(IdentificationError::InvalidSetting {
+            field: "delay",
+            reason: format!("{d} samples of dead time leave nothing of {n} samples"),
+        });
+    }
+    let aligned = IdentificationSettings {
+        fit_from: settings.fit_from.map(|k| k.saturating_sub(d)),
+        delay: 0,
+        ..settings.clone()
+    };
+    let (u_d, y_d) = (&u[..n - d], &y[d..]);
+    let plan = FitPlan::new(u_d, y_d, sample_time, &aligned)?;
+    let regression = Regression::of(u_d, y_d, &plan)?;
     let solution = regression.solve(&plan)?;
-    let model = plan.model(&solution)?;
+    let model = plan.model(&solution)?.with_delay(d)?;
     let standard_errors = regression.standard_errors(&plan);
     // the fit of the model as it will be used, from the virgin state
     let fit = model.clone().run(u);
-    let n = u.len();
-    let (first, end) = (plan.fitted.start, plan.fitted.end);
+    let (first, end) = (plan.fitted.start + d, plan.fitted.end + d);
     let unknowns = plan.excited();
     let report = FitReport {
         samples: n,
-        fitted: plan.fitted.clone(),
+        fitted: first..end,
+        delay: d,
         skip_reason: plan.skip_reason,
         fit: FitErrors::of(&fit, y, first..end),
         holdout: (end < n).then(|| FitErrors::of(&fit, y, end..n)),

@@ -1,7 +1,8 @@
 //! Identification of the hysteresis and creep weights from a measurement,
 //! equations (23)–(25), in stages: [`settings`] (what to fit), `regressor`
 //! (stage 1), `solve` (stage 2) and [`report`] (stage 3), put together by
-//! [`identify()`].
+//! [`identify()`]; [`delay`] chooses a dead time, [`validation`] checks the
+//! result on other records.
 //!
 //! Thresholds (23): `r_i = (i · r_max)/(n + 1)`, `r_max = max_k |v_k|`;
 //! creep eigenvalues (24): `a_j = 1/(10^j T_s)`. With those fixed, `W` is linear
@@ -49,6 +50,7 @@
 //! never excited: their columns are zero. They keep weight 0 (which leaves the
 //! partial sums, and so (11), intact) and are named in the report.
 
+pub mod delay;
 mod identify;
 mod regressor;
 pub mod report;
@@ -56,6 +58,9 @@ pub mod settings;
 mod solve;
 pub mod validation;
 
+pub use delay::{
+    search_delay, DelayCriterion, DelayRow, DelaySearch, DelaySetting, Record, DEFAULT_MAX_DELAY,
+};
 pub use identify::{identify, Identification, EPSILON_S};
 pub use report::{
     first_at_max, validate, ActiveConstraint, FitErrors, FitReport, UnexcitedOperator,
@@ -65,4 +70,6 @@ pub use settings::{
     IdentificationSettings,
 };
 pub use solve::RANK_TOLERANCE;
-pub use validation::{dominant_rate, validate_record, FitStart, ValidationRow, ValidationTable};
+pub use validation::{
+    check_record, dominant_rate, validate_record, FitStart, ValidationRow, ValidationTable,
+};

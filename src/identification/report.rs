@@ -81,6 +81,8 @@ pub struct FitReport {
     pub fitted: std::ops::Range<usize>,
     /// Why the samples before `fitted.start` were left out.
     pub skip_reason: String,
+    /// The model's dead time (samples).
+    pub delay: usize,
     /// Errors on the fitted samples.
     pub fit: FitErrors,
     /// Errors on the held-out samples at the end, if any.
@@ -172,6 +174,13 @@ impl std::fmt::Display for FitReport {
             self.fitted.start,
             self.fitted.end
         )?;
+        if self.delay > 0 {
+            writeln!(
+                f,
+                "dead time            {} samples: y_k is fitted by the memory part at k − {}",
+                self.delay, self.delay
+            )?;
+        }
         if self.fitted.start > 0 {
             writeln!(
                 f,

@@ -81,6 +81,9 @@ pub struct IdentificationSettings {
     /// of the rule ([`superposition_kinks`]); they must lie strictly inside
     /// the fitted output's range and differ from its mid-point.
     pub superposition_kinks: Option<Vec<f64>>,
+    /// Dead time `d` (whole samples) between the input and the output
+    /// (default 0); [`search_delay`](super::search_delay) chooses it.
+    pub delay: usize,
 }
 
 impl Default for IdentificationSettings {
@@ -99,6 +102,7 @@ impl Default for IdentificationSettings {
             holdout: 0,
             superposition: 0,
             superposition_kinks: None,
+            delay: 0,
         }
     }
 }

@@ -96,6 +96,26 @@ pub fn validate_record(
     y: &[f64],
     from: usize,
 ) -> Result<ValidationRow, IdentificationError> {
+    check_record(name, u, y, from)?;
+    let mut m = model.clone();
+    m.reset();
+    let fit = m.run(u);
+    Ok(ValidationRow {
+        name: name.to_string(),
+        from,
+        errors: FitErrors::of(&fit, y, from..u.len()),
+        rate: dominant_rate(u, model.sample_time()),
+    })
+}
+
+/// A record fit to validate on: `u` and `y` of one length, finite, and
+/// `from` inside them.
+pub fn check_record(
+    name: &str,
+    u: &[f64],
+    y: &[f64],
+    from: usize,
+) -> Result<(), IdentificationError> {
     if u.len() != y.len() {
         return Err(IdentificationError::LengthMismatch {
             u: u.len(),
@@ -110,15 +130,7 @@ pub fn validate_record(
             reason: format!("{name}: sample {from} is beyond its {} samples", u.len()),
         });
     }
-    let mut m = model.clone();
-    m.reset();
-    let fit = m.run(u);
-    Ok(ValidationRow {
-        name: name.to_string(),
-        from,
-        errors: FitErrors::of(&fit, y, from..u.len()),
-        rate: dominant_rate(u, model.sample_time()),
-    })
+    Ok(())
 }
 
 /// One row per record: samples, rms and max error (absolute and % of the

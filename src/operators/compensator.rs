@@ -82,6 +82,10 @@ impl<T: Real, S: Storage> ActuatorCompensator for Compensator<T, S> {
     fn reset(&mut self) {
         Compensator::reset(self);
     }
+
+    fn delay(&self) -> usize {
+        Compensator::delay(self)
+    }
 }
 
 impl<T: Real, S: Storage> Snapshot for Compensator<T, S> {

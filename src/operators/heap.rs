@@ -11,6 +11,7 @@ impl Storage for Heap {
     type Plays<T: Real> = Vec<T>;
     type Creep<T: Real> = Vec<T>;
     type Superposition<T: Real> = Vec<T>;
+    type Delay<T: Real> = Vec<T>;
 }
 
 impl<T: Real> Buffer<T> for Vec<T> {

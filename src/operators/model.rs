@@ -5,7 +5,8 @@
 //! measurement's sensor offset): `W` maps the balanced patch voltage `u` (V) to
 //! the effective voltage (V) that drives the linear beam. `creep` may be absent
 //! (pure hysteresis), and so may `superposition` (`S` the identity: the
-//! paper's symmetric model).
+//! paper's symmetric model). A dead time of `delay` whole samples shifts the
+//! output: `y_k = S[H + C]_{max(k−d, 0)} + offset`.
 
 use serde::{Deserialize, Serialize};
 
@@ -62,6 +63,15 @@ pub struct ModelFile {
     /// `S` after `H + C`; absent means the identity.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub superposition: Option<SuperpositionData>,
+    /// Dead time `d` in whole samples: `y_k = S[H + C]_{max(k−d, 0)} +
+    /// offset`. Absent means 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delay: Option<usize>,
+    /// The `d` values of `S[H + C]` waiting in the dead time, oldest (the
+    /// next output) first; absent means not started (the line fills with
+    /// the first sample's value).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delay_state: Option<Vec<f64>>,
     /// Constant output offset (unit of the output): `y = W[u] + offset`.
     /// Absent means 0.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -75,6 +85,7 @@ impl ModelFile {
         if let Some(c) = &mut self.creep {
             c.state = None;
         }
+        self.delay_state = None;
         self
     }
 }
@@ -84,6 +95,9 @@ impl ModelFile {
 pub struct ModelState {
     pub hysteresis: Vec<f64>,
     pub creep: Option<Vec<Vec<f64>>>,
+    /// The values waiting in the dead time (oldest first); `None` before
+    /// the first sample or without dead time.
+    pub delay: Option<Vec<f64>>,
 }
 
 impl ModelFile {
@@ -108,6 +122,7 @@ impl ModelFile {
                     thresholds: &s.thresholds,
                     weights: &s.weights,
                 }),
+            delay: self.delay.unwrap_or(0),
             offset: self.offset.unwrap_or(0.0),
         }
     }
@@ -141,6 +156,9 @@ impl<T: Real, S: Storage> Model<T, S> {
         if let (Some(state), Some(c)) = (file.creep_state_flat()?, model.creep_mut()) {
             c.set_state_flat(&state)?;
         }
+        model
+            .delay_line_mut()
+            .set_state(file.delay_state.as_deref())?;
         Ok(model)
     }
 
@@ -166,8 +184,19 @@ impl<T: Real, S: Storage> Model<T, S> {
                 thresholds: f64s(s.thresholds()),
                 weights: f64s(s.weights()),
             }),
+            delay: (self.delay() != 0).then_some(self.delay()),
+            delay_state: self.delay_state(),
             offset: (offset != 0.0).then_some(offset),
         }
+    }
+
+    /// The values waiting in the dead time, oldest first (`None`: not
+    /// started, or no dead time).
+    pub fn delay_state(&self) -> Option<Vec<f64>> {
+        let line = self.delay_line();
+        let mut values = vec![T::ZERO; line.len()];
+        line.state_into(&mut values)?;
+        (!values.is_empty()).then(|| values.iter().map(|v| v.to_f64()).collect())
     }
 }
 
@@ -180,10 +209,22 @@ impl<T: Real, S: Storage> Snapshot for Model<T, S> {
         ModelState {
             hysteresis: Snapshot::state(self.hysteresis()),
             creep: self.creep().map(Snapshot::state),
+            delay: self.delay_state(),
         }
     }
 
     fn set_state(&mut self, state: &ModelState) -> Result<(), ModelError> {
+        // the delay line checked first, on a copy, so a refusal changes nothing
+        let mut line = self.delay_line().clone();
+        line.set_state(state.delay.as_deref())?;
+        self.set_memory_state(state)?;
+        *self.delay_line_mut() = line;
+        Ok(())
+    }
+}
+
+impl<T: Real, S: Storage> Model<T, S> {
+    fn set_memory_state(&mut self, state: &ModelState) -> Result<(), ModelError> {
         match (self.creep().cloned(), &state.creep) {
             (Some(mut trial), Some(s)) => {
                 // validate both before changing either

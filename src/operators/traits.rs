@@ -80,16 +80,31 @@ pub use crate::realtime::Compensated;
 /// voltage that makes `W` produce it, clipped to the limits, and whether it
 /// was clipped. After a clipped sample its state is the one the plant has
 /// after receiving the clipped value.
+///
+/// A model with dead time `d` ([`delay`](ActuatorCompensator::delay)) is
+/// inverted in its memory part only: `compensate` takes the target wanted
+/// `d` samples later, and `compensate_all`, which sees the whole signal,
+/// previews it so (`u_k = W⁻¹[y]_{k+d}`, the last `d` samples holding the
+/// last target): `W[W⁻¹[y]] = y` from sample `d` on.
 pub trait ActuatorCompensator {
-    /// One sample. Allocates nothing and does no I/O.
+    /// One sample of the memory part's inverse. Allocates nothing and does
+    /// no I/O.
     fn compensate(&mut self, target: f64) -> Compensated;
 
     /// Return to the virgin state.
     fn reset(&mut self);
 
-    /// Compensate a whole signal.
+    /// The model's dead time `d` (samples) that `compensate_all` previews.
+    fn delay(&self) -> usize {
+        0
+    }
+
+    /// Compensate a whole signal, previewed by the dead time.
     fn compensate_all(&mut self, targets: &[f64]) -> Vec<Compensated> {
-        targets.iter().map(|&t| self.compensate(t)).collect()
+        let d = self.delay();
+        (0..targets.len())
+            .map(|k| self.compensate(crate::realtime::preview(targets, d, k)))
+            .collect()
     }
 }
 

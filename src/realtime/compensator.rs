@@ -10,8 +10,15 @@
 //! actuator is on. Between saturations the plays of `H` are implied by those
 //! of `H⁻¹` and are not stepped. A non-finite target holds the last voltage
 //! and is flagged; creep keeps advancing with the voltage applied.
+//!
+//! A model's dead time is not inverted here (no causal inverse exists): the
+//! compensator inverts the memory part `S[H + C]`, and a caller whose model
+//! has a delay `d` ([`Compensator::delay`]) gives it the target `d` samples
+//! ahead ([`preview`](crate::realtime::preview)).
 
 use crate::realtime::creep::Creep;
+#[cfg(doc)]
+use crate::realtime::delay::preview;
 use crate::realtime::error::ParameterError;
 use crate::realtime::hysteresis::{self, Hysteresis};
 use crate::realtime::inverse::{forward_state_in_place, inverse_state_into};
@@ -162,6 +169,8 @@ pub struct Compensator<T: Real, S: Storage> {
     offset: T,
     lower: T,
     upper: T,
+    /// The model's dead time (samples), which the caller's preview covers.
+    delay: usize,
 }
 
 impl<T: Real, S: Storage> Compensator<T, S> {
@@ -197,6 +206,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             // rounded inward: an f32 limit rounded to nearest can lie outside
             lower: T::from_f64_up(settings.lower_limit),
             upper: T::from_f64_down(settings.upper_limit),
+            delay: parameters.delay,
         };
         let mut s = 0.0;
         for i in 0..n {
@@ -272,6 +282,13 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         CompensatorSettings::with_limits(self.lower.to_f64(), self.upper.to_f64())
     }
 
+    /// The model's dead time `d` (samples): the compensator inverts the
+    /// memory part, so the target for sample `k` is the one wanted at
+    /// `k + d` ([`preview`](crate::realtime::preview)).
+    pub fn delay(&self) -> usize {
+        self.delay
+    }
+
     /// `S⁻¹` as its inverse rules give it, if the model has `S`.
     pub fn inverse_superposition(&self) -> Option<&Superposition<T, S>> {
         self.inverse_superposition.as_ref()
@@ -305,8 +322,11 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     }
 
     /// A whole signal into caller buffers, every flag kept; one
-    /// instruction-set dispatch for the lot. Returns how many samples were
-    /// saturated and how many were faults.
+    /// instruction-set dispatch for the lot. Like [`Compensator::compensate`]
+    /// it inverts the memory part: with a dead time `d`, `targets` must be
+    /// the ones wanted `d` samples later (a stream continues across calls;
+    /// [`preview`] shifts a whole planned signal). Returns how many samples
+    /// were saturated and how many were faults.
     pub fn compensate_into(
         &mut self,
         targets: &[T],

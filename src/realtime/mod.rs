@@ -15,7 +15,8 @@
 //! * [`Creep`] — `C` (16) of log(t)-creep operators (13)–(15);
 //! * [`Superposition`] — the memory-free `S` of the modified PI model, which
 //!   makes the loops asymmetric, and its inverse;
-//! * [`Model`] — `W = S[H + C] + offset` (4), (6);
+//! * [`DelayLine`] — a dead time of `d` whole samples after `S[H + C]`;
+//! * [`Model`] — `W = S[H + C] + offset` (4), (6), delayed by `d` samples;
 //! * [`Compensator`] — `W⁻¹` (21) with saturation ([`CompensatorSettings`]),
 //!   the inverse rules (22), the fault flag for a non-finite target and the
 //!   model's offset.
@@ -39,6 +40,7 @@
 
 pub mod compensator;
 pub mod creep;
+pub mod delay;
 pub mod error;
 pub mod hysteresis;
 pub(crate) mod inverse;
@@ -54,6 +56,7 @@ pub mod superposition;
 
 pub use compensator::{Compensated, Compensator, CompensatorSettings};
 pub use creep::Creep;
+pub use delay::{preview, preview_into, DelayLine};
 pub use error::ParameterError;
 pub use hysteresis::Hysteresis;
 pub use model::Model;

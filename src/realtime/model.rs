@@ -2,9 +2,12 @@
 //! the balanced patch voltage `u` (V) to the effective voltage that drives
 //! the linear beam; the offset is a measurement's sensor offset. `C` may be
 //! absent (pure hysteresis), and so may the superposition operator `S` (the
-//! identity: the paper's symmetric model `H + C + offset`).
+//! identity: the paper's symmetric model `H + C + offset`). The output may
+//! be delayed by a dead time of `d` whole samples ([`DelayLine`]):
+//! `y_k = S[H + C]_{max(k−d, 0)} + offset`.
 
 use crate::realtime::creep::Creep;
+use crate::realtime::delay::DelayLine;
 use crate::realtime::error::ParameterError;
 use crate::realtime::hysteresis::Hysteresis;
 use crate::realtime::parameters::{
@@ -22,6 +25,7 @@ pub struct Model<T: Real, S: Storage> {
     hysteresis: Hysteresis<T, S>,
     creep: Option<Creep<T, S>>,
     superposition: Option<Superposition<T, S>>,
+    delay: DelayLine<T, S>,
 }
 
 impl<T: Real, S: Storage> Model<T, S> {
@@ -41,6 +45,7 @@ impl<T: Real, S: Storage> Model<T, S> {
             superposition: superposition
                 .map(Superposition::from_parameters)
                 .transpose()?,
+            delay: DelayLine::new(parameters.delay)?,
         })
     }
 
@@ -67,6 +72,7 @@ impl<T: Real, S: Storage> Model<T, S> {
             hysteresis,
             creep,
             superposition: None,
+            delay: DelayLine::new(0)?,
         })
     }
 
@@ -74,6 +80,12 @@ impl<T: Real, S: Storage> Model<T, S> {
     pub fn with_superposition(mut self, superposition: Option<Superposition<T, S>>) -> Self {
         self.superposition = superposition;
         self
+    }
+
+    /// The same model with its output delayed by `d` samples (not started).
+    pub fn with_delay(mut self, d: usize) -> Result<Self, ParameterError> {
+        self.delay = DelayLine::new(d)?;
+        Ok(self)
     }
 
     /// The same model with output offset `offset`: `y = W[u] + offset`.
@@ -113,6 +125,20 @@ impl<T: Real, S: Storage> Model<T, S> {
     /// The superposition operator `S`, if any (none: the identity).
     pub fn superposition(&self) -> Option<&Superposition<T, S>> {
         self.superposition.as_ref()
+    }
+
+    /// The dead time `d` (samples).
+    pub fn delay(&self) -> usize {
+        self.delay.len()
+    }
+
+    /// The dead time's line: the last `d` values of `S[H + C]`.
+    pub fn delay_line(&self) -> &DelayLine<T, S> {
+        &self.delay
+    }
+
+    pub fn delay_line_mut(&mut self) -> &mut DelayLine<T, S> {
+        &mut self.delay
     }
 
     /// Set the play states of `H` and (flattened, `state[i * m + j]`) the
@@ -162,11 +188,12 @@ impl<T: Real, S: Storage> Model<T, S> {
             Some(s) => s.apply(w),
             None => w,
         };
-        w + self.offset
+        self.delay.step(w) + self.offset
     }
 
     /// Back to the virgin state.
     pub fn reset(&mut self) {
+        self.delay.reset();
         self.hysteresis.reset();
         if let Some(c) = &mut self.creep {
             c.reset();
@@ -190,6 +217,7 @@ impl<S: Storage> Model<f64, S> {
                 eigenvalues: c.eigenvalues(),
             }),
             superposition: self.superposition.as_ref().map(|s| s.parameters()),
+            delay: self.delay.len(),
             offset: self.offset,
         }
     }

@@ -8,9 +8,9 @@ use crate::realtime::parameters::{CreepParameters, HysteresisParameters, ModelPa
 use crate::realtime::storage::Inline;
 
 /// Inline storage for exactly the paper's orders: 12 plays, 12 × 5
-/// elementary creep operators and no superposition operator (the paper's
-/// actuator is symmetric) (`Compensator<f32, nominal::Capacity>`).
-pub type Capacity = Inline<PLAYS, CREEP, 0>;
+/// elementary creep operators, no superposition operator (the paper's
+/// actuator is symmetric) and no dead time (`Compensator<f32, nominal::Capacity>`).
+pub type Capacity = Inline<PLAYS, CREEP, 0, 0>;
 
 /// Plays of the paper's model (`n = 11`).
 pub const PLAYS: usize = 12;
@@ -55,5 +55,6 @@ pub const PARAMETERS: ModelParameters<'static> = ModelParameters {
         eigenvalues: &CREEP_EIGENVALUES,
     }),
     superposition: None,
+    delay: 0,
     offset: 0.0,
 };

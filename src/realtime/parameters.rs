@@ -33,14 +33,16 @@ pub struct SuperpositionParameters<'a> {
 }
 
 /// The model `W[v] = S[H[v] + C[v]] + offset` at sample time `T_s`, in the
-/// virgin state; without `S` (`None`, the identity) it is the paper's
-/// `H + C + offset`.
+/// virgin state, its output delayed by `delay` whole samples; without `S`
+/// (`None`, the identity) and delay it is the paper's `H + C + offset`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ModelParameters<'a> {
     pub sample_time: f64,
     pub hysteresis: HysteresisParameters<'a>,
     pub creep: Option<CreepParameters<'a>>,
     pub superposition: Option<SuperpositionParameters<'a>>,
+    /// Dead time `d` (samples): `y_k = S[H + C]_{max(k−d, 0)} + offset`.
+    pub delay: usize,
     pub offset: f64,
 }
 

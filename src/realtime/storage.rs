@@ -6,10 +6,11 @@
 //! storage a parameter of one `Matrix`): the mathematics and the per-sample
 //! kernels are written once and run on either
 //!
-//! * [`Inline<PLAYS, CREEP, SUPERPOSITION>`]: arrays of a capacity fixed at
-//!   compile time inside the object (at most `PLAYS` plays, at most `CREEP`
-//!   elementary creep operators, at most `SUPERPOSITION` terms of the
-//!   superposition operator, 9 unless given: four dead zones per side); no
+//! * [`Inline<PLAYS, CREEP, SUPERPOSITION, DELAY>`]: arrays of a capacity
+//!   fixed at compile time inside the object (at most `PLAYS` plays, at
+//!   most `CREEP` elementary creep operators, at most `SUPERPOSITION` terms
+//!   of the superposition operator, 9 unless given: four dead zones per
+//!   side, and at most `DELAY` samples of dead time, 16 unless given); no
 //!   allocator, for `no_std` firmware and C storage;
 //! * `Heap` (with the `std` feature, in `crate::operators`): vectors sized
 //!   at run time.
@@ -32,6 +33,8 @@ pub trait Storage: Sized + Copy + Debug + PartialEq + 'static {
     type Creep<T: Real>: Buffer<T>;
     /// Room for one value per term of the superposition operator `S`.
     type Superposition<T: Real>: Buffer<T>;
+    /// Room for one value per sample of dead time.
+    type Delay<T: Real>: Buffer<T>;
 }
 
 /// A list of `len` values, zero-initialised, seen as a slice of exactly
@@ -42,17 +45,23 @@ pub trait Buffer<T: Real>: Clone + Debug + PartialEq + Deref<Target = [T]> + Der
 }
 
 /// Inline storage: at most `PLAYS` plays, `CREEP` elementary creep
-/// operators and `SUPERPOSITION` terms of `S` (thresholds including the zero
-/// one), in arrays inside the object.
+/// operators, `SUPERPOSITION` terms of `S` (thresholds including the zero
+/// one) and `DELAY` samples of dead time, in arrays inside the object.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Inline<const PLAYS: usize, const CREEP: usize, const SUPERPOSITION: usize = 9>;
+pub struct Inline<
+    const PLAYS: usize,
+    const CREEP: usize,
+    const SUPERPOSITION: usize = 9,
+    const DELAY: usize = 16,
+>;
 
-impl<const PLAYS: usize, const CREEP: usize, const SUPERPOSITION: usize> Storage
-    for Inline<PLAYS, CREEP, SUPERPOSITION>
+impl<const PLAYS: usize, const CREEP: usize, const SUPERPOSITION: usize, const DELAY: usize> Storage
+    for Inline<PLAYS, CREEP, SUPERPOSITION, DELAY>
 {
     type Plays<T: Real> = InlineBuffer<T, PLAYS>;
     type Creep<T: Real> = InlineBuffer<T, CREEP>;
     type Superposition<T: Real> = InlineBuffer<T, SUPERPOSITION>;
+    type Delay<T: Real> = InlineBuffer<T, DELAY>;
 }
 
 /// Up to `N` values in an array, `len` of them in use.

@@ -15,6 +15,8 @@
 //! Every type here implements the traits of [`crate::operators::traits`], so
 //! the conformance checks ([`crate::suite::conformance`]) run on them too.
 
+use std::collections::VecDeque;
+
 use crate::error::ModelError;
 use crate::operators::compensator::CompensatorSettings;
 use crate::operators::model::{HysteresisCreepModel, ModelFile};
@@ -239,6 +241,11 @@ pub struct NaiveModel {
     pub superposition: Option<NaiveSuperposition>,
     /// Output offset.
     pub offset: f64,
+    /// The dead time `d` (samples).
+    pub delay: usize,
+    /// The values of `S[H + C]` still to come out, oldest first (`d` of
+    /// them once started; empty before the first sample).
+    pub pending: VecDeque<f64>,
 }
 
 impl NaiveModel {
@@ -250,7 +257,22 @@ impl NaiveModel {
             creep,
             superposition: naive_superposition(file),
             offset: file.offset.unwrap_or(0.0),
+            delay: file.delay.unwrap_or(0),
+            pending: file.delay_state.clone().unwrap_or_default().into(),
         })
+    }
+
+    /// `y_k = z_{max(k−d, 0)}`: before the first output leaves, the queue
+    /// holds `d` copies of the first `z` (the record at rest before it).
+    fn delayed(&mut self, z: f64) -> f64 {
+        if self.delay == 0 {
+            return z;
+        }
+        if self.pending.is_empty() {
+            self.pending.extend(std::iter::repeat_n(z, self.delay));
+        }
+        self.pending.push_back(z);
+        self.pending.pop_front().expect("d ≥ 1 values queued")
     }
 }
 
@@ -275,10 +297,11 @@ impl Operator for NaiveModel {
             Some(s) => s.evaluate(w),
             None => w,
         };
-        w + self.offset
+        self.delayed(w) + self.offset
     }
 
     fn reset(&mut self) {
+        self.pending.clear();
         self.hysteresis.reset();
         if let Some(c) = &mut self.creep {
             c.reset();
@@ -317,6 +340,7 @@ pub struct NaiveCompensator {
     creep: Option<NaiveCreep>,
     superposition: Option<NaiveSuperposition>,
     offset: f64,
+    delay: usize,
     last_request: f64,
 }
 
@@ -338,6 +362,7 @@ impl NaiveCompensator {
             creep,
             superposition: naive_superposition(file),
             offset: file.offset.unwrap_or(0.0),
+            delay: file.delay.unwrap_or(0),
             last_request: 0.0,
         })
     }
@@ -377,6 +402,10 @@ impl ActuatorCompensator for NaiveCompensator {
             saturated,
             fault: false,
         }
+    }
+
+    fn delay(&self) -> usize {
+        self.delay
     }
 
     fn reset(&mut self) {
@@ -506,6 +535,10 @@ impl ActuatorCompensator for BisectionCompensator {
             saturated,
             fault: false,
         }
+    }
+
+    fn delay(&self) -> usize {
+        self.model.delay
     }
 
     fn reset(&mut self) {

@@ -12,8 +12,12 @@
  * for creep; its `offset` is added to the output (subtracted from a target).
  * An optional `superposition` S (thresholds with one 0, weights) acts on
  * H + C: y = S[H + C] + offset, and W^-1 applies S^-1 (its inverse rules)
- * to the target first. Numbers are written with %.17g, which reads back
- * bit-identically.
+ * to the target first. A dead time `delay` of d samples delays the output,
+ * y_k = S[H + C]_{max(k-d,0)} + offset, with `delay_state` the d values
+ * still to come out (absent: the first sample's value fills the line);
+ * `compensate` previews the target by d samples, u_k = W^-1[y_d]_{k+d}
+ * (the last d samples hold the last target). Numbers are written with
+ * %.17g, which reads back bit-identically.
  */
 #include <math.h>
 #include <stdio.h>
@@ -294,6 +298,15 @@ int main(int argc, char **argv) {
         sup_inv = sup_inverse(&sup);
     }
 
+    const Json *dj = get(&root, "delay"), *dsj = get(&root, "delay_state");
+    size_t d = dj && dj->kind == 1 ? (size_t)dj->num : 0, nd = 0, head = 0;
+    double *line_values = NULL; /* the dead time's ring: d values of S[H + C] */
+    if (d) {
+        line_values = dsj && dsj->kind == 2 ? numbers(dsj, &nd) : calloc(d, sizeof(double));
+        if (dsj && dsj->kind == 2 && nd != d) die("model file", "delay_state needs delay values");
+    }
+    int started = dsj && dsj->kind == 2;
+
     /* the trace: header, then rows passed through with the new columns */
     char *csv = slurp(input);
     FILE *out = fopen(output, "w");
@@ -312,21 +325,47 @@ int main(int argc, char **argv) {
     if (col < 0) die("missing column", want);
     fprintf(out, "%s%s\n", line, simulate ? ",y" : ",u,saturated");
     Pi inv = simulate ? h : pi_inverse(&h);
+    /* every row first: compensate looks d samples ahead */
+    size_t rows = 0, cap = 0;
+    char **lines = NULL;
+    double *values = NULL;
     while ((line = next_line(&next))) {
         if (!*line) continue;
         const char *p = line;
         for (int k = 0; k < col && p; k++) p = strchr(p, ',') ? strchr(p, ',') + 1 : NULL;
         if (!p) die("short row in", input);
-        double v = strtod(p, NULL);
+        if (rows == cap) {
+            cap = cap ? 2 * cap : 256;
+            lines = realloc(lines, cap * sizeof(char *));
+            values = realloc(values, cap * sizeof(double));
+            if (!lines || !values) die("out of memory", NULL);
+        }
+        lines[rows] = line;
+        values[rows++] = strtod(p, NULL);
+    }
+    for (size_t k = 0; k < rows; k++) {
+        line = lines[k];
+        double v = values[k];
         if (simulate) {
             double z = pi_step(&h, v);
             if (c.n) {
                 z += creep_output(&c);
                 creep_advance(&c, v);
             }
-            double y = (sup.n ? sup_eval(&sup, z) : z) + offset;
-            fprintf(out, "%s,%.17g\n", line, y);
+            z = sup.n ? sup_eval(&sup, z) : z;
+            if (d) {
+                if (!started) {
+                    for (size_t j = 0; j < d; j++) line_values[j] = z;
+                    started = 1;
+                }
+                double oldest = line_values[head];
+                line_values[head] = z;
+                head = (head + 1) % d;
+                z = oldest;
+            }
+            fprintf(out, "%s,%.17g\n", line, z + offset);
         } else {
+            v = values[k + d < rows ? k + d : rows - 1];
             double cr = c.n ? creep_output(&c) : 0.0;
             double target = sup.n ? sup_eval(&sup_inv, v - offset) : v - offset;
             double want_v = pi_step(&inv, target - cr);

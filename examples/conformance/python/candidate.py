@@ -11,10 +11,15 @@ contract, written for `mfcbeam conform` (Python standard library only).
 (8), the creep state is chi at the first sample; its `offset` is added to the
 output (and subtracted from a compensator's target). An optional
 `superposition` S acts on H + C: y = S[H + C] + offset, and W^-1 applies
-S^-1 to the target first.
+S^-1 to the target first. A dead time `delay` of d samples delays the output,
+y_k = S[H + C]_{max(k-d,0)} + offset (`delay_state`: the d values still to
+come out; absent, the first sample's value fills the line), and `compensate`
+previews the target by d samples: u_k = W^-1[y_d]_{k+d}, the last d samples
+holding the last target.
 
 `--fault NAME` injects a known fault, so that the conformance test can show
-each one is caught: creep-vk, threshold, sign, no-flag, delay, ignore-state.
+each one is caught: creep-vk, threshold, sign, no-flag, delay, ignore-state,
+ignore-dead-time.
 """
 
 import csv
@@ -22,7 +27,7 @@ import json
 import math
 import sys
 
-FAULTS = ("creep-vk", "threshold", "sign", "no-flag", "delay", "ignore-state")
+FAULTS = ("creep-vk", "threshold", "sign", "no-flag", "delay", "ignore-state", "ignore-dead-time")
 
 
 def play(v, r, x):
@@ -145,25 +150,36 @@ def load(path, fault):
         creep = Creep(c["thresholds"], c["weights"], c["eigenvalues"], ts, chi, fault)
     sup = m.get("superposition")
     sup = Superposition(sup["thresholds"], sup["weights"]) if sup is not None else None
-    return hyst, creep, sup, m.get("offset", 0.0)
+    d = 0 if fault == "ignore-dead-time" else m.get("delay", 0)
+    pending = list(m.get("delay_state") or []) if d else []
+    return hyst, creep, sup, m.get("offset", 0.0), (d, pending)
 
 
-def simulate(hyst, creep, sup, offset, u, fault):
+def simulate(hyst, creep, sup, offset, dead, u, fault):
+    d, pending = dead
     y, last = [], 0.0
     for v in u:
         z = hyst.step(v) + (creep.step(v) if creep else 0.0)
-        out = (sup(z) if sup else z) + offset
+        z = sup(z) if sup else z
+        if d:
+            if not pending:
+                pending = [z] * d
+            pending.append(z)
+            z = pending.pop(0)
+        out = z + offset
         if fault == "delay":
             out, last = last, out
         y.append(out)
     return y
 
 
-def compensate(hyst, creep, sup, offset, targets, lo, hi, fault):
+def compensate(hyst, creep, sup, offset, dead, targets, lo, hi, fault):
     inverse = hyst.inverse()
     sup_inv = sup.inverse() if sup else None
+    d = dead[0]
     us, flags, last = [], [], 0.0
-    for t in targets:
+    for k in range(len(targets)):
+        t = targets[min(k + d, len(targets) - 1)]
         c = creep.output() if creep else 0.0
         y = sup_inv(t - offset) if sup_inv else t - offset
         v = inverse.step(y - c)
@@ -204,7 +220,7 @@ def main(argv):
     fault = opts.get("fault")
     if fault is not None and fault not in FAULTS:
         fail(f"unknown fault {fault} (one of {', '.join(FAULTS)})")
-    hyst, creep, sup, offset = load(opts["model"], fault)
+    hyst, creep, sup, offset, dead = load(opts["model"], fault)
     with open(opts["input"], newline="") as f:
         rows = list(csv.reader(f))
     header, body = rows[0], rows[1:]
@@ -214,10 +230,10 @@ def main(argv):
     values = [float(row[header.index(column)]) for row in body]
     if kind == "simulate":
         extra = ["y"]
-        cols = [[repr(y)] for y in simulate(hyst, creep, sup, offset, values, fault)]
+        cols = [[repr(y)] for y in simulate(hyst, creep, sup, offset, dead, values, fault)]
     else:
         lo, hi = (float(x) for x in opts.get("limits", "-inf,inf").split(","))
-        us, flags = compensate(hyst, creep, sup, offset, values, lo, hi, fault)
+        us, flags = compensate(hyst, creep, sup, offset, dead, values, lo, hi, fault)
         extra = ["u", "saturated"]
         cols = [[repr(u), "1" if s else "0"] for u, s in zip(us, flags)]
     with open(opts["output"], "w", newline="") as f:

@@ -62,7 +62,9 @@ pub enum ModelShape {
 /// partial sums in `[0, 0.1]`, 1 to 6 eigenvalues log-uniform in
 /// `[0.01, 1000]` s⁻¹), and for [`ModelShape::Any`] with probability 0.3 an
 /// output offset and with probability 0.5 a non-virgin state reached by a
-/// random history.
+/// random history; except for [`ModelShape::HysteresisOnly`] with
+/// probability 0.4 a superposition operator, and for [`ModelShape::Any`]
+/// with probability 0.3 a dead time of 1 to 3 samples.
 pub fn random_model(rng: &mut Rng, max_plays: usize, shape: ModelShape) -> ModelFile {
     let sample_time = if rng.chance(0.5) {
         2e-4
@@ -91,6 +93,8 @@ pub fn random_model(rng: &mut Rng, max_plays: usize, shape: ModelShape) -> Model
         },
         creep,
         superposition: None,
+        delay: None,
+        delay_state: None,
         offset: None,
     };
     let mut file = file;
@@ -111,7 +115,18 @@ pub fn random_model(rng: &mut Rng, max_plays: usize, shape: ModelShape) -> Model
     if shape != ModelShape::HysteresisOnly && rng.chance(0.4) {
         file.superposition = Some(random_superposition(rng, reach(&file)));
     }
+    // and the dead time after it (the branching rules and odd symmetry
+    // take the output sample by sample, so only where a property does not)
+    if shape == ModelShape::Any && rng.chance(0.3) {
+        file.delay = Some(rng.int(1, 3));
+    }
     file
+}
+
+/// The model's dead time `d` (samples): the identity through a compensator
+/// holds from sample `d` on.
+pub fn delay_of(file: &ModelFile) -> usize {
+    file.delay.unwrap_or(0)
 }
 
 /// A random admissible superposition operator for `H + C` of reach about
@@ -169,6 +184,8 @@ pub fn superposition_model(rng: &mut Rng, samples: usize) -> Case {
         },
         creep: None,
         superposition: Some(random_superposition(rng, scale)),
+        delay: None,
+        delay_state: None,
         offset: rng.chance(0.5).then(|| rng.uniform(-0.2, 0.2) * scale),
     };
     let input = random_input(rng, samples.max(2), 1.2 * scale);
@@ -233,6 +250,9 @@ pub fn with_state_after(file: &ModelFile, history: &[f64]) -> ModelFile {
     out.hysteresis.state = Some(m.hysteresis.x.clone());
     if let (Some(c), Some(mc)) = (&mut out.creep, &m.creep) {
         c.state = Some(mc.chi.clone());
+    }
+    if !m.pending.is_empty() {
+        out.delay_state = Some(m.pending.iter().copied().collect());
     }
     out
 }

@@ -2,13 +2,21 @@
 //! `W∘W⁻¹ = id` and `W⁻¹∘W = id` from matched states, the paper's
 //! compensated staircase, odd symmetry, the state semantics of the model
 //! file, the saturation flags and the recovery after saturation.
+//!
+//! A model with dead time `d` is compensated with the targets previewed by
+//! `d` samples (the file contract's `compensate`): `W[W⁻¹[y]] = y` holds
+//! from sample `d` on, and `W⁻¹[W[v]] = v` up to `d` samples before the end
+//! (the last `d` targets are held).
 
 use super::candidate;
 use super::cases::{
-    random_input, random_model, reach, superposition_is_odd, superposition_model, with_state_after,
-    ModelShape, Rng,
+    delay_of, random_input, random_model, reach, superposition_is_odd, superposition_model,
+    with_state_after, ModelShape, Rng,
 };
-use super::{compare, fail, refused, tolerance, two, Case, ConformanceReport, ConformanceSettings};
+use super::{
+    compare, compare_from, fail, refused, tolerance, two, Case, ConformanceReport,
+    ConformanceSettings,
+};
 use super::{CompensatorFactory, Outcome, Properties, Property};
 use crate::error::ModelError;
 use crate::operators::compensator::CompensatorSettings;
@@ -188,7 +196,14 @@ fn model_after_compensator(
     let y = plant(case).run(&u);
     let tol =
         s.tolerance_scale * tolerance::compensator(&case.model, max_abs(&u), max_abs(&case.input));
-    compare(&case.input, &case.input, &y, tol, "W[W⁻¹[y]]")
+    let d = delay_of(&case.model);
+    compare_from(&case.input, &case.input, &y, d, tol, "W[W⁻¹[y]]")
+}
+
+/// The first `n − d` samples: with dead time `d` the last `d` outputs of a
+/// previewed run answer the held last target.
+fn without_held_tail(x: &[f64], d: usize) -> &[f64] {
+    &x[..x.len().saturating_sub(d)]
 }
 
 fn compensator_after_model(
@@ -201,7 +216,14 @@ fn compensator_after_model(
     let found = outputs(&cand.compensate_all(&targets));
     let tol = s.tolerance_scale
         * tolerance::compensator(&case.model, max_abs(&case.input), max_abs(&targets));
-    compare(&targets, &case.input, &found, tol, "W⁻¹[W[v]]")
+    let d = delay_of(&case.model);
+    compare(
+        &targets,
+        without_held_tail(&case.input, d),
+        without_held_tail(&found, d),
+        tol,
+        "W⁻¹[W[v]]",
+    )
 }
 
 fn odd_symmetry(case: &Case, factory: &CompensatorFactory, s: &ConformanceSettings) -> Outcome {
@@ -250,10 +272,11 @@ fn split_and_resume(case: &Case, factory: &CompensatorFactory, s: &ConformanceSe
     let found = outputs(&cand.compensate_all(&targets));
     let tol = s.tolerance_scale
         * tolerance::compensator(&case.model, max_abs(&case.input), max_abs(&targets));
+    let d = delay_of(&case.model);
     compare(
         &targets,
-        &case.input[k..],
-        &found,
+        without_held_tail(&case.input[k..], d),
+        without_held_tail(&found, d),
         tol,
         "W⁻¹ from the saved state",
     )
@@ -271,8 +294,9 @@ fn saturation_flags(case: &Case, factory: &CompensatorFactory, s: &ConformanceSe
     let mut any = false;
     // the candidate's whole run first (an external candidate runs once)
     let found = cand.compensate_all(&case.input);
-    for (k, (&t, c)) in case.input.iter().zip(&found).enumerate() {
-        let r = reference.compensate(t);
+    let d = delay_of(&case.model);
+    for (k, c) in found.iter().enumerate() {
+        let r = reference.compensate(crate::realtime::preview(&case.input, d, k));
         any |= r.saturated;
         if !(c.u >= lo && c.u <= hi) {
             return fail(
@@ -347,7 +371,8 @@ fn saturation_recovery(
     let tol = s.tolerance_scale
         * tolerance::compensator(&case.model, hi.abs().max(lo.abs()), max_abs(&case.input));
     let signal = [case.input.clone(), targets.clone()].concat();
-    match compare(&signal, &targets, &y, tol, "W[W⁻¹[y]] after saturation") {
+    let d = delay_of(&case.model);
+    match compare_from(&signal, &targets, &y, d, tol, "W[W⁻¹[y]] after saturation") {
         Outcome::Failed(mut f) => {
             f.sample += case.input.len();
             Outcome::Failed(f)

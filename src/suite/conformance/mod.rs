@@ -208,6 +208,19 @@ pub(crate) fn compare(
     tolerance: f64,
     what: &str,
 ) -> Outcome {
+    compare_from(signal, expected, found, 0, tolerance, what)
+}
+
+/// [`compare`] from sample `from` on (a model's dead time: the identity
+/// holds from sample `d`).
+pub(crate) fn compare_from(
+    signal: &[f64],
+    expected: &[f64],
+    found: &[f64],
+    from: usize,
+    tolerance: f64,
+    what: &str,
+) -> Outcome {
     if expected.len() != found.len() {
         return fail(
             signal,
@@ -224,7 +237,7 @@ pub(crate) fn compare(
         );
     }
     let mut worst = 0.0f64;
-    for (k, (e, f)) in expected.iter().zip(found).enumerate() {
+    for (k, (e, f)) in expected.iter().zip(found).enumerate().skip(from) {
         let err = (e - f).abs();
         // NaN (a non-finite output) fails too
         let within = err <= tolerance;

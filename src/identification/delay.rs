@@ -1,0 +1,231 @@
+//! Choosing the dead time `d` of an identified model.
+//!
+//! A delay of one sample on a slow record looks almost like hysteresis: the
+//! fit on the record itself barely tells `d = 0` from `d = 1` (the lag is
+//! absorbed by the plays' widths), but the error of the wrong one grows
+//! with the rate. So every `d` in `0..=max` is fitted ([`identify`] with
+//! `settings.delay = d`) and the one kept is the best on what the fit did
+//! not see: the validation records when there are any (their pooled rms),
+//! else the held-out samples, else the fitted record's own rms over the
+//! samples every candidate fits ([`DelayCriterion`]).
+
+use std::fmt;
+use std::str::FromStr;
+
+use super::identify::{identify, Identification};
+use super::report::FitErrors;
+use super::settings::{IdentificationError, IdentificationSettings};
+use super::validation::validate_record;
+use crate::operators::traits::Operator;
+
+/// The largest dead time `auto` tries unless told (samples).
+pub const DEFAULT_MAX_DELAY: usize = 10;
+
+/// How the dead time is chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DelaySetting {
+    /// A known dead time (samples).
+    Fixed(usize),
+    /// The best of `0..=max` ([`search_delay`]).
+    Auto,
+}
+
+impl Default for DelaySetting {
+    fn default() -> Self {
+        DelaySetting::Fixed(0)
+    }
+}
+
+impl FromStr for DelaySetting {
+    type Err = String;
+
+    /// `N` (samples) or `auto`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.trim() {
+            "auto" => Ok(DelaySetting::Auto),
+            t => t
+                .parse()
+                .map(DelaySetting::Fixed)
+                .map_err(|_| format!("'{s}' is neither a sample count nor 'auto'")),
+        }
+    }
+}
+
+/// A record to validate on: its name, input and output, and the first
+/// sample evaluated.
+#[derive(Debug, Clone, Copy)]
+pub struct Record<'a> {
+    pub name: &'a str,
+    pub u: &'a [f64],
+    pub y: &'a [f64],
+    pub from: usize,
+}
+
+/// What the dead time was chosen by.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DelayCriterion {
+    /// The pooled rms over the validation records.
+    Validation,
+    /// The rms on the held-out samples.
+    Holdout,
+    /// The fitted record's rms on the samples every candidate fits.
+    Fit,
+}
+
+/// The errors of the model fitted with one dead time.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DelayRow {
+    pub delay: usize,
+    /// On the fitted record, over the samples every candidate fits.
+    pub fit: FitErrors,
+    /// On the held-out samples, if any.
+    pub holdout: Option<FitErrors>,
+    /// On each validation record, in the order given.
+    pub validations: Vec<FitErrors>,
+    /// The value the choice minimises.
+    pub score: f64,
+}
+
+/// Every dead time tried and the one kept.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DelaySearch {
+    pub chosen: usize,
+    pub criterion: DelayCriterion,
+    pub rows: Vec<DelayRow>,
+    /// The validation records' names (the columns of `rows[i].validations`).
+    pub names: Vec<String>,
+}
+
+/// Fit every dead time `0..=max_delay` and keep the best (module docs);
+/// `settings.delay` is ignored. The errors of every candidate on every
+/// record are in the returned [`DelaySearch`].
+pub fn search_delay(
+    u: &[f64],
+    y: &[f64],
+    sample_time: f64,
+    settings: &IdentificationSettings,
+    max_delay: usize,
+    records: &[Record<'_>],
+) -> Result<(Identification, DelaySearch), IdentificationError> {
+    let mut fits = Vec::with_capacity(max_delay + 1);
+    for d in 0..=max_delay {
+        let s = IdentificationSettings {
+            delay: d,
+            ..settings.clone()
+        };
+        let id = identify(u, y, sample_time, &s)?;
+        let mut validations = Vec::with_capacity(records.len());
+        for r in records {
+            validations.push(validate_record(&id.model, r.name, r.u, r.y, r.from)?.errors);
+        }
+        let run = id.model.clone().run(u);
+        fits.push((id, run, validations));
+    }
+    // the samples every candidate fits: a larger d starts its fit later
+    let start = fits.iter().map(|f| f.0.report.fitted.start).max();
+    let end = fits.iter().map(|f| f.0.report.fitted.end).min();
+    let common = start.unwrap_or(0)..end.unwrap_or(0).max(start.unwrap_or(0));
+    let criterion = if !records.is_empty() {
+        DelayCriterion::Validation
+    } else if fits[0].0.report.holdout.is_some() {
+        DelayCriterion::Holdout
+    } else {
+        DelayCriterion::Fit
+    };
+    let rows: Vec<DelayRow> = fits
+        .iter()
+        .map(|(id, run, validations)| {
+            let fit = FitErrors::of(run, y, common.clone());
+            let score = match criterion {
+                DelayCriterion::Validation => pooled_rms(validations),
+                DelayCriterion::Holdout => id.report.holdout.map_or(f64::INFINITY, |h| h.rms),
+                DelayCriterion::Fit => fit.rms,
+            };
+            DelayRow {
+                delay: id.report.delay,
+                fit,
+                holdout: id.report.holdout,
+                validations: validations.clone(),
+                score,
+            }
+        })
+        .collect();
+    // the smallest d among equal scores
+    let best = (0..rows.len())
+        .min_by(|&a, &b| rows[a].score.total_cmp(&rows[b].score).then(a.cmp(&b)))
+        .unwrap_or(0);
+    let search = DelaySearch {
+        chosen: rows[best].delay,
+        criterion,
+        rows,
+        names: records.iter().map(|r| r.name.to_string()).collect(),
+    };
+    let id = fits.swap_remove(best).0;
+    Ok((id, search))
+}
+
+/// The rms over all samples of several records.
+fn pooled_rms(errors: &[FitErrors]) -> f64 {
+    let (sq, n) = errors.iter().fold((0.0, 0usize), |(sq, n), e| {
+        (sq + e.rms * e.rms * e.samples as f64, n + e.samples)
+    });
+    (sq / n.max(1) as f64).sqrt()
+}
+
+impl fmt::Display for DelaySearch {
+    /// One row per dead time: rms in % of each record's output range.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "dead time (samples)   fit rms %")?;
+        let holdout = self.rows.first().is_some_and(|r| r.holdout.is_some());
+        if holdout {
+            write!(f, "  held-out rms %")?;
+        }
+        for n in &self.names {
+            write!(f, "  {n} rms %")?;
+        }
+        writeln!(f)?;
+        for r in &self.rows {
+            let mark = if r.delay == self.chosen { '*' } else { ' ' };
+            write!(f, "{mark} {:>18} {:>11.4}", r.delay, r.fit.rms_percent())?;
+            if let Some(h) = &r.holdout {
+                write!(f, " {:>15.4}", h.rms_percent())?;
+            }
+            for (v, n) in r.validations.iter().zip(&self.names) {
+                write!(f, " {:>w$.4}", v.rms_percent(), w = n.len() + 7)?;
+            }
+            writeln!(f)?;
+        }
+        let by = match self.criterion {
+            DelayCriterion::Validation => "the validation records' pooled rms",
+            DelayCriterion::Holdout => "the held-out samples' rms",
+            DelayCriterion::Fit => "the fitted record's rms (no validation records, nothing held out: a dead time shows at high rates; validate on a faster record)",
+        };
+        writeln!(f, "dead time chosen     {} samples, by {by}", self.chosen)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_delay_setting_is_a_count_or_auto() {
+        assert_eq!("3".parse::<DelaySetting>(), Ok(DelaySetting::Fixed(3)));
+        assert_eq!("auto".parse::<DelaySetting>(), Ok(DelaySetting::Auto));
+        assert!("-1".parse::<DelaySetting>().is_err());
+        assert!("1.5".parse::<DelaySetting>().is_err());
+    }
+
+    #[test]
+    fn pooled_rms_weighs_by_samples() {
+        let e = |rms, samples| FitErrors {
+            samples,
+            rms,
+            max: rms,
+            output_range: 1.0,
+        };
+        // (1² · 3 + 3² · 1) / 4 = 3
+        let p = pooled_rms(&[e(1.0, 3), e(3.0, 1)]);
+        assert!((p - 3f64.sqrt()).abs() <= 4.0 * f64::EPSILON, "{p}");
+    }
+}
