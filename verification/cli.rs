@@ -1178,3 +1178,220 @@ fn a_model_with_a_superposition_operator_runs_through_every_command() {
     ]);
     assert_clean_failure(&out, &["superposition_kinks"], None);
 }
+
+/// The asymmetric nominal model with a dead time of `delay` samples.
+fn delayed_model(d: &TempDir, delay: usize) -> PathBuf {
+    let mut file = mfcbeam::io::read_model_file(&asymmetric_model(d)).unwrap();
+    file.delay = Some(delay);
+    let p = d.path(&format!("delay{delay}.json"));
+    fs::write(&p, serde_json::to_string(&file).unwrap()).unwrap();
+    p
+}
+
+/// `simulate` shifts the output by the dead time; `compensate` previews the
+/// target by it, so that `W[W⁻¹[y_d]] = y_d` from sample `d` on;
+/// `feedforward --model` does the same for the planned `u_d`; `identify
+/// --delay auto` finds it on a faster validation record and prints the
+/// table of every candidate; bad values exit 2 with one line.
+#[test]
+fn a_model_with_a_dead_time_runs_through_every_command() {
+    let d = TempDir::new("delay");
+    let ok = |out: Output| {
+        let err = String::from_utf8_lossy(&out.stderr).to_string();
+        assert!(out.status.success(), "{err}");
+        err
+    };
+    let (m0, m3) = (asymmetric_model(&d), delayed_model(&d, 3));
+    let sig = d.path("sig.csv");
+    ok(mfcbeam(&[
+        "signal",
+        "--periods",
+        "2",
+        "--amplitude",
+        "900",
+        "--plateau",
+        "0.05",
+        "--output",
+        s(&sig),
+    ]));
+    let run = |model: &Path, name: &str| {
+        let out = d.path(name);
+        ok(mfcbeam(&[
+            "simulate",
+            "--model",
+            s(model),
+            "--input",
+            s(&sig),
+            "--output",
+            s(&out),
+        ]));
+        Trace::read(&out).unwrap().column("y").unwrap()
+    };
+    let (y0, y3) = (run(&m0, "y0.csv"), run(&m3, "y3.csv"));
+    let shifted: Vec<f64> = (0..y0.len()).map(|k| y0[k.saturating_sub(3)]).collect();
+    assert_eq!(y3, shifted);
+
+    // compensate: the identity from sample 3 on, to 1e-9 of the range
+    let u = Trace::read(&sig).unwrap().column("u").unwrap();
+    let t: Vec<f64> = u.iter().map(|x| 0.5 * x + 3.0).collect();
+    let targets = d.path("targets.csv");
+    Trace::from_columns(&targets, &[("y_d", &t)])
+        .write(&targets)
+        .unwrap();
+    let comp = d.path("comp.csv");
+    ok(mfcbeam(&[
+        "compensate",
+        "--model",
+        s(&m3),
+        "--input",
+        s(&targets),
+        "--output",
+        s(&comp),
+        "--no-limits",
+    ]));
+    let uc = Trace::read(&comp).unwrap().column("u").unwrap();
+    let back = mfcbeam::io::read_model(&m3).unwrap().run(&uc);
+    let range = common::range(&t);
+    let worst = (3..t.len())
+        .map(|k| (back[k] - t[k]).abs())
+        .fold(0.0, f64::max);
+    assert!(worst <= 1e-9 * range, "{worst}");
+
+    // feedforward --model: W[u] = u_d from sample 3 on
+    let ff = d.path("ff.csv");
+    ok(mfcbeam(&[
+        "feedforward",
+        "--beam",
+        BEAM,
+        "--model",
+        s(&m3),
+        "--start",
+        "0.1",
+        "--duration",
+        "0.075",
+        "--y-final",
+        "0.001",
+        "--end",
+        "0.3",
+        "--output",
+        s(&ff),
+        "--elements",
+        "60",
+    ]));
+    let tr = Trace::read(&ff).unwrap();
+    let (u_d, u_ff) = (tr.column("u_d").unwrap(), tr.column("u").unwrap());
+    let w = mfcbeam::io::read_model(&m3).unwrap().run(&u_ff);
+    let worst = (3..u_d.len())
+        .map(|k| (w[k] - u_d[k]).abs())
+        .fold(0.0, f64::max);
+    assert!(worst <= 1e-9 * common::range(&u_d), "{worst}");
+
+    // identify --delay auto: a 100 Hz record tells the dead time
+    let record = |rate: &str, name: &str| {
+        let sig = d.path(&format!("sig{name}"));
+        ok(mfcbeam(&[
+            "signal",
+            "--periods",
+            "4",
+            "--amplitude",
+            "900",
+            "--plateau",
+            "0.001",
+            "--rise",
+            rate,
+            "--output",
+            s(&sig),
+        ]));
+        let data = d.path(name);
+        ok(mfcbeam(&[
+            "simulate",
+            "--model",
+            s(&m3),
+            "--input",
+            s(&sig),
+            "--output",
+            s(&data),
+        ]));
+        data
+    };
+    let (slow, fast) = (record("0.05", "slow.csv"), record("0.005", "fast.csv"));
+    let out_model = d.path("id.json");
+    let report = ok(mfcbeam(&[
+        "identify",
+        "--input",
+        s(&slow),
+        "--output",
+        s(&out_model),
+        "--superposition",
+        "2",
+        "--creep-operators",
+        "0",
+        "--delay",
+        "auto",
+        "--max-delay",
+        "5",
+        "--validate",
+        s(&fast),
+    ]));
+    assert!(report.contains("dead time (samples)"), "{report}");
+    assert!(
+        report.contains("dead time chosen     3 samples, by the validation records"),
+        "{report}"
+    );
+    let table: Vec<&str> = report
+        .lines()
+        .skip_while(|l| !l.starts_with("dead time (samples)"))
+        .skip(1)
+        .take(6)
+        .collect();
+    assert!(table[3].starts_with('*'), "{report}");
+    assert_eq!(
+        mfcbeam::io::read_model_file(&out_model).unwrap().delay,
+        Some(3)
+    );
+    // a fixed dead time is taken as given
+    let report = ok(mfcbeam(&[
+        "identify",
+        "--input",
+        s(&slow),
+        "--output",
+        s(&out_model),
+        "--creep-operators",
+        "0",
+        "--delay",
+        "2",
+    ]));
+    assert!(
+        report.contains("dead time            2 samples"),
+        "{report}"
+    );
+    assert!(!report.contains("dead time chosen"), "{report}");
+
+    // bad values: exit 2, one line
+    let never = d.path("never.json");
+    let out = mfcbeam(&[
+        "identify",
+        "--input",
+        s(&slow),
+        "--output",
+        s(&never),
+        "--delay",
+        "soon",
+    ]);
+    assert_clean_failure(&out, &["--delay", "soon"], Some(&never));
+    let mut bad = mfcbeam::io::read_model_file(&m3).unwrap();
+    bad.delay_state = Some(vec![1.0]);
+    let bad_path = d.path("bad.json");
+    fs::write(&bad_path, serde_json::to_string(&bad).unwrap()).unwrap();
+    let never = d.path("never.csv");
+    let out = mfcbeam(&[
+        "simulate",
+        "--model",
+        s(&bad_path),
+        "--input",
+        s(&sig),
+        "--output",
+        s(&never),
+    ]);
+    assert_clean_failure(&out, &["bad.json", "delay_state"], Some(&never));
+}
