@@ -94,7 +94,11 @@ fn steps_and_in_place_runs_allocate_nothing() {
         thresholds: vec![-500.0, -200.0, 0.0, 150.0, 400.0],
         weights: vec![0.25, -0.25, 1.0, -0.2, -0.15],
     });
+    // and a dead time of 4 samples after it (heap and inline delay lines)
+    file.delay = Some(4);
     let mut w_s = HysteresisCreepModel::from_file(&file).unwrap();
+    let mut w_s_inline =
+        Model::<f32, mfcbeam::realtime::Inline<12, 60, 5, 4>>::from_file(&file).unwrap();
     let s_settings = CompensatorSettings::with_limits(-300.0, 300.0);
     let mut comp_s = w_s.compensator(s_settings).unwrap();
     let mut bank_s = mfcbeam::operators::bank::CompensatorBank::<f64>::uniform(
@@ -125,6 +129,7 @@ fn steps_and_in_place_runs_allocate_nothing() {
             }
             bank.compensate(&targets, &mut bank_out).unwrap();
             std::hint::black_box(w_s.step(comp_s.compensate(v).u));
+            std::hint::black_box(w_s_inline.step(v as f32));
             bank_s.compensate(&[v; 5], &mut bank_s_out).unwrap();
         }
         targets[3] = f32::NAN;

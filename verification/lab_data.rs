@@ -385,6 +385,11 @@ fn an_asymmetric_logger_file_is_fitted_with_and_without_a_superposition_operator
 /// stage ringing: 30 V at 700 Hz decaying with 20 ms over the first 0.1 s)
 /// and 0.5 V of noise.
 fn ringing_record(rate: f64, seed: u64) -> (Vec<f64>, Vec<f64>) {
+    ringing_record_of(&nominal_model(), rate, seed)
+}
+
+/// [`ringing_record`] of another actuator.
+fn ringing_record_of(truth: &HysteresisCreepModel, rate: f64, seed: u64) -> (Vec<f64>, Vec<f64>) {
     let n = (2.0 / SAMPLE_TIME) as usize;
     let u: Vec<f64> = (0..n)
         .map(|k| {
@@ -397,7 +402,7 @@ fn ringing_record(rate: f64, seed: u64) -> (Vec<f64>, Vec<f64>) {
             900.0 * tri
         })
         .collect();
-    let clean = nominal_model().run(&u);
+    let clean = truth.clone().run(&u);
     let noise = gaussian(&mut Lcg(seed), n, 0.5);
     let y = (0..n)
         .map(|k| {
@@ -486,4 +491,88 @@ fn a_ringing_start_is_reported_and_skipped_and_records_at_several_rates_are_tabl
         "{}",
         rows[0]
     );
+}
+
+/// Records at 20, 40 and 100 Hz (as above: a ringing start, 0.5 V of
+/// noise) of an asymmetric actuator without creep whose output lags by 2
+/// samples (0.4 ms). Fitted on the 20 Hz record without a dead time, the
+/// error grows with the rate — it looks like rate-dependent hysteresis;
+/// `--delay auto` fits 0..=10 samples, the 40 and 100 Hz records choose 2,
+/// and every record is then fitted to the noise. `MFCBEAM_LAB_OUT=DIR`
+/// keeps the files (README's table).
+#[test]
+fn a_dead_time_is_found_by_faster_records_and_every_record_is_tabled() {
+    let keep = std::env::var_os("MFCBEAM_LAB_OUT").map(PathBuf::from);
+    let d = TempDir(std::env::temp_dir().join(format!("mfcbeam-delay-{}", std::process::id())));
+    let dir = keep.unwrap_or_else(|| d.0.clone());
+    fs::create_dir_all(&dir).unwrap();
+    let mut file = nominal_model().to_file().without_state();
+    file.creep = None;
+    file.superposition = Some(mfcbeam::operators::model::SuperpositionData {
+        thresholds: vec![-500.0, -200.0, 0.0, 150.0, 400.0],
+        weights: vec![0.25, -0.25, 1.0, -0.2, -0.15],
+    });
+    file.delay = Some(2);
+    let truth = HysteresisCreepModel::from_file(&file).unwrap();
+    let write = |name: &str, rate: f64, seed: u64| -> PathBuf {
+        let (u, y) = ringing_record_of(&truth, rate, seed);
+        let t: Vec<f64> = (0..u.len()).map(|k| k as f64 * SAMPLE_TIME).collect();
+        let p = dir.join(name);
+        Trace::from_columns(&p, &[("t", &t), ("u", &u), ("y", &y)])
+            .write(&p)
+            .unwrap();
+        p
+    };
+    let (r20, r40, r100) = (
+        write("delayed20.csv", 20.0, 11),
+        write("delayed40.csv", 40.0, 12),
+        write("delayed100.csv", 100.0, 13),
+    );
+    let identify = |delay: &str| -> String {
+        let out = Command::new(bin())
+            .args(["identify", "--input"])
+            .arg(&r20)
+            .arg("--output")
+            .arg(dir.join(format!("delay-{delay}.json")))
+            .args(["--fit-from", "0.1s", "--superposition", "4"])
+            .args(["--creep-operators", "0", "--delay", delay])
+            .arg("--validate")
+            .arg(&r40)
+            .arg("--validate")
+            .arg(&r100)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr).to_string();
+        assert!(out.status.success(), "{err}");
+        eprintln!("{err}");
+        err
+    };
+    // the validation table's rms column (V), fitted record first
+    let table = |report: &str| -> Vec<f64> {
+        report
+            .lines()
+            .skip_while(|l| !l.starts_with("validation "))
+            .skip(1)
+            .take(3)
+            .map(|l| l.split_whitespace().nth(3).unwrap().parse().unwrap())
+            .collect()
+    };
+    let none = table(&identify("0"));
+    let report = identify("auto");
+    assert!(
+        report.contains("dead time chosen     2 samples, by the validation records"),
+        "{report}"
+    );
+    let found = table(&report);
+    eprintln!("rms without a dead time {none:?}, with --delay auto {found:?}");
+    // with the dead time every record is fitted to 0.2 % of its ~1100 V
+    // range: the noise (0.5 V) and what the model class leaves (the
+    // thresholds (23) of max|u| = 900 V and the rule's kinks of S⁻¹ are not
+    // the truth's), the same at every rate
+    assert!(found.iter().all(|&e| e < 2.5), "{found:?}");
+    // without it the error grows with the rate
+    assert!(none[0] < none[1] && none[1] < none[2], "{none:?}");
+    assert!(none[2] > 4.0 * found[2], "{none:?} vs {found:?}");
+    let model = mfcbeam::io::read_model_file(&dir.join("delay-auto.json")).unwrap();
+    assert_eq!(model.delay, Some(2));
 }

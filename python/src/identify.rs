@@ -15,6 +15,9 @@ use mfcbeam::io::TimeAxis;
 use crate::arrays::{optional_signal, signal, value_error};
 use crate::model::Model;
 
+// the signature's literal (a Python signature shows literals only)
+const _: () = assert!(mfcbeam::identification::DEFAULT_MAX_DELAY == 10);
+
 /// Identify a model W = S[H + C] + offset from the input u (V) and the measured output y
 /// sampled at `sample_time` (s), or at the timestamps `t` (s, mean step;
 /// at most 1 % jitter).
@@ -53,7 +56,7 @@ use crate::model::Model;
     hysteresis_thresholds = None, creep_thresholds = None, eigenvalues = None,
     epsilon_h = None, fit_offset = true, fit_from = None, holdout = 0.0, validate = None,
     superposition = 0, superposition_kinks = None, validate_from = None,
-    delay = None, max_delay = mfcbeam::identification::DEFAULT_MAX_DELAY
+    delay = None, max_delay = 10
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify<'py>(

@@ -166,3 +166,40 @@ def test_an_asymmetric_model_compensates_like_the_cli(cli, nominal_json):
     # the requirement of the asymmetric-hysteresis work: to 1e-9 of the range
     error = np.max(np.abs(model.copy().simulate(u) - y_d))
     assert error <= 1e-9 * np.ptp(y_d), error
+
+
+def test_a_model_with_a_dead_time_compensates_like_the_cli(cli, nominal_json):
+    """A dead time of 3 samples: the compensator inverts the memory part, a
+    whole planned target is previewed by 3 samples (preview=True, as the
+    command line's compensate), and a stream given the target 3 samples
+    ahead in chunks is the same; W[W⁻¹[y]] = y from sample 3 on."""
+    m = json.loads(json.dumps(nominal_json))
+    m["delay"] = 3
+    m["offset"] = 3.0
+    model_file = cli.tmp / "delayed.json"
+    model_file.write_text(json.dumps(m))
+    model = mfcbeam.Model.from_file(model_file)
+    assert model.delay == 3 and model.state["delay"] is None
+    y_d = 400.0 * np.sin(np.arange(20000) * 1e-3)
+    src = cli.write_csv("in.csv", {"y_d": y_d})
+    cli.run("compensate", "--model", model_file, "--input", src, "--output", cli.tmp / "o.csv",
+            "--no-limits")
+    comp = mfcbeam.Compensator(model, limits=None)
+    assert comp.delay == 3
+    u, saturated, fault = comp.copy().compensate(y_d, preview=True)
+    np.testing.assert_array_equal(u, cli.read_csv(cli.tmp / "o.csv")["u"])
+    assert not saturated.any() and not fault.any()
+    error = np.max(np.abs(model.copy().simulate(u)[3:] - y_d[3:]))
+    assert error <= 1e-9 * np.ptp(y_d), error
+    # a stream: the target 3 samples ahead, in two chunks
+    ahead = np.concatenate([y_d[3:], np.full(3, y_d[-1])])
+    stream = comp.copy()
+    u1, _, _ = stream.compensate(ahead[:7000])
+    u2, _, _ = stream.compensate(ahead[7000:])
+    np.testing.assert_array_equal(np.concatenate([u1, u2]), u)
+    # the line's state is saved and resumed
+    first = model.copy()
+    first.simulate(u[:500])
+    assert len(first.state["delay"]) == 3
+    resumed = mfcbeam.Model.from_json(first.to_json())
+    np.testing.assert_array_equal(resumed.simulate(u[500:]), model.copy().simulate(u)[500:])

@@ -186,3 +186,44 @@ def test_several_validation_records_give_one_row_each_with_the_input_rate(record
     assert single["validation"] == report["validation"]
     with pytest.raises(ValueError, match=r"validate\[1\]: must be a pair"):
         mfcbeam.identify(record["u"], record["y"], sample_time=ts, validate=[records[0], 3])
+
+
+def test_a_dead_time_is_found_on_a_faster_record_and_agrees_with_the_cli(cli):
+    """delay="auto": every d in 0..=max_delay is fitted and the 100 Hz
+    validation record chooses the true 2 samples; the report lists each
+    candidate; the command line gives the same model."""
+    m = json.loads(asymmetric_nominal().to_json())
+    del m["creep"]
+    m["delay"] = 2
+    truth = mfcbeam.Model.from_json(json.dumps(m))
+    ts = truth.sample_time
+
+    def triangles(rate, seconds, seed):
+        k = np.arange(int(seconds / ts))
+        phase = (k * ts * rate) % 1.0
+        u = 900.0 * np.where(phase < 0.5, 4 * phase - 1, 3 - 4 * phase)
+        rng = np.random.default_rng(seed)
+        return u, truth.copy().simulate(u) + rng.normal(0.0, 0.5, len(u))
+
+    (u, y), (u2, y2) = triangles(20.0, 1.0, 1), triangles(100.0, 0.5, 2)
+    model, report = mfcbeam.identify(u, y, sample_time=ts, creep_operators=0, superposition=2,
+                                     delay="auto", max_delay=4, validate=(u2, y2))
+    assert report["delay"] == 2 and model.delay == 2
+    assert report["delay_criterion"] == "validation"
+    rows = report["delays"]
+    assert [r["delay"] for r in rows] == [0, 1, 2, 3, 4]
+    best = min(rows, key=lambda r: r["score"])
+    assert best["delay"] == 2 and len(best["validations"]) == 1
+    assert "dead time chosen     2 samples" in report["text"]
+    src = cli.write_csv("d.csv", {"t": np.arange(len(u)) * ts, "u": u, "y": y})
+    val = cli.write_csv("v.csv", {"t": np.arange(len(u2)) * ts, "u": u2, "y": y2})
+    out = cli.tmp / "d.json"
+    cli.run("identify", "--input", src, "--output", out, "--creep-operators", "0",
+            "--superposition", "2", "--delay", "auto", "--max-delay", "4", "--validate", val)
+    assert json.loads(out.read_text())["delay"] == 2
+    # fixed, and bad values
+    _, fixed = mfcbeam.identify(u, y, sample_time=ts, creep_operators=0, delay=1)
+    assert fixed["delay"] == 1 and fixed["delays"] is None
+    for bad in ("soon", -1, 1.5):
+        with pytest.raises(ValueError, match="delay"):
+            mfcbeam.identify(u, y, sample_time=ts, delay=bad)
