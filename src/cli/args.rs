@@ -29,7 +29,7 @@ pub struct Cli {
 pub enum Command {
     /// Run the model W = S[H + C] + offset on column `u`; writes IN's columns plus `y = W[u]`.
     Simulate(SimulateArgs),
-    /// Run the compensator W⁻¹ on column `y_d`; writes IN's columns plus `u` and `saturated`.
+    /// Run the compensator W⁻¹ on column `y_d` (previewed by the model's dead time); writes IN's columns plus `u` and `saturated`.
     Compensate(CompensateArgs),
     /// Print H⁻¹ (thresholds, weights, state) of a model as JSON, by the rules (22), and S⁻¹ if the model has a superposition operator.
     Invert(InvertArgs),
