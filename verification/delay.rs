@@ -391,3 +391,28 @@ fn auto_finds_a_dead_time_with_a_superposition_operator() {
     assert_eq!(search.chosen, 2, "{search}");
     assert!(id.model.superposition().is_some());
 }
+
+/// A bank's channels may have different dead times: it reports each, and
+/// each channel inverts its memory part as a single compensator does, bit
+/// for bit.
+#[test]
+fn a_bank_reports_each_channels_dead_time() {
+    use mfcbeam::operators::bank::CompensatorBank;
+    let files = [delayed_nominal(0), delayed_nominal(3)];
+    let parameters: Vec<_> = files.iter().map(|f| f.parameters()).collect();
+    let settings = CompensatorSettings::unlimited();
+    let mut bank = CompensatorBank::<f64>::new(&parameters, settings).unwrap();
+    assert_eq!(bank.delays(), &[0, 3]);
+    let mut singles: Vec<_> = files
+        .iter()
+        .map(|f| Compensator::<f64, Heap>::new(&f.parameters(), settings).unwrap())
+        .collect();
+    let mut out = [mfcbeam::realtime::Compensated::<f64>::default(); 2];
+    for k in 0..2000 {
+        let t = 400.0 * (k as f64 * 3e-3).sin();
+        bank.compensate(&[t, t], &mut out).unwrap();
+        for (c, single) in singles.iter_mut().enumerate() {
+            assert_eq!(out[c], single.compensate(t), "channel {c}, sample {k}");
+        }
+    }
+}

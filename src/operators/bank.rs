@@ -10,6 +10,10 @@
 //! the same order, so channel `c` of a bank and a single compensator of the
 //! same model give the same bits (`verification/bank.rs`). The channels may
 //! share one model or each have their own; all have the same orders.
+//!
+//! Like a single compensator, each channel inverts its model's memory part:
+//! a channel whose model has a dead time `d` ([`CompensatorBank::delays`])
+//! takes the target wanted `d` samples later.
 
 use std::vec;
 use std::vec::Vec;
@@ -69,6 +73,8 @@ pub struct CompensatorBank<T: Real> {
     creep_out: Vec<T>,
     creep_last: Vec<T>,
     io: Io<T>,
+    /// Each channel's dead time (samples), for its caller's preview.
+    delays: Vec<usize>,
 }
 
 impl<T: Real> CompensatorBank<T> {
@@ -177,7 +183,11 @@ impl<T: Real> CompensatorBank<T> {
                 p.inverse_superposition[c] = Some(Superposition::inverse_of(sp)?);
             }
         }
+        let delays = (0..channels)
+            .map(|c| models[if shared { 0 } else { c }].delay)
+            .collect();
         Ok(Self {
+            delays,
             channels,
             padded,
             plays: n,
@@ -204,6 +214,12 @@ impl<T: Real> CompensatorBank<T> {
     /// The number of channels.
     pub fn channels(&self) -> usize {
         self.channels
+    }
+
+    /// Each channel's dead time `d` (samples): its target at a step is the
+    /// one wanted `d` samples later.
+    pub fn delays(&self) -> &[usize] {
+        &self.delays
     }
 
     /// One sample of every channel: `out[c]` is the voltage for
