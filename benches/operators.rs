@@ -1,5 +1,6 @@
-//! Real-time budget checks: one step of H, C, W and the compensator at the
-//! paper's order (12 plays; 12 thresholds × 5 creep eigenvalues), and a whole
+//! Real-time budget checks: one step of H, C, W (also with a dead time) and
+//! the compensator at the paper's order (12 plays; 12 thresholds × 5 creep
+//! eigenvalues), and a whole
 //! 90 s trace at 5 kHz (450 000 samples). The board's budget is Ts = 0.2 ms.
 
 use std::hint::black_box;
@@ -35,6 +36,15 @@ fn single_steps(c: &mut Criterion) {
 
     let mut w = model.clone();
     g.bench_function("model_w_step", |b| {
+        b.iter(|| {
+            k = (k + 1) & (LEN - 1);
+            w.step(black_box(input[k]))
+        })
+    });
+
+    // the same model with a dead time of 3 samples: what the ring buffer costs
+    let mut w = model.clone().with_delay(3).unwrap();
+    g.bench_function("model_w_step_delayed", |b| {
         b.iter(|| {
             k = (k + 1) & (LEN - 1);
             w.step(black_box(input[k]))
