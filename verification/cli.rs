@@ -1150,23 +1150,7 @@ fn a_model_with_a_superposition_operator_runs_through_every_command() {
     // a decreasing S: exit 2, one line naming the field
     let mut bad = mfcbeam::io::read_model_file(&model).unwrap();
     bad.superposition.as_mut().unwrap().weights[3] = -1.5;
-    let bad_path = d.path("bad.json");
-    fs::write(&bad_path, serde_json::to_string(&bad).unwrap()).unwrap();
-    let out_path = d.path("never.csv");
-    let out = mfcbeam(&[
-        "simulate",
-        "--model",
-        s(&bad_path),
-        "--input",
-        s(&sig),
-        "--output",
-        s(&out_path),
-    ]);
-    assert_clean_failure(
-        &out,
-        &["bad.json", "superposition.weights"],
-        Some(&out_path),
-    );
+    simulate_refuses(&d, &bad, &sig, "superposition.weights");
     // kinks outside the output's range are refused by name
     let out = mfcbeam(&[
         "identify",
@@ -1381,17 +1365,28 @@ fn a_model_with_a_dead_time_runs_through_every_command() {
     assert_clean_failure(&out, &["--delay", "soon"], Some(&never));
     let mut bad = mfcbeam::io::read_model_file(&m3).unwrap();
     bad.delay_state = Some(vec![1.0]);
+    simulate_refuses(&d, &bad, &sig, "delay_state");
+}
+
+/// `simulate` with the model file `bad` exits 2 with one line naming the
+/// file and `field`, and writes nothing.
+fn simulate_refuses(
+    d: &TempDir,
+    bad: &mfcbeam::operators::model::ModelFile,
+    sig: &Path,
+    field: &str,
+) {
     let bad_path = d.path("bad.json");
-    fs::write(&bad_path, serde_json::to_string(&bad).unwrap()).unwrap();
+    fs::write(&bad_path, serde_json::to_string(bad).unwrap()).unwrap();
     let never = d.path("never.csv");
     let out = mfcbeam(&[
         "simulate",
         "--model",
         s(&bad_path),
         "--input",
-        s(&sig),
+        s(sig),
         "--output",
         s(&never),
     ]);
-    assert_clean_failure(&out, &["bad.json", "delay_state"], Some(&never));
+    assert_clean_failure(&out, &["bad.json", field], Some(&never));
 }

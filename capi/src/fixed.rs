@@ -40,22 +40,13 @@ pub const MFCBEAM_MODEL_F32_WORDS: usize = 508;
 /// Words of `MfcbeamModelStorageF64`.
 pub const MFCBEAM_MODEL_F64_WORDS: usize = 993;
 
-type CompensatorF32 = Compensator<
-    f32,
-    Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION, MFCBEAM_MAX_DELAY>,
->;
-type CompensatorF64 = Compensator<
-    f64,
-    Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION, MFCBEAM_MAX_DELAY>,
->;
-type ModelF32 = Model<
-    f32,
-    Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION, MFCBEAM_MAX_DELAY>,
->;
-type ModelF64 = Model<
-    f64,
-    Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION, MFCBEAM_MAX_DELAY>,
->;
+/// The capacity of every caller-owned object.
+type Capacity =
+    Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION, MFCBEAM_MAX_DELAY>;
+type CompensatorF32 = Compensator<f32, Capacity>;
+type CompensatorF64 = Compensator<f64, Capacity>;
+type ModelF32 = Model<f32, Capacity>;
+type ModelF64 = Model<f64, Capacity>;
 
 /// Caller-owned storage for a compensator in `f32` (declare it, statically
 /// or on the stack, then `*_init` it; nothing to free).
@@ -165,13 +156,7 @@ unsafe fn compensator_from<T: Real>(
     parameters: *const MfcbeamParameters,
     lower: f64,
     upper: f64,
-) -> Result<
-    Compensator<
-        T,
-        Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION, MFCBEAM_MAX_DELAY>,
-    >,
-    Failure,
-> {
+) -> Result<Compensator<T, Capacity>, Failure> {
     // SAFETY: forwarded from the caller.
     let p = unsafe { parameters.as_ref() }.ok_or(Failure::Null("parameters"))?;
     // SAFETY: forwarded from the caller.
@@ -186,13 +171,7 @@ unsafe fn compensator_from<T: Real>(
 /// As [`compensator_from`].
 unsafe fn model_from<T: Real>(
     parameters: *const MfcbeamParameters,
-) -> Result<
-    Model<
-        T,
-        Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION, MFCBEAM_MAX_DELAY>,
-    >,
-    Failure,
-> {
+) -> Result<Model<T, Capacity>, Failure> {
     // SAFETY: forwarded from the caller.
     let p = unsafe { parameters.as_ref() }.ok_or(Failure::Null("parameters"))?;
     // SAFETY: forwarded from the caller.
@@ -207,13 +186,7 @@ unsafe fn compensator_from_json<T: Real>(
     json: *const c_char,
     lower: f64,
     upper: f64,
-) -> Result<
-    Compensator<
-        T,
-        Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION, MFCBEAM_MAX_DELAY>,
-    >,
-    Failure,
-> {
+) -> Result<Compensator<T, Capacity>, Failure> {
     // SAFETY: forwarded from the caller.
     let file = unsafe { model_file(json) }?;
     Compensator::from_file(&file, CompensatorSettings::with_limits(lower, upper))
@@ -223,15 +196,7 @@ unsafe fn compensator_from_json<T: Real>(
 #[cfg(feature = "std")]
 /// # Safety
 /// `json` is NULL or NUL-terminated.
-unsafe fn model_from_json<T: Real>(
-    json: *const c_char,
-) -> Result<
-    Model<
-        T,
-        Inline<MFCBEAM_MAX_PLAYS, MFCBEAM_MAX_CREEP, MFCBEAM_MAX_SUPERPOSITION, MFCBEAM_MAX_DELAY>,
-    >,
-    Failure,
-> {
+unsafe fn model_from_json<T: Real>(json: *const c_char) -> Result<Model<T, Capacity>, Failure> {
     // SAFETY: forwarded from the caller.
     let file = unsafe { model_file(json) }?;
     Model::from_file(&file).map_err(|e| Failure::Text(e.to_string()))
@@ -244,19 +209,7 @@ unsafe fn model_from_json<T: Real>(
 unsafe fn compensate<S, T: Real>(storage: *mut S, target: T, flags: *mut c_int) -> T {
     // SAFETY: forwarded from the caller.
     unsafe {
-        match value::<
-            S,
-            Compensator<
-                T,
-                Inline<
-                    MFCBEAM_MAX_PLAYS,
-                    MFCBEAM_MAX_CREEP,
-                    MFCBEAM_MAX_SUPERPOSITION,
-                    MFCBEAM_MAX_DELAY,
-                >,
-            >,
-        >(storage)
-        {
+        match value::<S, Compensator<T, Capacity>>(storage) {
             Some(c) => {
                 let out = c.compensate(target);
                 set_flags(flags, flags_of(out.saturated, out.fault));

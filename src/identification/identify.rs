@@ -9,7 +9,7 @@ use faer::Mat;
 
 use super::regressor::regressor_factor;
 use super::report::StartCheck;
-use super::report::{check_finite, first_at_max, range};
+use super::report::{check_record_signals, first_at_max, range};
 use super::settings::{
     superposition_kinks, thresholds_23, IdentificationError, IdentificationSettings,
 };
@@ -48,14 +48,7 @@ pub fn identify(
     sample_time: f64,
     settings: &IdentificationSettings,
 ) -> Result<Identification, IdentificationError> {
-    if u.len() != y.len() {
-        return Err(IdentificationError::LengthMismatch {
-            u: u.len(),
-            y: y.len(),
-        });
-    }
-    check_finite("u", u)?;
-    check_finite("y", y)?;
+    check_record_signals(u, y)?;
     let (n, d) = (u.len(), settings.delay);
     if d >= n {
         return Err(IdentificationError::InvalidSetting {
@@ -151,15 +144,8 @@ impl FitPlan {
         settings: &IdentificationSettings,
     ) -> Result<Self, IdentificationError> {
         settings.validate()?;
-        if u.len() != y.len() {
-            return Err(IdentificationError::LengthMismatch {
-                u: u.len(),
-                y: y.len(),
-            });
-        }
+        check_record_signals(u, y)?;
         crate::realtime::parameters::check_sample_time(sample_time).map_err(ModelError::from)?;
-        check_finite("u", u)?;
-        check_finite("y", y)?;
         let n = u.len();
         let r_max = u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         if n == 0 || u.iter().all(|&v| v == u[0]) {

@@ -305,6 +305,18 @@ pub(super) fn check_finite(signal: &'static str, x: &[f64]) -> Result<(), Identi
     }
 }
 
+/// A record's input and output: one length, every sample finite.
+pub(super) fn check_record_signals(u: &[f64], y: &[f64]) -> Result<(), IdentificationError> {
+    if u.len() != y.len() {
+        return Err(IdentificationError::LengthMismatch {
+            u: u.len(),
+            y: y.len(),
+        });
+    }
+    check_finite("u", u)?;
+    check_finite("y", y)
+}
+
 /// The first sample at which `|v|` reaches `max|v|`.
 pub fn first_at_max(v: &[f64]) -> usize {
     let m = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));

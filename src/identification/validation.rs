@@ -7,7 +7,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use super::report::{check_finite, first_at_max, FitErrors};
+use super::report::{check_record_signals, first_at_max, FitErrors};
 use super::settings::IdentificationError;
 use crate::operators::model::HysteresisCreepModel;
 use crate::operators::traits::Operator;
@@ -116,14 +116,7 @@ pub fn check_record(
     y: &[f64],
     from: usize,
 ) -> Result<(), IdentificationError> {
-    if u.len() != y.len() {
-        return Err(IdentificationError::LengthMismatch {
-            u: u.len(),
-            y: y.len(),
-        });
-    }
-    check_finite("u", u)?;
-    check_finite("y", y)?;
+    check_record_signals(u, y)?;
     if from >= u.len() {
         return Err(IdentificationError::InvalidSetting {
             field: "validate_from",
