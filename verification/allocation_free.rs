@@ -16,8 +16,14 @@ thread_local! {
     static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
 }
 
+/// Every thread's allocations: for the bank's worker threads, counted while
+/// this file's only test holds the machine (the harness's main thread
+/// waits for it without allocating).
+static ALL_THREADS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
 fn count() {
     let _ = ALLOCATIONS.try_with(|n| n.set(n.get() + 1));
+    ALL_THREADS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
 }
 
 unsafe impl GlobalAlloc for Counting {
@@ -146,6 +152,31 @@ fn steps_and_in_place_runs_allocate_nothing() {
         assert!(saturated > 0 && faults == 0);
     });
     assert_eq!(n, 0, "{n} allocations in the per-sample path");
+
+    // a bank stepped on two threads: no allocation in either
+    let workers = mfcbeam::operators::bank::Workers::new(1).unwrap();
+    let mut big = mfcbeam::operators::bank::CompensatorBank::<f64>::uniform(
+        &nominal::PARAMETERS,
+        100,
+        CompensatorSettings::with_limits(-300.0, 300.0),
+    )
+    .unwrap();
+    let mut big_out = vec![mfcbeam::realtime::Compensated::<f64>::default(); 100];
+    let rows: Vec<Vec<f64>> = input
+        .iter()
+        .take(2000)
+        .map(|&v| (0..100).map(|c| v * (1.0 + c as f64 / 99.0)).collect())
+        .collect();
+    big.compensate_on(&workers, &rows[0], &mut big_out).unwrap(); // workers started
+    let before = ALL_THREADS.load(std::sync::atomic::Ordering::SeqCst);
+    for row in &rows {
+        big.compensate_on(&workers, row, &mut big_out).unwrap();
+    }
+    let n = ALL_THREADS.load(std::sync::atomic::Ordering::SeqCst) - before;
+    assert_eq!(
+        n, 0,
+        "{n} allocations in 2000 steps of a bank on two threads"
+    );
     // the counter does see allocations
     assert!(
         allocations_during(|| {

@@ -68,7 +68,8 @@ fn same_as_singles<T: Real>(seed: u64, channels: usize, shared: bool) {
     } else {
         CompensatorBank::<T>::new(&params, CompensatorSettings::with_limits(-limit, limit)).unwrap()
     };
-    let mut portable = bank.clone();
+    // the bank on every kernel set this CPU has, the portable one first
+    let mut each: Vec<_> = simd::Kernels::all().map(|k| (k, bank.clone())).collect();
     let mut singles: Vec<Single<T>> = (0..channels)
         .map(|c| {
             Single::<T>::new(
@@ -79,14 +80,18 @@ fn same_as_singles<T: Real>(seed: u64, channels: usize, shared: bool) {
         })
         .collect();
     let mut out = vec![Default::default(); channels];
-    let mut out_portable = out.clone();
+    let mut out_each = out.clone();
     let (mut saturated, mut faults) = (0, 0);
     for row in targets(&mut rng, channels, 1500, limit) {
         let row: Vec<T> = row.iter().map(|&t| T::from_f64(t)).collect();
         bank.compensate(&row, &mut out).unwrap();
-        portable
-            .compensate_portable(&row, &mut out_portable)
-            .unwrap();
+        for (k, other) in &mut each {
+            other.compensate_using(*k, &row, &mut out_each).unwrap();
+            assert_eq!(
+                out, out_each,
+                "seed {seed}: {k:?} and the default kernels differ"
+            );
+        }
         for c in 0..channels {
             let single = singles[c].compensate(row[c]);
             assert_eq!(
@@ -94,10 +99,6 @@ fn same_as_singles<T: Real>(seed: u64, channels: usize, shared: bool) {
                 (single.u.to_f64().to_bits(), single.saturated, single.fault),
                 "seed {seed}, channel {c} of {channels}: bank {:?}, single {single:?}",
                 out[c]
-            );
-            assert_eq!(
-                out[c], out_portable[c],
-                "seed {seed}: AVX2 and portable differ"
             );
             saturated += usize::from(single.saturated);
             faults += usize::from(single.fault);
@@ -113,7 +114,7 @@ fn same_as_singles<T: Real>(seed: u64, channels: usize, shared: bool) {
 #[test]
 fn each_channel_is_a_single_compensator_bit_for_bit() {
     for seed in 0..24 {
-        for channels in [1, 3, 8, 13] {
+        for channels in [1, 3, 8, 13, 17, 40] {
             same_as_singles::<f64>(seed, channels, seed % 2 == 0);
             same_as_singles::<f32>(seed, channels, seed % 2 == 1);
         }
@@ -121,7 +122,7 @@ fn each_channel_is_a_single_compensator_bit_for_bit() {
 }
 
 #[test]
-fn the_avx2_step_gives_the_portable_bits() {
+fn every_kernel_set_gives_the_portable_bits() {
     eprintln!("kernels on this CPU: {:?}", simd::Kernels::detect());
     let mut rng = Rng::new(7);
     for seed in 0..40u64 {
@@ -133,27 +134,41 @@ fn the_avx2_step_gives_the_portable_bits() {
         let mut a32 =
             Single::<f32>::new(&p, CompensatorSettings::with_limits(-700.0, 700.0)).unwrap();
         let mut b32 = a32.clone();
+        // every kernel set the CPU has, against the portable one
+        let mut each: Vec<_> = simd::Kernels::all()
+            .map(|k| (k, a.clone(), a32.clone()))
+            .collect();
         for row in targets(&mut Rng::new(seed), 1, 2000, 700.0) {
             let t = row[0];
-            assert_eq!(a.compensate(t), b.compensate_portable(t), "seed {seed}");
-            let t = t as f32;
-            assert_eq!(a32.compensate(t), b32.compensate_portable(t), "seed {seed}");
+            let expected = b.compensate_portable(t);
+            assert_eq!(a.compensate(t), expected, "seed {seed}");
+            let expected32 = b32.compensate_portable(t as f32);
+            assert_eq!(a32.compensate(t as f32), expected32, "seed {seed}");
+            for (k, c, c32) in &mut each {
+                assert_eq!(c.compensate_using(*k, t), expected, "seed {seed}, {k:?}");
+                assert_eq!(
+                    c32.compensate_using(*k, t as f32),
+                    expected32,
+                    "seed {seed}, {k:?}"
+                );
+            }
         }
     }
 }
 
-/// The choice bites: where the CPU has AVX2 the AVX2 kernels run (the `f64`
-/// compensator's `H⁻¹` and creep pass, the bank's lane blocks in `f64` and
-/// `f32`), the portable entry points never run them, and without AVX2
-/// nothing does. (The calls are counted per thread, with debug assertions.)
+/// The choice bites: where the CPU has AVX2 (or AVX-512) the explicit
+/// kernels run (the compensator's `H⁻¹` and creep pass in `f64` and `f32`,
+/// the bank's blocks in `f64` and `f32`), the portable entry points never
+/// run them, and without AVX2 nothing does. (The calls are counted per
+/// thread, with debug assertions.)
 #[test]
-fn the_avx2_kernels_run_exactly_where_the_cpu_has_avx2() {
+fn the_vector_kernels_run_exactly_where_the_cpu_has_them() {
     if !cfg!(debug_assertions) {
         return; // not counted
     }
     let avx2 = simd::Kernels::detect().is_avx2();
     eprintln!("AVX2 on this CPU: {avx2}");
-    let calls = simd::avx2_kernel_calls;
+    let calls = simd::simd_kernel_calls;
     let settings = CompensatorSettings::default();
     let p = mfcbeam::realtime::nominal::PARAMETERS;
 
@@ -165,11 +180,13 @@ fn the_avx2_kernels_run_exactly_where_the_cpu_has_avx2() {
     // H⁻¹ and the creep pass
     assert_eq!(calls() - before, if avx2 { 2 } else { 0 });
 
-    // f32 single steps are vectorised by the compiler, no explicit kernels
+    // f32 too: 8-lane H⁻¹ and creep pass
     let mut c32 = Single::<f32>::new(&p, settings).unwrap();
     let before = calls();
-    c32.compensate(300.0);
-    assert_eq!(calls(), before);
+    c32.compensate_portable(300.0);
+    assert_eq!(calls(), before, "the portable f32 step ran AVX2 kernels");
+    c32.compensate(350.0);
+    assert_eq!(calls() - before, if avx2 { 2 } else { 0 });
 
     for channels in [4, 8] {
         let mut b64 = CompensatorBank::<f64>::uniform(&p, channels, settings).unwrap();
@@ -262,4 +279,54 @@ fn bad_banks_and_slices_are_refused_with_the_field_named() {
     bank.compensate(&[0.5; 3], &mut out).unwrap();
     fresh.compensate(&[0.5; 3], &mut out2).unwrap();
     assert_eq!(out, out2);
+}
+
+/// A bank stepped with its blocks split over worker threads gives the bits
+/// of the same bank on one thread, whatever the split (more parts than
+/// blocks, a last block partly filled, per-channel models with saturation
+/// and faults), over many steps.
+#[test]
+fn a_bank_on_worker_threads_gives_the_bits_of_one_thread() {
+    use mfcbeam::operators::bank::Workers;
+    let pools: Vec<Workers> = [0, 1, 3].map(|extra| Workers::new(extra).unwrap()).into();
+    for (seed, channels) in [(1u64, 5usize), (2, 16), (3, 37), (4, 130)] {
+        let mut rng = Rng::new(seed);
+        let files = models(&mut rng, channels);
+        let params: Vec<_> = files.iter().map(ModelFile::parameters).collect();
+        let limit = rng.uniform(100.0, 600.0);
+        let settings = CompensatorSettings::with_limits(-limit, limit);
+        let mut one = CompensatorBank::<f64>::new(&params, settings).unwrap();
+        let mut one32 = CompensatorBank::<f32>::new(&params, settings).unwrap();
+        let mut split: Vec<_> = pools
+            .iter()
+            .map(|w| (w, one.clone(), one32.clone()))
+            .collect();
+        let mut out = vec![Default::default(); channels];
+        let mut out32 = vec![Default::default(); channels];
+        let mut out_split = out.clone();
+        let mut out_split32 = out32.clone();
+        for row in targets(&mut rng, channels, 300, limit) {
+            let row32: Vec<f32> = row.iter().map(|&t| t as f32).collect();
+            one.compensate(&row, &mut out).unwrap();
+            one32.compensate(&row32, &mut out32).unwrap();
+            for (workers, bank, bank32) in &mut split {
+                bank.compensate_on(workers, &row, &mut out_split).unwrap();
+                bank32
+                    .compensate_on(workers, &row32, &mut out_split32)
+                    .unwrap();
+                assert_eq!(
+                    out_split,
+                    out,
+                    "{} parts, {channels} channels",
+                    workers.parts()
+                );
+                assert_eq!(
+                    out_split32,
+                    out32,
+                    "{} parts, {channels} channels",
+                    workers.parts()
+                );
+            }
+        }
+    }
 }

@@ -11,6 +11,8 @@
  *
  * Built with -DPEER_LIB -shared -fPIC it is a library instead (peer_new,
  * peer_targets, peer_run) for the interleaved comparison in benches/peers.rs.
+ * With -DBRANCH_FREE the compensator step is the strongest peer: the same
+ * loops without the target test, the forward plays and the re-seat.
  *
  * The input is the random walk of benches/common (same generator and
  * constants); the targets are W of it, computed here by the forward model.
@@ -90,6 +92,25 @@ static double creep_advance(double chi[M][NC], const double *rc, const double *w
     return out;
 }
 
+#ifdef BRANCH_FREE
+/* The strongest peer (-DBRANCH_FREE): only the arithmetic every step needs.
+ * No test of the target, no forward plays, no re-seat after a clipped
+ * sample: the loops of (20)-(22) and the clip, straight through. It does
+ * less than mfcbeam (a NaN target poisons it; after saturation its H^-1 is
+ * on the wrong branch), which the benches' targets never exercise. */
+static double compensate(compensator *c, double target, int *saturated) {
+    double y = target - c->creep_out;
+    double v = 0.0;
+    for (int i = 0; i < NP; i++) {
+        c->xi[i] = fmax(y - c->ri[i], fmin(y + c->ri[i], c->xi[i]));
+        v += c->wi[i] * c->xi[i];
+    }
+    double u = fmin(fmax(v, c->lower), c->upper);
+    *saturated = u != v;
+    c->creep_out = creep_advance(c->chi, c->rc, c->wc, c->g, u);
+    return u;
+}
+#else
 /* One sample of (21); *saturated set when u was clipped. */
 static double compensate(compensator *c, double target, int *saturated) {
     *saturated = 0;
@@ -117,6 +138,7 @@ static double compensate(compensator *c, double target, int *saturated) {
     c->creep_out = creep_advance(c->chi, c->rc, c->wc, c->g, u);
     return u;
 }
+#endif
 
 static double model_step(model *w, double u) {
     double h = 0.0;

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # The compensator step against its peers, in one run on this machine: the
-# hand-written C (compensator.c, -O3 -march=native -ffast-math), numba
+# hand-written C (compensator.c, -O3 -march=native -ffast-math; and built
+# with -DBRANCH_FREE, the strongest peer: no target test, no forward plays,
+# no re-seat), numba
 # (numba_compensator.py, if numba is installed) and this crate's criterion
 # benches (step/compensator_step: the heap compensator, and the fixed f64
 # and f32 cores). Checks first that the peers compute what mfcbeam does.
@@ -18,6 +20,8 @@ mkdir -p "$out"
 
 cc -O3 -march=native -ffast-math -Wall -Wextra -Werror -o "$out/compensator" \
   benches/peers/compensator.c -lm
+cc -O3 -march=native -ffast-math -Wall -Wextra -Werror -DBRANCH_FREE \
+  -o "$out/compensator_branch_free" benches/peers/compensator.c -lm
 # MFCBEAM_CLI: a built program to check against (CI passes the debug one)
 if [[ -z "${MFCBEAM_CLI:-}" ]]; then
   cargo build --quiet --release --bin mfcbeam
@@ -40,6 +44,10 @@ sys.exit(0 if worst < 1e-9 else 1)
 EOF
 }
 agree "$out/c_vs_mfcbeam.csv" "C peer"
+"$out/compensator_branch_free" trace >"$out/cbf_trace.csv"
+"$MFCBEAM_CLI" compensate --model "$out/nominal.json" \
+  --input "$out/cbf_trace.csv" --output "$out/cbf_vs_mfcbeam.csv"
+agree "$out/cbf_vs_mfcbeam.csv" "branch-free C peer"
 numba=no
 if python3 -c "import numba" 2>/dev/null; then
   numba=yes
@@ -56,7 +64,10 @@ fi
 # ratios), then numba, then criterion's medians.
 cc -O3 -march=native -ffast-math -Wall -Wextra -Werror -DPEER_LIB -shared -fPIC \
   -o "$out/libpeer.so" benches/peers/compensator.c -lm
-MFCBEAM_C_PEER="$PWD/$out/libpeer.so" cargo bench --quiet --bench peers
+cc -O3 -march=native -ffast-math -Wall -Wextra -Werror -DPEER_LIB -DBRANCH_FREE -shared -fPIC \
+  -o "$out/libpeer_branch_free.so" benches/peers/compensator.c -lm
+MFCBEAM_C_PEER="$PWD/$out/libpeer.so" MFCBEAM_C_PEER_BRANCH_FREE="$PWD/$out/libpeer_branch_free.so" \
+  cargo bench --quiet --bench peers
 c_ns=$("$out/compensator" time)
 nb_ns=$([[ $numba == yes ]] && python3 benches/peers/numba_compensator.py time || echo nan)
 cargo bench --quiet --bench operators -- 'step/compensator_step$' \

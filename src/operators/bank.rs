@@ -1,15 +1,20 @@
 //! A bank of compensators (21): one per actuator of an array (a deformable
 //! mirror has hundreds to thousands), stepped together.
 //!
-//! Every state and parameter is stored structure-of-arrays, element-major
-//! and channel-minor (`x[i · C + c]`, creep `χ[(i · m + j) · C + c]`), and a
-//! step runs each element over a
-//! block of channels (4 in `f64`, 8 in `f32`: one AVX register), so SIMD goes
-//! across channels and no channel waits for another. Each channel does the
-//! arithmetic of [`Compensator`](crate::realtime::Compensator) in
-//! the same order, so channel `c` of a bank and a single compensator of the
-//! same model give the same bits (`verification/bank.rs`). The channels may
-//! share one model or each have their own; all have the same orders.
+//! The channels are grouped in blocks of one cache line of lanes (8 in
+//! `f64`, 16 in `f32`), and each block's whole state is contiguous, row by
+//! row — the inverse plays (twice: the step reads one copy and writes the
+//! other, so the plays before a clipped sample are still there for its
+//! re-seat), the creep states, the last voltage, creep output and creep
+//! input — so that a step streams through memory once and SIMD goes across
+//! the channels of a block: no channel waits for another. The parameters
+//! are laid out the same way, one block for a shared model or one per
+//! block. Each lane does the arithmetic of
+//! [`Compensator`](crate::realtime::Compensator) in the same order, on any
+//! instruction set (`simd::block`), so channel `c` of a bank and a single
+//! compensator of the same model give the same bits (`verification/bank.rs`).
+//! The channels may share one model or each have their own; all have the
+//! same orders.
 //!
 //! Like a single compensator, each channel inverts its model's memory part:
 //! a channel whose model has a dead time `d` ([`CompensatorBank::delays`])
@@ -22,58 +27,102 @@ use crate::operators::heap::Heap;
 use crate::realtime::compensator::Compensated;
 use crate::realtime::creep::creep_gain;
 use crate::realtime::error::ParameterError;
-use crate::realtime::hysteresis::reduce;
 use crate::realtime::inverse::inverse_parameters_into;
 use crate::realtime::parameters::{check_length, ModelParameters};
-use crate::realtime::play::{clamp, play};
+use crate::realtime::play::play;
 use crate::realtime::real::Real;
-use crate::realtime::simd::{self, Kernels};
+use crate::realtime::simd::block::{lanes, run_blocks, Block, BlockWork, Ops, Row};
+use crate::realtime::simd::Kernels;
 use crate::realtime::superposition::Superposition;
 use crate::realtime::CompensatorSettings;
 
-/// Channels are padded to a multiple of this (the widest block).
-const PAD: usize = 8;
+use crate::operators::workers::SharedMut;
+pub use crate::operators::workers::Workers;
 
-/// Parameters of every channel, element-major: `p[e · stride + c]`; with one
-/// shared model `stride` is one block and every block reads offset 0.
-#[derive(Debug, Clone, PartialEq)]
-struct Parameters<T: Real> {
-    inv_r: Vec<T>,
-    inv_w: Vec<T>,
-    r: Vec<T>,
-    w: Vec<T>,
-    s: Vec<T>,
-    creep_r: Vec<T>,
-    creep_w: Vec<T>,
-    gains: Vec<T>,
-    offset: Vec<T>,
-    /// `S⁻¹` of each lane's model, if it has `S`.
-    inverse_superposition: Vec<Option<Superposition<T, Heap>>>,
-    stride: usize,
-    shared: bool,
+/// Where each row of a block lies: the state rows and the parameter rows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Layout {
+    /// Plays, creep thresholds, eigenvalues.
+    n: usize,
+    nc: usize,
+    m: usize,
+}
+
+impl Layout {
+    // state rows
+    fn inv_x(self, half: usize, i: usize) -> usize {
+        half * self.n + i
+    }
+    fn chi(self, i: usize, j: usize) -> usize {
+        2 * self.n + i * self.m + j
+    }
+    fn last_u(self) -> usize {
+        2 * self.n + self.nc * self.m
+    }
+    fn creep_out(self) -> usize {
+        self.last_u() + 1
+    }
+    fn creep_last(self) -> usize {
+        self.last_u() + 2
+    }
+    fn state_rows(self) -> usize {
+        self.last_u() + 3
+    }
+    // parameter rows: H⁻¹'s r', w', H's r, w and partial sums s, the creep
+    // thresholds and weights / m, the gains, the offset
+    fn inv_r(self, i: usize) -> usize {
+        i
+    }
+    fn inv_w(self, i: usize) -> usize {
+        self.n + i
+    }
+    fn r(self, i: usize) -> usize {
+        2 * self.n + i
+    }
+    fn w(self, i: usize) -> usize {
+        3 * self.n + i
+    }
+    fn s(self, i: usize) -> usize {
+        4 * self.n + i
+    }
+    fn creep_r(self, i: usize) -> usize {
+        5 * self.n + i
+    }
+    fn creep_w(self, i: usize) -> usize {
+        5 * self.n + self.nc + i
+    }
+    fn gain(self, j: usize) -> usize {
+        5 * self.n + 2 * self.nc + j
+    }
+    fn offset(self) -> usize {
+        5 * self.n + 2 * self.nc + self.m
+    }
+    fn parameter_rows(self) -> usize {
+        self.offset() + 1
+    }
 }
 
 /// `N` compensators `W⁻¹` stepped together, in `T` (`f32` or `f64`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct CompensatorBank<T: Real> {
     channels: usize,
-    /// `channels` rounded up to a multiple of [`PAD`]: the state stride.
-    padded: usize,
-    plays: usize,
-    creep_thresholds: usize,
-    eigenvalues: usize,
-    p: Parameters<T>,
+    blocks: usize,
+    layout: Layout,
+    /// Every block's state rows, block after block.
+    state: Vec<Row>,
+    /// The parameter rows of one block (a shared model) or of each block.
+    parameters: Vec<Row>,
+    shared: bool,
     lower: T,
     upper: T,
-    inv_x: Vec<T>,
-    /// The inverse plays before the step (a saturated lane starts from them).
-    scratch: Vec<T>,
-    last_u: Vec<T>,
-    chi: Vec<T>,
-    creep_out: Vec<T>,
-    creep_last: Vec<T>,
-    io: Io<T>,
-    /// Each channel's dead time (samples), for its caller's preview.
+    /// Which copy of the inverse plays is current (0 or 1).
+    parity: usize,
+    /// `S⁻¹` of each channel's model (of the one, shared), if it has `S`.
+    inverse_superposition: Vec<Option<Superposition<T, Heap>>>,
+    /// Whether a lane of the block has `S` (the block then applies `S⁻¹`
+    /// lane by lane).
+    superposed: Vec<bool>,
+    /// Each channel's dead time, for its caller's preview.
     delays: Vec<usize>,
 }
 
@@ -136,78 +185,77 @@ impl<T: Real> CompensatorBank<T> {
                 return Err(mismatch("sample_time"));
             }
         }
-        let padded = channels.div_ceil(PAD) * PAD;
-        let stride = if shared { PAD } else { padded };
-        let param = |len: usize| vec![T::ZERO; len * stride];
-        let mut p = Parameters {
-            inv_r: param(n),
-            inv_w: param(n),
-            r: param(n),
-            w: param(n),
-            s: param(n),
-            creep_r: param(nc),
-            creep_w: param(nc),
-            gains: param(m),
-            offset: param(1),
-            inverse_superposition: vec![None; stride],
-            stride,
-            shared,
-        };
-        let mut inv_r = vec![0.0; n];
-        let mut inv_w = vec![0.0; n];
-        for c in 0..stride {
-            // padding lanes repeat the first model: finite, never read out
-            let model = models.get(c).unwrap_or(first);
-            let h = &model.hysteresis;
-            inverse_parameters_into(h.thresholds, h.weights, &mut inv_r, &mut inv_w);
-            let mut s = 0.0;
-            for i in 0..n {
-                s += h.weights[i];
-                p.inv_r[i * stride + c] = T::from_f64(inv_r[i]);
-                p.inv_w[i * stride + c] = T::from_f64(inv_w[i]);
-                p.r[i * stride + c] = T::from_f64(h.thresholds[i]);
-                p.w[i * stride + c] = T::from_f64(h.weights[i]);
-                p.s[i * stride + c] = T::from_f64(s);
-            }
-            if let Some(cp) = &model.creep {
-                for i in 0..nc {
-                    p.creep_r[i * stride + c] = T::from_f64(cp.thresholds[i]);
-                    p.creep_w[i * stride + c] = T::from_f64(cp.weights[i] / m as f64);
+        let layout = Layout { n, nc, m };
+        let width = lanes::<T>();
+        let blocks = channels.div_ceil(width);
+        let parameter_blocks = if shared { 1 } else { blocks };
+        let mut parameters = vec![Row::default(); parameter_blocks * layout.parameter_rows()];
+        let mut inverse_superposition = Vec::with_capacity(models.len());
+        for model in models {
+            inverse_superposition.push(
+                model
+                    .superposition
+                    .as_ref()
+                    .map(Superposition::inverse_of)
+                    .transpose()?,
+            );
+        }
+        let (mut inv_r, mut inv_w) = (vec![0.0; n], vec![0.0; n]);
+        for b in 0..parameter_blocks {
+            let rows = &mut parameters[b * layout.parameter_rows()..][..layout.parameter_rows()];
+            for l in 0..width {
+                // a shared model fills every lane; padding lanes repeat the
+                // first model: finite, never read out
+                let c = if shared { 0 } else { b * width + l };
+                let model = models.get(c).unwrap_or(first);
+                let mut put = |row: usize, x: f64| rows[row].lanes_mut::<T>()[l] = T::from_f64(x);
+                let h = &model.hysteresis;
+                inverse_parameters_into(h.thresholds, h.weights, &mut inv_r, &mut inv_w);
+                let mut s = 0.0;
+                for i in 0..n {
+                    s += h.weights[i];
+                    put(layout.inv_r(i), inv_r[i]);
+                    put(layout.inv_w(i), inv_w[i]);
+                    put(layout.r(i), h.thresholds[i]);
+                    put(layout.w(i), h.weights[i]);
+                    put(layout.s(i), s);
                 }
-                for (j, &a) in cp.eigenvalues.iter().enumerate() {
-                    p.gains[j * stride + c] = T::from_f64(creep_gain(a, model.sample_time));
+                if let Some(cp) = &model.creep {
+                    for i in 0..nc {
+                        put(layout.creep_r(i), cp.thresholds[i]);
+                        put(layout.creep_w(i), cp.weights[i] / m as f64);
+                    }
+                    for (j, &a) in cp.eigenvalues.iter().enumerate() {
+                        put(layout.gain(j), creep_gain(a, model.sample_time));
+                    }
                 }
-            }
-            p.offset[c] = T::from_f64(model.offset);
-            if let Some(sp) = &model.superposition {
-                p.inverse_superposition[c] = Some(Superposition::inverse_of(sp)?);
+                put(layout.offset(), model.offset);
             }
         }
+        let superposed = (0..blocks)
+            .map(|b| {
+                (0..width).any(|l| {
+                    let c = if shared { 0 } else { b * width + l };
+                    inverse_superposition.get(c).is_some_and(Option::is_some)
+                })
+            })
+            .collect();
         let delays = (0..channels)
             .map(|c| models[if shared { 0 } else { c }].delay)
             .collect();
         Ok(Self {
-            delays,
             channels,
-            padded,
-            plays: n,
-            creep_thresholds: nc,
-            eigenvalues: m,
-            p,
+            blocks,
+            layout,
+            state: vec![Row::default(); blocks * layout.state_rows()],
+            parameters,
+            shared,
             lower: T::from_f64_up(lower),
             upper: T::from_f64_down(upper),
-            inv_x: vec![T::ZERO; n * padded],
-            scratch: vec![T::ZERO; n * padded],
-            last_u: vec![T::ZERO; padded],
-            chi: vec![T::ZERO; nc * m * padded],
-            creep_out: vec![T::ZERO; padded],
-            creep_last: vec![T::ZERO; padded],
-            io: Io {
-                targets: vec![T::ZERO; padded],
-                u: vec![T::ZERO; padded],
-                saturated: vec![false; padded],
-                fault: vec![false; padded],
-            },
+            parity: 0,
+            inverse_superposition,
+            superposed,
+            delays,
         })
     }
 
@@ -230,7 +278,7 @@ impl<T: Real> CompensatorBank<T> {
         targets: &[T],
         out: &mut [Compensated<T>],
     ) -> Result<(), ParameterError> {
-        self.run(targets, out, true)
+        self.compensate_using(Kernels::detect(), targets, out)
     }
 
     /// [`CompensatorBank::compensate`] with the portable kernels only, no
@@ -241,290 +289,320 @@ impl<T: Real> CompensatorBank<T> {
         targets: &[T],
         out: &mut [Compensated<T>],
     ) -> Result<(), ParameterError> {
-        self.run(targets, out, false)
+        self.compensate_using(Kernels::Portable, targets, out)
     }
 
-    fn run(
+    /// [`CompensatorBank::compensate`] on the kernels `k` (any of
+    /// [`Kernels::all`]: the same bits on each; for tests and benches).
+    #[doc(hidden)]
+    pub fn compensate_using(
         &mut self,
+        k: Kernels,
         targets: &[T],
         out: &mut [Compensated<T>],
-        simd: bool,
     ) -> Result<(), ParameterError> {
         check_length("bank.targets", self.channels, targets.len())?;
         check_length("bank.out", self.channels, out.len())?;
-        self.io.targets[..self.channels].copy_from_slice(targets);
-        if simd {
-            // the kernels chosen once per step, not per row
-            Kernels::detect().run(|k| self.step_all(k));
-        } else {
-            self.step_all(Kernels::Portable);
-        }
-        for (c, o) in out.iter_mut().enumerate() {
-            *o = Compensated {
-                u: self.io.u[c],
-                saturated: self.io.saturated[c],
-                fault: self.io.fault[c],
-            };
-        }
+        let (fixed, state) = self.split();
+        step_blocks(k, &fixed, 0, state, targets, out);
+        self.parity ^= 1;
         Ok(())
+    }
+
+    /// [`CompensatorBank::compensate`] with the blocks split over `workers`
+    /// and the calling thread (for banks of hundreds of channels and more:
+    /// each part is at least one block). The same bits as on one thread;
+    /// allocation-free and without locks.
+    pub fn compensate_on(
+        &mut self,
+        workers: &Workers,
+        targets: &[T],
+        out: &mut [Compensated<T>],
+    ) -> Result<(), ParameterError> {
+        check_length("bank.targets", self.channels, targets.len())?;
+        check_length("bank.out", self.channels, out.len())?;
+        let k = Kernels::detect();
+        let parts = workers.parts().min(self.blocks);
+        let per = self.blocks.div_ceil(parts);
+        let (fixed, state) = self.split();
+        let state = SharedMut::new(state);
+        let out = SharedMut::new(out);
+        let (sr, width) = (fixed.layout.state_rows(), lanes::<T>());
+        workers.run(&|part: usize| {
+            let blocks = (part * per).min(fixed.superposed.len())
+                ..((part + 1) * per).min(fixed.superposed.len());
+            if blocks.is_empty() {
+                return;
+            }
+            let channels = blocks.start * width..(blocks.end * width).min(targets.len());
+            // SAFETY: the parts' block ranges are disjoint, so are their
+            // rows of the state and their channels of `out`.
+            let (state, out) = unsafe {
+                (
+                    state.slice(blocks.start * sr..blocks.end * sr),
+                    out.slice(channels.clone()),
+                )
+            };
+            step_blocks(k, &fixed, blocks.start, state, &targets[channels], out);
+        });
+        self.parity ^= 1;
+        Ok(())
+    }
+
+    /// What a step reads, and the state it writes.
+    fn split(&mut self) -> (Fixed<'_, T>, &mut [Row]) {
+        (
+            Fixed {
+                layout: self.layout,
+                parameters: &self.parameters,
+                parameter_rows: self.layout.parameter_rows(),
+                shared: self.shared,
+                lower: self.lower,
+                upper: self.upper,
+                parity: self.parity,
+                inverse_superposition: &self.inverse_superposition,
+                superposed: &self.superposed,
+            },
+            &mut self.state,
+        )
     }
 
     /// Back to the virgin state.
     pub fn reset(&mut self) {
-        for v in [
-            &mut self.inv_x,
-            &mut self.last_u,
-            &mut self.chi,
-            &mut self.creep_out,
-            &mut self.creep_last,
-        ] {
-            v.fill(T::ZERO);
-        }
+        self.state.fill(Row::default());
+        self.parity = 0;
     }
+}
+
+/// Blocks `first..` whose rows are `state` (their channels' targets and
+/// outputs), on `k`'s kernels.
+fn step_blocks<T: Real>(
+    k: Kernels,
+    fixed: &Fixed<'_, T>,
+    first: usize,
+    state: &mut [Row],
+    targets: &[T],
+    out: &mut [Compensated<T>],
+) {
+    run_blocks(
+        k,
+        Step {
+            bank: fixed,
+            state,
+            first_block: first,
+            targets,
+            out,
+        },
+    );
+}
+
+/// What a step reads and does not change.
+struct Fixed<'a, T: Real> {
+    layout: Layout,
+    parameters: &'a [Row],
+    parameter_rows: usize,
+    shared: bool,
+    lower: T,
+    upper: T,
+    parity: usize,
+    inverse_superposition: &'a [Option<Superposition<T, Heap>>],
+    superposed: &'a [bool],
+}
+
+/// One step of a run of blocks: their state, targets and outputs.
+struct Step<'a, 'b, T: Real> {
+    bank: &'a Fixed<'b, T>,
+    state: &'a mut [Row],
+    /// The index of the first block in the bank.
+    first_block: usize,
+    targets: &'a [T],
+    out: &'a mut [Compensated<T>],
+}
+
+impl<T: Real> BlockWork<T> for Step<'_, '_, T> {
+    type Output = ();
 
     #[inline(always)]
-    fn step_all(&mut self, k: Kernels) {
-        if core::mem::size_of::<T>() == 4 {
-            for c0 in (0..self.padded).step_by(8) {
-                self.step_block::<8>(c0, k);
-            }
-        } else {
-            for c0 in (0..self.padded).step_by(4) {
-                self.step_block::<4>(c0, k);
-            }
-        }
-    }
-
-    /// Channels `c0..c0 + W`: what `Compensator::compensate` does, lane
-    /// by lane, in its order of operations.
-    #[inline(always)]
-    fn step_block<const W: usize>(&mut self, c0: usize, k: Kernels) {
-        let (n, nc, m) = (self.plays, self.creep_thresholds, self.eigenvalues);
-        let cs = self.padded;
-        let p = &self.p;
-        let (ps, pb) = (p.stride, if p.shared { 0 } else { c0 });
-        let lane = |v: &[T], e: usize| -> [T; W] { lane(v, e * ps + pb) };
-
-        let mut fault = [false; W];
-        let mut y = [T::ZERO; W];
-        let offset = lane(&p.offset, 0);
-        for l in 0..W {
-            let t = self.io.targets[c0 + l];
-            fault[l] = !t.is_finite();
-            let target = match &p.inverse_superposition[pb + l] {
-                Some(s) => s.apply(t - offset[l]),
-                None => t - offset[l],
-            };
-            let y_l = target - self.creep_out[c0 + l];
-            // hysteresis::step holds a non-finite input out
-            y[l] = if y_l.is_finite() {
-                y_l
+    fn run<V: Block<T>>(self, o: Ops<T, V>) {
+        let f = self.bank;
+        let width = lanes::<T>();
+        let sr = f.layout.state_rows();
+        for (b, state) in self.state.chunks_exact_mut(sr).enumerate() {
+            let p = if f.shared {
+                &f.parameters[..f.parameter_rows]
             } else {
-                self.inv_x[c0 + l]
+                &f.parameters[(self.first_block + b) * f.parameter_rows..][..f.parameter_rows]
             };
-        }
-
-        // H⁻¹: the plays of (22) and Σ w'_i x'_i
-        for i in 0..n {
-            let at = i * cs + c0;
-            self.scratch[at..at + W].copy_from_slice(&self.inv_x[at..at + W]);
-        }
-        let inv_x = &mut self.inv_x;
-        let v = sum_by_fours(n, |i, sum| {
-            let x = block(inv_x, i * cs + c0);
-            inverse_play(k, x, lane(&p.inv_r, i), lane(&p.inv_w, i), &y, &fault, sum);
-        });
-
-        // clip; a faulted lane holds its last voltage (x_0 of H)
-        let mut u = [T::ZERO; W];
-        let mut saturated = [false; W];
-        for l in 0..W {
-            let (u_l, s_l) = if v[l] < self.lower {
-                (self.lower, true)
-            } else if v[l] > self.upper {
-                (self.upper, true)
-            } else {
-                (v[l], false)
-            };
-            u[l] = if fault[l] { self.last_u[c0 + l] } else { u_l };
-            saturated[l] = s_l && !fault[l];
-            self.last_u[c0 + l] = u[l];
-        }
-        if saturated.iter().any(|&s| s) {
-            self.reseat(c0, &saturated, &u);
-        }
-
-        // creep (20), as creep::advance sums it
-        let p = &self.p;
-        let mut uc = [T::ZERO; W];
-        for l in 0..W {
-            uc[l] = if u[l].is_finite() {
-                u[l]
-            } else {
-                self.creep_last[c0 + l]
-            };
-            self.creep_last[c0 + l] = uc[l];
-        }
-        let chi = &mut self.chi;
-        let creep = sum_by_fours(nc, |i, acc| {
-            let (r, w) = (lane(&p.creep_r, i), lane(&p.creep_w, i));
-            let at = (i * m * cs + c0, cs);
-            creep_row(k, chi, at, &p.gains, (ps, pb, m), &uc, r, w, acc);
-        });
-        self.creep_out[c0..c0 + W].copy_from_slice(&creep);
-        self.io.u[c0..c0 + W].copy_from_slice(&u);
-        self.io.saturated[c0..c0 + W].copy_from_slice(&saturated);
-        self.io.fault[c0..c0 + W].copy_from_slice(&fault);
-    }
-
-    /// The saturated lanes as the single compensator re-seats: the plays of
-    /// `H` from the inverse plays before the step, advanced with `u`, and the
-    /// inverse plays from them (22).
-    #[cold]
-    #[inline(never)]
-    fn reseat<const W: usize>(&mut self, c0: usize, saturated: &[bool; W], u: &[T; W]) {
-        let (n, cs, ps) = (self.plays, self.padded, self.p.stride);
-        for (l, _) in saturated.iter().enumerate().filter(|(_, &s)| s) {
-            let c = c0 + l;
-            let pc = if self.p.shared { l } else { c };
-            let at = |j: usize| j * cs + c;
-            let par = |v: &[T], j: usize| v[j * ps + pc];
-            // forward_state_in_place, strided
-            let mut next_inv = self.scratch[at(n - 1)];
-            self.scratch[at(n - 1)] = next_inv / par(&self.p.s, n - 1);
-            for j in (0..n - 1).rev() {
-                let inv = self.scratch[at(j)];
-                self.scratch[at(j)] =
-                    self.scratch[at(j + 1)] + (inv - next_inv) / par(&self.p.s, j);
-                next_inv = inv;
-            }
-            for j in 0..n {
-                self.scratch[at(j)] = play(u[l], par(&self.p.r, j), self.scratch[at(j)]);
-            }
-            // inverse_state_into, strided
-            let mut tail = T::ZERO;
-            for j in (0..n).rev() {
-                let x = self.scratch[at(j)];
-                self.inv_x[at(j)] = par(&self.p.s, j) * x + tail;
-                tail += par(&self.p.w, j) * x;
+            let c0 = b * width;
+            let k = width.min(self.targets.len() - c0);
+            let mut target = Row::default();
+            target.lanes_mut()[..k].copy_from_slice(&self.targets[c0..c0 + k]);
+            let (u, saturated, fault) = step_block(o, f, self.first_block + b, state, p, &target);
+            let u = u.lanes::<T>();
+            for (l, out) in self.out[c0..c0 + k].iter_mut().enumerate() {
+                *out = Compensated {
+                    u: u[l],
+                    saturated: saturated & (1 << l) != 0,
+                    fault: fault & (1 << l) != 0,
+                };
             }
         }
     }
 }
 
-/// Per-step inputs and outputs, padded.
-#[derive(Debug, Clone, PartialEq)]
-struct Io<T> {
-    targets: Vec<T>,
-    u: Vec<T>,
-    saturated: Vec<bool>,
-    fault: Vec<bool>,
+/// `Σ_i term(i)` over `i < count` as `hysteresis::step` and
+/// `creep::advance` sum: term `i` into the partial sum `i mod 4` (whole
+/// groups of four first, so that the index is a constant and the sums stay
+/// in registers), then `(s_0 + s_2) + (s_1 + s_3)`. A macro, not a function
+/// taking a closure: a closure is a function of its own, compiled without
+/// the step's instruction set, and its vector operations would be calls.
+macro_rules! sum_by_fours {
+    ($o:expr, $count:expr, |$i:ident| $term:expr) => {{
+        let o = $o;
+        let count = $count;
+        let zero = o.splat(T::ZERO);
+        let mut sums = [zero; 4];
+        let full = count - count % 4;
+        let mut i0 = 0;
+        while i0 < full {
+            for q in 0..4 {
+                let $i = i0 + q;
+                sums[q] = o.add(sums[q], $term);
+            }
+            i0 += 4;
+        }
+        for $i in full..count {
+            sums[$i - full] = o.add(sums[$i - full], $term);
+        }
+        o.add(o.add(sums[0], sums[2]), o.add(sums[1], sums[3]))
+    }};
 }
 
-/// `Σ_i f(i)` over `i < count` as `hysteresis::step` and `creep::advance`
-/// sum: `f` adds term `i` into the partial sum `i mod 4` (whole blocks of
-/// four first, so that a constant index keeps the partial sums in
-/// registers), then the four partial sums are reduced.
+/// Block `block` of the bank: what
+/// `Compensator::compensate` does, lane by lane, in its order of
+/// operations. Returns the voltages and the saturated and fault bits.
 #[inline(always)]
-fn sum_by_fours<T: Real, const W: usize>(
-    count: usize,
-    mut f: impl FnMut(usize, &mut [T; W]),
-) -> [T; W] {
-    let mut sums = [[T::ZERO; W]; 4];
-    let full = count - count % 4;
-    for i0 in (0..full).step_by(4) {
-        for (q, sum) in sums.iter_mut().enumerate() {
-            f(i0 + q, sum);
+fn step_block<T: Real, V: Block<T>>(
+    o: Ops<T, V>,
+    f: &Fixed<'_, T>,
+    block: usize,
+    s: &mut [Row],
+    p: &[Row],
+    target: &Row,
+) -> (Row, u32, u32) {
+    let a = f.layout;
+    let (cur, next) = (f.parity, f.parity ^ 1);
+    let t = o.load(target);
+    let fault = o.non_finite(t);
+    // S⁻¹[t − offset] − C: y, or the input held where that is not finite
+    let mut y = o.sub(t, o.load(&p[a.offset()]));
+    if f.superposed[block] {
+        y = inverse_superposition(o, f, block, y);
+    }
+    let y = o.sub(y, o.load(&s[a.creep_out()]));
+    let y = o.select(o.non_finite(y), o.load(&s[a.inv_x(cur, 0)]), y);
+    // H⁻¹ (22): the plays into the other copy; a faulted lane keeps its own
+    let v = sum_by_fours!(o, a.n, |i| {
+        let x = o.load(&s[a.inv_x(cur, i)]);
+        let r = o.load(&p[a.inv_r(i)]);
+        let new = o.clamp(x, o.sub(y, r), o.add(y, r));
+        o.store(o.select(fault, x, new), &mut s[a.inv_x(next, i)]);
+        o.mul(o.load(&p[a.inv_w(i)]), new)
+    });
+    // clip; a faulted lane holds its last voltage
+    let (lower, upper) = (o.splat(f.lower), o.splat(f.upper));
+    let (below, above) = (o.lt(v, lower), o.gt(v, upper));
+    let clipped = o.select(below, lower, o.select(above, upper, v));
+    let u = o.select(fault, o.load(&s[a.last_u()]), clipped);
+    let saturated = o.and_not(o.or(below, above), fault);
+    o.store(u, &mut s[a.last_u()]);
+    let saturated = o.bits(saturated);
+    if saturated != 0 {
+        reseat(f, s, p, saturated, cur, next);
+    }
+    // creep (20), as creep::advance sums it, with the voltage applied
+    let uc = o.select(o.non_finite(u), o.load(&s[a.creep_last()]), u);
+    o.store(uc, &mut s[a.creep_last()]);
+    let creep = sum_by_fours!(o, a.nc, |i| {
+        let r = o.load(&p[a.creep_r(i)]);
+        let (lower, upper) = (o.sub(uc, r), o.add(uc, r));
+        let mut rows = o.splat(T::ZERO);
+        for j in 0..a.m {
+            let x = o.load(&s[a.chi(i, j)]);
+            let g = o.load(&p[a.gain(j)]);
+            let x = o.add(x, o.mul(g, o.sub(o.clamp(x, lower, upper), x)));
+            o.store(x, &mut s[a.chi(i, j)]);
+            rows = o.add(rows, x);
+        }
+        o.mul(o.load(&p[a.creep_w(i)]), rows)
+    });
+    o.store(creep, &mut s[a.creep_out()]);
+    let mut out = Row::default();
+    o.store(u, &mut out);
+    (out, saturated, o.bits(fault))
+}
+
+/// `S⁻¹` lane by lane on a block some of whose channels have `S`.
+#[cold]
+#[inline(never)]
+fn inverse_superposition<T: Real, V: Block<T>>(
+    o: Ops<T, V>,
+    f: &Fixed<'_, T>,
+    block: usize,
+    y: V,
+) -> V {
+    let mut row = Row::default();
+    o.store(y, &mut row);
+    let width = lanes::<T>();
+    for (l, x) in row.lanes_mut::<T>().iter_mut().enumerate() {
+        let c = if f.shared { 0 } else { block * width + l };
+        if let Some(Some(s)) = f.inverse_superposition.get(c) {
+            *x = s.apply(*x);
         }
     }
-    for i in full..count {
-        f(i, &mut sums[i - full]);
-    }
-    let mut total = [T::ZERO; W];
-    for l in 0..W {
-        total[l] = reduce([sums[0][l], sums[1][l], sums[2][l], sums[3][l]]);
-    }
-    total
+    o.load(&row)
 }
 
-#[inline(always)]
-fn lane<T: Real, const W: usize>(v: &[T], at: usize) -> [T; W] {
-    v[at..at + W].try_into().unwrap()
-}
-
-#[inline(always)]
-fn block<T: Real, const W: usize>(v: &mut [T], at: usize) -> &mut [T; W] {
-    (&mut v[at..at + W]).try_into().unwrap()
-}
-
-/// One play of `H⁻¹` (22) over `W` channels; a faulted lane keeps its state.
-/// On `k`'s kernels: 256-bit registers for `f64 × 4` and `f32 × 8` with
-/// AVX2, the same operations lane by lane, so the same bits.
-#[inline(always)]
-fn inverse_play<T: Real, const W: usize>(
-    k: Kernels,
-    x: &mut [T; W],
-    r: [T; W],
-    w: [T; W],
-    y: &[T; W],
-    fault: &[bool; W],
-    sum: &mut [T; W],
+/// The saturated lanes as the single compensator re-seats: the plays of
+/// `H` from the inverse plays before the step (copy `cur`), advanced with
+/// the applied `u`, and the inverse plays from them (22) into copy `next`.
+#[cold]
+#[inline(never)]
+fn reseat<T: Real>(
+    f: &Fixed<'_, T>,
+    s: &mut [Row],
+    p: &[Row],
+    saturated: u32,
+    cur: usize,
+    next: usize,
 ) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(lanes) = simd::lanes::<T, W>(k) {
-        let mask: [T; W] = fault.map(|f| if f { T::NEG_INFINITY } else { T::ZERO });
-        lanes.inverse_play(x, &r, &w, y, &mask, sum);
-        return;
-    }
-    for l in 0..W {
-        let new = clamp(x[l], y[l] - r[l], y[l] + r[l]);
-        sum[l] += w[l] * new;
-        x[l] = if fault[l] { x[l] } else { new };
-    }
-}
-
-/// The `m` creep operators of one threshold over `W` channels (20), summed
-/// as `creep::advance` sums them; `at = (first element, stride per
-/// eigenvalue)`, `params = (stride, offset, m)` of the parameter arrays; on
-/// `k`'s kernels, as [`inverse_play`].
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn creep_row<T: Real, const W: usize>(
-    k: Kernels,
-    chi: &mut [T],
-    at: (usize, usize),
-    gains: &[T],
-    params: (usize, usize, usize),
-    u: &[T; W],
-    r: [T; W],
-    w: [T; W],
-    acc: &mut [T; W],
-) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(lanes) = simd::lanes::<T, W>(k) {
-        lanes.creep_row(chi, at, gains, params, u, &r, &w, acc);
-        return;
-    }
-    let (e0, step) = at;
-    let (ps, pb, m) = params;
-    let mut lower = [T::ZERO; W];
-    let mut upper = [T::ZERO; W];
-    for l in 0..W {
-        lower[l] = u[l] - r[l];
-        upper[l] = u[l] + r[l];
-    }
-    let mut rows = [T::ZERO; W];
-    for j in 0..m {
-        let g: [T; W] = lane(gains, j * ps + pb);
-        let x = block::<T, W>(chi, e0 + j * step);
-        for l in 0..W {
-            x[l] = x[l] + g[l] * (clamp(x[l], lower[l], upper[l]) - x[l]);
+    let a = f.layout;
+    let n = a.n;
+    let u = s[a.last_u()];
+    for l in (0..lanes::<T>()).filter(|l| saturated & (1 << l) != 0) {
+        let u = u.lanes::<T>()[l];
+        let par = |row: usize| p[row].lanes::<T>()[l];
+        let old = |s: &[Row], i: usize| s[a.inv_x(cur, i)].lanes::<T>()[l];
+        // forward_state_in_place, into copy `next`
+        let mut next_inv = old(s, n - 1);
+        s[a.inv_x(next, n - 1)].lanes_mut::<T>()[l] = next_inv / par(a.s(n - 1));
+        for j in (0..n - 1).rev() {
+            let inv = old(s, j);
+            let x = s[a.inv_x(next, j + 1)].lanes::<T>()[l] + (inv - next_inv) / par(a.s(j));
+            s[a.inv_x(next, j)].lanes_mut::<T>()[l] = x;
+            next_inv = inv;
         }
-        for l in 0..W {
-            rows[l] += x[l];
+        for j in 0..n {
+            let x = &mut s[a.inv_x(next, j)].lanes_mut::<T>()[l];
+            *x = play(u, par(a.r(j)), *x);
         }
-    }
-    for l in 0..W {
-        acc[l] += w[l] * rows[l];
+        // inverse_state_into, in place
+        let mut tail = T::ZERO;
+        for j in (0..n).rev() {
+            let x = &mut s[a.inv_x(next, j)].lanes_mut::<T>()[l];
+            let forward = *x;
+            *x = par(a.s(j)) * forward + tail;
+            tail += par(a.w(j)) * forward;
+        }
     }
 }

@@ -21,3 +21,4 @@ pub mod nominal;
 pub mod play;
 pub mod supply;
 pub mod traits;
+pub mod workers;

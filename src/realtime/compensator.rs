@@ -321,6 +321,14 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         self.compensate_with(Kernels::Portable, target)
     }
 
+    /// [`Compensator::compensate`] on the kernels `k` (any of
+    /// [`Kernels::all`]: the same bits on each; for tests and benches).
+    #[doc(hidden)]
+    #[inline]
+    pub fn compensate_using(&mut self, k: Kernels, target: T) -> Compensated<T> {
+        k.run(|k| self.compensate_with(k, target))
+    }
+
     /// A whole signal into caller buffers, every flag kept; one
     /// instruction-set dispatch for the lot. Like [`Compensator::compensate`]
     /// it inverts the memory part: with a dead time `d`, `targets` must be

@@ -1,0 +1,604 @@
+//! 64-byte blocks of lanes — 8 `f64` or 16 `f32`, one cache line — and their
+//! arithmetic on each instruction set: the compensator bank's unit of work.
+//!
+//! Every operation is lane by lane in the order the portable code writes
+//! it, with `min(a, b) = a < b ? a : b` and `max(a, b) = a > b ? a : b` as
+//! the hardware's `min` and `max` are defined, and no fused multiply-add,
+//! so the portable, AVX2 and AVX-512 blocks compute the same bits.
+
+use core::mem::size_of;
+
+use crate::realtime::real::Real;
+
+/// Lanes of `T` in one block (8 `f64`, 16 `f32`).
+#[inline(always)]
+pub(crate) const fn lanes<T>() -> usize {
+    64 / size_of::<T>()
+}
+
+#[inline(always)]
+fn is_f64<T>() -> bool {
+    size_of::<T>() == 8
+}
+
+/// One cache line: a row of a block's lanes. A vector of rows is 64-byte
+/// aligned, so every block load is one line.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[repr(C, align(64))]
+pub(crate) struct Row([u64; 8]);
+
+impl Row {
+    /// The row's lanes as `T` (all zero bits: `+0.0`).
+    #[inline(always)]
+    pub(crate) fn lanes<T: Real>(&self) -> &[T] {
+        // SAFETY: `T` is `f32` or `f64` (`Real` is sealed): every bit
+        // pattern is a value, 64 bytes hold `lanes::<T>()` of them, and the
+        // row's alignment (64) exceeds theirs.
+        unsafe { core::slice::from_raw_parts(self.0.as_ptr() as *const T, lanes::<T>()) }
+    }
+
+    #[inline(always)]
+    pub(crate) fn lanes_mut<T: Real>(&mut self) -> &mut [T] {
+        // SAFETY: as in `lanes`, and the borrow is unique.
+        unsafe { core::slice::from_raw_parts_mut(self.0.as_mut_ptr() as *mut T, lanes::<T>()) }
+    }
+}
+
+/// The arithmetic of one block of `T` on an instruction set. `unsafe`
+/// because an implementation may need CPU features: only [`Kernels`]
+/// (super::Kernels) values prove them, and the bank calls these only within
+/// a step compiled for them.
+pub(crate) trait Block<T: Real>: Copy {
+    /// One flag per lane.
+    type Mask: Copy;
+    /// The lanes of `row`.
+    unsafe fn load(row: &Row) -> Self;
+    unsafe fn store(self, row: &mut Row);
+    unsafe fn splat(x: T) -> Self;
+    unsafe fn add(self, b: Self) -> Self;
+    unsafe fn sub(self, b: Self) -> Self;
+    unsafe fn mul(self, b: Self) -> Self;
+    /// `a < b ? a : b` per lane.
+    unsafe fn min(self, b: Self) -> Self;
+    /// `a > b ? a : b` per lane.
+    unsafe fn max(self, b: Self) -> Self;
+    /// `a < b` per lane (false on NaN).
+    unsafe fn lt(self, b: Self) -> Self::Mask;
+    /// `a > b` per lane (false on NaN).
+    unsafe fn gt(self, b: Self) -> Self::Mask;
+    /// Not a finite number, per lane.
+    unsafe fn non_finite(self) -> Self::Mask;
+    /// `m ? a : b` per lane.
+    unsafe fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    unsafe fn or(a: Self::Mask, b: Self::Mask) -> Self::Mask;
+    /// `a && !b` per lane.
+    unsafe fn and_not(a: Self::Mask, b: Self::Mask) -> Self::Mask;
+    /// Lane `l`'s flag as bit `l`.
+    unsafe fn bits(m: Self::Mask) -> u32;
+
+    /// `max(min(x, upper), lower)`: the play (20), as `play::clamp`.
+    #[inline(always)]
+    unsafe fn clamp(self, lower: Self, upper: Self) -> Self {
+        // SAFETY: the caller's, forwarded.
+        unsafe { self.min(upper).max(lower) }
+    }
+}
+
+/// Lanes in an array, one by one: any CPU.
+#[derive(Clone, Copy)]
+pub(crate) struct Portable<T>([T; 16]);
+
+// the lanes are indexed in step across three arrays
+#[allow(clippy::needless_range_loop)]
+impl<T: Real> Portable<T> {
+    #[inline(always)]
+    fn map2(self, b: Self, f: impl Fn(T, T) -> T) -> Self {
+        let mut out = self.0;
+        for l in 0..lanes::<T>() {
+            out[l] = f(self.0[l], b.0[l]);
+        }
+        Portable(out)
+    }
+
+    #[inline(always)]
+    fn test2(self, b: Self, f: impl Fn(T, T) -> bool) -> [bool; 16] {
+        let mut out = [false; 16];
+        for l in 0..lanes::<T>() {
+            out[l] = f(self.0[l], b.0[l]);
+        }
+        out
+    }
+}
+
+impl<T: Real> Block<T> for Portable<T> {
+    type Mask = [bool; 16];
+
+    #[inline(always)]
+    unsafe fn load(row: &Row) -> Self {
+        let mut a = [T::ZERO; 16];
+        a[..lanes::<T>()].copy_from_slice(row.lanes());
+        Portable(a)
+    }
+
+    #[inline(always)]
+    unsafe fn store(self, row: &mut Row) {
+        row.lanes_mut().copy_from_slice(&self.0[..lanes::<T>()]);
+    }
+
+    #[inline(always)]
+    unsafe fn splat(x: T) -> Self {
+        Portable([x; 16])
+    }
+
+    #[inline(always)]
+    unsafe fn add(self, b: Self) -> Self {
+        self.map2(b, |x, y| x + y)
+    }
+
+    #[inline(always)]
+    unsafe fn sub(self, b: Self) -> Self {
+        self.map2(b, |x, y| x - y)
+    }
+
+    #[inline(always)]
+    unsafe fn mul(self, b: Self) -> Self {
+        self.map2(b, |x, y| x * y)
+    }
+
+    #[inline(always)]
+    unsafe fn min(self, b: Self) -> Self {
+        self.map2(b, |x, y| if x < y { x } else { y })
+    }
+
+    #[inline(always)]
+    unsafe fn max(self, b: Self) -> Self {
+        self.map2(b, |x, y| if x > y { x } else { y })
+    }
+
+    #[inline(always)]
+    unsafe fn lt(self, b: Self) -> [bool; 16] {
+        self.test2(b, |x, y| x < y)
+    }
+
+    #[inline(always)]
+    unsafe fn gt(self, b: Self) -> [bool; 16] {
+        self.test2(b, |x, y| x > y)
+    }
+
+    #[inline(always)]
+    unsafe fn non_finite(self) -> [bool; 16] {
+        self.test2(self, |x, _| !x.is_finite())
+    }
+
+    #[inline(always)]
+    unsafe fn select(m: [bool; 16], a: Self, b: Self) -> Self {
+        let mut out = b.0;
+        for l in 0..lanes::<T>() {
+            if m[l] {
+                out[l] = a.0[l];
+            }
+        }
+        Portable(out)
+    }
+
+    #[inline(always)]
+    unsafe fn or(a: [bool; 16], b: [bool; 16]) -> [bool; 16] {
+        core::array::from_fn(|l| a[l] | b[l])
+    }
+
+    #[inline(always)]
+    unsafe fn and_not(a: [bool; 16], b: [bool; 16]) -> [bool; 16] {
+        core::array::from_fn(|l| a[l] & !b[l])
+    }
+
+    #[inline(always)]
+    unsafe fn bits(m: [bool; 16]) -> u32 {
+        (0..16).fold(0, |b, l| b | (u32::from(m[l]) << l))
+    }
+}
+
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+pub(crate) use x86::{Avx2, Avx512};
+
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+mod x86 {
+    //! The block on 256-bit (two registers) and 512-bit (one) registers.
+    //! Each type holds an `f64` and an `f32` form; `is_f64::<T>()` is a
+    //! constant, so only one is ever computed.
+    use core::arch::x86_64::*;
+
+    use super::{is_f64, Block, Row};
+    use crate::realtime::real::Real;
+
+    /// A block in two 256-bit registers (AVX2).
+    #[derive(Clone, Copy)]
+    pub(crate) struct Avx2([__m256d; 2], [__m256; 2]);
+
+    macro_rules! avx2_op {
+        ($name:ident, $pd:ident, $ps:ident) => {
+            #[target_feature(enable = "avx2")]
+            #[inline]
+            unsafe fn $name(self, b: Self) -> Self {
+                if is_f64::<T>() {
+                    Avx2([$pd(self.0[0], b.0[0]), $pd(self.0[1], b.0[1])], self.1)
+                } else {
+                    Avx2(self.0, [$ps(self.1[0], b.1[0]), $ps(self.1[1], b.1[1])])
+                }
+            }
+        };
+    }
+
+    macro_rules! avx2_cmp {
+        ($name:ident, $imm:ident) => {
+            #[target_feature(enable = "avx2")]
+            #[inline]
+            unsafe fn $name(self, b: Self) -> Self {
+                if is_f64::<T>() {
+                    Avx2(
+                        [
+                            _mm256_cmp_pd::<$imm>(self.0[0], b.0[0]),
+                            _mm256_cmp_pd::<$imm>(self.0[1], b.0[1]),
+                        ],
+                        self.1,
+                    )
+                } else {
+                    Avx2(
+                        self.0,
+                        [
+                            _mm256_cmp_ps::<$imm>(self.1[0], b.1[0]),
+                            _mm256_cmp_ps::<$imm>(self.1[1], b.1[1]),
+                        ],
+                    )
+                }
+            }
+        };
+    }
+
+    impl<T: Real> Block<T> for Avx2 {
+        /// All ones in a lane for true.
+        type Mask = Avx2;
+
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        unsafe fn load(row: &Row) -> Self {
+            let p = row.0.as_ptr();
+            // SAFETY: 64 aligned bytes.
+            unsafe {
+                if is_f64::<T>() {
+                    let p = p as *const f64;
+                    Avx2(
+                        [_mm256_load_pd(p), _mm256_load_pd(p.add(4))],
+                        [_mm256_setzero_ps(); 2],
+                    )
+                } else {
+                    let p = p as *const f32;
+                    Avx2(
+                        [_mm256_setzero_pd(); 2],
+                        [_mm256_load_ps(p), _mm256_load_ps(p.add(8))],
+                    )
+                }
+            }
+        }
+
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        unsafe fn store(self, row: &mut Row) {
+            let p = row.0.as_mut_ptr();
+            // SAFETY: 64 aligned bytes, borrowed uniquely.
+            unsafe {
+                if is_f64::<T>() {
+                    let p = p as *mut f64;
+                    _mm256_store_pd(p, self.0[0]);
+                    _mm256_store_pd(p.add(4), self.0[1]);
+                } else {
+                    let p = p as *mut f32;
+                    _mm256_store_ps(p, self.1[0]);
+                    _mm256_store_ps(p.add(8), self.1[1]);
+                }
+            }
+        }
+
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        unsafe fn splat(x: T) -> Self {
+            Avx2(
+                [_mm256_set1_pd(x.to_f64()); 2],
+                [_mm256_set1_ps(x.to_f64() as f32); 2],
+            )
+        }
+
+        avx2_op!(add, _mm256_add_pd, _mm256_add_ps);
+        avx2_op!(sub, _mm256_sub_pd, _mm256_sub_ps);
+        avx2_op!(mul, _mm256_mul_pd, _mm256_mul_ps);
+        avx2_op!(min, _mm256_min_pd, _mm256_min_ps);
+        avx2_op!(max, _mm256_max_pd, _mm256_max_ps);
+        avx2_cmp!(lt, _CMP_LT_OQ);
+        avx2_cmp!(gt, _CMP_GT_OQ);
+
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        unsafe fn non_finite(self) -> Self {
+            // x − x is 0 for a finite x and NaN otherwise
+            // SAFETY: AVX2 by the caller's contract.
+            unsafe {
+                let d = <Self as Block<T>>::sub(self, self);
+                let z = Avx2([_mm256_setzero_pd(); 2], [_mm256_setzero_ps(); 2]);
+                if is_f64::<T>() {
+                    Avx2(
+                        [
+                            _mm256_cmp_pd::<_CMP_NEQ_UQ>(d.0[0], z.0[0]),
+                            _mm256_cmp_pd::<_CMP_NEQ_UQ>(d.0[1], z.0[1]),
+                        ],
+                        d.1,
+                    )
+                } else {
+                    Avx2(
+                        d.0,
+                        [
+                            _mm256_cmp_ps::<_CMP_NEQ_UQ>(d.1[0], z.1[0]),
+                            _mm256_cmp_ps::<_CMP_NEQ_UQ>(d.1[1], z.1[1]),
+                        ],
+                    )
+                }
+            }
+        }
+
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        unsafe fn select(m: Self, a: Self, b: Self) -> Self {
+            if is_f64::<T>() {
+                Avx2(
+                    [
+                        _mm256_blendv_pd(b.0[0], a.0[0], m.0[0]),
+                        _mm256_blendv_pd(b.0[1], a.0[1], m.0[1]),
+                    ],
+                    a.1,
+                )
+            } else {
+                Avx2(
+                    a.0,
+                    [
+                        _mm256_blendv_ps(b.1[0], a.1[0], m.1[0]),
+                        _mm256_blendv_ps(b.1[1], a.1[1], m.1[1]),
+                    ],
+                )
+            }
+        }
+
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        unsafe fn or(a: Self, b: Self) -> Self {
+            Avx2(
+                [_mm256_or_pd(a.0[0], b.0[0]), _mm256_or_pd(a.0[1], b.0[1])],
+                [_mm256_or_ps(a.1[0], b.1[0]), _mm256_or_ps(a.1[1], b.1[1])],
+            )
+        }
+
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        unsafe fn and_not(a: Self, b: Self) -> Self {
+            // andnot(x, y) is !x & y
+            Avx2(
+                [
+                    _mm256_andnot_pd(b.0[0], a.0[0]),
+                    _mm256_andnot_pd(b.0[1], a.0[1]),
+                ],
+                [
+                    _mm256_andnot_ps(b.1[0], a.1[0]),
+                    _mm256_andnot_ps(b.1[1], a.1[1]),
+                ],
+            )
+        }
+
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        unsafe fn bits(m: Self) -> u32 {
+            if is_f64::<T>() {
+                (_mm256_movemask_pd(m.0[0]) | _mm256_movemask_pd(m.0[1]) << 4) as u32
+            } else {
+                (_mm256_movemask_ps(m.1[0]) | _mm256_movemask_ps(m.1[1]) << 8) as u32
+            }
+        }
+    }
+
+    /// A block in one 512-bit register (AVX-512F); masks in mask registers.
+    #[derive(Clone, Copy)]
+    pub(crate) struct Avx512(__m512d, __m512);
+
+    macro_rules! avx512_op {
+        ($name:ident, $pd:ident, $ps:ident) => {
+            #[target_feature(enable = "avx512f")]
+            #[inline]
+            unsafe fn $name(self, b: Self) -> Self {
+                if is_f64::<T>() {
+                    Avx512($pd(self.0, b.0), self.1)
+                } else {
+                    Avx512(self.0, $ps(self.1, b.1))
+                }
+            }
+        };
+    }
+
+    macro_rules! avx512_cmp {
+        ($name:ident, $imm:ident) => {
+            #[target_feature(enable = "avx512f")]
+            #[inline]
+            unsafe fn $name(self, b: Self) -> u16 {
+                if is_f64::<T>() {
+                    u16::from(_mm512_cmp_pd_mask::<$imm>(self.0, b.0))
+                } else {
+                    _mm512_cmp_ps_mask::<$imm>(self.1, b.1)
+                }
+            }
+        };
+    }
+
+    impl<T: Real> Block<T> for Avx512 {
+        /// Bit `l` for lane `l`.
+        type Mask = u16;
+
+        #[target_feature(enable = "avx512f")]
+        #[inline]
+        unsafe fn load(row: &Row) -> Self {
+            let p = row.0.as_ptr();
+            // SAFETY: 64 aligned bytes.
+            unsafe {
+                if is_f64::<T>() {
+                    Avx512(_mm512_load_pd(p as *const f64), _mm512_setzero_ps())
+                } else {
+                    Avx512(_mm512_setzero_pd(), _mm512_load_ps(p as *const f32))
+                }
+            }
+        }
+
+        #[target_feature(enable = "avx512f")]
+        #[inline]
+        unsafe fn store(self, row: &mut Row) {
+            let p = row.0.as_mut_ptr();
+            // SAFETY: 64 aligned bytes, borrowed uniquely.
+            unsafe {
+                if is_f64::<T>() {
+                    _mm512_store_pd(p as *mut f64, self.0)
+                } else {
+                    _mm512_store_ps(p as *mut f32, self.1)
+                }
+            }
+        }
+
+        #[target_feature(enable = "avx512f")]
+        #[inline]
+        unsafe fn splat(x: T) -> Self {
+            Avx512(
+                _mm512_set1_pd(x.to_f64()),
+                _mm512_set1_ps(x.to_f64() as f32),
+            )
+        }
+
+        avx512_op!(add, _mm512_add_pd, _mm512_add_ps);
+        avx512_op!(sub, _mm512_sub_pd, _mm512_sub_ps);
+        avx512_op!(mul, _mm512_mul_pd, _mm512_mul_ps);
+        avx512_op!(min, _mm512_min_pd, _mm512_min_ps);
+        avx512_op!(max, _mm512_max_pd, _mm512_max_ps);
+        avx512_cmp!(lt, _CMP_LT_OQ);
+        avx512_cmp!(gt, _CMP_GT_OQ);
+
+        #[target_feature(enable = "avx512f")]
+        #[inline]
+        unsafe fn non_finite(self) -> u16 {
+            // x − x is 0 for a finite x and NaN otherwise
+            if is_f64::<T>() {
+                let d = _mm512_sub_pd(self.0, self.0);
+                u16::from(_mm512_cmp_pd_mask::<_CMP_NEQ_UQ>(d, _mm512_setzero_pd()))
+            } else {
+                let d = _mm512_sub_ps(self.1, self.1);
+                _mm512_cmp_ps_mask::<_CMP_NEQ_UQ>(d, _mm512_setzero_ps())
+            }
+        }
+
+        #[target_feature(enable = "avx512f")]
+        #[inline]
+        unsafe fn select(m: u16, a: Self, b: Self) -> Self {
+            // mask_blend takes the second vector where the mask is set
+            if is_f64::<T>() {
+                Avx512(_mm512_mask_blend_pd(m as u8, b.0, a.0), a.1)
+            } else {
+                Avx512(a.0, _mm512_mask_blend_ps(m, b.1, a.1))
+            }
+        }
+
+        #[inline(always)]
+        unsafe fn or(a: u16, b: u16) -> u16 {
+            a | b
+        }
+
+        #[inline(always)]
+        unsafe fn and_not(a: u16, b: u16) -> u16 {
+            a & !b
+        }
+
+        #[inline(always)]
+        unsafe fn bits(m: u16) -> u32 {
+            u32::from(m)
+        }
+    }
+}
+
+/// Safe access to a [`Block`]'s operations: made only by [`run_blocks`] for
+/// the block type of kernels the CPU has, so its methods may call them.
+#[derive(Debug)]
+pub(crate) struct Ops<T, V>(core::marker::PhantomData<(T, V)>);
+
+impl<T, V> Clone for Ops<T, V> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T, V> Copy for Ops<T, V> {}
+
+macro_rules! safe_ops {
+    ($($name:ident($($arg:ident: $ty:ty),*) -> $out:ty;)*) => {
+        $(
+            #[inline(always)]
+            pub(crate) fn $name(self, $($arg: $ty),*) -> $out {
+                // SAFETY: `Ops<T, V>` exists only where `V`'s features are
+                // present (see `run_blocks`).
+                unsafe { V::$name($($arg),*) }
+            }
+        )*
+    };
+}
+
+impl<T: Real, V: Block<T>> Ops<T, V> {
+    safe_ops! {
+        load(row: &Row) -> V;
+        store(v: V, row: &mut Row) -> ();
+        splat(x: T) -> V;
+        add(a: V, b: V) -> V;
+        sub(a: V, b: V) -> V;
+        mul(a: V, b: V) -> V;
+        lt(a: V, b: V) -> V::Mask;
+        gt(a: V, b: V) -> V::Mask;
+        non_finite(a: V) -> V::Mask;
+        select(m: V::Mask, a: V, b: V) -> V;
+        or(a: V::Mask, b: V::Mask) -> V::Mask;
+        and_not(a: V::Mask, b: V::Mask) -> V::Mask;
+        bits(m: V::Mask) -> u32;
+        clamp(x: V, lower: V, upper: V) -> V;
+    }
+}
+
+/// Work on blocks of `T`, written once for every instruction set.
+pub(crate) trait BlockWork<T: Real> {
+    type Output;
+    fn run<V: Block<T>>(self, ops: Ops<T, V>) -> Self::Output;
+}
+
+/// `work` on `k`'s blocks: the portable ones, or — compiled with their
+/// features enabled — the AVX2 or AVX-512 ones.
+#[inline(always)]
+pub(crate) fn run_blocks<T: Real, W: BlockWork<T>>(k: super::Kernels, work: W) -> W::Output {
+    match k {
+        super::Kernels::Portable => work.run(Ops::<T, Portable<T>>(core::marker::PhantomData)),
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        super::Kernels::Avx2(_) => {
+            #[target_feature(enable = "avx2")]
+            unsafe fn avx2<T: Real, W: BlockWork<T>>(work: W) -> W::Output {
+                super::count_simd_call();
+                work.run(Ops::<T, Avx2>(core::marker::PhantomData))
+            }
+            // SAFETY: an `Avx2` proof exists only where the CPU has AVX2.
+            unsafe { avx2::<T, W>(work) }
+        }
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        super::Kernels::Avx512(_) => {
+            #[target_feature(enable = "avx2,avx512f")]
+            unsafe fn avx512<T: Real, W: BlockWork<T>>(work: W) -> W::Output {
+                super::count_simd_call();
+                work.run(Ops::<T, Avx512>(core::marker::PhantomData))
+            }
+            // SAFETY: an `Avx512` proof exists only where the CPU has
+            // AVX-512F and AVX2.
+            unsafe { avx512::<T, W>(work) }
+        }
+    }
+}
