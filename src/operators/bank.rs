@@ -425,28 +425,66 @@ impl<T: Real> BlockWork<T> for Step<'_, '_, T> {
     #[inline(always)]
     fn run<V: Block<T>>(self, o: Ops<T, V>) {
         let f = self.bank;
-        let width = lanes::<T>();
         let sr = f.layout.state_rows();
-        for (b, state) in self.state.chunks_exact_mut(sr).enumerate() {
-            let p = if f.shared {
-                &f.parameters[..f.parameter_rows]
-            } else {
-                &f.parameters[(self.first_block + b) * f.parameter_rows..][..f.parameter_rows]
-            };
-            let c0 = b * width;
-            let k = width.min(self.targets.len() - c0);
-            let mut target = Row::default();
-            target.lanes_mut()[..k].copy_from_slice(&self.targets[c0..c0 + k]);
-            let (u, saturated, fault) = step_block(o, f, self.first_block + b, state, p, &target);
-            let u = u.lanes::<T>();
-            for (l, out) in self.out[c0..c0 + k].iter_mut().enumerate() {
-                *out = Compensated {
-                    u: u[l],
-                    saturated: saturated & (1 << l) != 0,
-                    fault: fault & (1 << l) != 0,
-                };
-            }
+        let blocks = self.state.len() / sr;
+        if blocks == 0 {
+            return;
         }
+        // Software-pipelined by one block: H⁻¹ and the clip of block b + 1
+        // (a chain of dependent reductions) are issued before the creep pass
+        // of block b (independent rows), so the core has work while the
+        // chain's latency runs out. (Plain functions, no closures: see
+        // `sum_by_fours`.)
+        let (first, targets, out) = (self.first_block, self.targets, self.out);
+        let p = |b: usize| parameters(f, first + b);
+        first_part(o, f, first, 0, &mut self.state[..sr], p(0), targets, out);
+        for b in 0..blocks {
+            if b + 1 < blocks {
+                let state = &mut self.state[(b + 1) * sr..][..sr];
+                first_part(o, f, first, b + 1, state, p(b + 1), targets, out);
+            }
+            creep_pass(o, f, &mut self.state[b * sr..][..sr], p(b));
+        }
+    }
+}
+
+/// The parameter rows of block `block` of the bank.
+#[inline(always)]
+fn parameters<'a, T: Real>(f: &Fixed<'a, T>, block: usize) -> &'a [Row] {
+    if f.shared {
+        &f.parameters[..f.parameter_rows]
+    } else {
+        &f.parameters[block * f.parameter_rows..][..f.parameter_rows]
+    }
+}
+
+/// [`inverse_and_clip`] of block `b` of a run starting at bank block
+/// `first`, its outputs written to the run's `out`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn first_part<T: Real, V: Block<T>>(
+    o: Ops<T, V>,
+    f: &Fixed<'_, T>,
+    first: usize,
+    b: usize,
+    state: &mut [Row],
+    p: &[Row],
+    targets: &[T],
+    out: &mut [Compensated<T>],
+) {
+    let width = lanes::<T>();
+    let c0 = b * width;
+    let k = width.min(targets.len() - c0);
+    let mut target = Row::default();
+    target.lanes_mut()[..k].copy_from_slice(&targets[c0..c0 + k]);
+    let (u, saturated, fault) = inverse_and_clip(o, f, first + b, state, p, &target);
+    let u = u.lanes::<T>();
+    for (l, out) in out[c0..c0 + k].iter_mut().enumerate() {
+        *out = Compensated {
+            u: u[l],
+            saturated: saturated & (1 << l) != 0,
+            fault: fault & (1 << l) != 0,
+        };
     }
 }
 
@@ -478,11 +516,12 @@ macro_rules! sum_by_fours {
     }};
 }
 
-/// Block `block` of the bank: what
-/// `Compensator::compensate` does, lane by lane, in its order of
-/// operations. Returns the voltages and the saturated and fault bits.
+/// Block `block` of the bank, first part: what `Compensator::compensate`
+/// does up to the applied voltage, lane by lane, in its order of
+/// operations (the creep pass is [`creep_pass`]). Returns the voltages and
+/// the saturated and fault bits.
 #[inline(always)]
-fn step_block<T: Real, V: Block<T>>(
+fn inverse_and_clip<T: Real, V: Block<T>>(
     o: Ops<T, V>,
     f: &Fixed<'_, T>,
     block: usize,
@@ -520,13 +559,56 @@ fn step_block<T: Real, V: Block<T>>(
     if saturated != 0 {
         reseat(f, s, p, saturated, cur, next);
     }
-    // creep (20), as creep::advance sums it, with the voltage applied
+    // the creep input: the voltage applied, or the last one if not finite
     let uc = o.select(o.non_finite(u), o.load(&s[a.creep_last()]), u);
     o.store(uc, &mut s[a.creep_last()]);
-    let creep = sum_by_fours!(o, a.nc, |i| {
+    let mut out = Row::default();
+    o.store(u, &mut out);
+    (out, saturated, o.bits(fault))
+}
+
+/// Block `block`'s creep pass (20) with the input stored by
+/// [`inverse_and_clip`], as `creep::advance` sums it: each threshold's rows
+/// summed over the eigenvalues in order, the weighted rows into the partial
+/// sum `i mod 4`. Four thresholds go together, eigenvalue by eigenvalue, so
+/// that four independent update chains stand next to each other in the
+/// instruction stream (one threshold's chain — five updates and their sum —
+/// is long, and the scheduler holds only so many waiting operations).
+#[inline(always)]
+fn creep_pass<T: Real, V: Block<T>>(o: Ops<T, V>, f: &Fixed<'_, T>, s: &mut [Row], p: &[Row]) {
+    let a = f.layout;
+    let uc = o.load(&s[a.creep_last()]);
+    let zero = o.splat(T::ZERO);
+    let mut sums = [zero; 4];
+    let full = a.nc - a.nc % 4;
+    let mut i0 = 0;
+    while i0 < full {
+        let mut lower = [zero; 4];
+        let mut upper = [zero; 4];
+        for q in 0..4 {
+            let r = o.load(&p[a.creep_r(i0 + q)]);
+            (lower[q], upper[q]) = (o.sub(uc, r), o.add(uc, r));
+        }
+        let mut rows = [zero; 4];
+        for j in 0..a.m {
+            let g = o.load(&p[a.gain(j)]);
+            for q in 0..4 {
+                let row = a.chi(i0 + q, j);
+                let x = o.load(&s[row]);
+                let x = o.add(x, o.mul(g, o.sub(o.clamp(x, lower[q], upper[q]), x)));
+                o.store(x, &mut s[row]);
+                rows[q] = o.add(rows[q], x);
+            }
+        }
+        for q in 0..4 {
+            sums[q] = o.add(sums[q], o.mul(o.load(&p[a.creep_w(i0 + q)]), rows[q]));
+        }
+        i0 += 4;
+    }
+    for i in full..a.nc {
         let r = o.load(&p[a.creep_r(i)]);
         let (lower, upper) = (o.sub(uc, r), o.add(uc, r));
-        let mut rows = o.splat(T::ZERO);
+        let mut rows = zero;
         for j in 0..a.m {
             let x = o.load(&s[a.chi(i, j)]);
             let g = o.load(&p[a.gain(j)]);
@@ -534,12 +616,10 @@ fn step_block<T: Real, V: Block<T>>(
             o.store(x, &mut s[a.chi(i, j)]);
             rows = o.add(rows, x);
         }
-        o.mul(o.load(&p[a.creep_w(i)]), rows)
-    });
+        sums[i - full] = o.add(sums[i - full], o.mul(o.load(&p[a.creep_w(i)]), rows));
+    }
+    let creep = o.add(o.add(sums[0], sums[2]), o.add(sums[1], sums[3]));
     o.store(creep, &mut s[a.creep_out()]);
-    let mut out = Row::default();
-    o.store(u, &mut out);
-    (out, saturated, o.bits(fault))
 }
 
 /// `S⁻¹` lane by lane on a block some of whose channels have `S`.

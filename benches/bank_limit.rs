@@ -1,0 +1,292 @@
+//! The compensator bank against the arithmetic the CPU can do.
+//!
+//! Per channel-step the bank's block step does a fixed number of vector-lane
+//! operations (adds, subtractions, multiplies, `min`, `max`, compares and
+//! selects; loads and stores not counted): `23 + 7 n + n_C (4 + 6 m)` —
+//! 515 at the paper's order (12 plays, 12 creep thresholds × 5
+//! eigenvalues). The CPU's rate for that kind of work is measured here, on
+//! the widest registers the bank uses on it, with a loop of independent
+//! creep-element updates (`min`, `max`, sub, mul, add, add) that has no
+//! loads, stores or dependencies to wait for: that rate divided by 515 is
+//! the bound in channel-steps per second on one core.
+//!
+//! Then the bank at 1, 8, 64, 1024 and 4096 channels, `f64` and `f32`, on
+//! one thread and on two (`CompensatorBank::compensate_on` with one worker),
+//! timed as the median over batches of steps; printed with the CPU, its
+//! bound, the ratio, the cycles per channel-step at the CPU's nominal clock,
+//! and the share of a core a 4000-actuator mirror at 10 kHz needs.
+//!
+//! `cargo bench --bench bank_limit`
+
+use std::hint::black_box;
+use std::time::Instant;
+
+mod common;
+
+use common::test_input;
+use mfcbeam::operators::bank::{CompensatorBank, Workers};
+use mfcbeam::prelude::*;
+use mfcbeam::realtime::{nominal, simd::Kernels, Compensated, Real};
+
+/// Vector-lane operations per channel-step of the bank's block step.
+fn lane_operations(n: usize, nc: usize, m: usize) -> usize {
+    23 + 7 * n + nc * (4 + 6 * m)
+}
+
+fn cpu() -> (String, f64) {
+    let info = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    let field = |name: &str| {
+        info.lines()
+            .find(|l| l.starts_with(name))
+            .and_then(|l| l.split(':').nth(1))
+            .map(|s| s.trim().to_string())
+    };
+    let mhz = field("cpu MHz")
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(f64::NAN);
+    let name = field("model name").unwrap_or_else(|| "?".into());
+    let family = field("cpu family").unwrap_or_default();
+    let model = field("model\t").unwrap_or_default();
+    (
+        format!("{name} (family {family}, model {model})"),
+        mhz / 1e3,
+    )
+}
+
+/// Lane operations per nanosecond of the creep-element update on the
+/// registers the bank's kernels use for `T` (measured, median of runs).
+fn peak_lane_operations_per_ns<T: Real>() -> f64 {
+    const ITERATIONS: usize = 2_000_000;
+    let mut best = Vec::new();
+    for _ in 0..7 {
+        let t0 = Instant::now();
+        let lanes = mix::run::<T>(ITERATIONS);
+        let ns = t0.elapsed().as_nanos() as f64;
+        best.push((ITERATIONS * mix::CHAINS * 6 * lanes) as f64 / ns);
+    }
+    best.sort_by(f64::total_cmp);
+    best[best.len() / 2]
+}
+
+mod mix {
+    //! Independent chains of the creep-element update on registers.
+    use mfcbeam::realtime::{simd::Kernels, Real};
+
+    pub const CHAINS: usize = 16;
+
+    /// Runs `iterations` of every chain on the bank's widest registers for
+    /// `T`; returns the lanes per register.
+    pub fn run<T: Real>(iterations: usize) -> usize {
+        let f64_ = T::NAME == "f64";
+        #[cfg(target_arch = "x86_64")]
+        {
+            let k = Kernels::detect();
+            // SAFETY: the features are checked by `Kernels::detect`.
+            unsafe {
+                if k.is_avx512() {
+                    return if f64_ {
+                        x86::avx512_f64(iterations)
+                    } else {
+                        x86::avx512_f32(iterations)
+                    };
+                }
+                if k.is_avx2() {
+                    return if f64_ {
+                        x86::avx2_f64(iterations)
+                    } else {
+                        x86::avx2_f32(iterations)
+                    };
+                }
+            }
+        }
+        let _ = f64_;
+        scalar::<T>(iterations)
+    }
+
+    fn scalar<T: Real>(iterations: usize) -> usize {
+        let mut x = [T::from_f64(0.5); CHAINS];
+        let mut r = [T::ZERO; CHAINS];
+        let (lo, hi, g) = (T::from_f64(-1.0), T::from_f64(1.0), T::from_f64(0.25));
+        for _ in 0..iterations {
+            for k in 0..CHAINS {
+                let c = x[k];
+                let c = if c < hi { c } else { hi };
+                let c = if c > lo { c } else { lo };
+                x[k] = x[k] + g * (c - x[k]);
+                r[k] += x[k];
+            }
+        }
+        std::hint::black_box((x, r));
+        1
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    mod x86 {
+        use core::arch::x86_64::*;
+
+        use super::CHAINS;
+
+        macro_rules! chains {
+            ($name:ident, $feature:literal, $t:ty, $set1:ident, $min:ident, $max:ident, $add:ident, $sub:ident, $mul:ident, $lanes:expr) => {
+                #[target_feature(enable = $feature)]
+                pub unsafe fn $name(iterations: usize) -> usize {
+                    let mut x: [$t; CHAINS] = [$set1(std::hint::black_box(0.5)); CHAINS];
+                    let mut r: [$t; CHAINS] = [$set1(0.0); CHAINS];
+                    let (lo, hi, g) = ($set1(-1.0), $set1(1.0), $set1(std::hint::black_box(0.25)));
+                    for _ in 0..iterations {
+                        for k in 0..CHAINS {
+                            let c = $max($min(x[k], hi), lo);
+                            x[k] = $add(x[k], $mul(g, $sub(c, x[k])));
+                            r[k] = $add(r[k], x[k]);
+                        }
+                    }
+                    std::hint::black_box((x, r));
+                    $lanes
+                }
+            };
+        }
+        chains!(
+            avx512_f64,
+            "avx512f",
+            __m512d,
+            _mm512_set1_pd,
+            _mm512_min_pd,
+            _mm512_max_pd,
+            _mm512_add_pd,
+            _mm512_sub_pd,
+            _mm512_mul_pd,
+            8
+        );
+        chains!(
+            avx512_f32,
+            "avx512f",
+            __m512,
+            _mm512_set1_ps,
+            _mm512_min_ps,
+            _mm512_max_ps,
+            _mm512_add_ps,
+            _mm512_sub_ps,
+            _mm512_mul_ps,
+            16
+        );
+        chains!(
+            avx2_f64,
+            "avx2",
+            __m256d,
+            _mm256_set1_pd,
+            _mm256_min_pd,
+            _mm256_max_pd,
+            _mm256_add_pd,
+            _mm256_sub_pd,
+            _mm256_mul_pd,
+            4
+        );
+        chains!(
+            avx2_f32,
+            "avx2",
+            __m256,
+            _mm256_set1_ps,
+            _mm256_min_ps,
+            _mm256_max_ps,
+            _mm256_add_ps,
+            _mm256_sub_ps,
+            _mm256_mul_ps,
+            8
+        );
+    }
+}
+
+/// Median nanoseconds per step of `channels` channels on `threads` threads.
+fn time_bank<T: Real>(channels: usize, workers: &Workers) -> f64 {
+    const ROWS: usize = 64;
+    let targets = nominal_model().run(&test_input(4096));
+    let rows: Vec<Vec<T>> = (0..ROWS)
+        .map(|k| {
+            (0..channels)
+                .map(|ch| T::from_f64(targets[(k * 16 + ch * 37) % targets.len()]))
+                .collect()
+        })
+        .collect();
+    let mut bank = CompensatorBank::<T>::uniform(
+        &nominal::PARAMETERS,
+        channels,
+        CompensatorSettings::with_limits(-1000.0, 1000.0),
+    )
+    .unwrap();
+    let mut out = vec![Compensated::<T>::default(); channels];
+    // about 2 ms per batch
+    let steps = (2_000_000 / (channels * 8).max(1)).clamp(20, 200_000);
+    let mut k = 0usize;
+    let mut batch = |bank: &mut CompensatorBank<T>| {
+        let t0 = Instant::now();
+        for _ in 0..steps {
+            k = (k + 1) % ROWS;
+            if workers.parts() == 1 {
+                bank.compensate(black_box(&rows[k]), &mut out).unwrap();
+            } else {
+                bank.compensate_on(workers, black_box(&rows[k]), &mut out)
+                    .unwrap();
+            }
+        }
+        black_box(&out);
+        t0.elapsed().as_nanos() as f64 / steps as f64
+    };
+    for _ in 0..20 {
+        batch(&mut bank);
+    }
+    let mut times: Vec<f64> = (0..61).map(|_| batch(&mut bank)).collect();
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+fn report<T: Real>(ghz: f64) {
+    let ops = lane_operations(12, 12, 5);
+    let peak = peak_lane_operations_per_ns::<T>();
+    let bound = peak * 1e3 / ops as f64; // M channel-steps/s on one core
+    println!(
+        "\n{}: measured peak {peak:.1} lane-operations/ns of the creep mix; {ops} per channel-step \
+         -> bound {bound:.1} M channel-steps/s per core ({:.1} cycles per channel-step at {ghz:.2} GHz)",
+        T::NAME,
+        ops as f64 / peak * ghz
+    );
+    println!(
+        "{:>8} {:>8} {:>14} {:>12} {:>14} {:>16}",
+        "channels", "threads", "ns per step", "M ch-steps/s", "cycles/ch-step", "bound (per core)"
+    );
+    let pools = [Workers::new(0).unwrap(), Workers::new(1).unwrap()];
+    let mut at_4096 = f64::NAN;
+    for channels in [1usize, 8, 64, 1024, 4096] {
+        for workers in &pools {
+            let ns = time_bank::<T>(channels, workers);
+            let rate = channels as f64 / ns * 1e3;
+            let ratio = rate / (bound * workers.parts() as f64);
+            println!(
+                "{channels:>8} {:>8} {ns:>14.1} {rate:>12.1} {:>14.1} {:>15.0} %",
+                workers.parts(),
+                ns * ghz / channels as f64,
+                100.0 * ratio
+            );
+            if channels == 4096 && workers.parts() == 1 {
+                at_4096 = rate;
+            }
+        }
+    }
+    println!(
+        "a 4000-actuator mirror at 10 kHz (40 M channel-steps/s) needs {:.2} of one core in {}",
+        40.0 / at_4096,
+        T::NAME
+    );
+}
+
+fn main() {
+    if std::env::args().any(|a| a == "--list") {
+        return; // nothing for `cargo test --benches` to list
+    }
+    let (name, ghz) = cpu();
+    println!(
+        "CPU: {name}, {ghz:.2} GHz nominal; kernels: {:?}",
+        Kernels::detect()
+    );
+    report::<f64>(ghz);
+    report::<f32>(ghz);
+}
