@@ -1,5 +1,5 @@
 //! A bank of compensators (`operators::bank::CompensatorBank`) at the paper's order:
-//! one step of 1, 8, 64 and 1024 channels sharing the nominal model, in
+//! one step of 1, 8, 64, 1024 and 4096 channels sharing the nominal model, in
 //! `f64` and `f32`. Throughput is in channel-steps per second.
 
 use std::hint::black_box;
@@ -18,7 +18,7 @@ fn bank<T: Real>(c: &mut Criterion) {
     // reachable targets: W of the test input, each channel at its own phase
     let targets = nominal_model().run(&test_input(4096));
     let mut g = c.benchmark_group(format!("bank_{}", T::NAME));
-    for channels in [1usize, 8, 64, 1024] {
+    for channels in [1usize, 8, 64, 1024, 4096] {
         let rows: Vec<Vec<T>> = (0..ROWS)
             .map(|k| {
                 (0..channels)

@@ -196,8 +196,17 @@ mod mix {
     }
 }
 
-/// Median nanoseconds per step of `channels` channels on `threads` threads.
-fn time_bank<T: Real>(channels: usize, workers: &Workers) -> f64 {
+/// How a timed step runs.
+#[derive(Clone, Copy)]
+enum Mode<'a> {
+    /// On the calling thread and these kernels.
+    Kernels(Kernels),
+    /// Split over the workers and the calling thread.
+    Workers(&'a Workers),
+}
+
+/// Median nanoseconds per step of `channels` channels.
+fn time_bank<T: Real>(channels: usize, mode: Mode<'_>) -> f64 {
     const ROWS: usize = 64;
     let targets = nominal_model().run(&test_input(4096));
     let rows: Vec<Vec<T>> = (0..ROWS)
@@ -221,11 +230,13 @@ fn time_bank<T: Real>(channels: usize, workers: &Workers) -> f64 {
         let t0 = Instant::now();
         for _ in 0..steps {
             k = (k + 1) % ROWS;
-            if workers.parts() == 1 {
-                bank.compensate(black_box(&rows[k]), &mut out).unwrap();
-            } else {
-                bank.compensate_on(workers, black_box(&rows[k]), &mut out)
-                    .unwrap();
+            match mode {
+                Mode::Kernels(kernels) => bank
+                    .compensate_using(kernels, black_box(&rows[k]), &mut out)
+                    .unwrap(),
+                Mode::Workers(workers) => bank
+                    .compensate_on(workers, black_box(&rows[k]), &mut out)
+                    .unwrap(),
             }
         }
         black_box(&out);
@@ -253,23 +264,33 @@ fn report<T: Real>(ghz: f64) {
         "{:>8} {:>8} {:>14} {:>12} {:>14} {:>16}",
         "channels", "threads", "ns per step", "M ch-steps/s", "cycles/ch-step", "bound (per core)"
     );
-    let pools = [Workers::new(0).unwrap(), Workers::new(1).unwrap()];
+    let two = Workers::new(1).unwrap();
     let mut at_4096 = f64::NAN;
     for channels in [1usize, 8, 64, 1024, 4096] {
-        for workers in &pools {
-            let ns = time_bank::<T>(channels, workers);
+        for (threads, mode) in [
+            (1, Mode::Kernels(Kernels::detect())),
+            (2, Mode::Workers(&two)),
+        ] {
+            let ns = time_bank::<T>(channels, mode);
             let rate = channels as f64 / ns * 1e3;
-            let ratio = rate / (bound * workers.parts() as f64);
+            let ratio = rate / (bound * threads as f64);
             println!(
-                "{channels:>8} {:>8} {ns:>14.1} {rate:>12.1} {:>14.1} {:>15.0} %",
-                workers.parts(),
+                "{channels:>8} {threads:>8} {ns:>14.1} {rate:>12.1} {:>14.1} {:>15.0} %",
                 ns * ghz / channels as f64,
                 100.0 * ratio
             );
-            if channels == 4096 && workers.parts() == 1 {
+            if channels == 4096 && threads == 1 {
                 at_4096 = rate;
             }
         }
+    }
+    // every kernel set at 64 channels (the bound is the widest registers')
+    for kernels in Kernels::all() {
+        let ns = time_bank::<T>(64, Mode::Kernels(kernels));
+        println!(
+            "64 channels, one thread, {kernels:?}: {:.1} M channel-steps/s",
+            64.0 / ns * 1e3
+        );
     }
     println!(
         "a 4000-actuator mirror at 10 kHz (40 M channel-steps/s) needs {:.2} of one core in {}",

@@ -17,6 +17,8 @@
 //! Without `std` (firmware) there is one copy, for the target's own
 //! features.
 
+// the bank's blocks: the bank is part of the `std` layer
+#[cfg(feature = "std")]
 pub(crate) mod block;
 
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
