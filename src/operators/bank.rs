@@ -488,34 +488,6 @@ fn first_part<T: Real, V: Block<T>>(
     }
 }
 
-/// `Σ_i term(i)` over `i < count` as `hysteresis::step` and
-/// `creep::advance` sum: term `i` into the partial sum `i mod 4` (whole
-/// groups of four first, so that the index is a constant and the sums stay
-/// in registers), then `(s_0 + s_2) + (s_1 + s_3)`. A macro, not a function
-/// taking a closure: a closure is a function of its own, compiled without
-/// the step's instruction set, and its vector operations would be calls.
-macro_rules! sum_by_fours {
-    ($o:expr, $count:expr, |$i:ident| $term:expr) => {{
-        let o = $o;
-        let count = $count;
-        let zero = o.splat(T::ZERO);
-        let mut sums = [zero; 4];
-        let full = count - count % 4;
-        let mut i0 = 0;
-        while i0 < full {
-            for q in 0..4 {
-                let $i = i0 + q;
-                sums[q] = o.add(sums[q], $term);
-            }
-            i0 += 4;
-        }
-        for $i in full..count {
-            sums[$i - full] = o.add(sums[$i - full], $term);
-        }
-        o.add(o.add(sums[0], sums[2]), o.add(sums[1], sums[3]))
-    }};
-}
-
 /// Block `block` of the bank, first part: what `Compensator::compensate`
 /// does up to the applied voltage, lane by lane, in its order of
 /// operations (the creep pass is [`creep_pass`]). Returns the voltages and
@@ -540,14 +512,40 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
     }
     let y = o.sub(y, o.load(&s[a.creep_out()]));
     let y = o.select(o.non_finite(y), o.load(&s[a.inv_x(cur, 0)]), y);
-    // H⁻¹ (22): the plays into the other copy; a faulted lane keeps its own
-    let v = sum_by_fours!(o, a.n, |i| {
-        let x = o.load(&s[a.inv_x(cur, i)]);
-        let r = o.load(&p[a.inv_r(i)]);
-        let new = o.clamp(x, o.sub(y, r), o.add(y, r));
-        o.store(o.select(fault, x, new), &mut s[a.inv_x(next, i)]);
-        o.mul(o.load(&p[a.inv_w(i)]), new)
-    });
+    // H⁻¹ (22): the plays into the other copy; a faulted lane keeps its
+    // own. Whole slices of rows, walked in fours: no index arithmetic or
+    // bounds check between the vector operations.
+    let n = a.n;
+    let (first_copy, second_copy) = s[..2 * n].split_at_mut(n);
+    let (old, new_rows) = if cur == 0 {
+        (&*first_copy, second_copy)
+    } else {
+        (&*second_copy, first_copy)
+    };
+    let (inv_r, inv_w) = (&p[a.inv_r(0)..][..n], &p[a.inv_w(0)..][..n]);
+    let zero = o.splat(T::ZERO);
+    let mut sums = [zero; 4];
+    let full = n - n % 4;
+    let fours = old[..full]
+        .chunks_exact(4)
+        .zip(inv_r[..full].chunks_exact(4))
+        .zip(inv_w[..full].chunks_exact(4))
+        .zip(new_rows[..full].chunks_exact_mut(4));
+    for (((x, r), w), next) in fours {
+        for q in 0..4 {
+            sums[q] = o.add(
+                sums[q],
+                inverse_play(o, y, fault, &x[q], &r[q], &w[q], &mut next[q]),
+            );
+        }
+    }
+    for i in full..n {
+        sums[i - full] = o.add(
+            sums[i - full],
+            inverse_play(o, y, fault, &old[i], &inv_r[i], &inv_w[i], &mut new_rows[i]),
+        );
+    }
+    let v = o.add(o.add(sums[0], sums[2]), o.add(sums[1], sums[3]));
     // clip; a faulted lane holds its last voltage
     let (lower, upper) = (o.splat(f.lower), o.splat(f.upper));
     let (below, above) = (o.lt(v, lower), o.gt(v, upper));
@@ -573,53 +571,92 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
 /// sum `i mod 4`. Four thresholds go together, eigenvalue by eigenvalue, so
 /// that four independent update chains stand next to each other in the
 /// instruction stream (one threshold's chain — five updates and their sum —
-/// is long, and the scheduler holds only so many waiting operations).
+/// is long, and the scheduler holds only so many waiting operations). Whole
+/// slices of rows, so that no index arithmetic or bounds check stands
+/// between the vector operations.
 #[inline(always)]
 fn creep_pass<T: Real, V: Block<T>>(o: Ops<T, V>, f: &Fixed<'_, T>, s: &mut [Row], p: &[Row]) {
     let a = f.layout;
+    let (nc, m) = (a.nc, a.m);
     let uc = o.load(&s[a.creep_last()]);
     let zero = o.splat(T::ZERO);
+    let (thresholds, weights) = (&p[a.creep_r(0)..][..nc], &p[a.creep_w(0)..][..nc]);
+    let gains = &p[a.gain(0)..][..m];
+    let chi = &mut s[a.chi(0, 0)..][..nc * m];
     let mut sums = [zero; 4];
-    let full = a.nc - a.nc % 4;
-    let mut i0 = 0;
-    while i0 < full {
-        let mut lower = [zero; 4];
-        let mut upper = [zero; 4];
-        for q in 0..4 {
-            let r = o.load(&p[a.creep_r(i0 + q)]);
-            (lower[q], upper[q]) = (o.sub(uc, r), o.add(uc, r));
-        }
-        let mut rows = [zero; 4];
-        for j in 0..a.m {
-            let g = o.load(&p[a.gain(j)]);
+    let full = nc - nc % 4;
+    if m > 0 {
+        let fours = chi[..full * m]
+            .chunks_exact_mut(4 * m)
+            .zip(thresholds[..full].chunks_exact(4))
+            .zip(weights[..full].chunks_exact(4));
+        for ((rows_of_four, r), w) in fours {
+            let mut lower = [zero; 4];
+            let mut upper = [zero; 4];
             for q in 0..4 {
-                let row = a.chi(i0 + q, j);
-                let x = o.load(&s[row]);
-                let x = o.add(x, o.mul(g, o.sub(o.clamp(x, lower[q], upper[q]), x)));
-                o.store(x, &mut s[row]);
-                rows[q] = o.add(rows[q], x);
+                let r = o.load(&r[q]);
+                (lower[q], upper[q]) = (o.sub(uc, r), o.add(uc, r));
+            }
+            let (r01, r23) = rows_of_four.split_at_mut(2 * m);
+            let (x0, x1) = r01.split_at_mut(m);
+            let (x2, x3) = r23.split_at_mut(m);
+            let mut rows = [zero; 4];
+            for (j, g) in gains.iter().enumerate() {
+                let g = o.load(g);
+                rows[0] = o.add(rows[0], creep_update(o, &mut x0[j], g, lower[0], upper[0]));
+                rows[1] = o.add(rows[1], creep_update(o, &mut x1[j], g, lower[1], upper[1]));
+                rows[2] = o.add(rows[2], creep_update(o, &mut x2[j], g, lower[2], upper[2]));
+                rows[3] = o.add(rows[3], creep_update(o, &mut x3[j], g, lower[3], upper[3]));
+            }
+            for q in 0..4 {
+                sums[q] = o.add(sums[q], o.mul(o.load(&w[q]), rows[q]));
             }
         }
-        for q in 0..4 {
-            sums[q] = o.add(sums[q], o.mul(o.load(&p[a.creep_w(i0 + q)]), rows[q]));
-        }
-        i0 += 4;
     }
-    for i in full..a.nc {
-        let r = o.load(&p[a.creep_r(i)]);
+    for i in full..nc {
+        let r = o.load(&thresholds[i]);
         let (lower, upper) = (o.sub(uc, r), o.add(uc, r));
         let mut rows = zero;
-        for j in 0..a.m {
-            let x = o.load(&s[a.chi(i, j)]);
-            let g = o.load(&p[a.gain(j)]);
-            let x = o.add(x, o.mul(g, o.sub(o.clamp(x, lower, upper), x)));
-            o.store(x, &mut s[a.chi(i, j)]);
-            rows = o.add(rows, x);
+        for (x, g) in chi[i * m..][..m].iter_mut().zip(gains) {
+            rows = o.add(rows, creep_update(o, x, o.load(g), lower, upper));
         }
-        sums[i - full] = o.add(sums[i - full], o.mul(o.load(&p[a.creep_w(i)]), rows));
+        sums[i - full] = o.add(sums[i - full], o.mul(o.load(&weights[i]), rows));
     }
     let creep = o.add(o.add(sums[0], sums[2]), o.add(sums[1], sums[3]));
     o.store(creep, &mut s[a.creep_out()]);
+}
+
+/// One play of `H⁻¹` (22) on a block: `x` clamped into `[y − r, y + r]`
+/// into `next` (the old `x` where the lane is faulted), its weighted value
+/// returned. A function, not a closure: see [`creep_update`].
+#[inline(always)]
+fn inverse_play<T: Real, V: Block<T>>(
+    o: Ops<T, V>,
+    y: V,
+    fault: V::Mask,
+    x: &Row,
+    r: &Row,
+    w: &Row,
+    next: &mut Row,
+) -> V {
+    let x = o.load(x);
+    let r = o.load(r);
+    let new = o.clamp(x, o.sub(y, r), o.add(y, r));
+    o.store(o.select(fault, x, new), next);
+    o.mul(o.load(w), new)
+}
+
+/// One creep operator's update (20) on a block, `χ ← χ + g (clamp(χ, u −
+/// r, u + r) − χ)`, returning the new `χ`. A function marked
+/// `inline(always)`, not a closure: a closure body left out of line is
+/// compiled without the step's instruction set, and every vector operation
+/// in it becomes a call.
+#[inline(always)]
+fn creep_update<T: Real, V: Block<T>>(o: Ops<T, V>, x: &mut Row, g: V, lower: V, upper: V) -> V {
+    let v = o.load(x);
+    let v = o.add(v, o.mul(g, o.sub(o.clamp(v, lower, upper), v)));
+    o.store(v, x);
+    v
 }
 
 /// `S⁻¹` lane by lane on a block some of whose channels have `S`.
