@@ -476,12 +476,22 @@ fn first_part<T: Real, V: Block<T>>(
     let c0 = b * width;
     let k = width.min(targets.len() - c0);
     let mut target = Row::default();
-    target.lanes_mut()[..k].copy_from_slice(&targets[c0..c0 + k]);
+    // a whole block (all but perhaps the last) with the constant width, so
+    // that the copies are unrolled
+    if k == width {
+        target.lanes_mut().copy_from_slice(&targets[c0..][..width]);
+    } else {
+        target.lanes_mut()[..k].copy_from_slice(&targets[c0..c0 + k]);
+    }
     let (u, saturated, fault) = inverse_and_clip(o, f, first + b, state, p, &target);
-    let u = u.lanes::<T>();
-    for (l, out) in out[c0..c0 + k].iter_mut().enumerate() {
+    let out = if k == width {
+        &mut out[c0..][..width]
+    } else {
+        &mut out[c0..c0 + k]
+    };
+    for ((l, out), &u) in out.iter_mut().enumerate().zip(u.lanes::<T>()) {
         *out = Compensated {
-            u: u[l],
+            u,
             saturated: saturated & (1 << l) != 0,
             fault: fault & (1 << l) != 0,
         };
