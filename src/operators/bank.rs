@@ -475,15 +475,16 @@ fn first_part<T: Real, V: Block<T>>(
     let width = lanes::<T>();
     let c0 = b * width;
     let k = width.min(targets.len() - c0);
-    let mut target = Row::default();
-    // a whole block (all but perhaps the last) with the constant width, so
-    // that the copies are unrolled
-    if k == width {
-        target.lanes_mut().copy_from_slice(&targets[c0..][..width]);
+    // a whole block (all but perhaps the last) straight from the caller's
+    // slice; the last one through a padded row
+    let target = if k == width {
+        o.load_values(&targets[c0..][..width])
     } else {
-        target.lanes_mut()[..k].copy_from_slice(&targets[c0..c0 + k]);
-    }
-    let (u, saturated, fault) = inverse_and_clip(o, f, first + b, state, p, &target);
+        let mut row = Row::default();
+        row.lanes_mut()[..k].copy_from_slice(&targets[c0..c0 + k]);
+        o.load(&row)
+    };
+    let (u, saturated, fault) = inverse_and_clip(o, f, first + b, state, p, target);
     let out = if k == width {
         &mut out[c0..][..width]
     } else {
@@ -509,11 +510,10 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
     block: usize,
     s: &mut [Row],
     p: &[Row],
-    target: &Row,
+    t: V,
 ) -> (Row, u32, u32) {
     let a = f.layout;
     let (cur, next) = (f.parity, f.parity ^ 1);
-    let t = o.load(target);
     let fault = o.non_finite(t);
     // S⁻¹[t − offset] − C: y, or the input held where that is not finite
     let mut y = o.sub(t, o.load(&p[a.offset()]));

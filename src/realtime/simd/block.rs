@@ -53,6 +53,8 @@ pub(crate) trait Block<T: Real>: Copy {
     type Mask: Copy;
     /// The lanes of `row`.
     unsafe fn load(row: &Row) -> Self;
+    /// The first lanes of `values` (at least a block's worth; unaligned).
+    unsafe fn load_values(values: &[T]) -> Self;
     unsafe fn store(self, row: &mut Row);
     unsafe fn splat(x: T) -> Self;
     unsafe fn add(self, b: Self) -> Self;
@@ -117,6 +119,13 @@ impl<T: Real> Block<T> for Portable<T> {
     unsafe fn load(row: &Row) -> Self {
         let mut a = [T::ZERO; 16];
         a[..lanes::<T>()].copy_from_slice(row.lanes());
+        Portable(a)
+    }
+
+    #[inline(always)]
+    unsafe fn load_values(values: &[T]) -> Self {
+        let mut a = [T::ZERO; 16];
+        a[..lanes::<T>()].copy_from_slice(&values[..lanes::<T>()]);
         Portable(a)
     }
 
@@ -275,6 +284,29 @@ mod x86 {
                     Avx2(
                         [_mm256_setzero_pd(); 2],
                         [_mm256_load_ps(p), _mm256_load_ps(p.add(8))],
+                    )
+                }
+            }
+        }
+
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        unsafe fn load_values(values: &[T]) -> Self {
+            assert!(values.len() >= super::lanes::<T>());
+            let p = values.as_ptr();
+            // SAFETY: a block's worth of readable values (asserted).
+            unsafe {
+                if is_f64::<T>() {
+                    let p = p as *const f64;
+                    Avx2(
+                        [_mm256_loadu_pd(p), _mm256_loadu_pd(p.add(4))],
+                        [_mm256_setzero_ps(); 2],
+                    )
+                } else {
+                    let p = p as *const f32;
+                    Avx2(
+                        [_mm256_setzero_pd(); 2],
+                        [_mm256_loadu_ps(p), _mm256_loadu_ps(p.add(8))],
                     )
                 }
             }
@@ -453,6 +485,21 @@ mod x86 {
 
         #[target_feature(enable = "avx512f")]
         #[inline]
+        unsafe fn load_values(values: &[T]) -> Self {
+            assert!(values.len() >= super::lanes::<T>());
+            let p = values.as_ptr();
+            // SAFETY: a block's worth of readable values (asserted).
+            unsafe {
+                if is_f64::<T>() {
+                    Avx512(_mm512_loadu_pd(p as *const f64), _mm512_setzero_ps())
+                } else {
+                    Avx512(_mm512_setzero_pd(), _mm512_loadu_ps(p as *const f32))
+                }
+            }
+        }
+
+        #[target_feature(enable = "avx512f")]
+        #[inline]
         unsafe fn store(self, row: &mut Row) {
             let p = row.0.as_mut_ptr();
             // SAFETY: 64 aligned bytes, borrowed uniquely.
@@ -551,6 +598,7 @@ macro_rules! safe_ops {
 impl<T: Real, V: Block<T>> Ops<T, V> {
     safe_ops! {
         load(row: &Row) -> V;
+        load_values(values: &[T]) -> V;
         store(v: V, row: &mut Row) -> ();
         splat(x: T) -> V;
         add(a: V, b: V) -> V;
