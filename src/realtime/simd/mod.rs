@@ -261,6 +261,7 @@ mod x86 {
     use crate::realtime::creep::{advance_tail, LANES};
     use crate::realtime::hysteresis::reduce;
     use crate::realtime::play::play;
+    use crate::realtime::real::Real;
 
     /// The blocks of `hysteresis::step` for `f64`; `v` is finite. Kept
     /// out of line: inlined into the AVX2 step it made the step 4–9 %
@@ -344,10 +345,303 @@ mod x86 {
         reduce(lanes)
     }
 
-    /// `hysteresis::step` for `f64` in 8-lane blocks (AVX-512F): the
-    /// products of lanes 0–3 and then of lanes 4–7 into the four partial
-    /// sums, as the portable blocks of four add them; a 4-lane block and
-    /// the rest as in [`hysteresis_step`].
+    /// Eight lanes in one register and their four-lane halves: `f64` on
+    /// AVX-512F (`__m512d`, `__m256d`), `f32` on AVX2 (`__m256`, `__m128`).
+    /// The 8-lane kernels below are written once over it.
+    trait Eight: Copy {
+        type T: Real;
+        type Half: Copy;
+        unsafe fn splat(x: Self::T) -> Self;
+        unsafe fn load(p: *const Self::T) -> Self;
+        unsafe fn store(self, p: *mut Self::T);
+        unsafe fn add(self, b: Self) -> Self;
+        unsafe fn sub(self, b: Self) -> Self;
+        unsafe fn mul(self, b: Self) -> Self;
+        /// `a < b ? a : b`, and `a > b ? a : b` for `max`.
+        unsafe fn min(self, b: Self) -> Self;
+        unsafe fn max(self, b: Self) -> Self;
+        /// Lanes 0–3 and 4–7.
+        unsafe fn halves(self) -> (Self::Half, Self::Half);
+        unsafe fn half_splat(x: Self::T) -> Self::Half;
+        unsafe fn half_zero() -> Self::Half;
+        unsafe fn half_load(p: *const Self::T) -> Self::Half;
+        unsafe fn half_store(h: Self::Half, p: *mut Self::T);
+        unsafe fn half_add(a: Self::Half, b: Self::Half) -> Self::Half;
+        unsafe fn half_sub(a: Self::Half, b: Self::Half) -> Self::Half;
+        unsafe fn half_mul(a: Self::Half, b: Self::Half) -> Self::Half;
+        unsafe fn half_min(a: Self::Half, b: Self::Half) -> Self::Half;
+        unsafe fn half_max(a: Self::Half, b: Self::Half) -> Self::Half;
+    }
+
+    macro_rules! eight {
+        ($name:ident, $feature:literal, $t:ty, $v:ty, $h:ty,
+         [$set1:ident, $loadu:ident, $storeu:ident, $add:ident, $sub:ident, $mul:ident, $min:ident, $max:ident],
+         [$hset1:ident, $hzero:ident, $hloadu:ident, $hstoreu:ident, $hadd:ident, $hsub:ident, $hmul:ident, $hmin:ident, $hmax:ident],
+         $lo:expr, $hi:expr) => {
+            #[derive(Clone, Copy)]
+            struct $name($v);
+
+            impl Eight for $name {
+                type T = $t;
+                type Half = $h;
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn splat(x: $t) -> Self {
+                    $name($set1(x))
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn load(p: *const $t) -> Self {
+                    $name(unsafe { $loadu(p) })
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn store(self, p: *mut $t) {
+                    unsafe { $storeu(p, self.0) }
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn add(self, b: Self) -> Self {
+                    $name($add(self.0, b.0))
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn sub(self, b: Self) -> Self {
+                    $name($sub(self.0, b.0))
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn mul(self, b: Self) -> Self {
+                    $name($mul(self.0, b.0))
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn min(self, b: Self) -> Self {
+                    $name($min(self.0, b.0))
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn max(self, b: Self) -> Self {
+                    $name($max(self.0, b.0))
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn halves(self) -> ($h, $h) {
+                    ($lo(self.0), $hi(self.0))
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn half_splat(x: $t) -> $h {
+                    $hset1(x)
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn half_zero() -> $h {
+                    $hzero()
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn half_load(p: *const $t) -> $h {
+                    unsafe { $hloadu(p) }
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn half_store(h: $h, p: *mut $t) {
+                    unsafe { $hstoreu(p, h) }
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn half_add(a: $h, b: $h) -> $h {
+                    $hadd(a, b)
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn half_sub(a: $h, b: $h) -> $h {
+                    $hsub(a, b)
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn half_mul(a: $h, b: $h) -> $h {
+                    $hmul(a, b)
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn half_min(a: $h, b: $h) -> $h {
+                    $hmin(a, b)
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn half_max(a: $h, b: $h) -> $h {
+                    $hmax(a, b)
+                }
+            }
+        };
+    }
+
+    eight!(
+        F64x8,
+        "avx2,avx512f",
+        f64,
+        __m512d,
+        __m256d,
+        [
+            _mm512_set1_pd,
+            _mm512_loadu_pd,
+            _mm512_storeu_pd,
+            _mm512_add_pd,
+            _mm512_sub_pd,
+            _mm512_mul_pd,
+            _mm512_min_pd,
+            _mm512_max_pd
+        ],
+        [
+            _mm256_set1_pd,
+            _mm256_setzero_pd,
+            _mm256_loadu_pd,
+            _mm256_storeu_pd,
+            _mm256_add_pd,
+            _mm256_sub_pd,
+            _mm256_mul_pd,
+            _mm256_min_pd,
+            _mm256_max_pd
+        ],
+        _mm512_castpd512_pd256,
+        _mm512_extractf64x4_pd::<1>
+    );
+    eight!(
+        F32x8,
+        "avx2",
+        f32,
+        __m256,
+        __m128,
+        [
+            _mm256_set1_ps,
+            _mm256_loadu_ps,
+            _mm256_storeu_ps,
+            _mm256_add_ps,
+            _mm256_sub_ps,
+            _mm256_mul_ps,
+            _mm256_min_ps,
+            _mm256_max_ps
+        ],
+        [
+            _mm_set1_ps,
+            _mm_setzero_ps,
+            _mm_loadu_ps,
+            _mm_storeu_ps,
+            _mm_add_ps,
+            _mm_sub_ps,
+            _mm_mul_ps,
+            _mm_min_ps,
+            _mm_max_ps
+        ],
+        _mm256_castps256_ps128,
+        _mm256_extractf128_ps::<1>
+    );
+
+    /// `hysteresis::step` in 8-lane blocks: the products of lanes 0–3 and
+    /// then of lanes 4–7 added into the four partial sums, as the portable
+    /// blocks of four add them; then a 4-lane block and the rest one by one.
+    #[inline(always)]
+    unsafe fn hysteresis_step_eight<E: Eight>(
+        state: &mut [E::T],
+        thresholds: &[E::T],
+        weights: &[E::T],
+        v: E::T,
+    ) -> E::T {
+        let n = state.len();
+        assert!(thresholds.len() == n && weights.len() == n);
+        let (full8, full4) = (n - n % 8, n - n % 4);
+        // SAFETY (all): the features are the caller's; every block ends at
+        // or before n in all three slices.
+        unsafe {
+            let (v8, v4) = (E::splat(v), E::half_splat(v));
+            let mut acc = E::half_zero();
+            for i0 in (0..full8).step_by(8) {
+                let at = state.as_mut_ptr().add(i0);
+                let r = E::load(thresholds.as_ptr().add(i0));
+                let x = E::load(at).min(v8.add(r)).max(v8.sub(r));
+                x.store(at);
+                let (lo, hi) = E::load(weights.as_ptr().add(i0)).mul(x).halves();
+                acc = E::half_add(E::half_add(acc, lo), hi);
+            }
+            if full4 > full8 {
+                let at = state.as_mut_ptr().add(full8);
+                let r = E::half_load(thresholds.as_ptr().add(full8));
+                let x = E::half_min(E::half_load(at), E::half_add(v4, r));
+                let x = E::half_max(x, E::half_sub(v4, r));
+                E::half_store(x, at);
+                let w = E::half_load(weights.as_ptr().add(full8));
+                acc = E::half_add(acc, E::half_mul(w, x));
+            }
+            let mut lanes = [E::T::ZERO; 4];
+            E::half_store(acc, lanes.as_mut_ptr());
+            for i in full4..n {
+                state[i] = play(v, thresholds[i], state[i]);
+                lanes[i - full4] += weights[i] * state[i];
+            }
+            reduce(lanes)
+        }
+    }
+
+    /// `creep::advance` in 8-lane blocks of thresholds, each block's
+    /// weighted rows added as two blocks of four; then a 4-lane block and
+    /// the rest as the portable tail.
+    #[inline(always)]
+    unsafe fn creep_advance_eight<E: Eight>(
+        chi: &mut [E::T],
+        thresholds: &[E::T],
+        gains: &[E::T],
+        weights: &[E::T],
+        v: E::T,
+    ) -> E::T {
+        let n = thresholds.len();
+        assert!(weights.len() == n && chi.len() == n * gains.len());
+        let (full8, full4) = (n - n % 8, n - n % LANES);
+        let p = chi.as_mut_ptr();
+        // SAFETY (all): the features are the caller's; every block ends at
+        // or before n in its row of `chi` (n·m) and in the parameter slices.
+        unsafe {
+            let (v8, v4) = (E::splat(v), E::half_splat(v));
+            let mut acc = E::half_zero();
+            for i0 in (0..full8).step_by(8) {
+                let r = E::load(thresholds.as_ptr().add(i0));
+                let (lower, upper) = (v8.sub(r), v8.add(r));
+                let mut rows = E::splat(E::T::ZERO);
+                for (j, &g) in gains.iter().enumerate() {
+                    let at = p.add(j * n + i0);
+                    let x = E::load(at);
+                    let c = x.min(upper).max(lower);
+                    let x = x.add(E::splat(g).mul(c.sub(x)));
+                    x.store(at);
+                    rows = rows.add(x);
+                }
+                let (lo, hi) = E::load(weights.as_ptr().add(i0)).mul(rows).halves();
+                acc = E::half_add(E::half_add(acc, lo), hi);
+            }
+            if full4 > full8 {
+                let r = E::half_load(thresholds.as_ptr().add(full8));
+                let (lower, upper) = (E::half_sub(v4, r), E::half_add(v4, r));
+                let mut rows = E::half_zero();
+                for (j, &g) in gains.iter().enumerate() {
+                    let at = p.add(j * n + full8);
+                    let x = E::half_load(at);
+                    let c = E::half_max(E::half_min(x, upper), lower);
+                    let x = E::half_add(x, E::half_mul(E::half_splat(g), E::half_sub(c, x)));
+                    E::half_store(x, at);
+                    rows = E::half_add(rows, x);
+                }
+                let w = E::half_load(weights.as_ptr().add(full8));
+                acc = E::half_add(acc, E::half_mul(w, rows));
+            }
+            let mut lanes = [E::T::ZERO; LANES];
+            E::half_store(acc, lanes.as_mut_ptr());
+            advance_tail(chi, thresholds, gains, weights, v, full4, &mut lanes);
+            reduce(lanes)
+        }
+    }
+
+    /// [`hysteresis_step_eight`] for `f64` on AVX-512F.
     #[target_feature(enable = "avx2,avx512f")]
     #[inline(never)]
     pub(super) unsafe fn hysteresis_step_f64_avx512(
@@ -356,47 +650,11 @@ mod x86 {
         weights: &[f64],
         v: f64,
     ) -> f64 {
-        let n = state.len();
-        assert!(thresholds.len() == n && weights.len() == n);
-        let (full8, full4) = (n - n % 8, n - n % 4);
-        let (v8, v4) = (_mm512_set1_pd(v), _mm256_set1_pd(v));
-        let mut acc = _mm256_setzero_pd();
-        // SAFETY (all pointer accesses): every block ends at or before n.
-        unsafe {
-            for i0 in (0..full8).step_by(8) {
-                let at = state.as_mut_ptr().add(i0);
-                let r = _mm512_loadu_pd(thresholds.as_ptr().add(i0));
-                let x = _mm512_loadu_pd(at);
-                let x = _mm512_max_pd(_mm512_min_pd(x, _mm512_add_pd(v8, r)), _mm512_sub_pd(v8, r));
-                _mm512_storeu_pd(at, x);
-                let p = _mm512_mul_pd(_mm512_loadu_pd(weights.as_ptr().add(i0)), x);
-                acc = _mm256_add_pd(acc, _mm512_castpd512_pd256(p));
-                acc = _mm256_add_pd(acc, _mm512_extractf64x4_pd::<1>(p));
-            }
-            if full4 > full8 {
-                let at = state.as_mut_ptr().add(full8);
-                let r = _mm256_loadu_pd(thresholds.as_ptr().add(full8));
-                let x = _mm256_loadu_pd(at);
-                let x = _mm256_max_pd(_mm256_min_pd(x, _mm256_add_pd(v4, r)), _mm256_sub_pd(v4, r));
-                _mm256_storeu_pd(at, x);
-                acc = _mm256_add_pd(
-                    acc,
-                    _mm256_mul_pd(_mm256_loadu_pd(weights.as_ptr().add(full8)), x),
-                );
-            }
-        }
-        let mut lanes = [0.0f64; 4];
-        // SAFETY: four lanes into four f64.
-        unsafe { _mm256_storeu_pd(lanes.as_mut_ptr(), acc) };
-        for i in full4..n {
-            state[i] = play(v, thresholds[i], state[i]);
-            lanes[i - full4] += weights[i] * state[i];
-        }
-        reduce(lanes)
+        // SAFETY: the features are enabled here.
+        unsafe { hysteresis_step_eight::<F64x8>(state, thresholds, weights, v) }
     }
 
-    /// `hysteresis::step` for `f32` in 8-lane blocks (AVX2), summed as
-    /// [`hysteresis_step_f64_avx512`] sums, then a 4-lane block and the rest.
+    /// [`hysteresis_step_eight`] for `f32` on AVX2.
     #[target_feature(enable = "avx2")]
     #[inline(never)]
     pub(super) unsafe fn hysteresis_step_f32(
@@ -405,48 +663,11 @@ mod x86 {
         weights: &[f32],
         v: f32,
     ) -> f32 {
-        let n = state.len();
-        assert!(thresholds.len() == n && weights.len() == n);
-        let (full8, full4) = (n - n % 8, n - n % 4);
-        let (v8, v4) = (_mm256_set1_ps(v), _mm_set1_ps(v));
-        let mut acc = _mm_setzero_ps();
-        // SAFETY (all pointer accesses): every block ends at or before n.
-        unsafe {
-            for i0 in (0..full8).step_by(8) {
-                let at = state.as_mut_ptr().add(i0);
-                let r = _mm256_loadu_ps(thresholds.as_ptr().add(i0));
-                let x = _mm256_loadu_ps(at);
-                let x = _mm256_max_ps(_mm256_min_ps(x, _mm256_add_ps(v8, r)), _mm256_sub_ps(v8, r));
-                _mm256_storeu_ps(at, x);
-                let p = _mm256_mul_ps(_mm256_loadu_ps(weights.as_ptr().add(i0)), x);
-                acc = _mm_add_ps(acc, _mm256_castps256_ps128(p));
-                acc = _mm_add_ps(acc, _mm256_extractf128_ps::<1>(p));
-            }
-            if full4 > full8 {
-                let at = state.as_mut_ptr().add(full8);
-                let r = _mm_loadu_ps(thresholds.as_ptr().add(full8));
-                let x = _mm_loadu_ps(at);
-                let x = _mm_max_ps(_mm_min_ps(x, _mm_add_ps(v4, r)), _mm_sub_ps(v4, r));
-                _mm_storeu_ps(at, x);
-                acc = _mm_add_ps(
-                    acc,
-                    _mm_mul_ps(_mm_loadu_ps(weights.as_ptr().add(full8)), x),
-                );
-            }
-        }
-        let mut lanes = [0.0f32; 4];
-        // SAFETY: four lanes into four f32.
-        unsafe { _mm_storeu_ps(lanes.as_mut_ptr(), acc) };
-        for i in full4..n {
-            state[i] = play(v, thresholds[i], state[i]);
-            lanes[i - full4] += weights[i] * state[i];
-        }
-        reduce(lanes)
+        // SAFETY: the features are enabled here.
+        unsafe { hysteresis_step_eight::<F32x8>(state, thresholds, weights, v) }
     }
 
-    /// `creep::advance` for `f64` in 8-lane blocks of thresholds (AVX-512F),
-    /// each block's weighted rows added as two blocks of four; then a
-    /// 4-lane block and the rest as the portable tail.
+    /// [`creep_advance_eight`] for `f64` on AVX-512F.
     #[target_feature(enable = "avx2,avx512f")]
     #[inline(never)]
     pub(super) unsafe fn creep_advance_f64_avx512(
@@ -456,57 +677,11 @@ mod x86 {
         weights: &[f64],
         v: f64,
     ) -> f64 {
-        let n = thresholds.len();
-        assert!(weights.len() == n && chi.len() == n * gains.len());
-        let (full8, full4) = (n - n % 8, n - n % LANES);
-        let (v8, v4) = (_mm512_set1_pd(v), _mm256_set1_pd(v));
-        let mut acc = _mm256_setzero_pd();
-        let p = chi.as_mut_ptr();
-        // SAFETY (all pointer accesses): every block ends at or before n in
-        // its row of `chi` (n·m) and in the parameter slices (n).
-        unsafe {
-            for i0 in (0..full8).step_by(8) {
-                let r = _mm512_loadu_pd(thresholds.as_ptr().add(i0));
-                let (lower, upper) = (_mm512_sub_pd(v8, r), _mm512_add_pd(v8, r));
-                let mut rows = _mm512_setzero_pd();
-                for (j, &g) in gains.iter().enumerate() {
-                    let at = p.add(j * n + i0);
-                    let x = _mm512_loadu_pd(at);
-                    let c = _mm512_max_pd(_mm512_min_pd(x, upper), lower);
-                    let x = _mm512_add_pd(x, _mm512_mul_pd(_mm512_set1_pd(g), _mm512_sub_pd(c, x)));
-                    _mm512_storeu_pd(at, x);
-                    rows = _mm512_add_pd(rows, x);
-                }
-                let s = _mm512_mul_pd(_mm512_loadu_pd(weights.as_ptr().add(i0)), rows);
-                acc = _mm256_add_pd(acc, _mm512_castpd512_pd256(s));
-                acc = _mm256_add_pd(acc, _mm512_extractf64x4_pd::<1>(s));
-            }
-            if full4 > full8 {
-                let r = _mm256_loadu_pd(thresholds.as_ptr().add(full8));
-                let (lower, upper) = (_mm256_sub_pd(v4, r), _mm256_add_pd(v4, r));
-                let mut rows = _mm256_setzero_pd();
-                for (j, &g) in gains.iter().enumerate() {
-                    let at = p.add(j * n + full8);
-                    let x = _mm256_loadu_pd(at);
-                    let c = _mm256_max_pd(_mm256_min_pd(x, upper), lower);
-                    let x = _mm256_add_pd(x, _mm256_mul_pd(_mm256_set1_pd(g), _mm256_sub_pd(c, x)));
-                    _mm256_storeu_pd(at, x);
-                    rows = _mm256_add_pd(rows, x);
-                }
-                let w = _mm256_loadu_pd(weights.as_ptr().add(full8));
-                acc = _mm256_add_pd(acc, _mm256_mul_pd(w, rows));
-            }
-        }
-        let mut lanes = [0.0f64; LANES];
-        // SAFETY: four lanes into four f64.
-        unsafe { _mm256_storeu_pd(lanes.as_mut_ptr(), acc) };
-        advance_tail(chi, thresholds, gains, weights, v, full4, &mut lanes);
-        reduce(lanes)
+        // SAFETY: the features are enabled here.
+        unsafe { creep_advance_eight::<F64x8>(chi, thresholds, gains, weights, v) }
     }
 
-    /// `creep::advance` for `f32` in 8-lane blocks of thresholds (AVX2),
-    /// summed as [`creep_advance_f64_avx512`] sums; then a 4-lane block and
-    /// the rest as the portable tail.
+    /// [`creep_advance_eight`] for `f32` on AVX2.
     #[target_feature(enable = "avx2")]
     #[inline(never)]
     pub(super) unsafe fn creep_advance_f32(
@@ -516,50 +691,7 @@ mod x86 {
         weights: &[f32],
         v: f32,
     ) -> f32 {
-        let n = thresholds.len();
-        assert!(weights.len() == n && chi.len() == n * gains.len());
-        let (full8, full4) = (n - n % 8, n - n % LANES);
-        let (v8, v4) = (_mm256_set1_ps(v), _mm_set1_ps(v));
-        let mut acc = _mm_setzero_ps();
-        let p = chi.as_mut_ptr();
-        // SAFETY (all pointer accesses): as in `creep_advance_f64_avx512`.
-        unsafe {
-            for i0 in (0..full8).step_by(8) {
-                let r = _mm256_loadu_ps(thresholds.as_ptr().add(i0));
-                let (lower, upper) = (_mm256_sub_ps(v8, r), _mm256_add_ps(v8, r));
-                let mut rows = _mm256_setzero_ps();
-                for (j, &g) in gains.iter().enumerate() {
-                    let at = p.add(j * n + i0);
-                    let x = _mm256_loadu_ps(at);
-                    let c = _mm256_max_ps(_mm256_min_ps(x, upper), lower);
-                    let x = _mm256_add_ps(x, _mm256_mul_ps(_mm256_set1_ps(g), _mm256_sub_ps(c, x)));
-                    _mm256_storeu_ps(at, x);
-                    rows = _mm256_add_ps(rows, x);
-                }
-                let s = _mm256_mul_ps(_mm256_loadu_ps(weights.as_ptr().add(i0)), rows);
-                acc = _mm_add_ps(acc, _mm256_castps256_ps128(s));
-                acc = _mm_add_ps(acc, _mm256_extractf128_ps::<1>(s));
-            }
-            if full4 > full8 {
-                let r = _mm_loadu_ps(thresholds.as_ptr().add(full8));
-                let (lower, upper) = (_mm_sub_ps(v4, r), _mm_add_ps(v4, r));
-                let mut rows = _mm_setzero_ps();
-                for (j, &g) in gains.iter().enumerate() {
-                    let at = p.add(j * n + full8);
-                    let x = _mm_loadu_ps(at);
-                    let c = _mm_max_ps(_mm_min_ps(x, upper), lower);
-                    let x = _mm_add_ps(x, _mm_mul_ps(_mm_set1_ps(g), _mm_sub_ps(c, x)));
-                    _mm_storeu_ps(at, x);
-                    rows = _mm_add_ps(rows, x);
-                }
-                let w = _mm_loadu_ps(weights.as_ptr().add(full8));
-                acc = _mm_add_ps(acc, _mm_mul_ps(w, rows));
-            }
-        }
-        let mut lanes = [0.0f32; LANES];
-        // SAFETY: four lanes into four f32.
-        unsafe { _mm_storeu_ps(lanes.as_mut_ptr(), acc) };
-        advance_tail(chi, thresholds, gains, weights, v, full4, &mut lanes);
-        reduce(lanes)
+        // SAFETY: the features are enabled here.
+        unsafe { creep_advance_eight::<F32x8>(chi, thresholds, gains, weights, v) }
     }
 }
