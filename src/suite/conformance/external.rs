@@ -424,11 +424,17 @@ impl Operator for ExternalModel {
 
 impl ActuatorModel for ExternalModel {}
 
-/// `W⁻¹` of an external candidate.
+/// `W⁻¹` of an external candidate. Each `compensate_all` call previews
+/// its own targets by the model's dead time `d`, as the library's
+/// compensators do; the candidate, run on the whole history, previews the
+/// file it is given, so it is given the file whose preview is the history
+/// of those previewed targets (the targets shifted back by `d`).
 pub struct ExternalCompensator {
     candidate: Arc<ExternalCandidate>,
     file: ModelFile,
     limits: (f64, f64),
+    /// The targets each sample was compensated for (after each call's
+    /// preview).
     history: Vec<f64>,
 }
 
@@ -463,11 +469,16 @@ impl ActuatorCompensator for ExternalCompensator {
     }
 
     fn compensate_all(&mut self, targets: &[f64]) -> Vec<Compensated> {
-        self.history.extend_from_slice(targets);
-        match self
-            .candidate
-            .compensate(&self.file, self.limits, &self.history)
-        {
+        let d = self.file.delay.unwrap_or(0);
+        self.history
+            .extend((0..targets.len()).map(|k| crate::realtime::preview(targets, d, k)));
+        // the file whose preview by d is the history: z[k + d] = history[k]
+        // (the last d samples hold the last call's last target either way)
+        let n = self.history.len();
+        let file: Vec<f64> = (0..n)
+            .map(|k| self.history[k.saturating_sub(d).min(n - 1)])
+            .collect();
+        match self.candidate.compensate(&self.file, self.limits, &file) {
             Ok(c) => c[c.len() - targets.len()..].to_vec(),
             Err(_) => vec![
                 Compensated {
