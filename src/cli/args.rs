@@ -248,6 +248,12 @@ pub enum ConformKind {
     Model,
     /// `W⁻¹`: reads column `y_d`, writes `u` and `saturated` (as `mfcbeam compensate`).
     Compensator,
+    /// `H` alone (the PI operator, as most published code is): reads `u`,
+    /// writes `y`; its model files hold the hysteresis part only.
+    Hysteresis,
+    /// `H⁻¹` alone (the inverse PI operator (22)): reads `y`, writes `u`; its
+    /// model files hold `H`, whose inverse the candidate computes.
+    InverseHysteresis,
 }
 
 #[derive(Debug, Args)]

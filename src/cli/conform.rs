@@ -14,10 +14,12 @@ use mfcbeam::io::{format_f64, write_atomic, Trace};
 use mfcbeam::operators::nominal::nominal_model_file;
 use mfcbeam::prelude::*;
 use mfcbeam::suite::conformance::external::{
-    ExternalCandidate, ExternalCompensator, ExternalModel, Invocation, WIDE_LIMITS,
+    ExternalCandidate, ExternalCompensator, ExternalInverseHysteresis, ExternalModel, Invocation,
+    WIDE_LIMITS,
 };
 use mfcbeam::suite::conformance::{
-    compensator_properties, model_properties, ConformanceSettings, Counterexample, Outcome,
+    compensator_properties, inverse_hysteresis_properties, model_properties, Case,
+    ConformanceSettings, Counterexample, Outcome,
 };
 
 use super::args::{ConformArgs, ConformKind};
@@ -32,6 +34,11 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
         seed: a.seed,
         tolerance_scale: a.tolerance_scale,
         shrink_budget: EXTERNAL_SHRINK_BUDGET,
+        // a kind's model files hold only what the kind implements
+        hysteresis_only: matches!(
+            a.kind,
+            ConformKind::Hysteresis | ConformKind::InverseHysteresis
+        ),
         ..ConformanceSettings::default()
     };
     // the library's checks, named as the options are
@@ -58,8 +65,9 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
     let settings = settings.spread(
         a.cases,
         match a.kind {
-            ConformKind::Model => model_properties().len(),
+            ConformKind::Model | ConformKind::Hysteresis => model_properties().len(),
             ConformKind::Compensator => compensator_properties().len(),
+            ConformKind::InverseHysteresis => inverse_hysteresis_properties().len(),
         },
     );
     let start = Instant::now();
@@ -74,10 +82,19 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
           -> Result<Box<dyn ActuatorCompensator>, ModelError> {
         Ok(Box::new(ExternalCompensator::new(cand.clone(), f, s)))
     };
+    let cand = candidate.clone();
+    let inverse_factory = move |f: &ModelFile| -> Result<Box<dyn InverseHysteresis>, ModelError> {
+        Ok(Box::new(ExternalInverseHysteresis::new(cand.clone(), f)))
+    };
     let report = match a.kind {
-        ConformKind::Model => model_properties().check(&model_factory, &settings)?,
+        ConformKind::Model | ConformKind::Hysteresis => {
+            model_properties().check(&model_factory, &settings)?
+        }
         ConformKind::Compensator => {
             compensator_properties().check(&compensator_factory, &settings)?
+        }
+        ConformKind::InverseHysteresis => {
+            inverse_hysteresis_properties().check(&inverse_factory, &settings)?
         }
     };
     progress.finish();
@@ -97,15 +114,22 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
     for p in report.failed() {
         if let Some(c) = &p.counterexample {
             let dir = a.out.join(format!("{}-{}", p.name, c.case_index));
-            let recheck = |case: &mfcbeam::suite::conformance::Case| match a.kind {
-                ConformKind::Model => {
+            let recheck = |case: &Case| match a.kind {
+                ConformKind::Model | ConformKind::Hysteresis => {
                     model_properties().recheck(p.name, case, &model_factory, &settings)
                 }
                 ConformKind::Compensator => {
                     compensator_properties().recheck(p.name, case, &compensator_factory, &settings)
                 }
+                ConformKind::InverseHysteresis => inverse_hysteresis_properties().recheck(
+                    p.name,
+                    case,
+                    &inverse_factory,
+                    &settings,
+                ),
             };
-            write_counterexample(&candidate, &dir, p.name, p.description, c, recheck)
+            let column = input_column(a.kind);
+            write_counterexample(&candidate, &dir, column, p.name, p.description, c, recheck)
                 .with_context(|| dir.display().to_string())?;
             println!(
                 "{}: counterexample in {} ({} samples, {} plays): cd there and run the command in command.txt",
@@ -119,13 +143,32 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
     std::process::exit(1);
 }
 
-/// One run on the nominal model and a short ramp: the command starts,
-/// follows the protocol and writes finite numbers in the expected columns.
+/// The input column of a kind's traces.
+fn input_column(kind: ConformKind) -> &'static str {
+    match kind {
+        ConformKind::Model | ConformKind::Hysteresis => "u",
+        ConformKind::Compensator => "y_d",
+        ConformKind::InverseHysteresis => "y",
+    }
+}
+
+/// One run on the nominal model (its hysteresis part for the kinds of `H`
+/// and `H⁻¹`) and a short ramp: the command starts, follows the protocol
+/// and writes finite numbers in the expected columns.
 fn smoke_test(candidate: &ExternalCandidate, kind: ConformKind) -> Result<()> {
     let file = nominal_model_file();
+    let h = Case {
+        model: file.clone(),
+        input: Vec::new(),
+        limits: None,
+    }
+    .hysteresis_part()
+    .model;
     let input: Vec<f64> = (0..50).map(|k| 10.0 * k as f64).collect();
     let out = match kind {
         ConformKind::Model => candidate.simulate(&file, &input)?,
+        ConformKind::Hysteresis => candidate.simulate(&h, &input)?,
+        ConformKind::InverseHysteresis => candidate.invert(&h, &input)?,
         ConformKind::Compensator => candidate
             .compensate(&file, WIDE_LIMITS, &input)?
             .into_iter()
@@ -146,6 +189,7 @@ fn smoke_test(candidate: &ExternalCandidate, kind: ConformKind) -> Result<()> {
 fn write_counterexample(
     candidate: &ExternalCandidate,
     dir: &Path,
+    column: &str,
     name: &str,
     description: &str,
     c: &Counterexample,
@@ -165,22 +209,18 @@ fn write_counterexample(
     let Some(run) = run else {
         bail!("the property did not run the candidate again");
     };
-    let column = if run.limits.is_some() { "y_d" } else { "u" };
     // model.json, input.csv and candidate.csv, by running it once more here
     let rerun = candidate.run_in(dir, &run.model, column, &run.input, run.limits);
     let _ = fs::remove_file(dir.join("stderr.txt"));
     let f = &c.failure;
-    let k: Vec<f64> = (0..f.expected.len()).map(|k| k as f64).collect();
     let n = f.expected.len().min(f.found.len());
-    Trace::from_columns(
+    let mut expected = Trace::from_columns(
         &dir.join("expected.csv"),
-        &[
-            ("compared", &k[..n]),
-            ("expected", &f.expected[..n]),
-            ("candidate", &f.found[..n]),
-        ],
-    )
-    .write(&dir.join("expected.csv"))?;
+        &[("expected", &f.expected[..n]), ("candidate", &f.found[..n])],
+    );
+    // the compared sample's index, as an integer
+    expected.push_text_column("compared", (0..n).map(|k| k.to_string()))?;
+    expected.write(&dir.join("expected.csv"))?;
     let quote = |w: &str| {
         if w.chars()
             .all(|c| c.is_ascii_alphanumeric() || "-_./=,".contains(c))

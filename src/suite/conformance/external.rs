@@ -28,7 +28,9 @@ use thiserror::Error;
 use crate::io::{format_f64, Trace};
 use crate::operators::compensator::CompensatorSettings;
 use crate::operators::model::ModelFile;
-use crate::operators::traits::{ActuatorCompensator, ActuatorModel, Compensated, Operator};
+use crate::operators::traits::{
+    ActuatorCompensator, ActuatorModel, Compensated, InverseHysteresis, Operator,
+};
 
 /// Limits passed to a compensator where a case wants none.
 pub const WIDE_LIMITS: (f64, f64) = (-1e300, 1e300);
@@ -368,6 +370,27 @@ impl ExternalCandidate {
     }
 }
 
+impl ExternalCandidate {
+    /// `u = H⁻¹[y]` from the candidate (`inverse-hysteresis` kind): column
+    /// `y` in, `u` out; the model file holds `H`.
+    pub fn invert(&self, model: &ModelFile, y: &[f64]) -> Result<Vec<f64>, ExternalError> {
+        self.log.lock().expect("not poisoned").push(Invocation {
+            model: model.clone(),
+            input: y.to_vec(),
+            limits: None,
+        });
+        let dir = self.scratch()?;
+        let result = self.run_in(&dir, model, "y", y, None).and_then(|t| {
+            let u = t.column("u").map_err(|e| ExternalError::BadOutput {
+                reason: e.to_string(),
+            })?;
+            check_rows(u.len(), y.len())?;
+            Ok(u)
+        });
+        self.finish(dir, result)
+    }
+}
+
 fn check_rows(found: usize, expected: usize) -> Result<(), ExternalError> {
     if found == expected {
         Ok(())
@@ -423,6 +446,45 @@ impl Operator for ExternalModel {
 }
 
 impl ActuatorModel for ExternalModel {}
+
+/// `H⁻¹` of an external candidate (the `inverse-hysteresis` kind).
+pub struct ExternalInverseHysteresis {
+    candidate: Arc<ExternalCandidate>,
+    file: ModelFile,
+    history: Vec<f64>,
+}
+
+impl ExternalInverseHysteresis {
+    /// The candidate configured by `file` (its hysteresis part).
+    pub fn new(candidate: Arc<ExternalCandidate>, file: &ModelFile) -> Self {
+        Self {
+            candidate,
+            file: file.clone(),
+            history: Vec::new(),
+        }
+    }
+}
+
+impl Operator for ExternalInverseHysteresis {
+    fn step(&mut self, y: f64) -> f64 {
+        self.run(&[y])[0]
+    }
+
+    fn reset(&mut self) {
+        self.history.clear();
+    }
+
+    /// As [`ExternalModel::run`], through `invert`.
+    fn run(&mut self, input: &[f64]) -> Vec<f64> {
+        self.history.extend_from_slice(input);
+        match self.candidate.invert(&self.file, &self.history) {
+            Ok(u) => u[u.len() - input.len()..].to_vec(),
+            Err(_) => vec![f64::NAN; input.len()],
+        }
+    }
+}
+
+impl InverseHysteresis for ExternalInverseHysteresis {}
 
 /// `W⁻¹` of an external candidate. Each `compensate_all` call previews
 /// its own targets by the model's dead time `d`, as the library's

@@ -94,6 +94,11 @@ pub struct ConformanceSettings {
     /// own operators meet them exactly: their clamps and sums are odd and
     /// each play output is one of `x`, `v − r`, `v + r`.
     pub exact: bool,
+    /// Reduce every case's model to its hysteresis part `H` — no creep, no
+    /// superposition operator, no dead time, no offset — for an
+    /// implementation of `H` alone, as most published PI code is (default
+    /// false). Properties that need a part then skip.
+    pub hysteresis_only: bool,
 }
 
 impl Default for ConformanceSettings {
@@ -107,6 +112,7 @@ impl Default for ConformanceSettings {
             shrink: true,
             shrink_budget: 1500,
             exact: false,
+            hysteresis_only: false,
         }
     }
 }
@@ -167,6 +173,16 @@ pub struct Case {
     pub model: ModelFile,
     pub input: Vec<f64>,
     pub limits: Option<(f64, f64)>,
+}
+
+impl Case {
+    /// The case with its model reduced to the hysteresis part `H`.
+    pub fn hysteresis_part(mut self) -> Self {
+        let m = &mut self.model;
+        (m.creep, m.superposition, m.delay, m.delay_state, m.offset) =
+            (None, None, None, None, None);
+        self
+    }
 }
 
 /// Why a case failed.

@@ -65,6 +65,11 @@ fn run_property<F: ?Sized>(
     };
     for i in 0..settings.cases.min(p.max_cases) {
         let case = (p.generate)(&mut rng, settings, i);
+        let case = if settings.hysteresis_only {
+            case.hysteresis_part()
+        } else {
+            case
+        };
         let outcome = (p.check)(&case, factory, settings);
         let (error, tolerance) = match &outcome {
             Outcome::Skipped => continue,
