@@ -124,7 +124,9 @@ impl Workers {
         for h in &self.handles {
             h.unpark();
         }
-        job(0);
+        // the workers borrow the caller's data until they are done, so a
+        // panic of this part waits for them before it unwinds
+        let mine = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(0)));
         let mut spins = 0;
         while s.done.load(Ordering::Acquire) < workers {
             if spins < SPINS {
@@ -133,6 +135,9 @@ impl Workers {
             } else {
                 thread::yield_now();
             }
+        }
+        if let Err(payload) = mine {
+            std::panic::resume_unwind(payload);
         }
         if s.panicked.swap(false, Ordering::Relaxed) {
             panic!("a bank worker panicked");
@@ -214,5 +219,55 @@ impl<T> SharedMut<T> {
         // SAFETY: in bounds (asserted); disjointness and lifetime are the
         // caller's contract.
         unsafe { std::slice::from_raw_parts_mut(self.ptr.add(range.start), range.len()) }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::panic::{catch_unwind, AssertUnwindSafe};
+
+    #[test]
+    fn every_part_runs_once_and_a_panic_waits_for_the_others() {
+        let w = Workers::new(2).unwrap();
+        assert_eq!(w.parts(), 3);
+        let parts = AtomicUsize::new(0);
+        for _ in 0..100 {
+            w.run(&|p| {
+                parts.fetch_add(1 << (8 * p), Ordering::Relaxed);
+            });
+        }
+        assert_eq!(
+            parts.load(Ordering::Relaxed),
+            100 * (1 + (1 << 8) + (1 << 16))
+        );
+        // a panic on the calling thread's part unwinds only after the
+        // workers, which may borrow the caller's data, are done
+        let done = AtomicUsize::new(0);
+        let r = catch_unwind(AssertUnwindSafe(|| {
+            w.run(&|p| {
+                if p == 0 {
+                    panic!("part 0 fails");
+                }
+                thread::sleep(std::time::Duration::from_millis(20));
+                done.fetch_add(1, Ordering::Relaxed);
+            })
+        }));
+        assert!(r.is_err());
+        assert_eq!(done.load(Ordering::Relaxed), 2);
+        // a worker's panic is raised on the caller, and the pool goes on
+        let r = catch_unwind(AssertUnwindSafe(|| {
+            w.run(&|p| {
+                if p == 2 {
+                    panic!("part 2 fails");
+                }
+            })
+        }));
+        assert!(r.is_err());
+        let after = AtomicUsize::new(0);
+        w.run(&|_| {
+            after.fetch_add(1, Ordering::Relaxed);
+        });
+        assert_eq!(after.load(Ordering::Relaxed), 3);
     }
 }
