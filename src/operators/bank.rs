@@ -434,7 +434,7 @@ impl<T: Real> BlockWork<T> for Step<'_, '_, T> {
         // (a chain of dependent reductions) are issued before the creep pass
         // of block b (independent rows), so the core has work while the
         // chain's latency runs out. (Plain functions, no closures: see
-        // `sum_by_fours`.)
+        // `creep_update`.)
         let (first, targets, out) = (self.first_block, self.targets, self.out);
         let p = |b: usize| parameters(f, first + b);
         first_part(o, f, first, 0, &mut self.state[..sr], p(0), targets, out);
