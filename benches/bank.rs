@@ -6,7 +6,7 @@ use std::hint::black_box;
 
 mod common;
 
-use common::test_input;
+use common::bank_rows;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use mfcbeam::operators::bank::CompensatorBank;
 use mfcbeam::prelude::*;
@@ -15,17 +15,9 @@ use mfcbeam::realtime::{nominal, Compensated, Real};
 const ROWS: usize = 64;
 
 fn bank<T: Real>(c: &mut Criterion) {
-    // reachable targets: W of the test input, each channel at its own phase
-    let targets = nominal_model().run(&test_input(4096));
     let mut g = c.benchmark_group(format!("bank_{}", T::NAME));
     for channels in [1usize, 8, 64, 1024, 4096] {
-        let rows: Vec<Vec<T>> = (0..ROWS)
-            .map(|k| {
-                (0..channels)
-                    .map(|ch| T::from_f64(targets[(k * 16 + ch * 37) % targets.len()]))
-                    .collect()
-            })
-            .collect();
+        let rows = bank_rows::<T>(channels, ROWS);
         let mut bank = CompensatorBank::<T>::uniform(
             &nominal::PARAMETERS,
             channels,

@@ -23,7 +23,7 @@ use std::time::Instant;
 
 mod common;
 
-use common::test_input;
+use common::bank_rows;
 use mfcbeam::operators::bank::{CompensatorBank, Workers};
 use mfcbeam::prelude::*;
 use mfcbeam::realtime::{nominal, simd::Kernels, Compensated, Real};
@@ -208,14 +208,7 @@ enum Mode<'a> {
 /// Median nanoseconds per step of `channels` channels.
 fn time_bank<T: Real>(channels: usize, mode: Mode<'_>) -> f64 {
     const ROWS: usize = 64;
-    let targets = nominal_model().run(&test_input(4096));
-    let rows: Vec<Vec<T>> = (0..ROWS)
-        .map(|k| {
-            (0..channels)
-                .map(|ch| T::from_f64(targets[(k * 16 + ch * 37) % targets.len()]))
-                .collect()
-        })
-        .collect();
+    let rows = bank_rows::<T>(channels, ROWS);
     let mut bank = CompensatorBank::<T>::uniform(
         &nominal::PARAMETERS,
         channels,

@@ -9,7 +9,7 @@
 mod common;
 
 use std::fs;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use common::*;
@@ -380,16 +380,26 @@ fn an_asymmetric_logger_file_is_fitted_with_and_without_a_superposition_operator
     assert!(rms_asym < 1.25 * sigma, "{rms_asym}");
 }
 
-/// Triangles between ±900 V at `rate` Hz for 2 s at 5 kHz, starting with a
-/// jump to −900 V; the nominal model's output with a start transient (the
-/// stage ringing: 30 V at 700 Hz decaying with 20 ms over the first 0.1 s)
-/// and 0.5 V of noise.
-fn ringing_record(rate: f64, seed: u64) -> (Vec<f64>, Vec<f64>) {
-    ringing_record_of(&nominal_model(), rate, seed)
+/// [`ringing_record`] written as a logger file (`t`, `u`, `y`) at `path`.
+fn write_ringing_record(
+    truth: &HysteresisCreepModel,
+    path: &Path,
+    rate: f64,
+    seed: u64,
+) -> PathBuf {
+    let (u, y) = ringing_record(truth, rate, seed);
+    let t: Vec<f64> = (0..u.len()).map(|k| k as f64 * SAMPLE_TIME).collect();
+    Trace::from_columns(path, &[("t", &t), ("u", &u), ("y", &y)])
+        .write(path)
+        .unwrap();
+    path.to_path_buf()
 }
 
-/// [`ringing_record`] of another actuator.
-fn ringing_record_of(truth: &HysteresisCreepModel, rate: f64, seed: u64) -> (Vec<f64>, Vec<f64>) {
+/// Triangles between ±900 V at `rate` Hz for 2 s at 5 kHz, starting with a
+/// jump to −900 V; the output of `truth` with a start transient (the stage
+/// ringing: 30 V at 700 Hz decaying with 20 ms over the first 0.1 s) and
+/// 0.5 V of noise.
+fn ringing_record(truth: &HysteresisCreepModel, rate: f64, seed: u64) -> (Vec<f64>, Vec<f64>) {
     let n = (2.0 / SAMPLE_TIME) as usize;
     let u: Vec<f64> = (0..n)
         .map(|k| {
@@ -429,15 +439,8 @@ fn ringing_record_of(truth: &HysteresisCreepModel, rate: f64, seed: u64) -> (Vec
 fn a_ringing_start_is_reported_and_skipped_and_records_at_several_rates_are_tabled() {
     let d = TempDir(std::env::temp_dir().join(format!("mfcbeam-rates-{}", std::process::id())));
     fs::create_dir_all(&d.0).unwrap();
-    let write = |name: &str, rate: f64, seed: u64| -> PathBuf {
-        let (u, y) = ringing_record(rate, seed);
-        let t: Vec<f64> = (0..u.len()).map(|k| k as f64 * SAMPLE_TIME).collect();
-        let p = d.0.join(name);
-        Trace::from_columns(&p, &[("t", &t), ("u", &u), ("y", &y)])
-            .write(&p)
-            .unwrap();
-        p
-    };
+    let truth = nominal_model();
+    let write = |name, rate, seed| write_ringing_record(&truth, &d.0.join(name), rate, seed);
     let (r20, r40, r100) = (
         write("r20.csv", 20.0, 1),
         write("r40.csv", 40.0, 2),
@@ -514,15 +517,7 @@ fn a_dead_time_is_found_by_faster_records_and_every_record_is_tabled() {
     });
     file.delay = Some(2);
     let truth = HysteresisCreepModel::from_file(&file).unwrap();
-    let write = |name: &str, rate: f64, seed: u64| -> PathBuf {
-        let (u, y) = ringing_record_of(&truth, rate, seed);
-        let t: Vec<f64> = (0..u.len()).map(|k| k as f64 * SAMPLE_TIME).collect();
-        let p = dir.join(name);
-        Trace::from_columns(&p, &[("t", &t), ("u", &u), ("y", &y)])
-            .write(&p)
-            .unwrap();
-        p
-    };
+    let write = |name, rate, seed| write_ringing_record(&truth, &dir.join(name), rate, seed);
     let (r20, r40, r100) = (
         write("delayed20.csv", 20.0, 11),
         write("delayed40.csv", 40.0, 12),

@@ -16,3 +16,18 @@ pub fn test_input(len: usize) -> Vec<f64> {
         })
         .collect()
 }
+
+/// `rows` steps of reachable targets for a bank of `channels` channels: W
+/// of the test input, each channel at its own phase.
+#[allow(dead_code)] // not every bench uses it
+pub fn bank_rows<T: mfcbeam::realtime::Real>(channels: usize, rows: usize) -> Vec<Vec<T>> {
+    use mfcbeam::operators::traits::Operator;
+    let targets = mfcbeam::operators::nominal::nominal_model().run(&test_input(4096));
+    (0..rows)
+        .map(|k| {
+            (0..channels)
+                .map(|ch| T::from_f64(targets[(k * 16 + ch * 37) % targets.len()]))
+                .collect()
+        })
+        .collect()
+}
