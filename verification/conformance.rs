@@ -347,3 +347,19 @@ fn bad_settings_are_refused() {
     };
     assert!(check_compensator(&heap_compensator, &s).is_err());
 }
+
+/// The generators draw one- to three-sample inputs on purpose (first-sample
+/// conventions and loop bounds), and longer ones up to `max_samples`.
+#[test]
+fn short_inputs_are_drawn_on_purpose() {
+    let mut rng = mfcbeam::suite::conformance::Rng::new(5);
+    let lengths: Vec<usize> = (0..1000)
+        .map(|_| mfcbeam::suite::conformance::input_length(&mut rng, 300))
+        .collect();
+    for n in 1..=3 {
+        assert!(lengths.contains(&n), "no input of {n} samples");
+    }
+    let short = lengths.iter().filter(|&&n| n <= 3).count();
+    assert!((150..=250).contains(&short), "{short} of 1000 short");
+    assert!(lengths.iter().all(|&n| (1..=300).contains(&n)));
+}

@@ -257,6 +257,18 @@ pub fn with_state_after(file: &ModelFile, history: &[f64]) -> ModelFile {
     out
 }
 
+/// The length of a random input: with probability 0.2 one to three samples
+/// (first-sample conventions and loop bounds are where implementations
+/// differ, so short inputs are drawn on purpose, not left to shrinking),
+/// else 4 to `max_samples`.
+pub fn input_length(rng: &mut Rng, max_samples: usize) -> usize {
+    if rng.chance(0.2) {
+        rng.int(1, 3)
+    } else {
+        rng.int(4, max_samples.max(4))
+    }
+}
+
 /// A random input of `len` samples within `±amplitude`, made of segments:
 /// ramps to random levels, holds, steps and noise around a level.
 pub fn random_input(rng: &mut Rng, len: usize, amplitude: f64) -> Vec<f64> {

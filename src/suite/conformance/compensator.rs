@@ -10,8 +10,8 @@
 
 use super::candidate;
 use super::cases::{
-    delay_of, random_input, random_model, reach, superposition_is_odd, superposition_model,
-    with_state_after, ModelShape, Rng,
+    delay_of, input_length, random_input, random_model, reach, superposition_is_odd,
+    superposition_model, with_state_after, ModelShape, Rng,
 };
 use super::{
     compare, compare_from, fail, refused, tolerance, two, Case, ConformanceReport,
@@ -93,7 +93,7 @@ fn target_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
 /// Random model and random voltages `v` (the property maps them through `W`).
 fn voltage_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
     let model = random_model(rng, s.max_plays, ModelShape::Any);
-    let n = rng.int(4, s.max_samples);
+    let n = input_length(rng, s.max_samples);
     let input = random_input(rng, n, 1.2 * reach(&model));
     Case {
         model,
@@ -104,7 +104,7 @@ fn voltage_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
 
 /// `S` alone ([`superposition_model`]) and random arguments `z`.
 fn superposition_voltage_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
-    let n = rng.int(4, s.max_samples);
+    let n = input_length(rng, s.max_samples);
     superposition_model(rng, n)
 }
 
@@ -115,7 +115,7 @@ fn superposition_target_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -
 
 fn virgin_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
     let model = random_model(rng, s.max_plays, ModelShape::Virgin);
-    let n = rng.int(4, s.max_samples);
+    let n = input_length(rng, s.max_samples);
     let r = reach(&model);
     let input = random_input(rng, n, 1.2 * r);
     targets_of(Case {

@@ -4,7 +4,9 @@
 //! state semantics of the model file.
 
 use super::candidate;
-use super::cases::{random_input, random_model, reach, refine, with_state_after, ModelShape, Rng};
+use super::cases::{
+    input_length, random_input, random_model, reach, refine, with_state_after, ModelShape, Rng,
+};
 use super::{compare, refused, tolerance, two, Case, ConformanceReport, ConformanceSettings};
 use super::{InverseHysteresisFactory, Outcome, Properties, Property};
 use crate::error::ModelError;
@@ -93,7 +95,7 @@ fn hysteresis_only(rng: &mut Rng, s: &ConformanceSettings, virgin: bool) -> Case
         let history = random_input(rng, len, 1.2 * r);
         model = with_state_after(&model, &history);
     }
-    let n = rng.int(4, s.max_samples);
+    let n = input_length(rng, s.max_samples);
     let input = random_input(rng, n, 1.2 * r);
     Case {
         model,

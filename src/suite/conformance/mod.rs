@@ -46,8 +46,8 @@ use crate::operators::model::{HysteresisCreepModel, ModelFile};
 use crate::operators::traits::{ActuatorCompensator, ActuatorModel, InverseHysteresis};
 
 pub use cases::{
-    nested_extrema, path, random_input, random_model, random_superposition, refine, segment,
-    superposition_is_odd, superposition_model, with_state_after, ModelShape, Rng,
+    input_length, nested_extrema, path, random_input, random_model, random_superposition, refine,
+    segment, superposition_is_odd, superposition_model, with_state_after, ModelShape, Rng,
 };
 pub use compensator::{check_compensator, compensator_properties};
 pub use factories::*;

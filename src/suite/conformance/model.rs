@@ -7,8 +7,8 @@
 
 use super::candidate;
 use super::cases::{
-    nested_extrema, path, random_input, random_model, reach, refine, segment, superposition_is_odd,
-    superposition_model, valid_extrema, with_state_after, ModelShape, Rng,
+    input_length, nested_extrema, path, random_input, random_model, reach, refine, segment,
+    superposition_is_odd, superposition_model, valid_extrema, with_state_after, ModelShape, Rng,
 };
 use super::{compare, fail, refused, tolerance, two, Case, ConformanceReport, ConformanceSettings};
 use super::{ModelFactory, Outcome, Properties, Property};
@@ -63,7 +63,7 @@ fn max_abs(x: &[f64]) -> f64 {
 }
 
 fn input_len(rng: &mut Rng, settings: &ConformanceSettings) -> usize {
-    rng.int(4, settings.max_samples)
+    input_length(rng, settings.max_samples)
 }
 
 /// A random model of `shape` and a random input reaching beyond its thresholds.
