@@ -6,11 +6,9 @@ use std::hint::black_box;
 
 mod common;
 
-use common::bank_rows;
+use common::{bank_rows, nominal_bank};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use mfcbeam::operators::bank::CompensatorBank;
-use mfcbeam::prelude::*;
-use mfcbeam::realtime::{nominal, Compensated, Real};
+use mfcbeam::realtime::{Compensated, Real};
 
 const ROWS: usize = 64;
 
@@ -18,12 +16,7 @@ fn bank<T: Real>(c: &mut Criterion) {
     let mut g = c.benchmark_group(format!("bank_{}", T::NAME));
     for channels in [1usize, 8, 64, 1024, 4096] {
         let rows = bank_rows::<T>(channels, ROWS);
-        let mut bank = CompensatorBank::<T>::uniform(
-            &nominal::PARAMETERS,
-            channels,
-            CompensatorSettings::with_limits(-1000.0, 1000.0),
-        )
-        .unwrap();
+        let mut bank = nominal_bank::<T>(channels);
         let mut out = vec![Compensated::<T>::default(); channels];
         g.throughput(Throughput::Elements(channels as u64));
         let mut k = 0usize;

@@ -23,10 +23,9 @@ use std::time::Instant;
 
 mod common;
 
-use common::bank_rows;
+use common::{bank_rows, nominal_bank};
 use mfcbeam::operators::bank::{CompensatorBank, Workers};
-use mfcbeam::prelude::*;
-use mfcbeam::realtime::{nominal, simd::Kernels, Compensated, Real};
+use mfcbeam::realtime::{simd::Kernels, Compensated, Real};
 
 /// Vector-lane operations per channel-step of the bank's block step.
 fn lane_operations(n: usize, nc: usize, m: usize) -> usize {
@@ -209,12 +208,7 @@ enum Mode<'a> {
 fn time_bank<T: Real>(channels: usize, mode: Mode<'_>) -> f64 {
     const ROWS: usize = 64;
     let rows = bank_rows::<T>(channels, ROWS);
-    let mut bank = CompensatorBank::<T>::uniform(
-        &nominal::PARAMETERS,
-        channels,
-        CompensatorSettings::with_limits(-1000.0, 1000.0),
-    )
-    .unwrap();
+    let mut bank = nominal_bank::<T>(channels);
     let mut out = vec![Compensated::<T>::default(); channels];
     // about 2 ms per batch
     let steps = (2_000_000 / (channels * 8).max(1)).clamp(20, 200_000);

@@ -31,3 +31,16 @@ pub fn bank_rows<T: mfcbeam::realtime::Real>(channels: usize, rows: usize) -> Ve
         })
         .collect()
 }
+
+/// A bank of `channels` channels of the nominal model, limits ±1000 V.
+#[allow(dead_code)] // not every bench uses it
+pub fn nominal_bank<T: mfcbeam::realtime::Real>(
+    channels: usize,
+) -> mfcbeam::operators::bank::CompensatorBank<T> {
+    mfcbeam::operators::bank::CompensatorBank::<T>::uniform(
+        &mfcbeam::realtime::nominal::PARAMETERS,
+        channels,
+        mfcbeam::realtime::CompensatorSettings::with_limits(-1000.0, 1000.0),
+    )
+    .unwrap()
+}
