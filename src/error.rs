@@ -24,6 +24,11 @@ pub enum ModelError {
     /// times).
     #[error("{field}: {reason}")]
     Inconsistent { field: String, reason: String },
+    /// The implementation does not implement this part of the model (an
+    /// implementation of `H` alone given a model with creep, say): a
+    /// conformance check counts such cases as skipped, not failed.
+    #[error("{part}: not implemented here")]
+    Unsupported { part: String },
 }
 
 impl ModelError {
@@ -31,7 +36,7 @@ impl ModelError {
     pub fn parameter(&self) -> Option<&ParameterError> {
         match self {
             ModelError::Parameter { error, .. } => Some(error),
-            ModelError::Inconsistent { .. } => None,
+            ModelError::Inconsistent { .. } | ModelError::Unsupported { .. } => None,
         }
     }
 }

@@ -13,9 +13,10 @@ use anyhow::{bail, Context, Result};
 use mfcbeam::io::{format_f64, write_atomic, Trace};
 use mfcbeam::operators::nominal::nominal_model_file;
 use mfcbeam::prelude::*;
+use mfcbeam::suite::conformance::explain::{explain, Explanation, Hint, Kind};
 use mfcbeam::suite::conformance::external::{
-    ExternalCandidate, ExternalCompensator, ExternalInverseHysteresis, ExternalModel, Invocation,
-    WIDE_LIMITS,
+    ExternalCandidate, ExternalCompensator, ExternalError, ExternalInverseHysteresis,
+    ExternalModel, WIDE_LIMITS,
 };
 use mfcbeam::suite::conformance::{
     compensator_properties, inverse_hysteresis_properties, model_properties, Case,
@@ -128,9 +129,9 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
                     &settings,
                 ),
             };
-            let column = input_column(a.kind);
-            write_counterexample(&candidate, &dir, column, p.name, p.description, c, recheck)
-                .with_context(|| dir.display().to_string())?;
+            let hints =
+                write_counterexample(&candidate, &dir, a.kind, p.name, p.description, c, recheck)
+                    .with_context(|| dir.display().to_string())?;
             println!(
                 "{}: counterexample in {} ({} samples, {} plays): cd there and run the command in command.txt",
                 p.name,
@@ -138,6 +139,9 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
                 c.failure.signal.len(),
                 c.case.model.hysteresis.thresholds.len()
             );
+            for h in hints {
+                println!("  hint: {h}");
+            }
         }
     }
     std::process::exit(1);
@@ -154,7 +158,9 @@ fn input_column(kind: ConformKind) -> &'static str {
 
 /// One run on the nominal model (its hysteresis part for the kinds of `H`
 /// and `H⁻¹`) and a short ramp: the command starts, follows the protocol
-/// and writes finite numbers in the expected columns.
+/// and writes finite numbers in the expected columns. A candidate that
+/// declines the nominal model (exit code 3) is tried on its hysteresis part:
+/// it implements part of the model, and cases with the rest are skipped.
 fn smoke_test(candidate: &ExternalCandidate, kind: ConformKind) -> Result<()> {
     let file = nominal_model_file();
     let h = Case {
@@ -165,15 +171,25 @@ fn smoke_test(candidate: &ExternalCandidate, kind: ConformKind) -> Result<()> {
     .hysteresis_part()
     .model;
     let input: Vec<f64> = (0..50).map(|k| 10.0 * k as f64).collect();
-    let out = match kind {
-        ConformKind::Model => candidate.simulate(&file, &input)?,
-        ConformKind::Hysteresis => candidate.simulate(&h, &input)?,
-        ConformKind::InverseHysteresis => candidate.invert(&h, &input)?,
+    let run = |m: &ModelFile| match kind {
+        ConformKind::Model | ConformKind::Hysteresis => candidate.simulate(m, &input),
+        ConformKind::InverseHysteresis => candidate.invert(m, &input),
         ConformKind::Compensator => candidate
-            .compensate(&file, WIDE_LIMITS, &input)?
-            .into_iter()
-            .map(|c| c.u)
-            .collect(),
+            .compensate(m, WIDE_LIMITS, &input)
+            .map(|c| c.into_iter().map(|c| c.u).collect()),
+    };
+    let full = match kind {
+        ConformKind::Model | ConformKind::Compensator => &file,
+        ConformKind::Hysteresis | ConformKind::InverseHysteresis => &h,
+    };
+    let out = match run(full) {
+        Err(ExternalError::Unsupported { .. }) if full != &h => run(&h).map_err(|e| match e {
+            ExternalError::Unsupported { reason } => anyhow::anyhow!(
+                "it declines (exit code 3) even the nominal model's hysteresis part: {reason}"
+            ),
+            e => e.into(),
+        })?,
+        r => r?,
     };
     if let Some(k) = out.iter().position(|v| !v.is_finite()) {
         bail!("row {}: a non-finite output", k + 1);
@@ -182,37 +198,152 @@ fn smoke_test(candidate: &ExternalCandidate, kind: ConformKind) -> Result<()> {
     Ok(())
 }
 
-/// Write `DIR/model.json`, `input.csv`, `candidate.csv` (the candidate's
-/// output, rerun), `expected.csv` (what the property required at the compared
-/// samples), `command.txt` (the one-line command that reproduces it) and
-/// `failure.txt`.
+/// The reference the explanations compare with.
+fn explain_kind(kind: ConformKind) -> Kind {
+    match kind {
+        ConformKind::Model | ConformKind::Hysteresis => Kind::Model,
+        ConformKind::Compensator => Kind::Compensator,
+        ConformKind::InverseHysteresis => Kind::InverseHysteresis,
+    }
+}
+
+/// The output column of a kind's traces.
+fn output_column(kind: ConformKind) -> &'static str {
+    match kind {
+        ConformKind::Model | ConformKind::Hysteresis => "y",
+        ConformKind::Compensator | ConformKind::InverseHysteresis => "u",
+    }
+}
+
+/// Write a counterexample to `DIR`: the shrunk case (see [`write_case`]),
+/// the case before shrinking in `DIR/before-shrinking/` when shrinking
+/// changed it, and `failure.txt` (the failure, the reference by parts,
+/// hints, and how shrinking changed it). Returns the hints.
 fn write_counterexample(
     candidate: &ExternalCandidate,
     dir: &Path,
-    column: &str,
+    kind: ConformKind,
     name: &str,
     description: &str,
     c: &Counterexample,
-    recheck: impl Fn(&mfcbeam::suite::conformance::Case) -> Option<Outcome>,
-) -> Result<()> {
+    recheck: impl Fn(&Case) -> Option<Outcome>,
+) -> Result<Vec<Hint>> {
+    let shrunk = write_case(candidate, dir, kind, &c.case, &c.failure, &recheck)?;
+    let mut text = vec![format!("property: {name}"), description.to_string()];
+    text.extend(shrunk.lines(&c.failure));
+    if c.unshrunk_case != c.case {
+        let before_dir = dir.join("before-shrinking");
+        let before = write_case(
+            candidate,
+            &before_dir,
+            kind,
+            &c.unshrunk_case,
+            &c.unshrunk_failure,
+            &recheck,
+        )?;
+        let mut before_text = vec![
+            format!("property: {name} (case {} before shrinking)", c.case_index),
+            description.to_string(),
+        ];
+        before_text.extend(before.lines(&c.unshrunk_failure));
+        write_atomic(
+            &before_dir.join("failure.txt"),
+            (before_text.join("\n") + "\n").as_bytes(),
+        )?;
+        let f = &c.unshrunk_failure;
+        text.push(format!(
+            "before shrinking (case {}, in before-shrinking/): {} samples, {} plays; sample {}: error {}, tolerance {}",
+            c.case_index,
+            f.signal.len(),
+            c.unshrunk_case.model.hysteresis.thresholds.len(),
+            f.sample,
+            format_f64(f.error),
+            format_f64(f.tolerance)
+        ));
+        if c.shrinking_changed_failure() || before.explanation.hints != shrunk.explanation.hints {
+            text.push(
+                "SHRINKING CHANGED THE FAILURE: the shrunk case fails in another way than the case \
+                 generated (another error size or another likely cause); before-shrinking/ holds the first failure"
+                    .into(),
+            );
+        }
+    }
+    write_atomic(
+        &dir.join("failure.txt"),
+        (text.join("\n") + "\n").as_bytes(),
+    )?;
+    Ok(shrunk.explanation.hints)
+}
+
+/// What [`write_case`] learnt.
+struct WrittenCase {
+    reproduced: bool,
+    rerun_error: Option<String>,
+    explanation: Explanation,
+    /// The directories of the property's other runs of the candidate.
+    others: Vec<String>,
+}
+
+impl WrittenCase {
+    fn lines(&self, f: &mfcbeam::suite::conformance::Failure) -> Vec<String> {
+        let mut out = vec![
+            f.message.clone(),
+            format!(
+                "compared sample {}: error {}, tolerance {}",
+                f.sample,
+                format_f64(f.error),
+                format_f64(f.tolerance)
+            ),
+            if self.reproduced {
+                "reproduced: the property fails again on this case".into()
+            } else {
+                "NOT reproduced on rerun: the candidate is not deterministic?".into()
+            },
+        ];
+        if let Some(e) = &self.rerun_error {
+            out.push(format!("the rerun that writes candidate.csv failed: {e}"));
+        }
+        if !self.others.is_empty() {
+            out.push(format!(
+                "the property compares this run with the candidate's run in {} (its model, input, output and command)",
+                self.others.join(", ")
+            ));
+        }
+        out.extend(self.explanation.lines());
+        out
+    }
+}
+
+/// Write one case to `dir`: `model.json`, `input.csv`, `candidate.csv` (the
+/// candidate's output, rerun), `expected.csv` (what the property required
+/// at the compared samples), `command.txt` (the one-line command that
+/// reproduces it) and, for a property that compares two runs of the
+/// candidate, the other run in `other-run/`.
+fn write_case(
+    candidate: &ExternalCandidate,
+    dir: &Path,
+    kind: ConformKind,
+    case: &Case,
+    f: &mfcbeam::suite::conformance::Failure,
+    recheck: &impl Fn(&Case) -> Option<Outcome>,
+) -> Result<WrittenCase> {
     fs::create_dir_all(dir)?;
     candidate.clear_log();
-    let outcome = recheck(&c.case);
+    let outcome = recheck(case);
     let log = candidate.log();
     // the run whose input ends with the failing signal, else the last one
-    let signal = &c.failure.signal;
-    let run: Option<&Invocation> = log
+    let signal = &f.signal;
+    let primary = log
         .iter()
-        .rev()
-        .find(|i| !signal.is_empty() && i.input.ends_with(signal))
-        .or(log.last());
-    let Some(run) = run else {
+        .rposition(|i| !signal.is_empty() && i.input.ends_with(signal))
+        .or(log.len().checked_sub(1));
+    let Some(primary) = primary else {
         bail!("the property did not run the candidate again");
     };
-    // model.json, input.csv and candidate.csv, by running it once more here
+    let run = &log[primary];
+    let column = input_column(kind);
     let rerun = candidate.run_in(dir, &run.model, column, &run.input, run.limits);
     let _ = fs::remove_file(dir.join("stderr.txt"));
-    let f = &c.failure;
     let n = f.expected.len().min(f.found.len());
     let mut expected = Trace::from_columns(
         &dir.join("expected.csv"),
@@ -221,6 +352,68 @@ fn write_counterexample(
     // the compared sample's index, as an integer
     expected.push_text_column("compared", (0..n).map(|k| k.to_string()))?;
     expected.write(&dir.join("expected.csv"))?;
+    write_command(candidate, dir, run.limits)?;
+    // the other runs: those that are not a prefix of a longer one (an
+    // adapter reruns the whole history on each call)
+    let covered = |i: usize| {
+        let r = &log[i];
+        i == primary
+            || log.iter().enumerate().any(|(j, q)| {
+                j != i
+                    && q.model == r.model
+                    && q.limits == r.limits
+                    && q.input.starts_with(&r.input)
+                    && (q.input.len() > r.input.len() || j > i)
+            })
+    };
+    let others: Vec<usize> = (0..log.len()).filter(|&i| !covered(i)).take(3).collect();
+    let mut other_dirs = Vec::new();
+    for (n, &i) in others.iter().enumerate() {
+        let name = if others.len() == 1 {
+            "other-run".to_string()
+        } else {
+            format!("other-run-{}", n + 1)
+        };
+        let d = dir.join(&name);
+        fs::create_dir_all(&d)?;
+        let o = &log[i];
+        // a failure here shows in the missing candidate.csv
+        let _ = candidate.run_in(&d, &o.model, column, &o.input, o.limits);
+        let _ = fs::remove_file(d.join("stderr.txt"));
+        write_command(candidate, &d, o.limits)?;
+        other_dirs.push(format!("{name}/"));
+    }
+    let (explanation, rerun_error) = match rerun {
+        Ok(t) => match t.column(output_column(kind)) {
+            Ok(found) => (
+                explain(
+                    explain_kind(kind),
+                    &run.model,
+                    &run.input,
+                    run.limits,
+                    &found,
+                    f.tolerance,
+                ),
+                None,
+            ),
+            Err(e) => (Explanation::default(), Some(e.to_string())),
+        },
+        Err(e) => (Explanation::default(), Some(e.to_string())),
+    };
+    Ok(WrittenCase {
+        reproduced: matches!(outcome, Some(Outcome::Failed(_))),
+        rerun_error,
+        explanation,
+        others: other_dirs,
+    })
+}
+
+/// `DIR/command.txt`: the candidate's command on the files in `DIR`.
+fn write_command(
+    candidate: &ExternalCandidate,
+    dir: &Path,
+    limits: Option<(f64, f64)>,
+) -> Result<()> {
     let quote = |w: &str| {
         if w.chars()
             .all(|c| c.is_ascii_alphanumeric() || "-_./=,".contains(c))
@@ -230,35 +423,33 @@ fn write_counterexample(
             format!("'{}'", w.replace('\'', "'\\''"))
         }
     };
-    let mut words: Vec<String> = candidate.command().iter().map(|w| quote(w)).collect();
+    // a relative path to a file (the script a candidate runs) made absolute,
+    // so that the command runs from the counterexample's directory
+    let absolute = |w: &String| {
+        let p = Path::new(w);
+        match (
+            w.contains('/') && p.is_relative() && p.is_file(),
+            fs::canonicalize(p),
+        ) {
+            (true, Ok(a)) => a.display().to_string(),
+            _ => w.clone(),
+        }
+    };
+    let mut words: Vec<String> = candidate
+        .command()
+        .iter()
+        .map(|w| quote(&absolute(w)))
+        .collect();
     words.extend(ExternalCandidate::file_arguments(
         Path::new("model.json"),
         Path::new("input.csv"),
         Path::new("candidate.csv"),
-        run.limits,
+        limits,
     ));
     write_atomic(
         &dir.join("command.txt"),
         format!("{}\n", words.join(" ")).as_bytes(),
     )?;
-    let still = matches!(outcome, Some(Outcome::Failed(_)));
-    let text = format!(
-        "property: {name}\n{description}\n{}\nsample {}: error {}, tolerance {}\n{}\n{}",
-        f.message,
-        f.sample,
-        format_f64(f.error),
-        format_f64(f.tolerance),
-        if still {
-            "reproduced: the property fails again on this case"
-        } else {
-            "NOT reproduced on rerun: the candidate is not deterministic?"
-        },
-        match rerun {
-            Ok(_) => String::new(),
-            Err(e) => format!("the rerun that writes candidate.csv failed: {e}\n"),
-        }
-    );
-    write_atomic(&dir.join("failure.txt"), text.as_bytes())?;
     Ok(())
 }
 

@@ -11,7 +11,9 @@ library takes band widths 2 r and initial outputs x_init. `--wrong NAME`
 injects a known adapter mistake, to show that `conform` catches it:
 half-width (the threshold taken as the band width) or skip-first (the first
 sample reported without passing the play, another common first-sample
-convention).
+convention). A model with a part the library does not have (creep, the
+superposition operator, a dead time, an offset) is declined with exit code
+3, so that `conform --kind model` skips those cases instead of failing them.
 """
 
 import csv
@@ -24,6 +26,10 @@ from pi_library import PIOperator  # noqa: E402
 
 WRONG = ("half-width", "skip-first")
 
+# `mfcbeam conform` skips a case whose model has a part the candidate does
+# not implement when the candidate exits with this code.
+UNSUPPORTED = 3
+
 
 def fail(message):
     print(f"adapter.py: {message}", file=sys.stderr)
@@ -33,6 +39,12 @@ def fail(message):
 def operator(path, wrong):
     with open(path) as f:
         m = json.load(f)
+    # the library has H alone: decline the other parts, never approximate them
+    missing = [k for k in ("creep", "superposition") if k in m]
+    missing += [k for k in ("delay", "offset") if m.get(k)]
+    if missing:
+        print(f"adapter.py: the library implements H alone, not {', '.join(missing)}", file=sys.stderr)
+        sys.exit(UNSUPPORTED)
     h = m["hysteresis"]
     r = h["thresholds"]
     # the convention: band width = 2 r (the mistake: width = r)

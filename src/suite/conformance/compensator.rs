@@ -11,7 +11,7 @@
 use super::candidate;
 use super::cases::{
     delay_of, input_length, random_input, random_model, reach, superposition_is_odd,
-    superposition_model, with_state_after, ModelShape, Rng,
+    superposition_model, with_every_part, with_state_after, ModelShape, Rng,
 };
 use super::{
     compare, compare_from, fail, refused, tolerance, two, Case, ConformanceReport,
@@ -86,19 +86,24 @@ fn targets_of(mut case: Case) -> Case {
 }
 
 /// Random model and targets `W[v]` of a random input `v`.
-fn target_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
-    targets_of(voltage_case(rng, s, 0))
+fn target_case(rng: &mut Rng, s: &ConformanceSettings, i: usize) -> Case {
+    targets_of(voltage_case(rng, s, i))
 }
 
 /// Random model and random voltages `v` (the property maps them through `W`).
-fn voltage_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
+fn voltage_case(rng: &mut Rng, s: &ConformanceSettings, i: usize) -> Case {
     let model = random_model(rng, s.max_plays, ModelShape::Any);
     let n = input_length(rng, s.max_samples);
     let input = random_input(rng, n, 1.2 * reach(&model));
-    Case {
+    let case = Case {
         model,
         input,
         limits: None,
+    };
+    if i == 0 {
+        with_every_part(rng, case)
+    } else {
+        case
     }
 }
 

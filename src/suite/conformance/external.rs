@@ -10,6 +10,11 @@
 //! none). A model reads column `u` and writes the input's columns plus `y`; a
 //! compensator reads `y_d` and writes `u` and `saturated`.
 //!
+//! A candidate that implements only part of the model (most published PI
+//! code has `H` alone) exits with [`UNSUPPORTED_EXIT_CODE`] (3) on a model
+//! with a part it does not implement, its reason on the first line of
+//! stderr: the case is counted as skipped, not failed.
+//!
 //! [`ExternalModel`] and [`ExternalCompensator`] adapt such a command to the
 //! traits the conformance checks take. A process cannot keep its state
 //! between runs, so each adapter keeps the whole input it has been given and
@@ -32,6 +37,11 @@ use crate::operators::traits::{
     ActuatorCompensator, ActuatorModel, Compensated, InverseHysteresis, Operator,
 };
 
+/// The exit code by which a candidate declines a model with a part it does
+/// not implement (creep, the superposition operator, a dead time, an
+/// offset): the case is skipped. Any other non-zero code is a failure.
+pub const UNSUPPORTED_EXIT_CODE: i32 = 3;
+
 /// Limits passed to a compensator where a case wants none.
 pub const WIDE_LIMITS: (f64, f64) = (-1e300, 1e300);
 
@@ -49,6 +59,8 @@ pub enum ExternalError {
     Timeout { seconds: f64 },
     #[error("the candidate exited with {status}: {stderr}")]
     Failed { status: String, stderr: String },
+    #[error("the candidate declined the model (exit code 3): {reason}")]
+    Unsupported { reason: String },
     #[error("the candidate's output: {reason}")]
     BadOutput { reason: String },
     #[error("{path}: {reason}")]
@@ -197,6 +209,11 @@ impl ExternalCandidate {
     }
 
     fn note(&self, e: &ExternalError) {
+        if let ExternalError::Unsupported { reason } = e {
+            // the check running on this thread skips the case
+            super::decline_case(reason);
+            return;
+        }
         let mut first = self.first_error.lock().expect("not poisoned");
         if first.is_none() {
             *first = Some(e.clone());
@@ -283,6 +300,16 @@ impl ExternalCandidate {
         };
         if !status.success() {
             let text = fs::read_to_string(&stderr_path).unwrap_or_default();
+            if status.code() == Some(UNSUPPORTED_EXIT_CODE) {
+                let reason = text.lines().next().unwrap_or("").trim();
+                return Err(ExternalError::Unsupported {
+                    reason: if reason.is_empty() {
+                        "no reason given".into()
+                    } else {
+                        reason.into()
+                    },
+                });
+            }
             return Err(ExternalError::Failed {
                 status: status.to_string(),
                 stderr: text.lines().next().unwrap_or("").to_string(),

@@ -18,6 +18,16 @@
 //! a small counterexample (model file and input) found by shrinking the first
 //! failing case.
 //!
+//! An implementation of part of the model declines the cases with a part
+//! it lacks ([`ModelError::Unsupported`] from its factory, or
+//! [`decline_case`] while it runs; a program through the file contract
+//! exits with code 3): they are counted as skipped, with the coverage in
+//! the report, and the properties hold or fail on the cases that ran. A
+//! counterexample keeps the case before shrinking beside the shrunk one;
+//! [`explain`] splits the reference into its parts at the failing sample
+//! and names known mistakes (band width vs half-width, creep missing, the
+//! first-sample convention (8), …).
+//!
 //! Tolerances come from rounding analysis of the reference formulas
 //! ([`tolerance`]): `c · n · ε · Σ|w| · max|x|` for a sum of `n` products, amplified
 //! by the steepest inverse slope `1/s_min` where an inverse is involved. A
@@ -30,6 +40,7 @@
 
 mod cases;
 mod compensator;
+pub mod explain;
 #[cfg(feature = "suite")]
 pub mod external;
 mod factories;
@@ -47,7 +58,8 @@ use crate::operators::traits::{ActuatorCompensator, ActuatorModel, InverseHyster
 
 pub use cases::{
     input_length, nested_extrema, path, random_input, random_model, random_superposition, refine,
-    segment, superposition_is_odd, superposition_model, with_state_after, ModelShape, Rng,
+    segment, superposition_is_odd, superposition_model, with_every_part, with_state_after,
+    ModelShape, Rng,
 };
 pub use compensator::{check_compensator, compensator_properties};
 pub use factories::*;
@@ -214,6 +226,37 @@ pub enum Outcome {
     Failed(Box<Failure>),
     /// The case does not meet the property's premise (after shrinking, say).
     Skipped,
+    /// The implementation declined the case: its model has a part the
+    /// implementation does not implement (the reason, in words). Counted
+    /// as skipped; the property holds or fails on the cases that ran.
+    Unsupported(String),
+}
+
+thread_local! {
+    /// A part an implementation declined during the current case (set by
+    /// the adapters of [`external`], which cannot refuse in their factory).
+    static DECLINED: std::cell::RefCell<Option<String>> = const { std::cell::RefCell::new(None) };
+}
+
+/// Record, from inside a running check, that the implementation declined
+/// the case (a part it does not implement): the case's outcome becomes
+/// [`Outcome::Unsupported`] whatever the property concluded from the
+/// outputs it got. An implementation that can tell when it is built
+/// returns [`ModelError::Unsupported`] from its factory instead.
+pub fn decline_case(reason: &str) {
+    DECLINED.with(|d| {
+        d.borrow_mut().get_or_insert_with(|| reason.to_string());
+    });
+}
+
+/// Run one check, turning a declined case into [`Outcome::Unsupported`].
+pub(crate) fn evaluate(check: impl FnOnce() -> Outcome) -> Outcome {
+    DECLINED.with(|d| d.borrow_mut().take());
+    let outcome = check();
+    match DECLINED.with(|d| d.borrow_mut().take()) {
+        Some(reason) => Outcome::Unsupported(reason),
+        None => outcome,
+    }
 }
 
 /// Compare `found` with `expected` sample by sample within `tolerance`.
@@ -315,8 +358,12 @@ pub(crate) fn two<T>(build: impl Fn() -> Result<T, Outcome>) -> Result<(T, T), O
     Ok((build()?, build()?))
 }
 
-/// The candidate refused a valid model.
+/// The candidate refused a valid model (or declined a part it does not
+/// implement).
 pub(crate) fn refused(e: ModelError) -> Outcome {
+    if let ModelError::Unsupported { part } = &e {
+        return Outcome::Unsupported(format!("{part}: not implemented"));
+    }
     fail(
         &[],
         &[],
@@ -337,6 +384,26 @@ pub struct Counterexample {
     pub case: Case,
     /// How it fails.
     pub failure: Failure,
+    /// The case as generated, before shrinking, and how it failed: shrinking
+    /// keeps any failure of the property, which may be another one than the
+    /// first (see [`Counterexample::shrinking_changed_failure`]).
+    pub unshrunk_case: Case,
+    pub unshrunk_failure: Failure,
+}
+
+impl Counterexample {
+    /// Shrinking kept a failure of another size: the error before and after
+    /// differ by more than a factor of 10 either way (or one is infinite
+    /// and the other not). The failing sample moves as the input is cut, so
+    /// its index alone says nothing.
+    pub fn shrinking_changed_failure(&self) -> bool {
+        let (a, b) = (self.unshrunk_failure.error, self.failure.error);
+        if a.is_infinite() || b.is_infinite() {
+            return a.is_infinite() != b.is_infinite();
+        }
+        let (lo, hi) = (a.min(b), a.max(b));
+        hi > 10.0 * lo
+    }
 }
 
 /// The result of one property.
@@ -348,6 +415,10 @@ pub struct PropertyResult {
     pub description: &'static str,
     /// Cases run (skipped ones not counted).
     pub cases: usize,
+    /// Cases the implementation declined ([`Outcome::Unsupported`]).
+    pub skipped: usize,
+    /// Why the first declined case was declined.
+    pub skip_reason: Option<String>,
     /// Cases outside tolerance.
     pub failures: usize,
     /// The largest `error / tolerance` over the cases run (0 when every
@@ -386,6 +457,14 @@ impl ConformanceReport {
         self.properties.iter().filter(|p| !p.holds()).collect()
     }
 
+    /// Cases run and cases skipped (declined by the implementation), over
+    /// every property.
+    pub fn coverage(&self) -> (usize, usize) {
+        self.properties
+            .iter()
+            .fold((0, 0), |(r, s), p| (r + p.cases, s + p.skipped))
+    }
+
     /// A property by name.
     pub fn property(&self, name: &str) -> Option<&PropertyResult> {
         self.properties.iter().find(|p| p.name == name)
@@ -396,9 +475,10 @@ impl fmt::Display for ConformanceReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
-            "{:<32} {:>6} {:>8} {:>12} {:>12}  result",
+            "{:<32} {:>6} {:>8} {:>8} {:>12} {:>12}  result",
             format!("{} property", self.kind),
             "cases",
+            "skipped",
             "failed",
             "worst error",
             "tolerance"
@@ -406,17 +486,32 @@ impl fmt::Display for ConformanceReport {
         for p in &self.properties {
             writeln!(
                 f,
-                "{:<32} {:>6} {:>8} {:>12.3e} {:>12.3e}  {}",
+                "{:<32} {:>6} {:>8} {:>8} {:>12.3e} {:>12.3e}  {}",
                 p.name,
                 p.cases,
+                p.skipped,
                 p.failures,
                 p.worst_error,
                 p.tolerance,
-                match (p.holds(), p.cases) {
-                    (true, 0) => "no case met the premise",
-                    (true, _) => "holds",
-                    (false, _) => "FAILS",
+                match (p.holds(), p.cases, p.skipped) {
+                    (true, 0, 0) => "no case met the premise",
+                    (true, 0, _) => "not covered: every case skipped",
+                    (true, _, _) => "holds",
+                    (false, _, _) => "FAILS",
                 }
+            )?;
+        }
+        let (ran, skipped) = self.coverage();
+        if skipped > 0 {
+            let reason = self
+                .properties
+                .iter()
+                .find_map(|p| p.skip_reason.as_deref())
+                .unwrap_or("");
+            writeln!(
+                f,
+                "coverage: {ran} of {} cases ran; {skipped} skipped, the implementation declined them ({reason})",
+                ran + skipped
             )?;
         }
         for p in self.failed() {
@@ -478,7 +573,7 @@ impl<F: ?Sized + Sync> Properties<F> {
         self.properties
             .iter()
             .find(|p| p.name == name)
-            .map(|p| (p.check)(case, factory, settings))
+            .map(|p| evaluate(|| (p.check)(case, factory, settings)))
     }
 }
 

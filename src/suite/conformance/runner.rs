@@ -57,6 +57,8 @@ fn run_property<F: ?Sized>(
         name: p.name,
         description: p.description,
         cases: 0,
+        skipped: 0,
+        skip_reason: None,
         failures: 0,
         worst_ratio: 0.0,
         worst_error: 0.0,
@@ -70,9 +72,14 @@ fn run_property<F: ?Sized>(
         } else {
             case
         };
-        let outcome = (p.check)(&case, factory, settings);
+        let outcome = evaluate(|| (p.check)(&case, factory, settings));
         let (error, tolerance) = match &outcome {
             Outcome::Skipped => continue,
+            Outcome::Unsupported(reason) => {
+                result.skipped += 1;
+                result.skip_reason.get_or_insert_with(|| reason.clone());
+                continue;
+            }
             Outcome::Held { error, tolerance } => (*error, *tolerance),
             Outcome::Failed(f) => (f.error, f.tolerance),
         };
@@ -92,9 +99,10 @@ fn run_property<F: ?Sized>(
         if let Outcome::Failed(failure) = outcome {
             result.failures += 1;
             if result.counterexample.is_none() {
+                let (unshrunk_case, unshrunk_failure) = (case.clone(), (*failure).clone());
                 let (case, failure) = if settings.shrink {
                     shrink(case, *failure, settings.shrink_budget, |c| {
-                        (p.check)(c, factory, settings)
+                        evaluate(|| (p.check)(c, factory, settings))
                     })
                 } else {
                     (case, *failure)
@@ -103,6 +111,8 @@ fn run_property<F: ?Sized>(
                     case_index: i,
                     case,
                     failure,
+                    unshrunk_case,
+                    unshrunk_failure,
                 });
             }
         }

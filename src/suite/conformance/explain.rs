@@ -1,0 +1,411 @@
+//! Reading a counterexample: the reference's value split into the model's
+//! parts at one sample, and hints that name a likely cause where the
+//! candidate's outputs match a known mistake exactly.
+//!
+//! The parts follow the model `y_k = S[H[u] + C[u]]_{k−d} + offset` (6),
+//! (16), with the superposition operator `S` and the dead time `d`: each
+//! part is the reference run on the same input with the later parts taken
+//! away. A hint is given when the candidate's whole output on the written
+//! input equals, within the failure's tolerance, the reference with one
+//! part changed — creep removed, thresholds doubled or halved, the state
+//! ignored, the first sample skipped, … — or differs from the reference at
+//! the first sample only.
+
+use crate::operators::compensator::CompensatorSettings;
+use crate::operators::model::ModelFile;
+use crate::operators::traits::{ActuatorCompensator, Operator};
+use crate::realtime::preview;
+use crate::suite::reference::{naive_inverse_hysteresis, NaiveCompensator, NaiveModel};
+
+use crate::io::format_f64;
+
+/// Which operator a candidate implements (the hysteresis-only kind is a
+/// [`Kind::Model`] whose files hold `H` alone).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// `W` (or `H` alone): `u` in, `y` out.
+    Model,
+    /// `W⁻¹` with limits: `y_d` in, `u` out.
+    Compensator,
+    /// `H⁻¹`: `y` in, `u` out.
+    InverseHysteresis,
+}
+
+/// The parts of the reference at one sample, and the likely causes.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Explanation {
+    /// The sample the parts are given at (the first where the candidate
+    /// leaves the reference by more than the tolerance, if any).
+    pub sample: usize,
+    /// Each part as `name = value`, in the order they build up.
+    pub parts: Vec<String>,
+    /// Likely causes.
+    pub hints: Vec<Hint>,
+}
+
+/// A likely cause: the candidate's outputs match the reference with one
+/// known change.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Hint {
+    /// Every hysteresis threshold halved: a band width read as the threshold.
+    ThresholdsHalved,
+    /// Every hysteresis threshold doubled: a threshold read as a band width.
+    ThresholdsDoubled,
+    /// The model file's state ignored.
+    StateIgnored,
+    /// The creep part missing.
+    CreepMissing,
+    /// The superposition operator missing.
+    SuperpositionMissing,
+    /// The offset missing.
+    OffsetMissing,
+    /// The dead time ignored.
+    DeadTimeIgnored,
+    /// The initial state reported at sample 0, the first input applied from
+    /// sample 1 on.
+    FirstInputSkipped,
+    /// Only sample 0 differs (or the input has one sample): a first-sample
+    /// convention, nothing more precise matched.
+    FirstSample,
+}
+
+impl std::fmt::Display for Hint {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Hint::ThresholdsHalved => {
+                "the candidate behaves as if every threshold were halved: a threshold r \
+                 (half the dead band) taken for the band width; a band-width convention \
+                 needs 2 r"
+            }
+            Hint::ThresholdsDoubled => {
+                "the candidate behaves as if every threshold were doubled: a band width 2 r \
+                 taken for the threshold r (half the dead band)"
+            }
+            Hint::StateIgnored => "the candidate ignores the model file's state and starts virgin",
+            Hint::CreepMissing => {
+                "the error is exactly the creep term C[u]: the creep part is missing (an \
+                 implementation of H alone can decline such models with exit code 3)"
+            }
+            Hint::SuperpositionMissing => "the superposition operator S is missing",
+            Hint::OffsetMissing => "the output offset is missing",
+            Hint::DeadTimeIgnored => "the dead time is ignored",
+            Hint::FirstInputSkipped => {
+                "the candidate reports the initial state at sample 0 and applies the first \
+                 input only from sample 1 on: in (8) the first input already passes through \
+                 every play from its state"
+            }
+            Hint::FirstSample => {
+                "only the first sample differs: check the initial-state convention (8) (the \
+                 first input passes through each play from the file's state, or from 0 \
+                 without one)"
+            }
+        })
+    }
+}
+
+impl Explanation {
+    /// The parts and hints as lines of text.
+    pub fn lines(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if !self.parts.is_empty() {
+            out.push(format!(
+                "the reference on input.csv at sample {}, by parts:",
+                self.sample
+            ));
+            out.extend(self.parts.iter().map(|p| format!("  {p}")));
+        }
+        out.extend(self.hints.iter().map(|h| format!("hint: {h}")));
+        out
+    }
+}
+
+/// The reference output of `kind` on `file` and `input` (`None` when the
+/// changed file is no valid model).
+pub fn reference_run(
+    kind: Kind,
+    file: &ModelFile,
+    input: &[f64],
+    limits: Option<(f64, f64)>,
+) -> Option<Vec<f64>> {
+    match kind {
+        Kind::Model => Some(NaiveModel::from_file(file).ok()?.run(input)),
+        Kind::InverseHysteresis => Some(naive_inverse_hysteresis(file).ok()?.run(input)),
+        Kind::Compensator => {
+            let settings = match limits {
+                Some((lo, hi)) => CompensatorSettings::with_limits(lo, hi),
+                None => CompensatorSettings::unlimited(),
+            };
+            let mut c = NaiveCompensator::from_file(file, settings).ok()?;
+            Some(c.compensate_all(input).iter().map(|c| c.u).collect())
+        }
+    }
+}
+
+/// Explain a candidate's output `found` on `input` (the run written to
+/// disk) against the reference of `kind`; `tolerance` is the failure's.
+pub fn explain(
+    kind: Kind,
+    file: &ModelFile,
+    input: &[f64],
+    limits: Option<(f64, f64)>,
+    found: &[f64],
+    tolerance: f64,
+) -> Explanation {
+    let Some(reference) = reference_run(kind, file, input, limits) else {
+        return Explanation::default();
+    };
+    let n = reference.len().min(found.len());
+    let scale = reference.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let tol = tolerance.max(1e-9 * (1.0 + scale));
+    // NaN (a non-finite output) is off too
+    let off = |a: &[f64], k: usize| {
+        let e = (a[k] - found[k]).abs();
+        e.is_nan() || e > tol
+    };
+    let first = (0..n).find(|&k| off(&reference, k));
+    let sample = first.unwrap_or(n.saturating_sub(1));
+    let mut e = Explanation {
+        sample,
+        parts: if n == 0 {
+            Vec::new()
+        } else {
+            parts(kind, file, input, &reference, sample)
+        },
+        hints: Vec::new(),
+    };
+    let Some(first) = first else {
+        return e;
+    };
+    for (changed, hint) in variants(kind, file) {
+        let v = reference_run(kind, &changed, input, limits)
+            .or_else(|| unchecked_thresholds(kind, file, &changed, input, &reference));
+        if v.is_some_and(|v| v.len() == n && (0..n).all(|k| !off(&v, k))) {
+            e.hints.push(hint);
+        }
+    }
+    if kind != Kind::Compensator && file.creep.is_none() {
+        if let Some(v) = skipped_first(kind, file, input) {
+            if (0..n).all(|k| !off(&v, k)) {
+                e.hints.push(Hint::FirstInputSkipped);
+            }
+        }
+    }
+    // the generic first-sample hint only where nothing more precise matched
+    if e.hints.is_empty() && first == 0 && (1..n).all(|k| !off(&reference, k)) {
+        e.hints.push(Hint::FirstSample);
+    }
+    e
+}
+
+/// The model with one part changed, and what it means if the candidate
+/// behaves like it.
+fn variants(kind: Kind, file: &ModelFile) -> Vec<(ModelFile, Hint)> {
+    let mut out = Vec::new();
+    let scaled = |f: f64| {
+        let mut m = file.clone();
+        m.hysteresis.thresholds.iter_mut().for_each(|r| *r *= f);
+        m
+    };
+    out.push((scaled(0.5), Hint::ThresholdsHalved));
+    out.push((scaled(2.0), Hint::ThresholdsDoubled));
+    if file.hysteresis.state.is_some()
+        || file.creep.as_ref().is_some_and(|c| c.state.is_some())
+        || file.delay_state.is_some()
+    {
+        out.push((file.clone().without_state(), Hint::StateIgnored));
+    }
+    if kind == Kind::InverseHysteresis {
+        return out;
+    }
+    if file.creep.is_some() {
+        let mut m = file.clone();
+        m.creep = None;
+        out.push((m, Hint::CreepMissing));
+    }
+    if file.superposition.is_some() {
+        let mut m = file.clone();
+        m.superposition = None;
+        out.push((m, Hint::SuperpositionMissing));
+    }
+    if file.offset.is_some_and(|o| o != 0.0) {
+        let mut m = file.clone();
+        m.offset = None;
+        out.push((m, Hint::OffsetMissing));
+    }
+    if file.delay.is_some_and(|d| d > 0) {
+        let mut m = file.clone();
+        (m.delay, m.delay_state) = (None, None);
+        out.push((m, Hint::DeadTimeIgnored));
+    }
+    out
+}
+
+/// `W` with the hysteresis thresholds of `changed` where the file's state
+/// is no admissible state for them (a state matched to thresholds `r` need
+/// not be one for `r/2`, but a candidate with that mistake runs from it
+/// all the same): `W − H + H'`, with `H'` the plain sum of plays, for a
+/// model without `S` and dead time.
+fn unchecked_thresholds(
+    kind: Kind,
+    file: &ModelFile,
+    changed: &ModelFile,
+    input: &[f64],
+    reference: &[f64],
+) -> Option<Vec<f64>> {
+    if kind != Kind::Model
+        || file.superposition.is_some()
+        || file.delay.is_some_and(|d| d > 0)
+        || changed.hysteresis.thresholds == file.hysteresis.thresholds
+    {
+        return None;
+    }
+    let plays = |r: &[f64]| {
+        let h = &file.hysteresis;
+        let mut z = h.state.clone().unwrap_or_else(|| vec![0.0; r.len()]);
+        input
+            .iter()
+            .map(|&u| {
+                z.iter_mut()
+                    .zip(r)
+                    .zip(&h.weights)
+                    .map(|((z, r), w)| {
+                        *z = z.clamp(u - r, u + r);
+                        w * *z
+                    })
+                    .sum::<f64>()
+            })
+            .collect::<Vec<f64>>()
+    };
+    let (h, h_changed) = (
+        plays(&file.hysteresis.thresholds),
+        plays(&changed.hysteresis.thresholds),
+    );
+    Some(
+        reference
+            .iter()
+            .zip(h.iter().zip(&h_changed))
+            .map(|(w, (h, hc))| w - h + hc)
+            .collect(),
+    )
+}
+
+/// `H` (or `H⁻¹`) with the first input not passed through the plays: sample
+/// 0 reports the initial state, the rest continues from it.
+fn skipped_first(kind: Kind, file: &ModelFile, input: &[f64]) -> Option<Vec<f64>> {
+    if input.is_empty() {
+        return None;
+    }
+    let h = &file.hysteresis;
+    let initial: f64 = match &h.state {
+        Some(s) => h.weights.iter().zip(s).map(|(w, z)| w * z).sum(),
+        None => 0.0,
+    };
+    let mut out = vec![match kind {
+        Kind::Model => initial + file.offset.unwrap_or(0.0),
+        // the inverse's initial output is the input's state before the first sample
+        _ => naive_inverse_hysteresis(file)
+            .ok()?
+            .run(&[initial])
+            .first()
+            .copied()?,
+    }];
+    out.extend(reference_run(kind, file, &input[1..], None)?);
+    Some(out)
+}
+
+/// The reference's value at `k`, by parts.
+fn parts(kind: Kind, file: &ModelFile, input: &[f64], reference: &[f64], k: usize) -> Vec<String> {
+    let inner = |with_creep: bool, with_s: bool| {
+        let mut m = file.clone();
+        (m.delay, m.delay_state, m.offset) = (None, None, None);
+        if !with_creep {
+            m.creep = None;
+        }
+        if !with_s {
+            m.superposition = None;
+        }
+        m
+    };
+    let run = |m: &ModelFile, x: &[f64]| NaiveModel::from_file(m).ok().map(|mut w| w.run(x));
+    let d = file.delay.unwrap_or(0);
+    let offset = file.offset.unwrap_or(0.0);
+    let line = |name: String, v: f64| format!("{name} = {}", format_f64(v));
+    let mut out: Vec<String> = Vec::new();
+    match kind {
+        Kind::Model => {
+            out.push(line(format!("u[{k}]"), input[k]));
+            if k < d {
+                out.push(format!(
+                    "sample {k} is inside the dead time d = {d}: the output comes from the file's delay_state (or the first sample's value)"
+                ));
+                out.push(line(format!("y[{k}] (the reference)"), reference[k]));
+                return out;
+            }
+            let j = k - d;
+            let (Some(h), Some(hc), Some(shc)) = (
+                run(&inner(false, false), input),
+                run(&inner(true, false), input),
+                run(&inner(true, true), input),
+            ) else {
+                return out;
+            };
+            out.push(line(format!("H[u] at sample {j}"), h[j]));
+            if file.creep.is_some() {
+                out.push(line(format!("C[u] at sample {j}"), hc[j] - h[j]));
+            }
+            if file.superposition.is_some() {
+                out.push(line(format!("S[H + C] at sample {j}"), shc[j]));
+            }
+            if d > 0 {
+                out.push(format!("dead time d = {d}: y[{k}] takes sample {j}"));
+            }
+            if file.offset.is_some() {
+                out.push(line("offset".into(), offset));
+            }
+            out.push(line(format!("y[{k}] (the reference)"), reference[k]));
+        }
+        Kind::Compensator => {
+            let target = preview(input, d, k);
+            out.push(line(
+                format!(
+                    "target y_d[{}] (previewed by the dead time d = {d})",
+                    (k + d).min(input.len() - 1)
+                ),
+                target,
+            ));
+            if file.offset.is_some() {
+                out.push(line("offset".into(), offset));
+            }
+            let (Some(h), Some(hc), Some(shc)) = (
+                run(&inner(false, false), reference),
+                run(&inner(true, false), reference),
+                run(&inner(true, true), reference),
+            ) else {
+                return out;
+            };
+            if file.superposition.is_some() {
+                out.push(line("S[H + C][u] of the reference's u".into(), shc[k]));
+            }
+            if file.creep.is_some() {
+                out.push(line(
+                    "C[u] of the reference's u (subtracted before H⁻¹)".into(),
+                    hc[k] - h[k],
+                ));
+            }
+            out.push(line("H[u] of the reference's u".into(), h[k]));
+            out.push(line(format!("u[{k}] (the reference)"), reference[k]));
+        }
+        Kind::InverseHysteresis => {
+            out.push(line(format!("y[{k}]"), input[k]));
+            out.push(line(
+                format!("u[{k}] = H⁻¹[y] (the reference)"),
+                reference[k],
+            ));
+            if let Some(h) = run(&inner(false, false), reference) {
+                out.push(line("H[u] of that u (equals y)".into(), h[k]));
+            }
+        }
+    }
+    out
+}
