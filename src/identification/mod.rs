@@ -38,7 +38,7 @@
 //!    (`g = Mᵀ(M x − d)`: `g_j = 0` where `x_j > 0`, `g_j ≥ 0` where
 //!    `x_j = 0`), which the report states as a relative residual.
 //! 3. The numerical rank of `R` comes from its singular values: those below
-//!    [`RANK_TOLERANCE`](solve::RANK_TOLERANCE) times the largest span directions the input does not
+//!    [`RANK_TOLERANCE`] times the largest span directions the input does not
 //!    determine; the operators with weight in them are named. Every
 //!    least-squares step takes the minimum-norm solution (in `x`), so the
 //!    returned optimum is the minimum-norm one of its active set.

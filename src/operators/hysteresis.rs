@@ -1,5 +1,5 @@
 //! The Prandtl–Ishlinskii hysteresis operator `H` (10)–(12) with the `std`
-//! conveniences: heap storage, the object-safe [`Operator`] and
+//! conveniences: heap storage, the object-safe [`Operator`](crate::operators::traits::Operator) and
 //! [`Snapshot`] traits (in `f64`, whatever `T`), partial sums and the
 //! initial loading curve. The operator itself is
 //! [`crate::realtime::Hysteresis`].

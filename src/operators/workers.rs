@@ -5,7 +5,7 @@
 //! bumping a generation counter and waits for a done counter — atomics
 //! only, no allocation and no lock. An idle worker spins for a while
 //! (a control loop's next sample is close) and then parks; the step wakes
-//! it. The job borrows the caller's stack: [`Workers::run`] returns only
+//! it. The job borrows the caller's stack: `Workers::run` returns only
 //! when every worker has finished it (and a worker's panic is re-raised),
 //! the scoped-thread rule kept by hand.
 

@@ -14,7 +14,7 @@
 //! A model's dead time is not inverted here (no causal inverse exists): the
 //! compensator inverts the memory part `S[H + C]`, and a caller whose model
 //! has a delay `d` ([`Compensator::delay`]) gives it the target `d` samples
-//! ahead ([`preview`](crate::realtime::preview)).
+//! ahead ([`preview`]).
 
 use crate::realtime::creep::Creep;
 #[cfg(doc)]
@@ -284,7 +284,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
 
     /// The model's dead time `d` (samples): the compensator inverts the
     /// memory part, so the target for sample `k` is the one wanted at
-    /// `k + d` ([`preview`](crate::realtime::preview)).
+    /// `k + d` ([`preview`]).
     pub fn delay(&self) -> usize {
         self.delay
     }

@@ -1,5 +1,5 @@
 //! The superposition operator `S` of the modified Prandtl–Ishlinskii model
-//! (Kuhnen 2003, the paper's reference [8]): a memory-free, strictly
+//! (Kuhnen 2003, the paper's reference \[8\]): a memory-free, strictly
 //! increasing, piecewise-linear map applied after `H + C`, which gives the
 //! loops an asymmetric shape.
 //!

@@ -12,7 +12,7 @@ use crate::suite::reference::{
     naive_inverse_hysteresis, BisectionCompensator, NaiveCompensator, NaiveModel,
 };
 
-/// `ε₃₂/ε₆₄ = 2²⁹`: the [`ConformanceSettings::tolerance_scale`] of an `f32`
+/// `ε₃₂/ε₆₄ = 2²⁹`: the [`ConformanceSettings::tolerance_scale`](super::ConformanceSettings::tolerance_scale) of an `f32`
 /// implementation. Every tolerance is a sum of terms linear in `ε` (first-order
 /// rounding analysis), so moving to binary32 scales each by this ratio; the
 /// `f64` parameters rounded once to `f32` are relative perturbations of

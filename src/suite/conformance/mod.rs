@@ -503,11 +503,18 @@ impl fmt::Display for ConformanceReport {
         }
         let (ran, skipped) = self.coverage();
         if skipped > 0 {
-            let reason = self
+            // a few distinct reasons, as the implementation gave them
+            let mut reasons: Vec<&str> = Vec::new();
+            for r in self
                 .properties
                 .iter()
-                .find_map(|p| p.skip_reason.as_deref())
-                .unwrap_or("");
+                .filter_map(|p| p.skip_reason.as_deref())
+            {
+                if !reasons.contains(&r) && reasons.len() < 3 {
+                    reasons.push(r);
+                }
+            }
+            let reason = reasons.join("; ");
             writeln!(
                 f,
                 "coverage: {ran} of {} cases ran; {skipped} skipped, the implementation declined them ({reason})",
