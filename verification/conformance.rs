@@ -363,3 +363,42 @@ fn short_inputs_are_drawn_on_purpose() {
     assert!((150..=250).contains(&short), "{short} of 1000 short");
     assert!(lengths.iter().all(|&n| (1..=300).contains(&n)));
 }
+
+/// `intersection` needs a model whose branches cross: it checks that
+/// premise on the reference first, so shrinking cannot reduce a failure to
+/// a one-play model on which the reference fails it too. On the nominal
+/// `H` it still catches a candidate whose branches merge.
+#[test]
+fn intersection_checks_its_premise_on_the_reference() {
+    let s = ConformanceSettings::default();
+    let mut nominal = mfcbeam::operators::nominal::nominal_model_file();
+    nominal.creep = None;
+    let case = |model: ModelFile| mfcbeam::suite::conformance::Case {
+        model,
+        input: vec![200.0, 1000.0, 900.0],
+        limits: None,
+    };
+    let recheck = |case: &mfcbeam::suite::conformance::Case, f: &ModelFactory| {
+        mfcbeam::suite::conformance::model_properties()
+            .recheck("intersection", case, f, &s)
+            .unwrap()
+    };
+    let halved = |f: &ModelFile| {
+        let mut m = f.clone();
+        m.hysteresis.thresholds.iter_mut().for_each(|r| *r *= 0.5);
+        heap_model(&m)
+    };
+    use mfcbeam::suite::conformance::{ModelFactory, Outcome};
+    assert!(matches!(
+        recheck(&case(nominal.clone()), &heap_model),
+        Outcome::Held { .. }
+    ));
+    assert!(matches!(
+        recheck(&case(nominal.clone()), &halved),
+        Outcome::Failed(_)
+    ));
+    let mut one_play = nominal.clone();
+    one_play.hysteresis.thresholds.truncate(1);
+    one_play.hysteresis.weights.truncate(1);
+    assert_eq!(recheck(&case(one_play), &halved), Outcome::Skipped);
+}
