@@ -21,11 +21,6 @@ fn input() -> Vec<f64> {
     path(&[0.0, 900.0, -400.0, 600.0], 12)
 }
 
-fn hysteresis_part(mut m: ModelFile) -> ModelFile {
-    (m.creep, m.superposition, m.delay, m.delay_state, m.offset) = (None, None, None, None, None);
-    m
-}
-
 /// `H` alone, as most published code is: a model with any other part is
 /// declined with `ModelError::Unsupported`.
 fn hysteresis_alone(f: &ModelFile) -> Result<Box<dyn ActuatorModel>, ModelError> {
@@ -115,7 +110,7 @@ fn the_reference_is_split_into_its_parts() {
         offset: None,
         ..file.clone()
     };
-    let h = run(&hysteresis_part(file.clone()), &u);
+    let h = run(&file.clone().hysteresis_part(), &u);
     let hc = run(&inner, &u);
     // a candidate off at sample k only
     let mut found = y.clone();
@@ -143,7 +138,7 @@ fn the_reference_is_split_into_its_parts() {
 fn known_mistakes_are_named() {
     let u = input();
     let nominal = nominal_model_file();
-    let h = hysteresis_part(nominal.clone());
+    let h = nominal.clone().hysteresis_part();
     let tol = 1e-9;
     let hints =
         |kind, file: &ModelFile, found: &[f64]| explain(kind, file, &u, None, found, tol).hints;
@@ -240,6 +235,21 @@ fn known_mistakes_are_named() {
     let y = run(&h, &u);
     let inv_halved = reference_run(Kind::InverseHysteresis, &scaled(0.5), &y, None).unwrap();
     let e = explain(Kind::InverseHysteresis, &h, &y, None, &inv_halved, tol);
+    assert_eq!(e.hints, [Hint::ThresholdsHalved]);
+
+    // the inverse with halved thresholds from a state that is no longer
+    // admissible for them: the textbook H⁻¹ (22) of the mistaken H
+    let mut halved_state = with_state.clone();
+    halved_state
+        .hysteresis
+        .thresholds
+        .iter_mut()
+        .for_each(|r| *r *= 0.5);
+    assert!(reference_run(Kind::InverseHysteresis, &halved_state, &y, None).is_none());
+    let mut mistaken = NaiveModel::from_file(&with_state).unwrap().hysteresis;
+    mistaken.r = halved_state.hysteresis.thresholds.clone();
+    let found = mistaken.inverse().run(&y);
+    let e = explain(Kind::InverseHysteresis, &with_state, &y, None, &found, tol);
     assert_eq!(e.hints, [Hint::ThresholdsHalved]);
 
     // the compensator without its creep part

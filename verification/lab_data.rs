@@ -380,6 +380,25 @@ fn an_asymmetric_logger_file_is_fitted_with_and_without_a_superposition_operator
     assert!(rms_asym < 1.25 * sigma, "{rms_asym}");
 }
 
+/// `mfcbeam identify` on `record` with `--validate` for each of `validate`
+/// and the `extra` options; it must succeed. Its report (stderr).
+fn identify_validated(record: &Path, output: &Path, validate: &[&Path], extra: &[&str]) -> String {
+    let mut command = Command::new(bin());
+    command
+        .args(["identify", "--input"])
+        .arg(record)
+        .arg("--output")
+        .arg(output);
+    for v in validate {
+        command.arg("--validate").arg(v);
+    }
+    let out = command.args(extra).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(out.status.success(), "{err}");
+    eprintln!("{err}");
+    err
+}
+
 /// [`ringing_record`] written as a logger file (`t`, `u`, `y`) at `path`.
 fn write_ringing_record(
     truth: &HysteresisCreepModel,
@@ -446,24 +465,8 @@ fn a_ringing_start_is_reported_and_skipped_and_records_at_several_rates_are_tabl
         write("r40.csv", 40.0, 2),
         write("r100.csv", 100.0, 3),
     );
-    let identify = |extra: &[&str]| -> String {
-        let out = Command::new(bin())
-            .args(["identify", "--input"])
-            .arg(&r20)
-            .arg("--output")
-            .arg(d.0.join("m.json"))
-            .arg("--validate")
-            .arg(&r40)
-            .arg("--validate")
-            .arg(&r100)
-            .args(extra)
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr).to_string();
-        assert!(out.status.success(), "{err}");
-        eprintln!("{err}");
-        err
-    };
+    let identify =
+        |extra: &[&str]| identify_validated(&r20, &d.0.join("m.json"), &[&r40, &r100], extra);
     let whole = identify(&[]);
     assert!(whole.contains("a start transient"), "{whole}");
     let skipped = identify(&["--fit-from", "0.1s"]);
@@ -523,24 +526,22 @@ fn a_dead_time_is_found_by_faster_records_and_every_record_is_tabled() {
         write("delayed40.csv", 40.0, 12),
         write("delayed100.csv", 100.0, 13),
     );
-    let identify = |delay: &str| -> String {
-        let out = Command::new(bin())
-            .args(["identify", "--input"])
-            .arg(&r20)
-            .arg("--output")
-            .arg(dir.join(format!("delay-{delay}.json")))
-            .args(["--fit-from", "0.1s", "--superposition", "4"])
-            .args(["--creep-operators", "0", "--delay", delay])
-            .arg("--validate")
-            .arg(&r40)
-            .arg("--validate")
-            .arg(&r100)
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr).to_string();
-        assert!(out.status.success(), "{err}");
-        eprintln!("{err}");
-        err
+    let identify = |delay: &str| {
+        identify_validated(
+            &r20,
+            &dir.join(format!("delay-{delay}.json")),
+            &[&r40, &r100],
+            &[
+                "--fit-from",
+                "0.1s",
+                "--superposition",
+                "4",
+                "--creep-operators",
+                "0",
+                "--delay",
+                delay,
+            ],
+        )
     };
     // the validation table's rms column (V), fitted record first
     let table = |report: &str| -> Vec<f64> {

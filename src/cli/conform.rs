@@ -163,13 +163,7 @@ fn input_column(kind: ConformKind) -> &'static str {
 /// it implements part of the model, and cases with the rest are skipped.
 fn smoke_test(candidate: &ExternalCandidate, kind: ConformKind) -> Result<()> {
     let file = nominal_model_file();
-    let h = Case {
-        model: file.clone(),
-        input: Vec::new(),
-        limits: None,
-    }
-    .hysteresis_part()
-    .model;
+    let h = file.clone().hysteresis_part();
     let input: Vec<f64> = (0..50).map(|k| 10.0 * k as f64).collect();
     let run = |m: &ModelFile| match kind {
         ConformKind::Model | ConformKind::Hysteresis => candidate.simulate(m, &input),

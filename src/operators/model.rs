@@ -79,6 +79,19 @@ pub struct ModelFile {
 }
 
 impl ModelFile {
+    /// The hysteresis part `H` alone, with its state: no creep, no
+    /// superposition operator, no dead time, no offset.
+    pub fn hysteresis_part(mut self) -> Self {
+        (
+            self.creep,
+            self.superposition,
+            self.delay,
+            self.delay_state,
+            self.offset,
+        ) = (None, None, None, None, None);
+        self
+    }
+
     /// The same model without `state` entries (virgin).
     pub fn without_state(mut self) -> Self {
         self.hysteresis.state = None;

@@ -54,10 +54,7 @@ pub fn compensator_properties<'a>() -> Properties<CompensatorFactory<'a>> {
 }
 
 fn settings_of(case: &Case) -> CompensatorSettings {
-    match case.limits {
-        Some((lo, hi)) => CompensatorSettings::with_limits(lo, hi),
-        None => CompensatorSettings::unlimited(),
-    }
+    super::limit_settings(case.limits)
 }
 
 fn build(
@@ -100,11 +97,7 @@ fn voltage_case(rng: &mut Rng, s: &ConformanceSettings, i: usize) -> Case {
         input,
         limits: None,
     };
-    if i == 0 {
-        with_every_part(rng, case)
-    } else {
-        case
-    }
+    with_every_part(rng, i, case)
 }
 
 /// `S` alone ([`superposition_model`]) and random arguments `z`.

@@ -11,13 +11,12 @@
 //! ignored, the first sample skipped, … — or differs from the reference at
 //! the first sample only.
 
-use crate::operators::compensator::CompensatorSettings;
-use crate::operators::model::ModelFile;
-use crate::operators::traits::{ActuatorCompensator, Operator};
-use crate::realtime::preview;
-use crate::suite::reference::{naive_inverse_hysteresis, NaiveCompensator, NaiveModel};
-
+use super::{limit_settings, reference_compensator, reference_inverse_hysteresis, reference_model};
 use crate::io::format_f64;
+use crate::operators::model::ModelFile;
+use crate::operators::traits::Operator;
+use crate::realtime::preview;
+use crate::suite::reference::NaiveModel;
 
 /// Which operator a candidate implements (the hysteresis-only kind is a
 /// [`Kind::Model`] whose files hold `H` alone).
@@ -120,8 +119,9 @@ impl Explanation {
     }
 }
 
-/// The reference output of `kind` on `file` and `input` (`None` when the
-/// changed file is no valid model).
+/// The reference output of `kind` on `file` and `input`: the naive
+/// references of [`crate::suite::reference`] (`None` when the file is no
+/// valid model).
 pub fn reference_run(
     kind: Kind,
     file: &ModelFile,
@@ -129,14 +129,10 @@ pub fn reference_run(
     limits: Option<(f64, f64)>,
 ) -> Option<Vec<f64>> {
     match kind {
-        Kind::Model => Some(NaiveModel::from_file(file).ok()?.run(input)),
-        Kind::InverseHysteresis => Some(naive_inverse_hysteresis(file).ok()?.run(input)),
+        Kind::Model => Some(reference_model(file).ok()?.run(input)),
+        Kind::InverseHysteresis => Some(reference_inverse_hysteresis(file).ok()?.run(input)),
         Kind::Compensator => {
-            let settings = match limits {
-                Some((lo, hi)) => CompensatorSettings::with_limits(lo, hi),
-                None => CompensatorSettings::unlimited(),
-            };
-            let mut c = NaiveCompensator::from_file(file, settings).ok()?;
+            let mut c = reference_compensator(file, limit_settings(limits)).ok()?;
             Some(c.compensate_all(input).iter().map(|c| c.u).collect())
         }
     }
@@ -179,17 +175,13 @@ pub fn explain(
     };
     for (changed, hint) in variants(kind, file) {
         let v = reference_run(kind, &changed, input, limits)
-            .or_else(|| unchecked_thresholds(kind, file, &changed, input, &reference));
+            .or_else(|| unchecked_thresholds(kind, file, &changed, input));
         if v.is_some_and(|v| v.len() == n && (0..n).all(|k| !off(&v, k))) {
             e.hints.push(hint);
         }
     }
-    if kind != Kind::Compensator && file.creep.is_none() {
-        if let Some(v) = skipped_first(kind, file, input) {
-            if (0..n).all(|k| !off(&v, k)) {
-                e.hints.push(Hint::FirstInputSkipped);
-            }
-        }
+    if skipped_first(kind, file, input).is_some_and(|v| (0..n).all(|k| !off(&v, k))) {
+        e.hints.push(Hint::FirstInputSkipped);
     }
     // the generic first-sample hint only where nothing more precise matched
     if e.hints.is_empty() && first == 0 && (1..n).all(|k| !off(&reference, k)) {
@@ -241,76 +233,48 @@ fn variants(kind: Kind, file: &ModelFile) -> Vec<(ModelFile, Hint)> {
     out
 }
 
-/// `W` with the hysteresis thresholds of `changed` where the file's state
-/// is no admissible state for them (a state matched to thresholds `r` need
-/// not be one for `r/2`, but a candidate with that mistake runs from it
-/// all the same): `W − H + H'`, with `H'` the plain sum of plays, for a
-/// model without `S` and dead time.
+/// The reference with the hysteresis thresholds of `changed`, where the
+/// file's state is no admissible state for them (a state matched to `r`
+/// need not be one for `r/2`, but a candidate with that mistake runs from
+/// it all the same): the naive reference built from `file`, its thresholds
+/// then replaced (its fields are public and unchecked). `H⁻¹` is the
+/// inverse (22) of that `H`; a compensator has no such fallback.
 fn unchecked_thresholds(
     kind: Kind,
     file: &ModelFile,
     changed: &ModelFile,
     input: &[f64],
-    reference: &[f64],
 ) -> Option<Vec<f64>> {
-    if kind != Kind::Model
+    let mut model = NaiveModel::from_file(file).ok()?;
+    model.hysteresis.r = changed.hysteresis.thresholds.clone();
+    match kind {
+        Kind::Model => Some(model.run(input)),
+        Kind::InverseHysteresis => Some(model.hysteresis.inverse().run(input)),
+        Kind::Compensator => None,
+    }
+}
+
+/// `H` (or `H⁻¹`, plus the offset) with the first input not passed through
+/// the plays: sample 0 reports the output of the initial state, `Σ w_i x_i`,
+/// and the rest continues from that state. `None` for a model with creep,
+/// `S` or a dead time.
+fn skipped_first(kind: Kind, file: &ModelFile, input: &[f64]) -> Option<Vec<f64>> {
+    if input.is_empty()
+        || file.creep.is_some()
         || file.superposition.is_some()
-        || file.delay.is_some_and(|d| d > 0)
-        || changed.hysteresis.thresholds == file.hysteresis.thresholds
+        || file.delay.unwrap_or(0) > 0
     {
         return None;
     }
-    let plays = |r: &[f64]| {
-        let h = &file.hysteresis;
-        let mut z = h.state.clone().unwrap_or_else(|| vec![0.0; r.len()]);
-        input
-            .iter()
-            .map(|&u| {
-                z.iter_mut()
-                    .zip(r)
-                    .zip(&h.weights)
-                    .map(|((z, r), w)| {
-                        *z = z.clamp(u - r, u + r);
-                        w * *z
-                    })
-                    .sum::<f64>()
-            })
-            .collect::<Vec<f64>>()
+    let model = NaiveModel::from_file(file).ok()?;
+    let (mut h, offset) = match kind {
+        Kind::Model => (model.hysteresis, model.offset),
+        Kind::InverseHysteresis => (model.hysteresis.inverse(), 0.0),
+        Kind::Compensator => return None,
     };
-    let (h, h_changed) = (
-        plays(&file.hysteresis.thresholds),
-        plays(&changed.hysteresis.thresholds),
-    );
-    Some(
-        reference
-            .iter()
-            .zip(h.iter().zip(&h_changed))
-            .map(|(w, (h, hc))| w - h + hc)
-            .collect(),
-    )
-}
-
-/// `H` (or `H⁻¹`) with the first input not passed through the plays: sample
-/// 0 reports the initial state, the rest continues from it.
-fn skipped_first(kind: Kind, file: &ModelFile, input: &[f64]) -> Option<Vec<f64>> {
-    if input.is_empty() {
-        return None;
-    }
-    let h = &file.hysteresis;
-    let initial: f64 = match &h.state {
-        Some(s) => h.weights.iter().zip(s).map(|(w, z)| w * z).sum(),
-        None => 0.0,
-    };
-    let mut out = vec![match kind {
-        Kind::Model => initial + file.offset.unwrap_or(0.0),
-        // the inverse's initial output is the input's state before the first sample
-        _ => naive_inverse_hysteresis(file)
-            .ok()?
-            .run(&[initial])
-            .first()
-            .copied()?,
-    }];
-    out.extend(reference_run(kind, file, &input[1..], None)?);
+    let initial: f64 = h.w.iter().zip(&h.x).map(|(w, x)| w * x).sum();
+    let mut out = vec![initial + offset];
+    out.extend(h.run(&input[1..]).iter().map(|y| y + offset));
     Some(out)
 }
 

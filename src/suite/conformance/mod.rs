@@ -188,12 +188,19 @@ pub struct Case {
 }
 
 impl Case {
-    /// The case with its model reduced to the hysteresis part `H`.
+    /// The case with its model reduced to the hysteresis part `H`
+    /// ([`ModelFile::hysteresis_part`]).
     pub fn hysteresis_part(mut self) -> Self {
-        let m = &mut self.model;
-        (m.creep, m.superposition, m.delay, m.delay_state, m.offset) =
-            (None, None, None, None, None);
+        self.model = self.model.hysteresis_part();
         self
+    }
+}
+
+/// The compensator settings of a case's limits (`None`: unlimited).
+pub(crate) fn limit_settings(limits: Option<(f64, f64)>) -> CompensatorSettings {
+    match limits {
+        Some((lo, hi)) => CompensatorSettings::with_limits(lo, hi),
+        None => CompensatorSettings::unlimited(),
     }
 }
 

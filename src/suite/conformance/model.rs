@@ -89,11 +89,7 @@ fn superposition_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case 
 
 fn any_case(rng: &mut Rng, s: &ConformanceSettings, i: usize) -> Case {
     let case = signal_case(rng, s, ModelShape::Any);
-    if i == 0 {
-        with_every_part(rng, case)
-    } else {
-        case
-    }
+    with_every_part(rng, i, case)
 }
 
 fn virgin_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
@@ -533,9 +529,8 @@ fn intersection(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) ->
     };
     // the premise, on the reference: its branches cross (a model shrunk to
     // one play, say, has none that do)
-    let reference =
-        |signal: &[f64]| -> Result<Vec<f64>, Outcome> { Ok(reference(case).run(signal)) };
-    match intersection_slopes(case, reference, tol) {
+    let naive = |signal: &[f64]| -> Result<Vec<f64>, Outcome> { Ok(reference(case).run(signal)) };
+    match intersection_slopes(case, naive, tol) {
         Ok(slopes) if merging(&slopes).is_none() => {}
         _ => return Outcome::Skipped,
     }
