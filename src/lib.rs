@@ -100,6 +100,8 @@ pub mod suite;
 pub mod beam;
 #[cfg(feature = "feedforward")]
 pub mod feedforward;
+#[cfg(feature = "fmi")]
+pub mod fmi;
 #[cfg(feature = "identification")]
 pub mod identification;
 

@@ -211,6 +211,29 @@ impl DiscreteBeam {
         }
     }
 
+    /// Output of the current state without advancing (the same sum, in the
+    /// same order, as [`step`](DiscreteBeam::step) returns).
+    #[inline]
+    pub fn output(&self) -> f64 {
+        let mut y = 0.0;
+        for j in 0..self.z_re.len() {
+            y += self.out_re[j] * self.z_re[j] - self.out_im[j] * self.z_im[j];
+        }
+        y
+    }
+
+    /// The state in the decoupled complex modal coordinates: real and
+    /// imaginary parts of `z_j`, one per mode (the output is
+    /// `Σ_j Re(c_j z_j)` with `c_j` the mode's output weight).
+    pub fn modal_state(&self) -> (&[f64], &[f64]) {
+        (&self.z_re, &self.z_im)
+    }
+
+    /// Number of modes (entries of [`modal_state`](DiscreteBeam::modal_state)).
+    pub fn modes(&self) -> usize {
+        self.z_re.len()
+    }
+
     /// Output `y_k` of the current state, then advance with `u_k`.
     /// Allocation-free.
     #[inline]

@@ -54,6 +54,11 @@ pub enum Command {
     Conform(ConformArgs),
     /// Compare a candidate trace from any implementation with a golden trace.
     Verify(VerifyArgs),
+    /// Build an FMU (FMI 2.0 or 3.0 Co-Simulation, Linux x86-64) of the
+    /// compensator, the actuator model or the plant (actuator and beam)
+    /// from a model file (and a beam file), for Simulink, OpenModelica,
+    /// Dymola and FMPy.
+    Fmu(FmuArgs),
     /// Write the nominal model of the paper (reconstructed) (virgin state) as a model file.
     Nominal(NominalArgs),
     /// Write a test signal (a smooth staircase) as a trace with columns `t` and the chosen name.
@@ -263,9 +268,29 @@ pub struct ConformArgs {
     pub kind: ConformKind,
     /// The candidate's command line, e.g. 'mfcbeam simulate' or
     /// 'python3 my_model.py'; it is run as `CMD ARGS… --model M.json --input
-    /// IN.csv --output OUT.csv`, a compensator also with `--limits=LO,HI`.
-    #[arg(long, value_name = "CMD ARGS…", allow_hyphen_values = true)]
-    pub exec: String,
+    /// IN.csv --output OUT.csv`, a compensator also with `--limits=LO,HI`
+    /// (with --model: without `--model M.json`).
+    #[arg(
+        long,
+        value_name = "CMD ARGS…",
+        allow_hyphen_values = true,
+        required_unless_present = "fmu",
+        conflicts_with = "fmu"
+    )]
+    pub exec: Option<String>,
+    /// An FMU (FMI 2.0 or 3.0 Co-Simulation) to check instead of a
+    /// command; it implements the model given with --model.
+    #[arg(long, value_name = "X.fmu", requires = "model")]
+    pub fmu: Option<PathBuf>,
+    /// The fixed mode: the candidate implements this one model (its
+    /// parameters compiled in) and reads no model file. Only properties
+    /// that vary the input run; the report lists the others.
+    #[arg(long, value_name = "M.json")]
+    pub model: Option<PathBuf>,
+    /// With --fmu: the FMU's name for one of ours, `OURS=THEIRS` (ours:
+    /// u, y, y_d, saturated, fault, u_min, u_max); repeatable.
+    #[arg(long, value_name = "OURS=THEIRS", requires = "fmu")]
+    pub fmu_variable: Vec<String>,
     /// Random cases in all, spread evenly over the properties.
     #[arg(long, default_value_t = 200)]
     pub cases: usize,
@@ -281,6 +306,46 @@ pub struct ConformArgs {
     /// Longest a single run of the candidate may take (s) before it is killed.
     #[arg(long, default_value_t = 20.0, allow_hyphen_values = true)]
     pub timeout: f64,
+}
+
+/// What an FMU contains.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum FmuKindArg {
+    /// The compensator W⁻¹: y_d in; u, saturated, fault out.
+    Compensator,
+    /// The actuator model W: u in, y out.
+    Model,
+    /// The actuator and the beam: u in; tip deflection y, effective voltage v, modal state out (needs --beam).
+    Plant,
+}
+
+#[derive(Debug, Args)]
+pub struct FmuArgs {
+    /// What the FMU contains.
+    #[arg(long, value_enum)]
+    pub kind: FmuKindArg,
+    /// Model file (JSON); it travels inside the FMU.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Beam file (JSON) of the plant; it travels inside the FMU.
+    #[arg(long, required_if_eq("kind", "plant"))]
+    pub beam: Option<PathBuf>,
+    /// Beam discretization (the plant): `modal` (finite elements reduced
+    /// to `basis_functions` modes) or `ritz` (the paper's).
+    #[arg(long, value_enum, default_value_t = ModelKindArg::Modal)]
+    pub beam_model: ModelKindArg,
+    /// Finite elements of the modal model (the plant).
+    #[arg(long, default_value_t = mfcbeam::beam::fe::DEFAULT_ELEMENTS)]
+    pub elements: usize,
+    /// FMI version: 2 (2.0) or 3 (3.0).
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["2", "3"]))]
+    pub fmi: String,
+    /// The FMU to write.
+    #[arg(long)]
+    pub output: PathBuf,
+    /// The mfcbeam-fmu shared library (default: libmfcbeam_fmu.so beside this program, as `cargo build -p mfcbeam-fmu` puts it).
+    #[arg(long)]
+    pub library: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -337,11 +402,14 @@ pub struct BeamModelArgs {
 
 impl BeamModelArgs {
     pub fn kind(&self) -> BeamModelKind {
-        match self.beam_model {
+        Self::kind_of(self.beam_model, self.elements)
+    }
+
+    /// The discretization named by `--beam-model` and `--elements`.
+    pub fn kind_of(beam_model: ModelKindArg, elements: usize) -> BeamModelKind {
+        match beam_model {
             ModelKindArg::Ritz => BeamModelKind::Ritz,
-            ModelKindArg::Modal => BeamModelKind::Modal {
-                elements: self.elements,
-            },
+            ModelKindArg::Modal => BeamModelKind::Modal { elements },
         }
     }
 }

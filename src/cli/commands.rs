@@ -37,6 +37,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Golden(a) => golden(&a),
         Command::Conform(a) => super::conform::conform(&a),
         Command::Verify(a) => verify(&a),
+        Command::Fmu(a) => super::fmu::fmu(&a),
         Command::Nominal(a) => nominal(&a),
         Command::Signal(a) => signal(&a),
     }

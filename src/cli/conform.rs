@@ -19,7 +19,7 @@ use mfcbeam::suite::conformance::external::{
     ExternalModel, WIDE_LIMITS,
 };
 use mfcbeam::suite::conformance::{
-    compensator_properties, inverse_hysteresis_properties, model_properties, Case,
+    compensator_properties, fixed, inverse_hysteresis_properties, model_properties, Case,
     ConformanceSettings, Counterexample, Outcome,
 };
 
@@ -30,16 +30,33 @@ use super::args::{ConformArgs, ConformKind};
 const EXTERNAL_SHRINK_BUDGET: usize = 300;
 
 pub fn conform(a: &ConformArgs) -> Result<()> {
+    // the fixed mode: the model the candidate claims to be (for the kinds
+    // of H and H⁻¹ its hysteresis part)
+    let hysteresis_kind = matches!(
+        a.kind,
+        ConformKind::Hysteresis | ConformKind::InverseHysteresis
+    );
+    let fixed_model = match &a.model {
+        Some(path) => {
+            let file = mfcbeam::io::read_model_file(path)?;
+            HysteresisCreepModel::from_file(&file)
+                .with_context(|| format!("--model {}", path.display()))?;
+            Some(if hysteresis_kind {
+                file.hysteresis_part()
+            } else {
+                file
+            })
+        }
+        None => None,
+    };
     let settings = ConformanceSettings {
         cases: a.cases,
         seed: a.seed,
         tolerance_scale: a.tolerance_scale,
         shrink_budget: EXTERNAL_SHRINK_BUDGET,
         // a kind's model files hold only what the kind implements
-        hysteresis_only: matches!(
-            a.kind,
-            ConformKind::Hysteresis | ConformKind::InverseHysteresis
-        ),
+        hysteresis_only: hysteresis_kind,
+        fixed_model: fixed_model.clone(),
         ..ConformanceSettings::default()
     };
     // the library's checks, named as the options are
@@ -52,39 +69,45 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
             a.timeout
         );
     }
-    let candidate = Arc::new(
-        ExternalCandidate::new(&a.exec, Duration::from_secs_f64(a.timeout))
-            .with_context(|| format!("--exec '{}'", a.exec))?,
-    );
-    smoke_test(&candidate, a.kind).with_context(|| {
-        format!(
-            "--exec '{}': the candidate is unusable on a first, simple case",
-            a.exec
-        )
+    if let Some(fmu) = &a.fmu {
+        return super::fmu::conform_fmu(a, fmu, settings);
+    }
+    let exec = a.exec.as_deref().unwrap_or_default();
+    let mut candidate = ExternalCandidate::new(exec, Duration::from_secs_f64(a.timeout))
+        .with_context(|| format!("--exec '{exec}'"))?;
+    if fixed_model.is_some() {
+        candidate = candidate.fixed();
+    }
+    let candidate = Arc::new(candidate);
+    smoke_test(&candidate, a.kind, fixed_model.as_ref()).with_context(|| {
+        format!("--exec '{exec}': the candidate is unusable on a first, simple case")
     })?;
 
-    let settings = settings.spread(
-        a.cases,
-        match a.kind {
-            ConformKind::Model | ConformKind::Hysteresis => model_properties().len(),
-            ConformKind::Compensator => compensator_properties().len(),
-            ConformKind::InverseHysteresis => inverse_hysteresis_properties().len(),
-        },
-    );
+    let settings = settings.spread(a.cases, properties_count(a.kind));
     let start = Instant::now();
     let progress = Progress::start(&candidate);
+    // a fixed candidate is built for its model only; every other is declined
+    let fixed_ok = |f: &ModelFile| match &fixed_model {
+        Some(m) if m != f => Err(ModelError::Unsupported {
+            part: fixed::OTHER_MODEL.into(),
+        }),
+        _ => Ok(()),
+    };
     let cand = candidate.clone();
     let model_factory = move |f: &ModelFile| -> Result<Box<dyn ActuatorModel>, ModelError> {
+        fixed_ok(f)?;
         Ok(Box::new(ExternalModel::new(cand.clone(), f)))
     };
     let cand = candidate.clone();
     let compensator_factory = move |f: &ModelFile,
                                     s: CompensatorSettings|
           -> Result<Box<dyn ActuatorCompensator>, ModelError> {
+        fixed_ok(f)?;
         Ok(Box::new(ExternalCompensator::new(cand.clone(), f, s)))
     };
     let cand = candidate.clone();
     let inverse_factory = move |f: &ModelFile| -> Result<Box<dyn InverseHysteresis>, ModelError> {
+        fixed_ok(f)?;
         Ok(Box::new(ExternalInverseHysteresis::new(cand.clone(), f)))
     };
     let report = match a.kind {
@@ -148,7 +171,7 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
 }
 
 /// The input column of a kind's traces.
-fn input_column(kind: ConformKind) -> &'static str {
+pub(super) fn input_column(kind: ConformKind) -> &'static str {
     match kind {
         ConformKind::Model | ConformKind::Hysteresis => "u",
         ConformKind::Compensator => "y_d",
@@ -161,8 +184,12 @@ fn input_column(kind: ConformKind) -> &'static str {
 /// and writes finite numbers in the expected columns. A candidate that
 /// declines the nominal model (exit code 3) is tried on its hysteresis part:
 /// it implements part of the model, and cases with the rest are skipped.
-fn smoke_test(candidate: &ExternalCandidate, kind: ConformKind) -> Result<()> {
-    let file = nominal_model_file();
+fn smoke_test(
+    candidate: &ExternalCandidate,
+    kind: ConformKind,
+    fixed: Option<&ModelFile>,
+) -> Result<()> {
+    let file = fixed.cloned().unwrap_or_else(nominal_model_file);
     let h = file.clone().hysteresis_part();
     let input: Vec<f64> = (0..50).map(|k| 10.0 * k as f64).collect();
     let run = |m: &ModelFile| match kind {
@@ -193,7 +220,7 @@ fn smoke_test(candidate: &ExternalCandidate, kind: ConformKind) -> Result<()> {
 }
 
 /// The reference the explanations compare with.
-fn explain_kind(kind: ConformKind) -> Kind {
+pub(super) fn explain_kind(kind: ConformKind) -> Kind {
     match kind {
         ConformKind::Model | ConformKind::Hysteresis => Kind::Model,
         ConformKind::Compensator => Kind::Compensator,
@@ -202,7 +229,7 @@ fn explain_kind(kind: ConformKind) -> Kind {
 }
 
 /// The output column of a kind's traces.
-fn output_column(kind: ConformKind) -> &'static str {
+pub(super) fn output_column(kind: ConformKind) -> &'static str {
     match kind {
         ConformKind::Model | ConformKind::Hysteresis => "y",
         ConformKind::Compensator | ConformKind::InverseHysteresis => "u",
@@ -435,7 +462,7 @@ fn write_command(
         .map(|w| quote(&absolute(w)))
         .collect();
     words.extend(ExternalCandidate::file_arguments(
-        Path::new("model.json"),
+        (!candidate.is_fixed()).then_some(Path::new("model.json")),
         Path::new("input.csv"),
         Path::new("candidate.csv"),
         limits,
@@ -445,6 +472,15 @@ fn write_command(
         format!("{}\n", words.join(" ")).as_bytes(),
     )?;
     Ok(())
+}
+
+/// How many properties a kind has.
+pub(super) fn properties_count(kind: ConformKind) -> usize {
+    match kind {
+        ConformKind::Model | ConformKind::Hysteresis => model_properties().len(),
+        ConformKind::Compensator => compensator_properties().len(),
+        ConformKind::InverseHysteresis => inverse_hysteresis_properties().len(),
+    }
 }
 
 /// A progress line on stderr while the candidate runs (hidden when stderr is

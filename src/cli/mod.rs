@@ -5,6 +5,7 @@
 pub mod args;
 pub mod commands;
 pub mod conform;
+pub mod fmu;
 
 pub use args::Cli;
 pub use commands::run;

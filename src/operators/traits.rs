@@ -20,6 +20,17 @@
 
 use crate::error::{DimensionError, ModelError};
 
+/// A state saved by an implementation that can save and restore itself as
+/// a whole (an FMU through its state functions), opaque to everybody else:
+/// only the object that saved it can restore it.
+pub struct SavedState(pub Box<dyn std::any::Any + Send>);
+
+impl std::fmt::Debug for SavedState {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("SavedState(..)")
+    }
+}
+
 /// A causal time-discrete operator `v ↦ y`, one sample at a time.
 pub trait Operator {
     /// Process one sample. Allocates nothing and does no I/O.
@@ -46,6 +57,20 @@ pub trait Operator {
     /// Process a whole signal and return the output.
     fn run(&mut self, input: &[f64]) -> Vec<f64> {
         input.iter().map(|&v| self.step(v)).collect()
+    }
+
+    /// Save the whole state, for an implementation that cannot be started
+    /// from a model file's state (a fixed implementation, an FMU); `None`
+    /// when it cannot save. The conformance checks of a fixed
+    /// implementation split and resume through this.
+    fn save_state(&mut self) -> Option<SavedState> {
+        None
+    }
+
+    /// Restore a state [`save_state`](Operator::save_state) returned;
+    /// false if it cannot.
+    fn restore_state(&mut self, _state: &SavedState) -> bool {
+        false
     }
 }
 
@@ -97,6 +122,16 @@ pub trait ActuatorCompensator {
     /// The model's dead time `d` (samples) that `compensate_all` previews.
     fn delay(&self) -> usize {
         0
+    }
+
+    /// As [`Operator::save_state`].
+    fn save_state(&mut self) -> Option<SavedState> {
+        None
+    }
+
+    /// As [`Operator::restore_state`].
+    fn restore_state(&mut self, _state: &SavedState) -> bool {
+        false
     }
 
     /// Compensate a whole signal, previewed by the dead time.

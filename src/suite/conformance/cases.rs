@@ -123,6 +123,19 @@ pub fn random_model(rng: &mut Rng, max_plays: usize, shape: ModelShape) -> Model
     file
 }
 
+/// The model of a case: in the fixed mode the fixed model, else a random
+/// one of `shape` ([`random_model`]).
+pub fn case_model(
+    rng: &mut Rng,
+    settings: &super::ConformanceSettings,
+    shape: ModelShape,
+) -> ModelFile {
+    match &settings.fixed_model {
+        Some(m) => m.clone(),
+        None => random_model(rng, settings.max_plays, shape),
+    }
+}
+
 /// Case `i` of a property on general models; the first one (`i = 0`) with a
 /// superposition operator, an offset and a dead time where the draw left
 /// them out, and an input long enough for the dead time to show. A run of a

@@ -153,6 +153,9 @@ pub struct ExternalCandidate {
     pub runs: AtomicUsize,
     log: Mutex<Vec<Invocation>>,
     first_error: Mutex<Option<ExternalError>>,
+    /// The fixed mode: the candidate implements one model and is run
+    /// without `--model`.
+    fixed: bool,
 }
 
 impl ExternalCandidate {
@@ -185,7 +188,21 @@ impl ExternalCandidate {
             runs: AtomicUsize::new(0),
             log: Mutex::new(Vec::new()),
             first_error: Mutex::new(None),
+            fixed: false,
         })
+    }
+
+    /// The fixed mode: the candidate implements one model, compiled in,
+    /// and is run without `--model` (the model file is still written
+    /// beside the input, for the record).
+    pub fn fixed(mut self) -> Self {
+        self.fixed = true;
+        self
+    }
+
+    /// Whether the candidate runs without `--model`.
+    pub fn is_fixed(&self) -> bool {
+        self.fixed
     }
 
     /// The command words.
@@ -220,21 +237,24 @@ impl ExternalCandidate {
         }
     }
 
-    /// The arguments after `CMD ARGS…` for a run.
+    /// The arguments after `CMD ARGS…` for a run (no `--model` for a
+    /// fixed candidate: `model` is `None`).
     pub fn file_arguments(
-        model: &Path,
+        model: Option<&Path>,
         input: &Path,
         output: &Path,
         limits: Option<(f64, f64)>,
     ) -> Vec<String> {
-        let mut args = vec![
-            "--model".to_string(),
-            model.display().to_string(),
+        let mut args = Vec::new();
+        if let Some(model) = model {
+            args.extend(["--model".to_string(), model.display().to_string()]);
+        }
+        args.extend([
             "--input".to_string(),
             input.display().to_string(),
             "--output".to_string(),
             output.display().to_string(),
-        ];
+        ]);
         if let Some((lo, hi)) = limits {
             args.push(format!("--limits={},{}", format_f64(lo), format_f64(hi)));
         }
@@ -274,7 +294,12 @@ impl ExternalCandidate {
         self.runs.fetch_add(1, Ordering::Relaxed);
         let mut child = Command::new(&self.words[0])
             .args(&self.words[1..])
-            .args(Self::file_arguments(&m, &i, &o, limits))
+            .args(Self::file_arguments(
+                (!self.fixed).then_some(m.as_path()),
+                &i,
+                &o,
+                limits,
+            ))
             .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(stderr)

@@ -5,7 +5,7 @@
 
 use super::candidate;
 use super::cases::{
-    input_length, random_input, random_model, reach, refine, with_state_after, ModelShape, Rng,
+    case_model, input_length, random_input, reach, refine, with_state_after, ModelShape, Rng,
 };
 use super::{compare, refused, tolerance, two, Case, ConformanceReport, ConformanceSettings};
 use super::{InverseHysteresisFactory, Outcome, Properties, Property};
@@ -88,9 +88,9 @@ fn max_abs(x: &[f64]) -> f64 {
 }
 
 fn hysteresis_only(rng: &mut Rng, s: &ConformanceSettings, virgin: bool) -> Case {
-    let mut model = random_model(rng, s.max_plays, ModelShape::HysteresisOnly);
+    let mut model = case_model(rng, s, ModelShape::HysteresisOnly);
     let r = reach(&model);
-    if !virgin && rng.chance(0.5) {
+    if !virgin && s.fixed_model.is_none() && rng.chance(0.5) {
         let len = rng.int(1, 60);
         let history = random_input(rng, len, 1.2 * r);
         model = with_state_after(&model, &history);
@@ -207,6 +207,11 @@ fn split_and_resume(
     factory: &InverseHysteresisFactory,
     s: &ConformanceSettings,
 ) -> Outcome {
+    if s.fixed_model.is_some() {
+        let y = forward(case).run(&case.input);
+        let tol = 2.0 * s.tolerance_scale * y_bound(case, &y, &case.input);
+        return super::fixed::resume_from_saved(&y, || factory(&case.model), tol);
+    }
     if case.input.len() < 2 {
         return Outcome::Skipped;
     }

@@ -44,6 +44,7 @@ pub mod explain;
 #[cfg(feature = "suite")]
 pub mod external;
 mod factories;
+pub mod fixed;
 mod inverse_hysteresis;
 mod model;
 mod runner;
@@ -57,9 +58,9 @@ use crate::operators::model::{HysteresisCreepModel, ModelFile};
 use crate::operators::traits::{ActuatorCompensator, ActuatorModel, InverseHysteresis};
 
 pub use cases::{
-    input_length, nested_extrema, path, random_input, random_model, random_superposition, refine,
-    segment, superposition_is_odd, superposition_model, with_every_part, with_state_after,
-    ModelShape, Rng,
+    case_model, input_length, nested_extrema, path, random_input, random_model,
+    random_superposition, refine, segment, superposition_is_odd, superposition_model,
+    with_every_part, with_state_after, ModelShape, Rng,
 };
 pub use compensator::{check_compensator, compensator_properties};
 pub use factories::*;
@@ -111,6 +112,11 @@ pub struct ConformanceSettings {
     /// implementation of `H` alone, as most published PI code is (default
     /// false). Properties that need a part then skip.
     pub hysteresis_only: bool,
+    /// The fixed mode ([`fixed`]): the one model the candidate implements
+    /// (default `None`: random models). Every case uses it; properties
+    /// that need other models do not run, and split and resume goes
+    /// through the candidate's own save and restore.
+    pub fixed_model: Option<ModelFile>,
 }
 
 impl Default for ConformanceSettings {
@@ -125,6 +131,7 @@ impl Default for ConformanceSettings {
             shrink_budget: 1500,
             exact: false,
             hysteresis_only: false,
+            fixed_model: None,
         }
     }
 }
@@ -172,6 +179,9 @@ impl ConformanceSettings {
         }
         if self.max_samples < 4 {
             return bad("max_samples", "must be at least 4".into());
+        }
+        if let Some(m) = &self.fixed_model {
+            HysteresisCreepModel::from_file(m)?;
         }
         Ok(())
     }
@@ -435,6 +445,9 @@ pub struct PropertyResult {
     pub tolerance: f64,
     /// The first failure, shrunk.
     pub counterexample: Option<Counterexample>,
+    /// In the fixed mode: why the property cannot run on a fixed model
+    /// (it needs other models); it then ran no case.
+    pub not_on_fixed_model: Option<&'static str>,
 }
 
 impl PropertyResult {
@@ -501,12 +514,24 @@ impl fmt::Display for ConformanceReport {
                 p.worst_error,
                 p.tolerance,
                 match (p.holds(), p.cases, p.skipped) {
+                    _ if p.not_on_fixed_model.is_some() => "cannot run on a fixed model",
                     (true, 0, 0) => "no case met the premise",
                     (true, 0, _) => "not covered: every case skipped",
                     (true, _, _) => "holds",
                     (false, _, _) => "FAILS",
                 }
             )?;
+        }
+        let fixed: Vec<String> = self
+            .properties
+            .iter()
+            .filter_map(|p| {
+                p.not_on_fixed_model
+                    .map(|why| format!("{} ({why})", p.name))
+            })
+            .collect();
+        if !fixed.is_empty() {
+            writeln!(f, "not on a fixed model: {}", fixed.join(", "))?;
         }
         let (ran, skipped) = self.coverage();
         if skipped > 0 {
@@ -600,6 +625,8 @@ pub(crate) struct Property<F: ?Sized> {
     pub max_cases: usize,
     pub generate: fn(&mut Rng, &ConformanceSettings, usize) -> Case,
     pub check: fn(&Case, &F, &ConformanceSettings) -> Outcome,
+    /// Why the property cannot run on a fixed model (`None`: it can).
+    pub not_on_fixed_model: Option<&'static str>,
 }
 
 impl<F: ?Sized> Property<F> {
@@ -616,6 +643,13 @@ impl<F: ?Sized> Property<F> {
             max_cases,
             generate,
             check,
+            not_on_fixed_model: None,
         }
+    }
+
+    /// The property needs models other than a fixed one, for `why`.
+    pub(crate) fn needs_other_models(mut self, why: &'static str) -> Self {
+        self.not_on_fixed_model = Some(why);
+        self
     }
 }

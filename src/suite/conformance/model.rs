@@ -7,13 +7,15 @@
 
 use super::candidate;
 use super::cases::{
-    input_length, nested_extrema, path, random_input, random_model, reach, refine, segment,
+    case_model, input_length, nested_extrema, path, random_input, reach, refine, segment,
     superposition_is_odd, superposition_model, valid_extrema, with_every_part, with_state_after,
     ModelShape, Rng,
 };
+use super::fixed::resume_from_saved;
 use super::{compare, fail, refused, tolerance, two, Case, ConformanceReport, ConformanceSettings};
 use super::{ModelFactory, Outcome, Properties, Property};
 use crate::error::ModelError;
+use crate::operators::model::ModelFile;
 use crate::operators::nominal::nominal_model_file;
 use crate::operators::traits::{ActuatorModel, Operator};
 use crate::realtime::RoundingBounds;
@@ -40,7 +42,7 @@ pub fn model_properties<'a>() -> Properties<ModelFactory<'a>> {
         p("split_and_resume", "the candidate resumed from the model file's state continues its own whole run (state semantics)", usize::MAX, any_case, split_and_resume),
         p("rate_independence", "H: samples inserted on monotone segments change nothing at the original samples (7)", usize::MAX, hysteresis_case, rate_independence),
         p("monotonicity", "H: on a monotone input the output moves the same way with slope >= s_min (11)", usize::MAX, hysteresis_case, monotonicity),
-        p("superposition_monotone", "S alone: on an increasing input each output step lies between its smallest and largest slope times the input step", usize::MAX, superposition_case, superposition_monotone),
+        p("superposition_monotone", "S alone: on an increasing input each output step lies between its smallest and largest slope times the input step", usize::MAX, superposition_case, superposition_monotone).needs_other_models("S alone"),
         p("lipschitz", "H: |H[u] - H[v]| <= (sum |w_i|) max |u - v| from one state (10)", usize::MAX, hysteresis_case, lipschitz),
         p("madelung_turning_point", "H: a minor loop wiped out earlier leaves the curve from a turning point unchanged (Madelung i)", usize::MAX, extrema_case, madelung_i),
         p("madelung_return_point", "H: from p1 to p2 and back returns exactly to p1 (Madelung ii, return-point memory)", usize::MAX, extrema_case, madelung_ii),
@@ -69,7 +71,7 @@ fn input_len(rng: &mut Rng, settings: &ConformanceSettings) -> usize {
 
 /// A random model of `shape` and a random input reaching beyond its thresholds.
 fn signal_case(rng: &mut Rng, s: &ConformanceSettings, shape: ModelShape) -> Case {
-    let model = random_model(rng, s.max_plays, shape);
+    let model = case_model(rng, s, shape);
     let n = input_len(rng, s);
     let input = random_input(rng, n, 1.2 * reach(&model));
     Case {
@@ -89,6 +91,9 @@ fn superposition_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case 
 
 fn any_case(rng: &mut Rng, s: &ConformanceSettings, i: usize) -> Case {
     let case = signal_case(rng, s, ModelShape::Any);
+    if s.fixed_model.is_some() {
+        return case;
+    }
     with_every_part(rng, i, case)
 }
 
@@ -101,7 +106,7 @@ fn hysteresis_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
 }
 
 fn extrema_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
-    let model = random_model(rng, s.max_plays, ModelShape::HysteresisOnly);
+    let model = case_model(rng, s, ModelShape::HysteresisOnly);
     let input = nested_extrema(rng, 1.2 * reach(&model));
     Case {
         model,
@@ -134,20 +139,32 @@ pub(crate) fn paper_input(i: usize) -> Vec<f64> {
     }
 }
 
-fn paper_case(_: &mut Rng, _: &ConformanceSettings, i: usize) -> Case {
+/// The nominal model, or in the fixed mode the fixed model, and how much
+/// inputs made for the nominal model are scaled for it (1 for the nominal
+/// model itself).
+pub(crate) fn nominal_or_fixed(s: &ConformanceSettings, nominal: ModelFile) -> (ModelFile, f64) {
+    match &s.fixed_model {
+        Some(m) => (m.clone(), reach(m) / reach(&nominal)),
+        None => (nominal, 1.0),
+    }
+}
+
+fn paper_case(_: &mut Rng, s: &ConformanceSettings, i: usize) -> Case {
+    let (model, scale) = nominal_or_fixed(s, nominal_model_file());
     Case {
-        model: nominal_model_file(),
-        input: paper_input(i),
+        model,
+        input: paper_input(i).iter().map(|v| scale * v).collect(),
         limits: None,
     }
 }
 
-fn nominal_hysteresis_case(_: &mut Rng, _: &ConformanceSettings, _: usize) -> Case {
-    let mut model = nominal_model_file();
-    model.creep = None;
+fn nominal_hysteresis_case(_: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
+    let mut nominal = nominal_model_file();
+    nominal.creep = None;
+    let (model, scale) = nominal_or_fixed(s, nominal);
     Case {
         model,
-        input: vec![200.0, 1000.0, 900.0],
+        input: vec![200.0 * scale, 1000.0 * scale, 900.0 * scale],
         limits: None,
     }
 }
@@ -218,6 +235,10 @@ fn odd_symmetry(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) ->
 /// half): state semantics alone, whatever the candidate's outputs (those
 /// are `agreement`'s).
 fn split_and_resume(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
+    let tol = 2.0 * s.tolerance_scale * tolerance::model(&case.model, max_abs(&case.input));
+    if s.fixed_model.is_some() {
+        return resume_from_saved(&case.input, || factory(&case.model), tol);
+    }
     if case.input.len() < 2 {
         return Outcome::Skipped;
     }
@@ -232,7 +253,6 @@ fn split_and_resume(case: &Case, factory: &ModelFactory, s: &ConformanceSettings
     let mut cand = candidate!(build(factory, &resumed));
     let found = cand.run(&resumed.input);
     // two runs, each within the rounding bound of the exact outputs
-    let tol = 2.0 * s.tolerance_scale * tolerance::model(&case.model, max_abs(&case.input));
     compare(
         &resumed.input,
         &whole[k..],

@@ -64,7 +64,12 @@ fn run_property<F: ?Sized>(
         worst_error: 0.0,
         tolerance: 0.0,
         counterexample: None,
+        not_on_fixed_model: None,
     };
+    if settings.fixed_model.is_some() && p.not_on_fixed_model.is_some() {
+        result.not_on_fixed_model = p.not_on_fixed_model;
+        return result;
+    }
     for i in 0..settings.cases.min(p.max_cases) {
         let case = (p.generate)(&mut rng, settings, i);
         let case = if settings.hysteresis_only {

@@ -1,0 +1,307 @@
+//! `mfcbeam fmu` (package an FMU) and `mfcbeam conform --fmu` (check one
+//! through the conformance properties in the fixed mode).
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+
+use mfcbeam::fmi::import::{
+    bind, Fmu, FmuCandidate, FmuCompensator, FmuInverseHysteresis, FmuModel, ImportKind,
+};
+use mfcbeam::fmi::package::{default_library, FmuPackage, LIBRARY_FILE};
+use mfcbeam::fmi::{FmiVersion, FmuKind};
+use mfcbeam::io::{format_f64, read_beam, read_model_file, write_atomic, Trace};
+use mfcbeam::prelude::*;
+use mfcbeam::suite::conformance::explain::explain;
+use mfcbeam::suite::conformance::external::WIDE_LIMITS;
+use mfcbeam::suite::conformance::{
+    compensator_properties, fixed, inverse_hysteresis_properties, model_properties,
+    ConformanceReport, ConformanceSettings,
+};
+
+use super::args::{ConformArgs, ConformKind, FmuArgs, FmuKindArg};
+use super::conform::{explain_kind, input_column, output_column, properties_count};
+
+pub fn fmu(a: &FmuArgs) -> Result<()> {
+    let model = read_model_file(&a.model)?;
+    let beam = match (&a.beam, a.kind) {
+        (Some(b), FmuKindArg::Plant) => Some(read_beam(b)?),
+        (Some(_), _) => bail!("--beam: only the plant (--kind plant) has a beam"),
+        (None, _) => None,
+    };
+    let library = match &a.library {
+        Some(l) => l.clone(),
+        None => default_library().with_context(|| {
+            format!(
+                "--library: no {LIBRARY_FILE} beside this program; build it with \
+                 `cargo build --release -p mfcbeam-fmu` (or give its path)"
+            )
+        })?,
+    };
+    let package = FmuPackage {
+        kind: match a.kind {
+            FmuKindArg::Compensator => FmuKind::Compensator,
+            FmuKindArg::Model => FmuKind::Model,
+            FmuKindArg::Plant => FmuKind::Plant,
+        },
+        version: if a.fmi == "2" {
+            FmiVersion::Fmi2
+        } else {
+            FmiVersion::Fmi3
+        },
+        model,
+        beam,
+        beam_model: super::args::BeamModelArgs::kind_of(a.beam_model, a.elements),
+        library,
+    };
+    package
+        .write(&a.output)
+        .with_context(|| format!("--output {}", a.output.display()))?;
+    eprintln!(
+        "wrote {} (FMI {}, {})",
+        a.output.display(),
+        package.version.as_str(),
+        package.kind.name()
+    );
+    Ok(())
+}
+
+/// Parse `--fmu-variable OURS=THEIRS`.
+fn variable_map(items: &[String]) -> Result<Vec<(String, String)>> {
+    const OURS: [&str; 7] = ["u", "y", "y_d", "saturated", "fault", "u_min", "u_max"];
+    items
+        .iter()
+        .map(|item| {
+            let Some((ours, theirs)) = item.split_once('=') else {
+                bail!("--fmu-variable '{item}': expected OURS=THEIRS");
+            };
+            if !OURS.contains(&ours) {
+                bail!(
+                    "--fmu-variable '{item}': '{ours}' is none of ours ({})",
+                    OURS.join(", ")
+                );
+            }
+            Ok((ours.to_string(), theirs.to_string()))
+        })
+        .collect()
+}
+
+/// `conform --fmu X.fmu --model M.json`: the FMU is the candidate, fixed
+/// to the model M.
+pub fn conform_fmu(a: &ConformArgs, path: &Path, settings: ConformanceSettings) -> Result<()> {
+    let fixed_model = settings
+        .fixed_model
+        .clone()
+        .context("--fmu needs --model")?;
+    let fmu = Fmu::load(path).with_context(|| format!("--fmu {}", path.display()))?;
+    let import_kind = match a.kind {
+        ConformKind::Model | ConformKind::Hysteresis => ImportKind::Model,
+        ConformKind::Compensator => ImportKind::Compensator,
+        ConformKind::InverseHysteresis => ImportKind::InverseHysteresis,
+    };
+    let map = variable_map(&a.fmu_variable)?;
+    let bindings = bind(&fmu.description, import_kind, &map)
+        .with_context(|| format!("--fmu {}", path.display()))?;
+    if let Some(step) = fmu.description.step_size {
+        let ts = fixed_model.sample_time;
+        if (step - ts).abs() > 1e-9 * ts {
+            eprintln!(
+                "note: the FMU's default step size is {step} s, the model's sample time {ts} s; one step per sample of the model is used"
+            );
+        }
+    }
+    let delay = fixed_model.delay.unwrap_or(0);
+    let candidate = FmuCandidate::new(fmu, bindings, fixed_model.sample_time);
+    smoke_test(&candidate, import_kind)
+        .with_context(|| format!("--fmu {}: unusable on a first, simple case", path.display()))?;
+
+    let settings = settings.spread(a.cases, properties_count(a.kind));
+    let start = Instant::now();
+    let c = candidate.clone();
+    let model_factory = fixed::fixed_model_factory(fixed_model.clone(), move || {
+        let m: Box<dyn ActuatorModel> = Box::new(FmuModel::new(&c).map_err(unsupported)?);
+        Ok(m)
+    });
+    let c = candidate.clone();
+    let compensator_factory =
+        fixed::fixed_compensator_factory(fixed_model.clone(), move |s: CompensatorSettings| {
+            let limits = (
+                s.lower_limit.max(WIDE_LIMITS.0),
+                s.upper_limit.min(WIDE_LIMITS.1),
+            );
+            let m: Box<dyn ActuatorCompensator> =
+                Box::new(FmuCompensator::new(&c, Some(limits), delay).map_err(unsupported)?);
+            Ok(m)
+        });
+    let c = candidate.clone();
+    let inverse_factory = fixed::fixed_inverse_hysteresis_factory(fixed_model.clone(), move || {
+        let m: Box<dyn InverseHysteresis> =
+            Box::new(FmuInverseHysteresis::new(&c).map_err(unsupported)?);
+        Ok(m)
+    });
+    let report = match a.kind {
+        ConformKind::Model | ConformKind::Hysteresis => {
+            model_properties().check(&model_factory, &settings)?
+        }
+        ConformKind::Compensator => {
+            compensator_properties().check(&compensator_factory, &settings)?
+        }
+        ConformKind::InverseHysteresis => {
+            inverse_hysteresis_properties().check(&inverse_factory, &settings)?
+        }
+    };
+    let total: usize = report.properties.iter().map(|p| p.cases).sum();
+    println!("{report}");
+    println!(
+        "{total} cases on the FMU in {:.1} s",
+        start.elapsed().as_secs_f64()
+    );
+    if report.passed() {
+        return Ok(());
+    }
+    if let Some(e) = candidate
+        .first_error
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .clone()
+    {
+        println!("the FMU failed on some run: {e}");
+    }
+    write_counterexamples(a, &candidate, &report, delay)?;
+    std::process::exit(1);
+}
+
+/// An instance that could not be made: the case counts as failed (a
+/// refusal of the model it claims to implement).
+fn unsupported(e: mfcbeam::fmi::import::ImportError) -> ModelError {
+    ModelError::Inconsistent {
+        field: "fmu".into(),
+        reason: e.to_string(),
+    }
+}
+
+/// Fifty samples of a ramp: the FMU instantiates, steps and gives finite
+/// numbers.
+fn smoke_test(candidate: &FmuCandidate, kind: ImportKind) -> Result<()> {
+    let input: Vec<f64> = (0..50).map(|k| 10.0 * k as f64).collect();
+    let out: Vec<f64> = match kind {
+        ImportKind::Model => FmuModel::new(candidate)?.run(&input),
+        ImportKind::InverseHysteresis => FmuInverseHysteresis::new(candidate)?.run(&input),
+        ImportKind::Compensator => FmuCompensator::new(candidate, Some(WIDE_LIMITS), 0)?
+            .compensate_all(&input)
+            .iter()
+            .map(|c| c.u)
+            .collect(),
+    };
+    if let Some(e) = candidate
+        .first_error
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .take()
+    {
+        return Err(e.into());
+    }
+    if let Some(k) = out.iter().position(|v| !v.is_finite()) {
+        bail!("sample {k}: a non-finite output");
+    }
+    Ok(())
+}
+
+/// Each failing property's shrunk case in `OUT/<property>-<case>/`: the
+/// model, the input, the FMU's output from its initial state, what the
+/// property expected, and `failure.txt` with the reference by parts and
+/// the hints.
+fn write_counterexamples(
+    a: &ConformArgs,
+    candidate: &FmuCandidate,
+    report: &ConformanceReport,
+    delay: usize,
+) -> Result<()> {
+    for p in report.failed() {
+        let Some(c) = &p.counterexample else {
+            continue;
+        };
+        let dir = a.out.join(format!("{}-{}", p.name, c.case_index));
+        std::fs::create_dir_all(&dir).with_context(|| dir.display().to_string())?;
+        let f = &c.failure;
+        let signal = &f.signal;
+        // the FMU's whole output on the signal from its initial state
+        let found: Vec<f64> = match a.kind {
+            ConformKind::Model | ConformKind::Hysteresis => FmuModel::new(candidate)?.run(signal),
+            ConformKind::InverseHysteresis => FmuInverseHysteresis::new(candidate)?.run(signal),
+            ConformKind::Compensator => {
+                let limits = c.case.limits.unwrap_or(WIDE_LIMITS);
+                FmuCompensator::new(candidate, Some(limits), delay)?
+                    .compensate_all(signal)
+                    .iter()
+                    .map(|c| c.u)
+                    .collect()
+            }
+        };
+        let model_json = serde_json::to_string_pretty(&c.case.model)?;
+        write_atomic(&dir.join("model.json"), (model_json + "\n").as_bytes())?;
+        let t: Vec<f64> = (0..signal.len())
+            .map(|k| k as f64 * c.case.model.sample_time)
+            .collect();
+        let input_path = dir.join("input.csv");
+        Trace::from_columns(&input_path, &[("t", &t), (input_column(a.kind), signal)])
+            .write(&input_path)?;
+        let out_path = dir.join("candidate.csv");
+        Trace::from_columns(&out_path, &[("t", &t), (output_column(a.kind), &found)])
+            .write(&out_path)?;
+        let n = f.expected.len().min(f.found.len());
+        let exp_path = dir.join("expected.csv");
+        let mut expected = Trace::from_columns(
+            &exp_path,
+            &[("expected", &f.expected[..n]), ("candidate", &f.found[..n])],
+        );
+        expected.push_text_column("compared", (0..n).map(|k| k.to_string()))?;
+        expected.write(&exp_path)?;
+        let explanation = explain(
+            explain_kind(a.kind),
+            &c.case.model,
+            signal,
+            c.case.limits,
+            &found,
+            f.tolerance,
+        );
+        let mut text = vec![
+            format!("property: {}", p.name),
+            p.description.to_string(),
+            f.message.clone(),
+            format!(
+                "compared sample {}: error {}, tolerance {}",
+                f.sample,
+                format_f64(f.error),
+                format_f64(f.tolerance)
+            ),
+            format!(
+                "candidate.csv: the FMU's output on input.csv from its initial state, one doStep of {} s per sample",
+                format_f64(c.case.model.sample_time)
+            ),
+            format!(
+                "before shrinking (case {}): {} samples; sample {}: error {}",
+                c.case_index,
+                c.unshrunk_failure.signal.len(),
+                c.unshrunk_failure.sample,
+                format_f64(c.unshrunk_failure.error)
+            ),
+        ];
+        text.extend(explanation.lines());
+        write_atomic(
+            &dir.join("failure.txt"),
+            (text.join("\n") + "\n").as_bytes(),
+        )?;
+        println!(
+            "{}: counterexample in {} ({} samples)",
+            p.name,
+            dir.display(),
+            signal.len()
+        );
+        for h in &explanation.hints {
+            println!("  hint: {h}");
+        }
+    }
+    Ok(())
+}
