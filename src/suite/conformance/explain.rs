@@ -64,6 +64,11 @@ pub enum Hint {
     /// The initial state reported at sample 0, the first input applied from
     /// sample 1 on.
     FirstInputSkipped,
+    /// The compensator's output not clipped to the limits.
+    LimitsIgnored,
+    /// The creep part driven by the current input (in a compensator, by
+    /// the output being computed) instead of the previous one.
+    CreepOfCurrentInput,
     /// Only sample 0 differs (or the input has one sample): a first-sample
     /// convention, nothing more precise matched.
     FirstSample,
@@ -82,6 +87,15 @@ impl std::fmt::Display for Hint {
                  taken for the threshold r (half the dead band)"
             }
             Hint::StateIgnored => "the candidate ignores the model file's state and starts virgin",
+            Hint::LimitsIgnored => {
+                "the output is not clipped to the limits: the candidate ignores them (or \
+                 reads other parameters for them)"
+            }
+            Hint::CreepOfCurrentInput => {
+                "the creep part is driven by the current input (in a compensator, by the \
+                 output being computed) instead of the previous one: the discrete creep \
+                 operator (20) advances with v_(k-1), so C_k is known before v_k"
+            }
             Hint::CreepMissing => {
                 "the error is exactly the creep term C[u]: the creep part is missing (an \
                  implementation of H alone can decline such models with exit code 3)"
@@ -183,6 +197,17 @@ pub fn explain(
     if skipped_first(kind, file, input).is_some_and(|v| (0..n).all(|k| !off(&v, k))) {
         e.hints.push(Hint::FirstInputSkipped);
     }
+    if kind == Kind::Compensator && limits.is_some() {
+        let unlimited = reference_run(kind, file, input, None);
+        if unlimited.is_some_and(|v| v.len() == n && (0..n).all(|k| !off(&v, k))) {
+            e.hints.push(Hint::LimitsIgnored);
+        }
+    }
+    if creep_of_current_input(kind, file, input, limits)
+        .is_some_and(|v| v.len() == n && (0..n).all(|k| !off(&v, k)))
+    {
+        e.hints.push(Hint::CreepOfCurrentInput);
+    }
     // the generic first-sample hint only where nothing more precise matched
     if e.hints.is_empty() && first == 0 && (1..n).all(|k| !off(&reference, k)) {
         e.hints.push(Hint::FirstSample);
@@ -252,6 +277,80 @@ fn unchecked_thresholds(
         Kind::InverseHysteresis => Some(model.hysteresis.inverse().run(input)),
         Kind::Compensator => None,
     }
+}
+
+/// The model (or its compensator) with the creep advanced by the current
+/// input before it is read: `y_k = H[v]_k + C(χ advanced with v_k)`, the
+/// compensator solving that for `v_k` by bisection and clipping. `None`
+/// without creep, with `S` or a dead time, or for `H⁻¹`.
+fn creep_of_current_input(
+    kind: Kind,
+    file: &ModelFile,
+    input: &[f64],
+    limits: Option<(f64, f64)>,
+) -> Option<Vec<f64>> {
+    if file.creep.is_none() || file.superposition.is_some() || file.delay.unwrap_or(0) > 0 {
+        return None;
+    }
+    let mut m = NaiveModel::from_file(file).ok()?;
+    let (lo_limit, hi_limit) = limits.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+    let mut out = Vec::with_capacity(input.len());
+    for &x in input {
+        let held = m.hysteresis.x.first().copied().unwrap_or(0.0);
+        let creep = m.creep.as_ref()?;
+        // what the mistaken model outputs for v (no state change)
+        let at = |v: f64| {
+            let mut c = creep.clone();
+            c.advance(v);
+            m.hysteresis.evaluate(v) + c.output() + m.offset
+        };
+        let v = match kind {
+            Kind::InverseHysteresis => return None,
+            Kind::Model => {
+                let v = if x.is_finite() { x } else { held };
+                out.push(at(v));
+                v
+            }
+            Kind::Compensator => {
+                let v = if !x.is_finite() {
+                    held
+                } else {
+                    let (mut lo, mut hi) = (held - 1.0, held + 1.0);
+                    while at(lo) > x && lo > -1e300 {
+                        lo = held - 2.0 * (held - lo);
+                    }
+                    while at(hi) < x && hi < 1e300 {
+                        hi = held + 2.0 * (hi - held);
+                    }
+                    for _ in 0..200 {
+                        let mid = 0.5 * (lo + hi);
+                        if mid <= lo || mid >= hi {
+                            break;
+                        }
+                        if at(mid) < x {
+                            lo = mid;
+                        } else {
+                            hi = mid;
+                        }
+                    }
+                    let v = if (at(lo) - x).abs() <= (at(hi) - x).abs() {
+                        lo
+                    } else {
+                        hi
+                    };
+                    v.clamp(lo_limit, hi_limit)
+                };
+                out.push(v);
+                v
+            }
+        };
+        let h = &mut m.hysteresis;
+        for i in 0..h.r.len() {
+            h.x[i] = (v - h.r[i]).max((v + h.r[i]).min(h.x[i]));
+        }
+        m.creep.as_mut()?.advance(v);
+    }
+    Some(out)
 }
 
 /// `H` (or `H⁻¹`, plus the offset) with the first input not passed through

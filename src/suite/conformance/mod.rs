@@ -627,6 +627,8 @@ pub(crate) struct Property<F: ?Sized> {
     pub check: fn(&Case, &F, &ConformanceSettings) -> Outcome,
     /// Why the property cannot run on a fixed model (`None`: it can).
     pub not_on_fixed_model: Option<&'static str>,
+    /// The property's premise is a model of `H` alone (no creep).
+    pub hysteresis_alone: bool,
 }
 
 impl<F: ?Sized> Property<F> {
@@ -644,7 +646,15 @@ impl<F: ?Sized> Property<F> {
             generate,
             check,
             not_on_fixed_model: None,
+            hysteresis_alone: false,
         }
+    }
+
+    /// The property holds for `H` alone: on a fixed model with creep it
+    /// cannot run.
+    pub(crate) fn needs_hysteresis_alone(mut self) -> Self {
+        self.hysteresis_alone = true;
+        self
     }
 
     /// The property needs models other than a fixed one, for `why`.

@@ -66,9 +66,14 @@ fn run_property<F: ?Sized>(
         counterexample: None,
         not_on_fixed_model: None,
     };
-    if settings.fixed_model.is_some() && p.not_on_fixed_model.is_some() {
-        result.not_on_fixed_model = p.not_on_fixed_model;
-        return result;
+    if let Some(fixed) = &settings.fixed_model {
+        let has_creep = fixed.creep.is_some() && !settings.hysteresis_only;
+        result.not_on_fixed_model = p
+            .not_on_fixed_model
+            .or((p.hysteresis_alone && has_creep).then_some("needs H alone; the model has creep"));
+        if result.not_on_fixed_model.is_some() {
+            return result;
+        }
     }
     for i in 0..settings.cases.min(p.max_cases) {
         let case = (p.generate)(&mut rng, settings, i);
