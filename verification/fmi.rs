@@ -1,0 +1,350 @@
+//! The FMUs end to end, in Rust: `mfcbeam fmu` packages the library built
+//! from this checkout, the importer loads the archive, and the conformance
+//! checks run on it in the fixed mode (both FMI versions, split and
+//! resume through the FMU's state functions); the importer refuses broken
+//! archives with one clear error; an FMU written independently in C with
+//! the nominal model compiled in passes, and each of its convention errors
+//! fails with a counterexample of a few samples and the hint that names
+//! it; a fixed program through the file contract is run without
+//! `--model`. (FMPy, another importer, checks the same FMUs in
+//! `verification/fmi/test_fmpy.py`.)
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::{Arc, OnceLock};
+
+use mfcbeam::fmi::import::{
+    bind, Fmu, FmuCandidate, FmuCompensator, FmuModel, ImportError, ImportKind,
+};
+use mfcbeam::fmi::package::FmuPackage;
+use mfcbeam::fmi::{FmiVersion, FmuKind};
+use mfcbeam::operators::nominal::nominal_model_file;
+use mfcbeam::prelude::*;
+use mfcbeam::suite::conformance::external::WIDE_LIMITS;
+use mfcbeam::suite::conformance::fixed::{fixed_compensator_factory, fixed_model_factory};
+use mfcbeam::suite::conformance::{check_compensator, check_model, ConformanceSettings};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
+}
+
+/// `target/<profile>` of this test executable.
+fn profile_dir() -> PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    exe.parent().unwrap().parent().unwrap().to_path_buf()
+}
+
+/// The FMU library of this checkout, built once (a nested cargo in this
+/// target directory: `cargo test` builds no cdylib).
+fn library() -> &'static Path {
+    static BUILT: OnceLock<PathBuf> = OnceLock::new();
+    BUILT.get_or_init(|| {
+        let target = profile_dir().parent().unwrap().to_path_buf();
+        let mut cmd = Command::new(env!("CARGO"));
+        cmd.args([
+            "build",
+            "-p",
+            "mfcbeam",
+            "-p",
+            "mfcbeam-fmu",
+            "--lib",
+            "--target-dir",
+        ])
+        .arg(&target)
+        .current_dir(root());
+        if profile_dir().file_name().unwrap() == "release" {
+            cmd.arg("--release");
+        }
+        let out = cmd.output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        profile_dir().join("libmfcbeam_fmu.so")
+    })
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = profile_dir().join("fmi-tests").join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn package(kind: FmuKind, version: FmiVersion, model: &ModelFile, path: &Path) {
+    FmuPackage {
+        kind,
+        version,
+        model: model.clone(),
+        beam: None,
+        beam_model: Default::default(),
+        library: library().to_path_buf(),
+    }
+    .write(path)
+    .unwrap();
+}
+
+fn cli() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_mfcbeam"))
+}
+
+#[test]
+fn the_projects_fmus_pass_the_fixed_mode_in_both_versions() {
+    let dir = scratch("own");
+    let model = nominal_model_file();
+    for version in [FmiVersion::Fmi2, FmiVersion::Fmi3] {
+        let path = dir.join(format!("compensator{}.fmu", version.as_str()));
+        package(FmuKind::Compensator, version, &model, &path);
+        let fmu = Fmu::load(&path).unwrap();
+        assert_eq!(fmu.description.version, version);
+        assert!(fmu.description.can_get_and_set_state);
+        let bindings = bind(&fmu.description, ImportKind::Compensator, &[]).unwrap();
+        assert!(bindings.fault.is_some() && bindings.limits.is_some());
+        let candidate = FmuCandidate::new(fmu, bindings, model.sample_time);
+        let c = candidate.clone();
+        let factory = fixed_compensator_factory(model.clone(), move |s: CompensatorSettings| {
+            let limits = (
+                s.lower_limit.max(WIDE_LIMITS.0),
+                s.upper_limit.min(WIDE_LIMITS.1),
+            );
+            let b: Box<dyn ActuatorCompensator> =
+                Box::new(FmuCompensator::new(&c, Some(limits), 0).unwrap());
+            Ok(b)
+        });
+        let s = ConformanceSettings {
+            cases: 8,
+            fixed_model: Some(model.clone()),
+            ..ConformanceSettings::default()
+        };
+        let report = check_compensator(&factory, &s).unwrap();
+        eprintln!("FMI {}\n{report}", version.as_str());
+        assert!(report.passed(), "{report}");
+        // split and resume ran through GetFMUState / SetFMUState
+        let split = report.property("split_and_resume").unwrap();
+        assert!(split.cases > 0 && split.skipped == 0, "{report}");
+        assert_eq!(split.worst_error, 0.0);
+        assert!(candidate.first_error.lock().unwrap().is_none());
+
+        let path = dir.join(format!("model{}.fmu", version.as_str()));
+        package(FmuKind::Model, version, &model, &path);
+        let fmu = Fmu::load(&path).unwrap();
+        let bindings = bind(&fmu.description, ImportKind::Model, &[]).unwrap();
+        let candidate = FmuCandidate::new(fmu, bindings, model.sample_time);
+        let factory = fixed_model_factory(model.clone(), move || {
+            let b: Box<dyn ActuatorModel> = Box::new(FmuModel::new(&candidate).unwrap());
+            Ok(b)
+        });
+        let report = check_model(&factory, &s).unwrap();
+        assert!(report.passed(), "{report}");
+        assert!(report.property("paper_inputs").unwrap().cases > 0);
+    }
+    // the unpacked folder goes with the last reference to the Fmu
+    let fmu = Fmu::load(&dir.join("model3.0.fmu")).unwrap();
+    let unpacked = fmu.resources();
+    assert!(unpacked.join("model.json").is_file());
+    drop(fmu);
+    assert!(!unpacked.exists());
+}
+
+fn zip_with(path: &Path, entries: &[(&str, &[u8])]) {
+    let mut zip = zip::ZipWriter::new(std::fs::File::create(path).unwrap());
+    for (name, bytes) in entries {
+        zip.start_file(*name, zip::write::SimpleFileOptions::default())
+            .unwrap();
+        zip.write_all(bytes).unwrap();
+    }
+    zip.finish().unwrap();
+}
+
+#[test]
+fn broken_archives_are_refused_with_one_clear_error() {
+    let dir = scratch("broken");
+    let text = |e: ImportError| e.to_string();
+    let not_zip = dir.join("not.fmu");
+    std::fs::write(&not_zip, b"hello").unwrap();
+    assert!(text(Fmu::load(&not_zip).unwrap_err()).contains("not a zip archive"));
+
+    let no_description = dir.join("empty.fmu");
+    zip_with(&no_description, &[("resources/x", b"1")]);
+    assert!(text(Fmu::load(&no_description).unwrap_err()).contains("modelDescription.xml"));
+
+    let escape = dir.join("escape.fmu");
+    zip_with(&escape, &[("../../outside", b"1")]);
+    assert!(text(Fmu::load(&escape).unwrap_err()).contains("leaves the archive"));
+    assert!(!dir.join("../../outside").exists());
+
+    // a description without the binary it names
+    let good = dir.join("good.fmu");
+    package(
+        FmuKind::Model,
+        FmiVersion::Fmi3,
+        &nominal_model_file(),
+        &good,
+    );
+    let mut archive = zip::ZipArchive::new(std::fs::File::open(&good).unwrap()).unwrap();
+    let mut xml = String::new();
+    std::io::Read::read_to_string(
+        &mut archive.by_name("modelDescription.xml").unwrap(),
+        &mut xml,
+    )
+    .unwrap();
+    let no_binary = dir.join("nobinary.fmu");
+    zip_with(&no_binary, &[("modelDescription.xml", xml.as_bytes())]);
+    assert!(text(Fmu::load(&no_binary).unwrap_err()).contains("no Linux x86-64 binary"));
+
+    // a malformed description
+    let bad_xml = dir.join("badxml.fmu");
+    zip_with(
+        &bad_xml,
+        &[(
+            "modelDescription.xml",
+            b"<fmiModelDescription fmiVersion=\"2.0\"",
+        )],
+    );
+    assert!(text(Fmu::load(&bad_xml).unwrap_err()).starts_with("modelDescription.xml"));
+
+    // a kind's variable that the FMU lacks: the error says how to map it
+    let fmu = Fmu::load(&good).unwrap();
+    let e = bind(&fmu.description, ImportKind::Compensator, &[]).unwrap_err();
+    assert!(text(e).contains("--fmu-variable y_d=NAME"));
+    // a wrong token is logged by the FMU and refused
+    let mut fmu = Arc::try_unwrap(fmu).unwrap();
+    fmu.description.token = "{not-this-one}".into();
+    let fmu = Arc::new(fmu);
+    let e = mfcbeam::fmi::import::FmuInstance::new(fmu, "wrong")
+        .err()
+        .unwrap();
+    assert!(text(e).contains("instantiation token"));
+}
+
+/// The independent C FMU, built by its script.
+fn c_fmu(kind: &str, fault: &str) -> PathBuf {
+    let dir = scratch(&format!("c-{kind}-{fault}"));
+    let out = dir.join(format!("{kind}.fmu"));
+    let status = Command::new("bash")
+        .arg(root().join("examples/fmu/c/build.sh"))
+        .args([kind, out.to_str().unwrap(), fault])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    out
+}
+
+/// `conform --fmu` on a C FMU; (exit code, stdout).
+fn conform_c(kind: &str, fmu: &Path, out: &Path) -> (i32, String) {
+    let map: &[&str] = match kind {
+        "compensator" => &[
+            "y_d=target",
+            "u=voltage",
+            "saturated=clipped",
+            "fault=bad_input",
+            "u_min=v_min",
+            "u_max=v_max",
+        ],
+        _ => &["u=voltage", "y=effective_voltage", "fault=bad_input"],
+    };
+    let mut cmd = cli();
+    cmd.args(["conform", "--kind", kind, "--fmu"])
+        .arg(fmu)
+        .arg("--model")
+        .arg(root().join("golden/nominal_model.json"))
+        .args(["--cases", "60", "--out"])
+        .arg(out);
+    for m in map {
+        cmd.args(["--fmu-variable", m]);
+    }
+    let o = cmd.output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    eprintln!("{text}{}", String::from_utf8_lossy(&o.stderr));
+    (o.status.code().unwrap_or(-1), text)
+}
+
+#[test]
+fn an_independent_c_fmu_passes_and_its_convention_errors_fail_with_small_counterexamples() {
+    for kind in ["compensator", "model"] {
+        let (code, text) = conform_c(kind, &c_fmu(kind, ""), &scratch(&format!("c-out-{kind}")));
+        assert_eq!(code, 0, "{text}");
+        assert!(text.contains("not on a fixed model"));
+    }
+    let cases = [
+        (
+            "compensator",
+            "creep-current",
+            "driven by the current input",
+        ),
+        (
+            "compensator",
+            "half-thresholds",
+            "every threshold were halved",
+        ),
+        ("compensator", "no-saturation", "not clipped to the limits"),
+        ("model", "creep-current", "driven by the current input"),
+        ("model", "half-thresholds", "every threshold were halved"),
+    ];
+    for (kind, fault, hint) in cases {
+        let out = scratch(&format!("c-out-{kind}-{fault}"));
+        let (code, text) = conform_c(kind, &c_fmu(kind, fault), &out);
+        assert_eq!(code, 1, "{kind} {fault}: {text}");
+        assert!(
+            text.contains(hint),
+            "{kind} {fault}: no hint '{hint}'\n{text}"
+        );
+        // every counterexample's input is at most 10 samples
+        for entry in std::fs::read_dir(&out).unwrap() {
+            let dir = entry.unwrap().path();
+            let input = std::fs::read_to_string(dir.join("input.csv")).unwrap();
+            let samples = input.lines().count() - 1;
+            let failure = std::fs::read_to_string(dir.join("failure.txt")).unwrap();
+            // saturation_recovery appends 30 reachable targets of its own
+            let own = if dir.to_string_lossy().contains("saturation_recovery") {
+                30
+            } else {
+                0
+            };
+            assert!(samples <= 10 + own, "{}: {samples} samples", dir.display());
+            assert!(failure.contains("property: "));
+            assert!(dir.join("candidate.csv").is_file() && dir.join("model.json").is_file());
+        }
+    }
+}
+
+/// A program with its model compiled in, through the file contract: run
+/// without `--model` (here `mfcbeam simulate` with the model in a wrapper
+/// script; given `--model` twice it would exit 2 and fail every case).
+#[test]
+fn a_fixed_program_is_run_without_the_model_argument() {
+    let dir = scratch("fixed-exec");
+    let script = dir.join("fixed.sh");
+    std::fs::write(
+        &script,
+        format!(
+            "#!/bin/sh\nexec '{}' simulate --model '{}' \"$@\"\n",
+            env!("CARGO_BIN_EXE_mfcbeam"),
+            root().join("golden/nominal_model.json").display()
+        ),
+    )
+    .unwrap();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&script, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+    let o = cli()
+        .args(["conform", "--kind", "model", "--exec"])
+        .arg(&script)
+        .arg("--model")
+        .arg(root().join("golden/nominal_model.json"))
+        .args(["--cases", "30", "--out"])
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    eprintln!("{text}{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(o.status.code(), Some(0), "{text}");
+    assert!(text.contains("agreement") && text.contains("holds"));
+    assert!(text.contains("split_and_resume"));
+    // a process cannot save its state: split and resume is skipped, said why
+    assert!(text.contains("cannot save and restore"), "{text}");
+}
