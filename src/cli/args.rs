@@ -291,6 +291,10 @@ pub struct ConformArgs {
     /// u, y, y_d, saturated, fault, u_min, u_max); repeatable.
     #[arg(long, value_name = "OURS=THEIRS", requires = "fmu")]
     pub fmu_variable: Vec<String>,
+    /// With --fmu, a compensator without limit parameters (u_min, u_max):
+    /// the saturation limits `LO,HI` it has built in (default: -1000,1000).
+    #[arg(long, value_name = "LO,HI", allow_hyphen_values = true, value_parser = parse_limits, requires = "fmu")]
+    pub limits: Option<(f64, f64)>,
     /// Random cases in all, spread evenly over the properties.
     #[arg(long, default_value_t = 200)]
     pub cases: usize,

@@ -21,6 +21,7 @@ use mfcbeam::suite::conformance::{
 };
 
 use super::args::{ConformArgs, ConformKind, FmuArgs, FmuKindArg};
+
 use super::conform::{explain_kind, input_column, output_column, properties_count};
 
 pub fn fmu(a: &FmuArgs) -> Result<()> {
@@ -112,6 +113,21 @@ pub fn conform_fmu(a: &ConformArgs, path: &Path, settings: ConformanceSettings) 
         }
     }
     let delay = fixed_model.delay.unwrap_or(0);
+    // limits built in: the cases keep inside them
+    let mut settings = settings;
+    let own_limits = match (bindings.limits, a.limits) {
+        (Some(_), Some(_)) => {
+            bail!("--limits: the FMU has limit parameters (u_min, u_max); every case sets its own")
+        }
+        (Some(_), None) => None,
+        (None, given) => {
+            let d = CompensatorSettings::default();
+            Some(given.unwrap_or((d.lower_limit, d.upper_limit)))
+        }
+    };
+    if a.kind == ConformKind::Compensator {
+        settings.fixed_limits = own_limits;
+    }
     let candidate = FmuCandidate::new(fmu, bindings, fixed_model.sample_time);
     smoke_test(&candidate, import_kind)
         .with_context(|| format!("--fmu {}: unusable on a first, simple case", path.display()))?;
@@ -120,24 +136,33 @@ pub fn conform_fmu(a: &ConformArgs, path: &Path, settings: ConformanceSettings) 
     let start = Instant::now();
     let c = candidate.clone();
     let model_factory = fixed::fixed_model_factory(fixed_model.clone(), move || {
-        let m: Box<dyn ActuatorModel> = Box::new(FmuModel::new(&c).map_err(unsupported)?);
+        let m: Box<dyn ActuatorModel> = Box::new(FmuModel::new(&c).map_err(instance_failed)?);
         Ok(m)
     });
     let c = candidate.clone();
     let compensator_factory =
         fixed::fixed_compensator_factory(fixed_model.clone(), move |s: CompensatorSettings| {
+            if let Some((lo, hi)) = own_limits {
+                let unlimited =
+                    s.lower_limit == f64::NEG_INFINITY && s.upper_limit == f64::INFINITY;
+                if !unlimited && (s.lower_limit, s.upper_limit) != (lo, hi) {
+                    return Err(ModelError::Unsupported {
+                        part: "limits other than the FMU's own (it has no u_min, u_max)".into(),
+                    });
+                }
+            }
             let limits = (
                 s.lower_limit.max(WIDE_LIMITS.0),
                 s.upper_limit.min(WIDE_LIMITS.1),
             );
             let m: Box<dyn ActuatorCompensator> =
-                Box::new(FmuCompensator::new(&c, Some(limits), delay).map_err(unsupported)?);
+                Box::new(FmuCompensator::new(&c, Some(limits), delay).map_err(instance_failed)?);
             Ok(m)
         });
     let c = candidate.clone();
     let inverse_factory = fixed::fixed_inverse_hysteresis_factory(fixed_model.clone(), move || {
         let m: Box<dyn InverseHysteresis> =
-            Box::new(FmuInverseHysteresis::new(&c).map_err(unsupported)?);
+            Box::new(FmuInverseHysteresis::new(&c).map_err(instance_failed)?);
         Ok(m)
     });
     let report = match a.kind {
@@ -174,7 +199,7 @@ pub fn conform_fmu(a: &ConformArgs, path: &Path, settings: ConformanceSettings) 
 
 /// An instance that could not be made: the case counts as failed (a
 /// refusal of the model it claims to implement).
-fn unsupported(e: mfcbeam::fmi::import::ImportError) -> ModelError {
+fn instance_failed(e: mfcbeam::fmi::import::ImportError) -> ModelError {
     ModelError::Inconsistent {
         field: "fmu".into(),
         reason: e.to_string(),

@@ -41,6 +41,9 @@ pub enum FmuError {
     Invalid(String),
 }
 
+/// The most samples one `doStep` may hold (about ten seconds of work).
+pub const MAX_SAMPLES_PER_STEP: f64 = 1e8;
+
 /// Where an instance is in its life.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mode {
@@ -274,6 +277,12 @@ impl Component {
                 step,
                 sample_time: ts,
             });
+        }
+        // a step takes time in proportion to its samples: bounded
+        if n > MAX_SAMPLES_PER_STEP {
+            return Err(FmuError::Invalid(format!(
+                "the communication step {step} s holds {n} samples; at most {MAX_SAMPLES_PER_STEP} per step"
+            )));
         }
         let scale = self.state.time.abs().max(step);
         if !time.is_finite() || (time - self.state.time).abs() > 1e-9 * scale {

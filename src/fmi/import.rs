@@ -434,20 +434,25 @@ impl Fmu {
             reason: format!("modelDescription.xml: {e}"),
         })?;
         let description = ImportedDescription::parse(&xml)?;
-        let lib_path = dir
-            .join("binaries")
-            .join(description.version.linux64_folder())
-            .join(format!("{}.so", description.model_identifier));
-        if !lib_path.is_file() {
+        // the standard folder first; some exporters use the other name
+        let folders = match description.version {
+            FmiVersion::Fmi2 => ["linux64", "x86_64-linux"],
+            FmiVersion::Fmi3 => ["x86_64-linux", "linux64"],
+        };
+        let file = format!("{}.so", description.model_identifier);
+        let Some(lib_path) = folders
+            .iter()
+            .map(|f| dir.join("binaries").join(f).join(&file))
+            .find(|p| p.is_file())
+        else {
             return Err(ImportError::Library {
                 path: path.display().to_string(),
                 reason: format!(
-                    "no Linux x86-64 binary binaries/{}/{}.so",
-                    description.version.linux64_folder(),
-                    description.model_identifier
+                    "no Linux x86-64 binary binaries/{}/{file}",
+                    description.version.linux64_folder()
                 ),
             });
-        }
+        };
         // SAFETY: loading runs the library's initialisers; an FMU is
         // trusted native code by the standard's design
         let library =

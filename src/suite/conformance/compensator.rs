@@ -54,6 +54,16 @@ pub fn compensator_properties<'a>() -> Properties<CompensatorFactory<'a>> {
     )
 }
 
+/// The amplitude of random voltages: beyond the largest threshold, but
+/// inside a fixed compensator's own limits (its targets stay reachable).
+fn voltage_amplitude(s: &ConformanceSettings, model: &crate::operators::model::ModelFile) -> f64 {
+    let a = 1.2 * reach(model);
+    match s.fixed_limits {
+        Some((lo, hi)) => a.min(0.95 * lo.abs().min(hi.abs())),
+        None => a,
+    }
+}
+
 fn settings_of(case: &Case) -> CompensatorSettings {
     super::limit_settings(case.limits)
 }
@@ -92,7 +102,7 @@ fn target_case(rng: &mut Rng, s: &ConformanceSettings, i: usize) -> Case {
 fn voltage_case(rng: &mut Rng, s: &ConformanceSettings, i: usize) -> Case {
     let model = case_model(rng, s, ModelShape::Any);
     let n = input_length(rng, s.max_samples);
-    let input = random_input(rng, n, 1.2 * reach(&model));
+    let input = random_input(rng, n, voltage_amplitude(s, &model));
     let case = Case {
         model,
         input,
@@ -119,11 +129,11 @@ fn virgin_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
     let model = case_model(rng, s, ModelShape::Virgin);
     let n = input_length(rng, s.max_samples);
     let r = reach(&model);
-    let input = random_input(rng, n, 1.2 * r);
+    let input = random_input(rng, n, voltage_amplitude(s, &model));
     targets_of(Case {
         model,
         input,
-        limits: Some((-0.8 * r, 0.8 * r)),
+        limits: Some(s.fixed_limits.unwrap_or((-0.8 * r, 0.8 * r))),
     })
 }
 
@@ -141,7 +151,10 @@ fn paper_case(_: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
 fn saturating_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
     let model = case_model(rng, s, ModelShape::Any);
     let r = reach(&model);
-    let limit = rng.uniform(0.2, 0.8) * r;
+    let limit = match s.fixed_limits {
+        Some((lo, hi)) => lo.abs().min(hi.abs()),
+        None => rng.uniform(0.2, 0.8) * r,
+    };
     let gain: f64 = model
         .hysteresis
         .weights
@@ -157,7 +170,7 @@ fn saturating_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
     Case {
         model,
         input,
-        limits: Some((-limit, limit)),
+        limits: Some(s.fixed_limits.unwrap_or((-limit, limit))),
     }
 }
 

@@ -117,6 +117,10 @@ pub struct ConformanceSettings {
     /// that need other models do not run, and split and resume goes
     /// through the candidate's own save and restore.
     pub fixed_model: Option<ModelFile>,
+    /// In the fixed mode, the limits of a compensator that cannot change
+    /// them (an FMU without limit parameters), default `None`: random
+    /// voltages stay inside them and the saturating cases use them.
+    pub fixed_limits: Option<(f64, f64)>,
 }
 
 impl Default for ConformanceSettings {
@@ -132,6 +136,7 @@ impl Default for ConformanceSettings {
             exact: false,
             hysteresis_only: false,
             fixed_model: None,
+            fixed_limits: None,
         }
     }
 }
