@@ -168,53 +168,32 @@ pub unsafe extern "C" fn fmi2Reset(c: Fmi2Component) -> Fmi2Status {
     crate::reset(c)
 }
 
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetReal(
-    c: Fmi2Component,
-    vr: *const u32,
-    n: usize,
-    value: *mut f64,
-) -> Fmi2Status {
-    guard(c, "fmi2GetReal", |i| {
-        let (vr, out) = (slice(vr, n, "vr")?, slice_mut(value, n, "value")?);
-        for (r, o) in vr.iter().zip(out) {
-            *o = i.component.get_float64(*r)?;
+/// A getter of one type, through `Component::$get` (converted by `$conv`).
+macro_rules! getter {
+    ($($name:ident($ty:ty, $get:ident, $conv:expr)),* $(,)?) => {$(
+        #[no_mangle]
+        pub unsafe extern "C" fn $name(
+            c: Fmi2Component,
+            vr: *const u32,
+            n: usize,
+            value: *mut $ty,
+        ) -> Fmi2Status {
+            guard(c, stringify!($name), |i| {
+                let (vr, out) = (slice(vr, n, "vr")?, slice_mut(value, n, "value")?);
+                for (r, o) in vr.iter().zip(out) {
+                    *o = $conv(i.component.$get(*r)?);
+                }
+                Ok(OK)
+            })
         }
-        Ok(OK)
-    })
+    )*};
 }
 
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetInteger(
-    c: Fmi2Component,
-    vr: *const u32,
-    n: usize,
-    value: *mut c_int,
-) -> Fmi2Status {
-    guard(c, "fmi2GetInteger", |i| {
-        let (vr, out) = (slice(vr, n, "vr")?, slice_mut(value, n, "value")?);
-        for (r, o) in vr.iter().zip(out) {
-            *o = i.component.get_int32(*r)?;
-        }
-        Ok(OK)
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetBoolean(
-    c: Fmi2Component,
-    vr: *const u32,
-    n: usize,
-    value: *mut c_int,
-) -> Fmi2Status {
-    guard(c, "fmi2GetBoolean", |i| {
-        let (vr, out) = (slice(vr, n, "vr")?, slice_mut(value, n, "value")?);
-        for (r, o) in vr.iter().zip(out) {
-            *o = c_int::from(i.component.get_boolean(*r)?);
-        }
-        Ok(OK)
-    })
-}
+getter!(
+    fmi2GetReal(f64, get_float64, |x: f64| x),
+    fmi2GetInteger(c_int, get_int32, |x: i32| x),
+    fmi2GetBoolean(c_int, get_boolean, c_int::from),
+);
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetString(

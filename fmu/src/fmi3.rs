@@ -188,68 +188,37 @@ fn scalars(n_vr: usize, n_values: usize) -> Result<(), FmuError> {
     }
 }
 
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetFloat64(
-    instance: Fmi3Instance,
-    vr: *const u32,
-    n_vr: usize,
-    values: *mut f64,
-    n_values: usize,
-) -> Fmi3Status {
-    guard(instance, "fmi3GetFloat64", |i| {
-        scalars(n_vr, n_values)?;
-        let (vr, out) = (
-            slice(vr, n_vr, "vr")?,
-            slice_mut(values, n_values, "values")?,
-        );
-        for (r, o) in vr.iter().zip(out) {
-            *o = i.component.get_float64(*r)?;
+/// A getter of scalar variables of one type, through `Component::$get`.
+macro_rules! scalar_getter {
+    ($($name:ident($ty:ty, $get:ident)),* $(,)?) => {$(
+        #[no_mangle]
+        pub unsafe extern "C" fn $name(
+            instance: Fmi3Instance,
+            vr: *const u32,
+            n_vr: usize,
+            values: *mut $ty,
+            n_values: usize,
+        ) -> Fmi3Status {
+            guard(instance, stringify!($name), |i| {
+                scalars(n_vr, n_values)?;
+                let (vr, out) = (
+                    slice(vr, n_vr, "vr")?,
+                    slice_mut(values, n_values, "values")?,
+                );
+                for (r, o) in vr.iter().zip(out) {
+                    *o = i.component.$get(*r)?;
+                }
+                Ok(OK)
+            })
         }
-        Ok(OK)
-    })
+    )*};
 }
 
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetInt32(
-    instance: Fmi3Instance,
-    vr: *const u32,
-    n_vr: usize,
-    values: *mut i32,
-    n_values: usize,
-) -> Fmi3Status {
-    guard(instance, "fmi3GetInt32", |i| {
-        scalars(n_vr, n_values)?;
-        let (vr, out) = (
-            slice(vr, n_vr, "vr")?,
-            slice_mut(values, n_values, "values")?,
-        );
-        for (r, o) in vr.iter().zip(out) {
-            *o = i.component.get_int32(*r)?;
-        }
-        Ok(OK)
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetBoolean(
-    instance: Fmi3Instance,
-    vr: *const u32,
-    n_vr: usize,
-    values: *mut bool,
-    n_values: usize,
-) -> Fmi3Status {
-    guard(instance, "fmi3GetBoolean", |i| {
-        scalars(n_vr, n_values)?;
-        let (vr, out) = (
-            slice(vr, n_vr, "vr")?,
-            slice_mut(values, n_values, "values")?,
-        );
-        for (r, o) in vr.iter().zip(out) {
-            *o = i.component.get_boolean(*r)?;
-        }
-        Ok(OK)
-    })
-}
+scalar_getter!(
+    fmi3GetFloat64(f64, get_float64),
+    fmi3GetInt32(i32, get_int32),
+    fmi3GetBoolean(bool, get_boolean),
+);
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3GetString(

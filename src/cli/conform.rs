@@ -20,7 +20,8 @@ use mfcbeam::suite::conformance::external::{
 };
 use mfcbeam::suite::conformance::{
     compensator_properties, fixed, inverse_hysteresis_properties, model_properties, Case,
-    ConformanceSettings, Counterexample, Outcome,
+    CompensatorFactory, ConformanceReport, ConformanceSettings, Counterexample,
+    InverseHysteresisFactory, ModelFactory, Outcome,
 };
 
 use super::args::{ConformArgs, ConformKind};
@@ -88,10 +89,8 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
     let progress = Progress::start(&candidate);
     // a fixed candidate is built for its model only; every other is declined
     let fixed_ok = |f: &ModelFile| match &fixed_model {
-        Some(m) if m != f => Err(ModelError::Unsupported {
-            part: fixed::OTHER_MODEL.into(),
-        }),
-        _ => Ok(()),
+        Some(m) => fixed::accepts(m, f),
+        None => Ok(()),
     };
     let cand = candidate.clone();
     let model_factory = move |f: &ModelFile| -> Result<Box<dyn ActuatorModel>, ModelError> {
@@ -110,17 +109,13 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
         fixed_ok(f)?;
         Ok(Box::new(ExternalInverseHysteresis::new(cand.clone(), f)))
     };
-    let report = match a.kind {
-        ConformKind::Model | ConformKind::Hysteresis => {
-            model_properties().check(&model_factory, &settings)?
-        }
-        ConformKind::Compensator => {
-            compensator_properties().check(&compensator_factory, &settings)?
-        }
-        ConformKind::InverseHysteresis => {
-            inverse_hysteresis_properties().check(&inverse_factory, &settings)?
-        }
-    };
+    let report = check_kind(
+        a.kind,
+        &model_factory,
+        &compensator_factory,
+        &inverse_factory,
+        &settings,
+    )?;
     progress.finish();
     let runs = candidate.runs.load(Ordering::Relaxed);
     let total_cases: usize = report.properties.iter().map(|p| p.cases).sum();
@@ -472,6 +467,25 @@ fn write_command(
         format!("{}\n", words.join(" ")).as_bytes(),
     )?;
     Ok(())
+}
+
+/// Run the properties of `kind` on its factory (the other two unused).
+pub(super) fn check_kind(
+    kind: ConformKind,
+    model: &ModelFactory,
+    compensator: &CompensatorFactory,
+    inverse: &InverseHysteresisFactory,
+    settings: &ConformanceSettings,
+) -> Result<ConformanceReport> {
+    Ok(match kind {
+        ConformKind::Model | ConformKind::Hysteresis => {
+            model_properties().check(model, settings)?
+        }
+        ConformKind::Compensator => compensator_properties().check(compensator, settings)?,
+        ConformKind::InverseHysteresis => {
+            inverse_hysteresis_properties().check(inverse, settings)?
+        }
+    })
 }
 
 /// How many properties a kind has.

@@ -15,14 +15,11 @@ use mfcbeam::io::{format_f64, read_beam, read_model_file, write_atomic, Trace};
 use mfcbeam::prelude::*;
 use mfcbeam::suite::conformance::explain::explain;
 use mfcbeam::suite::conformance::external::WIDE_LIMITS;
-use mfcbeam::suite::conformance::{
-    compensator_properties, fixed, inverse_hysteresis_properties, model_properties,
-    ConformanceReport, ConformanceSettings,
-};
+use mfcbeam::suite::conformance::{fixed, ConformanceReport, ConformanceSettings};
 
 use super::args::{ConformArgs, ConformKind, FmuArgs, FmuKindArg};
 
-use super::conform::{explain_kind, input_column, output_column, properties_count};
+use super::conform::{check_kind, explain_kind, input_column, output_column, properties_count};
 
 pub fn fmu(a: &FmuArgs) -> Result<()> {
     let model = read_model_file(&a.model)?;
@@ -165,17 +162,13 @@ pub fn conform_fmu(a: &ConformArgs, path: &Path, settings: ConformanceSettings) 
             Box::new(FmuInverseHysteresis::new(&c).map_err(instance_failed)?);
         Ok(m)
     });
-    let report = match a.kind {
-        ConformKind::Model | ConformKind::Hysteresis => {
-            model_properties().check(&model_factory, &settings)?
-        }
-        ConformKind::Compensator => {
-            compensator_properties().check(&compensator_factory, &settings)?
-        }
-        ConformKind::InverseHysteresis => {
-            inverse_hysteresis_properties().check(&inverse_factory, &settings)?
-        }
-    };
+    let report = check_kind(
+        a.kind,
+        &model_factory,
+        &compensator_factory,
+        &inverse_factory,
+        &settings,
+    )?;
     let total: usize = report.properties.iter().map(|p| p.cases).sum();
     println!("{report}");
     println!(

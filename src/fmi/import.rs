@@ -998,57 +998,45 @@ impl Adapter {
     }
 }
 
-/// `W` (or `H`) of an FMU.
-pub struct FmuModel(Adapter);
+/// An FMU as a single-input single-output operator of kind `$kind`.
+macro_rules! fmu_operator {
+    ($(#[$doc:meta])* $name:ident: $kind:ident) => {
+        $(#[$doc])*
+        pub struct $name(Adapter);
 
-impl FmuModel {
-    pub fn new(candidate: &FmuCandidate) -> Result<Self, ImportError> {
-        Adapter::new(candidate, None).map(Self)
-    }
+        impl $name {
+            pub fn new(candidate: &FmuCandidate) -> Result<Self, ImportError> {
+                Adapter::new(candidate, None).map(Self)
+            }
+        }
+
+        impl Operator for $name {
+            fn step(&mut self, x: f64) -> f64 {
+                self.0.sample(x).0
+            }
+            fn reset(&mut self) {
+                self.0.reset(None);
+            }
+            fn save_state(&mut self) -> Option<SavedState> {
+                self.0.save()
+            }
+            fn restore_state(&mut self, state: &SavedState) -> bool {
+                self.0.restore(state)
+            }
+        }
+
+        impl $kind for $name {}
+    };
 }
 
-impl Operator for FmuModel {
-    fn step(&mut self, v: f64) -> f64 {
-        self.0.sample(v).0
-    }
-    fn reset(&mut self) {
-        self.0.reset(None);
-    }
-    fn save_state(&mut self) -> Option<SavedState> {
-        self.0.save()
-    }
-    fn restore_state(&mut self, state: &SavedState) -> bool {
-        self.0.restore(state)
-    }
-}
-
-impl ActuatorModel for FmuModel {}
-
-/// `H⁻¹` of an FMU.
-pub struct FmuInverseHysteresis(Adapter);
-
-impl FmuInverseHysteresis {
-    pub fn new(candidate: &FmuCandidate) -> Result<Self, ImportError> {
-        Adapter::new(candidate, None).map(Self)
-    }
-}
-
-impl Operator for FmuInverseHysteresis {
-    fn step(&mut self, y: f64) -> f64 {
-        self.0.sample(y).0
-    }
-    fn reset(&mut self) {
-        self.0.reset(None);
-    }
-    fn save_state(&mut self) -> Option<SavedState> {
-        self.0.save()
-    }
-    fn restore_state(&mut self, state: &SavedState) -> bool {
-        self.0.restore(state)
-    }
-}
-
-impl InverseHysteresis for FmuInverseHysteresis {}
+fmu_operator!(
+    /// `W` (or `H`) of an FMU.
+    FmuModel: ActuatorModel
+);
+fmu_operator!(
+    /// `H⁻¹` of an FMU.
+    FmuInverseHysteresis: InverseHysteresis
+);
 
 /// `W⁻¹` of an FMU: per sample, the memory part's inverse (the FMU cannot
 /// preview; `compensate_all` previews by `delay`).

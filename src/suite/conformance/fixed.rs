@@ -23,7 +23,9 @@ use crate::operators::traits::{
 /// Why a fixed implementation declines a model file.
 pub const OTHER_MODEL: &str = "a model other than the one the fixed implementation implements";
 
-fn check_fixed(fixed: &ModelFile, file: &ModelFile) -> Result<(), ModelError> {
+/// A fixed implementation of `fixed` accepts `file` only if it is that
+/// model; every other is declined ([`ModelError::Unsupported`]).
+pub fn accepts(fixed: &ModelFile, file: &ModelFile) -> Result<(), ModelError> {
     if file == fixed {
         Ok(())
     } else {
@@ -40,7 +42,7 @@ pub fn fixed_model_factory<'a>(
     build: impl Fn() -> Result<Box<dyn ActuatorModel>, ModelError> + Sync + 'a,
 ) -> impl Fn(&ModelFile) -> Result<Box<dyn ActuatorModel>, ModelError> + Sync + 'a {
     move |file| {
-        check_fixed(&fixed, file)?;
+        accepts(&fixed, file)?;
         build()
     }
 }
@@ -54,7 +56,7 @@ pub fn fixed_compensator_factory<'a>(
        + Sync
        + 'a {
     move |file, settings| {
-        check_fixed(&fixed, file)?;
+        accepts(&fixed, file)?;
         build(settings)
     }
 }
@@ -66,7 +68,7 @@ pub fn fixed_inverse_hysteresis_factory<'a>(
     build: impl Fn() -> Result<Box<dyn InverseHysteresis>, ModelError> + Sync + 'a,
 ) -> impl Fn(&ModelFile) -> Result<Box<dyn InverseHysteresis>, ModelError> + Sync + 'a {
     move |file| {
-        check_fixed(&fixed, file)?;
+        accepts(&fixed, file)?;
         build()
     }
 }
@@ -76,6 +78,23 @@ pub fn fixed_inverse_hysteresis_factory<'a>(
 /// restore (the tests of the fixed mode run them so).
 #[derive(Debug, Clone)]
 pub struct Restorable<T>(pub T);
+
+impl<T: Clone + Send + 'static> Restorable<T> {
+    fn save(&self) -> Option<SavedState> {
+        Some(SavedState(Box::new(self.0.clone())))
+    }
+
+    /// False for a state this type did not save.
+    fn restore(&mut self, state: &SavedState) -> bool {
+        match state.0.downcast_ref::<T>() {
+            Some(s) => {
+                self.0 = s.clone();
+                true
+            }
+            None => false,
+        }
+    }
+}
 
 impl<T: Operator + Clone + Send + 'static> Operator for Restorable<T> {
     fn step(&mut self, v: f64) -> f64 {
@@ -87,17 +106,11 @@ impl<T: Operator + Clone + Send + 'static> Operator for Restorable<T> {
     }
 
     fn save_state(&mut self) -> Option<SavedState> {
-        Some(SavedState(Box::new(self.0.clone())))
+        self.save()
     }
 
     fn restore_state(&mut self, state: &SavedState) -> bool {
-        match state.0.downcast_ref::<T>() {
-            Some(s) => {
-                self.0 = s.clone();
-                true
-            }
-            None => false,
-        }
+        self.restore(state)
     }
 }
 
@@ -118,17 +131,11 @@ impl<T: ActuatorCompensator + Clone + Send + 'static> ActuatorCompensator for Re
     }
 
     fn save_state(&mut self) -> Option<SavedState> {
-        Some(SavedState(Box::new(self.0.clone())))
+        self.save()
     }
 
     fn restore_state(&mut self, state: &SavedState) -> bool {
-        match state.0.downcast_ref::<T>() {
-            Some(s) => {
-                self.0 = s.clone();
-                true
-            }
-            None => false,
-        }
+        self.restore(state)
     }
 }
 
