@@ -408,3 +408,46 @@ fn a_panic_never_crosses_the_c_boundary() {
     assert_eq!(unsafe { fmi3Reset(f.instance) }, OK);
     assert_eq!(f.init(), OK);
 }
+
+/// Another model through the string parameter `model_file`: loaded when
+/// initialization starts; the calculated parameters follow it.
+#[test]
+fn another_model_file_is_loaded_through_the_string_parameter() {
+    let dir = resources("other", FmuKind::Model);
+    let mut model: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(root().join("golden/nominal_model.json")).unwrap(),
+    )
+    .unwrap();
+    model["delay"] = serde_json::json!(2);
+    model["sample_time"] = serde_json::json!(1e-3);
+    let other = dir.join("other.json");
+    std::fs::write(&other, model.to_string()).unwrap();
+    let f = Fmu::new(&dir);
+    let path = CString::new(other.display().to_string()).unwrap();
+    let p = path.as_ptr();
+    assert_eq!(
+        unsafe { fmi3SetString(f.instance, &vr::MODEL_FILE, 1, &p, 1) },
+        OK
+    );
+    unsafe {
+        assert_eq!(
+            fmi3EnterInitializationMode(f.instance, false, 0.0, 0.0, false, 0.0),
+            OK
+        );
+        let mut d = 0i32;
+        assert_eq!(fmi3GetInt32(f.instance, &vr::DELAY, 1, &mut d, 1), OK);
+        assert_eq!(d, 2);
+        assert_eq!(fmi3ExitInitializationMode(f.instance), OK);
+    }
+    assert_eq!(f.get(vr::SAMPLE_TIME), 1e-3);
+    // y_k = z_max(k-2, 0): z_0 three times, then z_1 (creep has moved)
+    let mut y = Vec::new();
+    for k in 0..4 {
+        f.set(vr::INPUT, 400.0);
+        assert_eq!(f.step(k as f64 * 1e-3, 1e-3), OK);
+        y.push(f.get(vr::OUTPUT));
+    }
+    assert!(y[0] == y[1] && y[1] == y[2] && y[3] > y[2], "{y:?}");
+    // a step of the packaged model's 0.2 ms is no longer whole samples
+    assert_eq!(f.step(4e-3, TS), ERROR);
+}
