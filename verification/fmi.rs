@@ -261,6 +261,17 @@ fn conform_c(kind: &str, fmu: &Path, out: &Path) -> (i32, String) {
     (o.status.code().unwrap_or(-1), text)
 }
 
+/// The cases a property ran, from the report's table.
+fn cases_of(report: &str, property: &str) -> usize {
+    report
+        .lines()
+        .find_map(|l| {
+            let mut w = l.split_whitespace();
+            (w.next() == Some(property)).then(|| w.next()?.parse().ok())?
+        })
+        .unwrap_or(0)
+}
+
 #[test]
 fn an_independent_c_fmu_passes_and_its_convention_errors_fail_with_small_counterexamples() {
     for kind in ["compensator", "model"] {
