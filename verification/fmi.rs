@@ -243,8 +243,16 @@ fn conform_c(kind: &str, fmu: &Path, out: &Path) -> (i32, String) {
             "u_min=v_min",
             "u_max=v_max",
         ],
+        // its limits left unmapped: built in, --limits' default ±1000 V
+        "compensator-built-in-limits" => &[
+            "y_d=target",
+            "u=voltage",
+            "saturated=clipped",
+            "fault=bad_input",
+        ],
         _ => &["u=voltage", "y=effective_voltage", "fault=bad_input"],
     };
+    let kind = kind.split('-').next().unwrap();
     let mut cmd = cli();
     cmd.args(["conform", "--kind", kind, "--fmu"])
         .arg(fmu)
@@ -279,6 +287,23 @@ fn an_independent_c_fmu_passes_and_its_convention_errors_fail_with_small_counter
         assert_eq!(code, 0, "{text}");
         assert!(text.contains("not on a fixed model"));
     }
+    // limits built in (parameters not mapped): the cases keep inside them
+    let (code, text) = conform_c(
+        "compensator-built-in-limits",
+        &c_fmu("compensator", ""),
+        &scratch("c-out-built-in"),
+    );
+    assert_eq!(code, 0, "{text}");
+    for p in ["saturation_flags", "saturation_recovery", "agreement"] {
+        assert!(cases_of(&text, p) > 0, "{p} ran no case\n{text}");
+    }
+    let (code, text) = conform_c(
+        "compensator-built-in-limits",
+        &c_fmu("compensator", "no-saturation"),
+        &scratch("c-out-built-in-fault"),
+    );
+    assert_eq!(code, 1, "{text}");
+    assert!(text.contains("not clipped to the limits"), "{text}");
     let cases = [
         (
             "compensator",
