@@ -391,9 +391,10 @@ fn saturation_recovery(
         return Outcome::Skipped;
     }
     // reachable targets: W of small moves around the plant's last input,
-    // well inside the limits
+    // well inside the limits, both ways (8 samples: 5.6 rad of the sine),
+    // so that a shrunk counterexample stays short
     let last = p.hysteresis.x[0].clamp(0.5 * lo, 0.5 * hi);
-    let v: Vec<f64> = (1..=30)
+    let v: Vec<f64> = (1..=8)
         .map(|j| last + 0.2 * hi.min(-lo) * (j as f64 * 0.7).sin())
         .collect();
     let mut probe = p.clone();
