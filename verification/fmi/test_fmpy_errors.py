@@ -1,8 +1,9 @@
 """The boundary through FMPy's low-level interface (an importer written
-independently of this project): a wrong GUID, a step that is not a whole
-number of samples and a non-finite input each get a logged message and
-an error status (or, for the input, the documented flag); save and
-restore through the FMU state functions; two instances independent."""
+independently of this project): for every kind and FMI version a wrong
+GUID (instantiation token) and a step that is not a whole number of
+samples get a logged message and an error status; a non-finite input the
+documented flag and a warning; save and restore through the FMU state
+functions; two instances independent."""
 
 import shutil
 
@@ -18,6 +19,7 @@ from fmpy.fmi2 import (
     fmi2CallbackLoggerTYPE,
     free,
 )
+from fmpy.fmi3 import FMU3Slave
 
 TS = 2e-4
 
@@ -50,13 +52,47 @@ def vr(md, name):
     return next(v.valueReference for v in md.modelVariables if v.name == name)
 
 
-def test_a_wrong_guid_is_logged_and_refused(compensator2):
-    d, md = compensator2
+def any_fmu(fmus, kind, version, tmp_path):
+    d = extract(str(fmus[(kind, version)]), unzipdir=str(tmp_path / "any"))
+    return d, read_model_description(d)
+
+
+def instantiated(d, md, version, logged, guid=None):
+    """An instance through FMPy's class for the version; None if refused."""
+    ident = md.coSimulation.modelIdentifier
+    if version == "2":
+        fmu = FMU2Slave(guid=guid or md.guid, unzipDirectory=d, modelIdentifier=ident, instanceName="t")
+        try:
+            fmu.instantiate(callbacks=logged.callbacks, loggingOn=True)
+        except Exception:
+            return None
+        fmu.setupExperiment(startTime=0.0)
+    else:
+        fmu = FMU3Slave(guid=guid or md.guid, unzipDirectory=d, modelIdentifier=ident, instanceName="t")
+        try:
+            fmu.instantiate(loggingOn=True, logMessage=lambda env, status, cat, msg: logged.messages.append((status, msg.decode())))
+        except Exception:
+            return None
+    return fmu
+
+
+@pytest.mark.parametrize("kind", ["compensator", "model", "plant"])
+@pytest.mark.parametrize("version", ["2", "3"])
+def test_a_wrong_guid_and_a_fractional_step_are_logged_errors(fmus, tmp_path, kind, version):
+    d, md = any_fmu(fmus, kind, version, tmp_path)
     logged = Logged()
-    fmu = slave(d, md, guid="{00000000-0000-0000-0000-000000000000}")
-    with pytest.raises(Exception):
-        fmu.instantiate(callbacks=logged.callbacks, loggingOn=True)
+    assert instantiated(d, md, version, logged, guid="{00000000-0000-0000-0000-000000000000}") is None
     assert any(s == 3 and "token" in m for s, m in logged.messages), logged.messages
+    logged = Logged()
+    fmu = instantiated(d, md, version, logged)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    with pytest.raises(FMICallException):
+        fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.5 * TS)
+    assert any(s == 3 and "whole multiple" in m for s, m in logged.messages), logged.messages
+    fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=2 * TS)
+    fmu.terminate()
+    fmu.freeInstance()
 
 
 def started(d, md, logged, name="test"):
@@ -66,17 +102,6 @@ def started(d, md, logged, name="test"):
     fmu.enterInitializationMode()
     fmu.exitInitializationMode()
     return fmu
-
-
-def test_a_step_of_a_fraction_of_a_sample_is_logged_and_refused(compensator2):
-    d, md = compensator2
-    logged = Logged()
-    fmu = started(d, md, logged)
-    with pytest.raises(FMICallException):
-        fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.5 * TS)
-    assert any("whole multiple" in m for _, m in logged.messages), logged.messages
-    fmu.terminate()
-    fmu.freeInstance()
 
 
 def test_a_non_finite_target_is_flagged_and_held(compensator2):
