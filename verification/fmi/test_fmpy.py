@@ -142,7 +142,7 @@ def test_the_readme_fmpy_example_runs(fmus, tmp_path, monkeypatch):
     import textwrap
 
     text = (ROOT / "README.md").read_text()
-    start = text.index("* **FMPy**:")
+    start = text.index("* **FMPy**")
     block = text[text.index("```python", start) + len("```python"):]
     block = textwrap.dedent(block[:block.index("```")])
     shutil.copy(fmus[("compensator", "3")], tmp_path / "compensator.fmu")
