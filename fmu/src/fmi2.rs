@@ -8,7 +8,7 @@ use std::ffi::{c_char, c_int, c_void, CString};
 
 use mfcbeam::fmi::{Component, FmuError};
 
-use crate::{c_str, guard, guard_plain, log_to, resource_folder, slice, slice_mut};
+use crate::{c_str, guard, guard_plain, log_to, no_variable, resource_folder, slice, slice_mut};
 use crate::{Instance, Logger, ERROR, OK};
 
 type Fmi2Component = *mut c_void;
@@ -239,13 +239,7 @@ pub unsafe extern "C" fn fmi2SetInteger(
     n: usize,
     _value: *const c_int,
 ) -> Fmi2Status {
-    guard(c, "fmi2SetInteger", |_| {
-        let vr = slice(vr, n, "vr")?;
-        match vr.first() {
-            Some(r) => Err(FmuError::UnknownVariable(*r)),
-            None => Ok(OK),
-        }
-    })
+    guard(c, "fmi2SetInteger", |_| no_variable(vr, n))
 }
 
 #[no_mangle]
@@ -255,13 +249,7 @@ pub unsafe extern "C" fn fmi2SetBoolean(
     n: usize,
     _value: *const c_int,
 ) -> Fmi2Status {
-    guard(c, "fmi2SetBoolean", |_| {
-        let vr = slice(vr, n, "vr")?;
-        match vr.first() {
-            Some(r) => Err(FmuError::UnknownVariable(*r)),
-            None => Ok(OK),
-        }
-    })
+    guard(c, "fmi2SetBoolean", |_| no_variable(vr, n))
 }
 
 #[no_mangle]

@@ -9,7 +9,7 @@ use std::ffi::{c_char, c_int, c_void, CString};
 
 use mfcbeam::fmi::{Component, FmuError};
 
-use crate::{c_str, guard, guard_plain, log_to, resource_folder, slice, slice_mut};
+use crate::{c_str, guard, guard_plain, log_to, no_variable, resource_folder, slice, slice_mut};
 use crate::{Instance, Logger, ERROR, OK};
 
 type Fmi3Instance = *mut c_void;
@@ -294,10 +294,7 @@ macro_rules! no_variables {
             _values: $ty,
             _n_values: usize,
         ) -> Fmi3Status {
-            guard(instance, stringify!($name), |_| match slice(vr, n_vr, "vr")?.first() {
-                Some(r) => Err(FmuError::UnknownVariable(*r)),
-                None => Ok(OK),
-            })
+            guard(instance, stringify!($name), |_| no_variable(vr, n_vr))
         }
     )*};
 }
@@ -332,12 +329,7 @@ pub unsafe extern "C" fn fmi3GetBinary(
     _values: *mut *const u8,
     _n_values: usize,
 ) -> Fmi3Status {
-    guard(instance, "fmi3GetBinary", |_| {
-        match slice(vr, n_vr, "vr")?.first() {
-            Some(r) => Err(FmuError::UnknownVariable(*r)),
-            None => Ok(OK),
-        }
-    })
+    guard(instance, "fmi3GetBinary", |_| no_variable(vr, n_vr))
 }
 
 #[no_mangle]
@@ -349,12 +341,7 @@ pub unsafe extern "C" fn fmi3SetBinary(
     _values: *const *const u8,
     _n_values: usize,
 ) -> Fmi3Status {
-    guard(instance, "fmi3SetBinary", |_| {
-        match slice(vr, n_vr, "vr")?.first() {
-            Some(r) => Err(FmuError::UnknownVariable(*r)),
-            None => Ok(OK),
-        }
-    })
+    guard(instance, "fmi3SetBinary", |_| no_variable(vr, n_vr))
 }
 
 #[no_mangle]

@@ -261,6 +261,15 @@ pub(crate) fn resource_folder(location: &str) -> PathBuf {
     PathBuf::from(String::from_utf8_lossy(&out).into_owned())
 }
 
+/// The body of a setter or getter of a type this FMU has no variable of:
+/// any value reference is unknown, none is fine.
+pub(crate) fn no_variable(vr: *const u32, n: usize) -> Result<i32, FmuError> {
+    match slice(vr, n, "vr")?.first() {
+        Some(r) => Err(FmuError::UnknownVariable(*r)),
+        None => Ok(OK),
+    }
+}
+
 /// Slices from C arrays (empty for a null pointer with length 0).
 pub(crate) fn slice<'a, T>(p: *const T, n: usize, what: &str) -> Result<&'a [T], FmuError> {
     if n == 0 {
