@@ -36,6 +36,23 @@ pub unsafe extern "C" fn fmi3SetDebugLogging(
     })
 }
 
+/// The other interface types: NULL, with the reason logged.
+fn only_co_simulation(
+    environment: *mut c_void,
+    log_message: Option<Fmi3LogMessage>,
+    call: &str,
+) -> Fmi3Instance {
+    let n = CString::new("mfcbeam").unwrap_or_default();
+    log_to(
+        Logger::V3(log_message, environment),
+        &n,
+        ERROR,
+        "logStatusError",
+        &format!("{call}: only Co-Simulation is supported"),
+    );
+    std::ptr::null_mut()
+}
+
 #[no_mangle]
 pub unsafe extern "C" fn fmi3InstantiateModelExchange(
     _name: *const c_char,
@@ -46,15 +63,7 @@ pub unsafe extern "C" fn fmi3InstantiateModelExchange(
     environment: *mut c_void,
     log_message: Option<Fmi3LogMessage>,
 ) -> Fmi3Instance {
-    let n = CString::new("mfcbeam").unwrap_or_default();
-    log_to(
-        Logger::V3(log_message, environment),
-        &n,
-        ERROR,
-        "logStatusError",
-        "fmi3InstantiateModelExchange: only Co-Simulation is supported",
-    );
-    std::ptr::null_mut()
+    only_co_simulation(environment, log_message, "fmi3InstantiateModelExchange")
 }
 
 #[no_mangle]
@@ -70,15 +79,11 @@ pub unsafe extern "C" fn fmi3InstantiateScheduledExecution(
     _lock: *const c_void,
     _unlock: *const c_void,
 ) -> Fmi3Instance {
-    let n = CString::new("mfcbeam").unwrap_or_default();
-    log_to(
-        Logger::V3(log_message, environment),
-        &n,
-        ERROR,
-        "logStatusError",
-        "fmi3InstantiateScheduledExecution: only Co-Simulation is supported",
-    );
-    std::ptr::null_mut()
+    only_co_simulation(
+        environment,
+        log_message,
+        "fmi3InstantiateScheduledExecution",
+    )
 }
 
 /// Instantiate; NULL with a logged message for a wrong token or broken

@@ -133,9 +133,9 @@ impl Component {
             },
         };
         c.state.modal = vec![0.0; 2 * c.config.modes];
-        // the resources must load now: a broken FMU fails at instantiation
+        // the resources load now: a broken FMU fails at instantiation (a
+        // parameter set later drops them, and they load again)
         c.load()?;
-        c.state.live = None;
         Ok(c)
     }
 
@@ -214,8 +214,9 @@ impl Component {
         Ok(())
     }
 
-    /// FMI `EnterInitializationMode`: the files load here, so that the
-    /// calculated parameters can be read during initialization.
+    /// FMI `EnterInitializationMode`: the files load here if a parameter
+    /// changed since instantiation, so that the calculated parameters can
+    /// be read during initialization.
     pub fn enter_initialization(&mut self, start_time: f64) -> Result<(), FmuError> {
         if self.state.mode != Mode::Instantiated {
             return Err(self.wrong("EnterInitializationMode"));
@@ -225,7 +226,9 @@ impl Component {
                 "start time {start_time} is not finite"
             )));
         }
-        self.load()?;
+        if self.state.live.is_none() {
+            self.load()?;
+        }
         self.state.time = start_time;
         self.state.mode = Mode::Initialization;
         Ok(())

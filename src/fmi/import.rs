@@ -516,6 +516,8 @@ pub struct FmuInstance {
     handle: Handle,
     /// The logger's environment: boxed so that its address is stable.
     log: Box<Mutex<Vec<String>>>,
+    /// FMI 2's callbacks, which the FMU may keep a pointer to.
+    _callbacks: Box<Fmi2Callbacks>,
     time: f64,
     states: Vec<Handle>,
 }
@@ -535,20 +537,20 @@ impl FmuInstance {
         let name_c = cstr(name)?;
         let token = cstr(&fmu.description.token)?;
         let resources = fmu.resources();
+        // FMI 2 keeps a pointer to the callbacks: they live as long as the
+        // instance (boxed: a stable address)
+        let callbacks = Box::new(Fmi2Callbacks {
+            logger: fmi2_logger,
+            allocate: calloc,
+            free,
+            step_finished: None,
+            environment: env,
+        });
         let handle = {
             let _guard = fmu.calls.lock().unwrap_or_else(|e| e.into_inner());
             match fmu.api {
                 Api::V2(api) => {
                     let uri = cstr(&format!("file://{}", resources.display()))?;
-                    let callbacks = Box::new(Fmi2Callbacks {
-                        logger: fmi2_logger,
-                        allocate: calloc,
-                        free,
-                        step_finished: None,
-                        environment: env,
-                    });
-                    // the FMU may keep the pointer: leak it with the instance
-                    let callbacks = Box::leak(callbacks);
                     // SAFETY: arguments as FMI 2.0 specifies (1 = Co-Simulation)
                     unsafe {
                         (api.instantiate)(
@@ -556,7 +558,7 @@ impl FmuInstance {
                             1,
                             token.as_ptr(),
                             uri.as_ptr(),
-                            callbacks,
+                            &*callbacks,
                             0,
                             1,
                         )
@@ -588,6 +590,7 @@ impl FmuInstance {
             fmu,
             handle,
             log,
+            _callbacks: callbacks,
             time: 0.0,
             states: Vec::new(),
         };
@@ -759,6 +762,9 @@ impl FmuInstance {
 impl Drop for FmuInstance {
     fn drop(&mut self) {
         let h = self.handle;
+        if h.is_null() {
+            return; // Instantiate refused: nothing to free
+        }
         let states = std::mem::take(&mut self.states);
         self.call(|api| unsafe {
             match api {

@@ -335,26 +335,27 @@ pub fn variables(kind: FmuKind, modes: usize) -> Vec<Variable> {
             ));
             v.push(var("beam_file", vr::BEAM_FILE, String, Parameter, Some(""), "beam file (JSON) to load instead of the one in resources/ (empty: resources/beam.json); it must have as many modes"));
             for j in 0..modes {
-                let k = j as u32;
-                v.push(Variable {
-                    name: format!("z_re_{}", j + 1),
-                    value_reference: vr::MODAL + 2 * k,
+                let (k, n) = (j as u32, j + 1);
+                let part = |name: std::string::String,
+                            vr: u32,
+                            description: std::string::String| Variable {
+                    name,
+                    value_reference: vr,
                     ty: Float64,
                     causality: Output,
-                    description: format!("real part of the complex modal coordinate of mode {} (the tip deflection is the sum over the modes of Re(c_j z_j))", j + 1),
+                    description,
                     start: Some("0".into()),
-                });
-                v.push(Variable {
-                    name: format!("z_im_{}", j + 1),
-                    value_reference: vr::MODAL + 2 * k + 1,
-                    ty: Float64,
-                    causality: Output,
-                    description: format!(
-                        "imaginary part of the complex modal coordinate of mode {}",
-                        j + 1
-                    ),
-                    start: Some("0".into()),
-                });
+                };
+                v.push(part(
+                    format!("z_re_{n}"),
+                    vr::MODAL + 2 * k,
+                    format!("real part of the complex modal coordinate of mode {n} (the tip deflection is the sum over the modes of Re(c_j z_j))"),
+                ));
+                v.push(part(
+                    format!("z_im_{n}"),
+                    vr::MODAL + 2 * k + 1,
+                    format!("imaginary part of the complex modal coordinate of mode {n}"),
+                ));
             }
         }
     }

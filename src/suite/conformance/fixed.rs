@@ -12,7 +12,7 @@
 //! and declines every other model file ([`fixed_model_factory`] and its
 //! siblings wrap a builder so).
 
-use super::{compare, refused, ConformanceSettings, Outcome};
+use super::{compare, refused, Outcome};
 use crate::error::ModelError;
 use crate::operators::compensator::CompensatorSettings;
 use crate::operators::model::ModelFile;
@@ -214,11 +214,4 @@ pub(crate) fn resume_from_saved<R: Resumable>(
         tolerance,
         "second half after save, a disturbance and restore, against the whole run",
     )
-}
-
-impl ConformanceSettings {
-    /// The model every case uses in the fixed mode (`None`: random models).
-    pub fn fixed(&self) -> Option<&ModelFile> {
-        self.fixed_model.as_ref()
-    }
 }
