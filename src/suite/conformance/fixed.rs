@@ -1,7 +1,7 @@
 //! Fixed implementations: a candidate that implements one given model —
 //! its parameters compiled in, code generated from a block diagram, an FMU
 //! — and reads no model file. It is checked against the model it claims
-//! to be ([`ConformanceSettings::fixed_model`]): every property whose cases
+//! to be ([`ConformanceSettings::fixed_model`](super::ConformanceSettings::fixed_model)): every property whose cases
 //! vary only the input (and the limits) runs on that model; the properties
 //! that need other models (`S` alone, say) are reported as not runnable on
 //! a fixed model; state split and resume goes through the candidate's own
