@@ -6,6 +6,9 @@ mod cli;
 use clap::Parser;
 
 fn main() {
+    // scratch directories and candidates go on Ctrl-C too (first: it must
+    // run before any thread starts)
+    mfcbeam::io::scratch::clean_up_on_termination_signals();
     let args = match cli::Cli::try_parse() {
         Ok(args) => args,
         Err(e) if !e.use_stderr() => {
@@ -22,6 +25,9 @@ fn main() {
         }
     };
     if let Err(e) = cli::run(args) {
+        if let Some(cli::Exit(code)) = e.downcast_ref::<cli::Exit>() {
+            std::process::exit(*code);
+        }
         // `{:#}` joins the context chain on one line; keep it one line.
         let msg = format!("{e:#}").replace(['\n', '\r'], " ");
         eprintln!("mfcbeam: error: {msg}");

@@ -565,7 +565,7 @@ fn identify_error_contract() {
     );
     assert_clean_failure(
         &run(&good, &["--epsilon-h", "0"]),
-        &["epsilon_h"],
+        &["--epsilon-h"],
         Some(&output),
     );
 }

@@ -53,6 +53,12 @@ impl FiniteElementModel {
                 reason: format!("at least 3 elements are needed, found {elements}"),
             });
         }
+        crate::limits::check("elements", crate::limits::MAX_ELEMENTS, elements).map_err(|e| {
+            BeamError::InvalidSetting {
+                field: "elements",
+                reason: e.display_as("").to_string().trim_start_matches(": ").into(),
+            }
+        })?;
         let mut nodes = vec![0.0];
         let mut coefficients = Vec::new();
         let mut patch_nodes = (0, 0);

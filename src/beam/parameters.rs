@@ -192,6 +192,15 @@ impl BeamParameters {
                 reason: "must be at least 1".into(),
             });
         }
+        crate::limits::check(
+            "basis_functions",
+            crate::limits::MAX_BASIS_FUNCTIONS,
+            self.basis_functions,
+        )
+        .map_err(|e| BeamError::InvalidSetting {
+            field: "basis_functions",
+            reason: e.display_as("").to_string().trim_start_matches(": ").into(),
+        })?;
         Ok(())
     }
 

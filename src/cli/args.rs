@@ -339,7 +339,7 @@ pub struct FmuArgs {
     #[arg(long, value_enum, default_value_t = ModelKindArg::Modal)]
     pub beam_model: ModelKindArg,
     /// Finite elements of the modal model (the plant).
-    #[arg(long, default_value_t = mfcbeam::beam::fe::DEFAULT_ELEMENTS)]
+    #[arg(long, default_value_t = mfcbeam::beam::fe::DEFAULT_ELEMENTS, value_parser = parse_elements)]
     pub elements: usize,
     /// FMI version: 2 (2.0) or 3 (3.0).
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["2", "3"]))]
@@ -400,7 +400,7 @@ pub struct BeamModelArgs {
     #[arg(long, value_enum, default_value_t = ModelKindArg::Modal)]
     pub beam_model: ModelKindArg,
     /// Finite elements of the modal model.
-    #[arg(long, default_value_t = mfcbeam::beam::fe::DEFAULT_ELEMENTS)]
+    #[arg(long, default_value_t = mfcbeam::beam::fe::DEFAULT_ELEMENTS, value_parser = parse_elements)]
     pub elements: usize,
 }
 
@@ -493,6 +493,17 @@ pub struct SignalArgs {
     /// Sample time (s).
     #[arg(long, default_value_t = SAMPLE_TIME, allow_hyphen_values = true)]
     pub sample_time: f64,
+}
+
+/// `--elements`: from 3 to [`mfcbeam::limits::MAX_ELEMENTS`].
+fn parse_elements(s: &str) -> std::result::Result<usize, String> {
+    let most = mfcbeam::limits::MAX_ELEMENTS;
+    match s.parse::<usize>() {
+        Ok(n) if (3..=most).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "expected a whole number from 3 to {most} (docs/FILES.md, \"Limits\")"
+        )),
+    }
 }
 
 fn parse_limits(s: &str) -> std::result::Result<(f64, f64), String> {

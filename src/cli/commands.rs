@@ -167,6 +167,16 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
             DelaySetting::Auto => 0,
         },
     };
+    // the settings are options: named as such, not after the input file
+    if let Err(mfcbeam::identification::IdentificationError::InvalidSetting { field, reason }) =
+        settings.validate()
+    {
+        bail!("--{}: {reason}", field.replace('_', "-"));
+    }
+    if matches!(a.delay, DelaySetting::Auto) {
+        mfcbeam::limits::check("max-delay", mfcbeam::limits::MAX_DELAY_SEARCH, a.max_delay)
+            .map_err(|e| anyhow!("--{e}"))?;
+    }
     let names: Vec<String> = validation
         .iter()
         .map(|(path, _, _)| path.display().to_string())
@@ -390,7 +400,7 @@ fn golden(a: &GoldenArgs) -> Result<()> {
     }
     if !differences.is_empty() {
         eprintln!("mfcbeam: {} golden differences", differences.len());
-        std::process::exit(1);
+        return Err(super::Exit(1).into());
     }
     eprintln!(
         "mfcbeam: all {} golden traces reproduce within tolerance",
@@ -403,7 +413,7 @@ fn verify(a: &VerifyArgs) -> Result<()> {
     let report = mfcbeam::suite::golden::verify(&a.golden, &a.candidate)?;
     print_stdout(&report.to_string())?;
     if report.failed() > 0 {
-        std::process::exit(1);
+        return Err(super::Exit(1).into());
     }
     Ok(())
 }
@@ -556,20 +566,9 @@ fn beam_identify(a: &BeamIdentifyArgs) -> Result<()> {
 }
 
 fn signal(a: &SignalArgs) -> Result<()> {
-    for (name, v) in [
-        ("--rise", a.rise),
-        ("--plateau", a.plateau),
-        ("--sample-time", a.sample_time),
-    ] {
-        if !(v.is_finite() && v > 0.0) {
-            bail!("{name}: must be a finite number > 0, found {v}");
-        }
-    }
-    if !a.amplitude.is_finite() {
-        bail!("--amplitude: must be finite, found {}", a.amplitude);
-    }
-    let s = Staircase::shrinking_loops(a.amplitude, a.periods, a.steps, a.rise, a.plateau);
-    let x = s.sample(a.sample_time);
+    let s = Staircase::try_shrinking_loops(a.amplitude, a.periods, a.steps, a.rise, a.plateau)
+        .map_err(option_error)?;
+    let x = s.try_sample(a.sample_time).map_err(option_error)?;
     let t = time_axis(x.len(), a.sample_time);
     let trace = Trace::from_columns(Path::new(&a.output), &[("t", &t), (&a.column, &x)]);
     trace.write(&a.output)?;
@@ -580,4 +579,15 @@ fn signal(a: &SignalArgs) -> Result<()> {
         a.output.display()
     );
     Ok(())
+}
+
+/// A parameter error about an option: a field that is an option's name is
+/// written as the option (`sample_time` as `--sample-time`).
+fn option_error(e: mfcbeam::realtime::ParameterError) -> anyhow::Error {
+    let field = e.field();
+    if !field.is_empty() && field.chars().all(|c| c.is_ascii_lowercase() || c == '_') {
+        anyhow!("--{}", e.display_as(&field.replace('_', "-")))
+    } else {
+        anyhow!("{e}")
+    }
 }

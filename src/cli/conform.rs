@@ -61,12 +61,19 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
         ..ConformanceSettings::default()
     };
     // the library's checks, named as the options are
-    if let Err(ModelError::Inconsistent { field, reason }) = settings.validate() {
-        bail!("--{}: {reason}", field.replace('_', "-"));
+    match settings.validate() {
+        Ok(()) => {}
+        Err(ModelError::Inconsistent { field, reason }) => {
+            bail!("--{}: {reason}", field.replace('_', "-"))
+        }
+        // a count option above its limit (the fixed model was read and
+        // checked before, with its path)
+        Err(e) => bail!("--{e}"),
     }
-    if !(a.timeout.is_finite() && a.timeout > 0.0) {
+    let longest = mfcbeam::limits::MAX_CANDIDATE_TIMEOUT;
+    if !(a.timeout.is_finite() && a.timeout > 0.0 && a.timeout <= longest) {
         bail!(
-            "--timeout: must be a finite number > 0, found {}",
+            "--timeout: must be a number of seconds in (0, {longest}], found {}",
             a.timeout
         );
     }
@@ -162,7 +169,9 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
             }
         }
     }
-    std::process::exit(1);
+    // returned, not exited here: the candidate's scratch directories are
+    // removed as it is dropped
+    Err(super::Exit(1).into())
 }
 
 /// The input column of a kind's traces.

@@ -187,7 +187,9 @@ pub fn conform_fmu(a: &ConformArgs, path: &Path, settings: ConformanceSettings) 
         println!("the FMU failed on some run: {e}");
     }
     write_counterexamples(a, &candidate, &report, delay)?;
-    std::process::exit(1);
+    // returned, not exited here: the candidate's scratch directories are
+    // removed as it is dropped
+    Err(super::Exit(1).into())
 }
 
 /// An instance that could not be made: the case counts as failed (a

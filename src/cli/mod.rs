@@ -9,3 +9,16 @@ pub mod fmu;
 
 pub use args::Cli;
 pub use commands::run;
+
+/// An exit code without an error message: the command has printed its
+/// report (`conform` exits 1 when a property fails).
+#[derive(Debug)]
+pub struct Exit(pub i32);
+
+impl std::fmt::Display for Exit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "exit code {}", self.0)
+    }
+}
+
+impl std::error::Error for Exit {}

@@ -246,12 +246,12 @@ impl FeedforwardSettings {
                 reason: format!("must be finite, found {}", self.y_final),
             });
         }
-        if self.end / self.sample_time > 1e8 {
-            return Err(FeedforwardError::Invalid {
+        crate::limits::generated_samples(self.end, self.sample_time).map_err(|e| {
+            FeedforwardError::Invalid {
                 field: "end",
-                reason: "more than 1e8 samples".into(),
-            });
-        }
+                reason: e.to_string(),
+            }
+        })?;
         Ok(())
     }
 }

@@ -103,7 +103,7 @@ impl Component {
             reason,
         };
         let text = std::fs::read_to_string(&path).map_err(|e| bad(e.to_string()))?;
-        let config: FmuConfig = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
+        let config: FmuConfig = crate::io::parse_json(&text).map_err(bad)?;
         if config.token != token {
             return Err(FmuError::Token {
                 expected: config.token,

@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
+use crate::io::scratch::ScratchDir;
 use thiserror::Error;
 
 use super::variables::{FmiVersion, VariableType};
@@ -331,7 +332,7 @@ pub struct Fmu {
     pub description: ImportedDescription,
     /// The archive's name, for messages.
     pub path: PathBuf,
-    dir: PathBuf,
+    dir: ScratchDir,
     api: Api,
     /// Keeps the functions of `api` loaded.
     _library: libloading::Library,
@@ -347,14 +348,10 @@ impl std::fmt::Debug for Fmu {
     }
 }
 
-impl Drop for Fmu {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.dir);
-    }
-}
-
-/// The most an archive may unpack to.
-const MAX_UNPACKED: u64 = 1 << 30;
+/// The most an archive may unpack to (on disk, in the temporary
+/// directory): an FMU of this project is a few megabytes, one with every
+/// platform's binaries some tens.
+pub const MAX_UNPACKED: u64 = 256 << 20;
 
 fn unpack(path: &Path, dir: &Path) -> Result<(), ImportError> {
     let bad = |reason: String| ImportError::Archive {
@@ -406,27 +403,17 @@ macro_rules! symbol {
 impl Fmu {
     /// Unpack and load the FMU at `path`.
     pub fn load(path: &Path) -> Result<Arc<Self>, ImportError> {
-        static LOADED: AtomicUsize = AtomicUsize::new(0);
-        let dir = std::env::temp_dir().join(format!(
-            "mfcbeam-fmu-{}-{}",
-            std::process::id(),
-            LOADED.fetch_add(1, Ordering::Relaxed)
-        ));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).map_err(|e| ImportError::Archive {
-            path: dir.display().to_string(),
+        // removed with the Fmu, on a termination signal, or by the next
+        // import after a kill
+        let dir = ScratchDir::new("mfcbeam-fmu").map_err(|e| ImportError::Archive {
+            path: std::env::temp_dir().display().to_string(),
             reason: e.to_string(),
         })?;
-        match Self::load_into(path, &dir) {
-            Ok(f) => Ok(Arc::new(f)),
-            Err(e) => {
-                let _ = std::fs::remove_dir_all(&dir);
-                Err(e)
-            }
-        }
+        Self::load_into(path, dir).map(Arc::new)
     }
 
-    fn load_into(path: &Path, dir: &Path) -> Result<Self, ImportError> {
+    fn load_into(path: &Path, scratch: ScratchDir) -> Result<Self, ImportError> {
+        let dir = scratch.path();
         unpack(path, dir)?;
         let xml_path = dir.join("modelDescription.xml");
         let xml = std::fs::read_to_string(&xml_path).map_err(|e| ImportError::Archive {
@@ -497,7 +484,7 @@ impl Fmu {
         Ok(Self {
             description,
             path: path.to_path_buf(),
-            dir: dir.to_path_buf(),
+            dir: scratch,
             api,
             _library: library,
             calls: Mutex::new(()),
@@ -506,7 +493,7 @@ impl Fmu {
 
     /// The unpacked `resources/` folder.
     pub fn resources(&self) -> PathBuf {
-        self.dir.join("resources")
+        self.dir.path().join("resources")
     }
 }
 

@@ -107,6 +107,12 @@ pub fn search_delay(
     max_delay: usize,
     records: &[Record<'_>],
 ) -> Result<(Identification, DelaySearch), IdentificationError> {
+    crate::limits::check("max_delay", crate::limits::MAX_DELAY_SEARCH, max_delay).map_err(|e| {
+        IdentificationError::InvalidSetting {
+            field: "max_delay",
+            reason: e.display_as("").to_string().trim_start_matches(": ").into(),
+        }
+    })?;
     let mut fits = Vec::with_capacity(max_delay + 1);
     for d in 0..=max_delay {
         let s = IdentificationSettings {
@@ -118,8 +124,7 @@ pub fn search_delay(
         for r in records {
             validations.push(validate_record(&id.model, r.name, r.u, r.y, r.from)?.errors);
         }
-        let run = id.model.clone().run(u);
-        fits.push((id, run, validations));
+        fits.push((id, validations));
     }
     // the samples every candidate fits: a larger d starts its fit later
     let start = fits.iter().map(|f| f.0.report.fitted.start).max();
@@ -132,10 +137,13 @@ pub fn search_delay(
     } else {
         DelayCriterion::Fit
     };
+    // each candidate run again here rather than kept from its fit: memory
+    // for one run, not one per candidate
     let rows: Vec<DelayRow> = fits
         .iter()
-        .map(|(id, run, validations)| {
-            let fit = FitErrors::of(run, y, common.clone());
+        .map(|(id, validations)| {
+            let run = id.model.clone().run(u);
+            let fit = FitErrors::of(&run, y, common.clone());
             let score = match criterion {
                 DelayCriterion::Validation => pooled_rms(validations),
                 DelayCriterion::Holdout => id.report.holdout.map_or(f64::INFINITY, |h| h.rms),

@@ -161,7 +161,55 @@ impl IdentificationSettings {
                 return bad("eigenvalues", "must be finite numbers > 0");
             }
         }
-        Ok(())
+        self.check_counts()
+    }
+
+    /// The counts against [`crate::limits`], before anything is allocated
+    /// from them.
+    fn check_counts(&self) -> Result<(), IdentificationError> {
+        use crate::limits::{self as l, check};
+        let plays = self
+            .hysteresis_thresholds
+            .as_ref()
+            .map_or(self.hysteresis_operators, Vec::len);
+        let creep = self
+            .creep_thresholds
+            .as_ref()
+            .map_or(self.creep_operators, Vec::len);
+        let eigenvalues = match (creep, &self.eigenvalues) {
+            (0, _) => 0,
+            (_, Some(a)) => a.len(),
+            (_, None) => self.creep_eigenvalues,
+        };
+        let kinks = self
+            .superposition_kinks
+            .as_ref()
+            .map_or(self.superposition.saturating_mul(2), Vec::len);
+        let counted = |field, limit, found| {
+            check(field, limit, found).map_err(|e| IdentificationError::InvalidSetting {
+                field,
+                reason: e.display_as("").to_string().trim_start_matches(": ").into(),
+            })
+        };
+        counted("hysteresis_operators", l::MAX_PLAYS, plays)?;
+        counted("creep_operators", l::MAX_CREEP_THRESHOLDS, creep)?;
+        counted("creep_eigenvalues", l::MAX_CREEP_EIGENVALUES, eigenvalues)?;
+        counted(
+            "creep_operators × creep_eigenvalues",
+            l::MAX_CREEP_ELEMENTS,
+            creep.saturating_mul(eigenvalues),
+        )?;
+        counted(
+            "superposition (terms of S)",
+            l::MAX_SUPERPOSITION_TERMS,
+            kinks.saturating_add(1),
+        )?;
+        counted(
+            "weights to fit (plays + creep operators + kinks of S)",
+            l::MAX_IDENTIFIED_WEIGHTS,
+            plays.saturating_add(creep).saturating_add(kinks),
+        )?;
+        counted("delay", l::MAX_DELAY, self.delay)
     }
 }
 

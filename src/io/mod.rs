@@ -12,6 +12,8 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
+mod atomic;
+pub mod scratch;
 mod time_axis;
 #[cfg(feature = "suite")]
 mod trace;
@@ -53,6 +55,13 @@ pub enum FileError {
     },
     #[error("{path}: column '{column}' is already present")]
     ColumnExists { path: PathBuf, column: String },
+    #[error("{path}: column '{column}' has {found} values for {expected} rows")]
+    ColumnLength {
+        path: PathBuf,
+        column: String,
+        expected: usize,
+        found: usize,
+    },
     #[error("{path}: row {row} (line {line}), column '{column}': {message}")]
     BadValue {
         path: PathBuf,
@@ -84,10 +93,28 @@ pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, FileE
         path: path.to_path_buf(),
         error,
     })?;
-    serde_json::from_str(&text).map_err(|e| FileError::Json {
+    parse_json(&text).map_err(|message| FileError::Json {
         path: path.to_path_buf(),
-        message: e.to_string(),
+        message,
     })
+}
+
+/// JSON text into `T`; the error names the field it is about (`delay:
+/// invalid type …`, `hysteresis.weights[3]: …`) as well as serde's line
+/// and column.
+pub fn parse_json<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, String> {
+    let mut de = serde_json::Deserializer::from_str(text);
+    let value = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner();
+        if path.is_empty() || path == "." {
+            inner.to_string()
+        } else {
+            format!("{path}: {inner}")
+        }
+    })?;
+    de.end().map_err(|e| e.to_string())?;
+    Ok(value)
 }
 
 /// Read and validate a beam file.
@@ -116,30 +143,41 @@ pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<(), Fil
     write_atomic(path, text.as_bytes())
 }
 
-/// Write into a temporary file next to `path`, then rename it into place.
+/// Write `bytes` to `path` atomically ([`write_atomic_with`]).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FileError> {
-    let io = |error| FileError::Io {
+    write_atomic_with(path, |w| w.write_all(bytes))
+}
+
+/// Write `path` through `write` so that `path` is always either the old file
+/// or the complete new one, and no temporary file stays behind: on Linux
+/// the new content goes into an unnamed file in the same directory
+/// (`O_TMPFILE`), which vanishes with the process if it is killed, and is
+/// only named (then renamed over `path`) once it is complete and synced.
+/// Elsewhere, or where the file system has no unnamed files, a named
+/// temporary file next to `path` is used instead; it is removed on every
+/// error, and one left by a killed process is removed by the next write to
+/// the same path.
+pub fn write_atomic_with(
+    path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<(), FileError> {
+    atomic::write(path, write).map_err(|error| FileError::Io {
         path: path.to_path_buf(),
         error,
-    };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "output".into());
-    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-    let result = (|| {
-        let mut f = fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
-        let _ = fs::remove_file(&tmp);
-        return Err(io(e));
-    }
-    Ok(())
+    })
+}
+
+/// For writers that need a path of their own (an image encoder that picks
+/// the format by the extension): `write` writes a temporary path next to
+/// `path`, with the same extension, which is renamed into place when it
+/// succeeds and removed when it fails; one left by a killed process is
+/// removed by the next write to the same path.
+pub fn write_atomic_via<E>(
+    path: &Path,
+    write: impl FnOnce(&Path) -> Result<(), E>,
+) -> Result<Result<(), E>, FileError> {
+    atomic::write_via(path, write).map_err(|error| FileError::Io {
+        path: path.to_path_buf(),
+        error,
+    })
 }

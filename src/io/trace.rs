@@ -6,14 +6,39 @@ use std::path::{Path, PathBuf};
 
 #[cfg(doc)]
 use super::SAMPLE_TIME_AGREEMENT;
-use super::{format_f64, write_atomic, FileError, TimeAxis};
+use super::{format_f64, write_atomic_with, FileError, TimeAxis};
 
-/// A CSV trace held as text, so that input columns pass through unchanged.
+/// A CSV trace: input columns held as their text, so that they pass
+/// through a command unchanged, computed columns as numbers. Memory is a
+/// small multiple of the file's size: a text column keeps its cells'
+/// bytes one after another and one end offset per cell, whatever the cell's
+/// length (no allocation per cell or row).
 #[derive(Debug, Clone)]
 pub struct Trace {
     path: PathBuf,
     header: Vec<String>,
-    rows: Vec<Vec<String>>,
+    rows: usize,
+    columns: Vec<Column>,
+}
+
+#[derive(Debug, Clone)]
+enum Column {
+    /// As read: the cells' text, one after another, and where each ends.
+    Text { text: String, ends: Vec<usize> },
+    /// Computed: finite numbers, written in the shortest round-trip form.
+    Numbers(Vec<f64>),
+}
+
+impl Column {
+    fn cell(&self, k: usize) -> std::borrow::Cow<'_, str> {
+        match self {
+            Column::Text { text, ends } => {
+                let start = if k == 0 { 0 } else { ends[k - 1] };
+                std::borrow::Cow::Borrowed(&text[start..ends[k]])
+            }
+            Column::Numbers(v) => std::borrow::Cow::Owned(format_f64(v[k])),
+        }
+    }
 }
 
 impl Trace {
@@ -23,38 +48,52 @@ impl Trace {
             path: path.to_path_buf(),
             error,
         })?;
+        Self::parse(path, &bytes)
+    }
+
+    /// A trace from the bytes of a CSV file; `path` names it in errors.
+    pub fn parse(path: &Path, bytes: &[u8]) -> Result<Self, FileError> {
         let csv_err = |e: csv::Error| FileError::Csv {
             path: path.to_path_buf(),
             message: e.to_string(),
         };
         let mut reader = csv::ReaderBuilder::new()
             .trim(csv::Trim::All)
-            .from_reader(bytes.as_slice());
+            .from_reader(bytes);
         let header: Vec<String> = reader
             .headers()
             .map_err(csv_err)?
             .iter()
             .map(str::to_owned)
             .collect();
+        // a set, not a scan per column: a file of 100 000 columns is read
+        // in linear time
+        let mut seen = std::collections::HashSet::with_capacity(header.len());
         if let Some((k, name)) = header
             .iter()
             .enumerate()
-            .find(|(k, h)| header[..*k].contains(h))
+            .find(|(_, h)| !seen.insert(h.as_str()))
         {
             return Err(FileError::BadValue {
                 path: path.to_path_buf(),
                 row: 0,
                 line: 1,
-                column: name.clone(),
+                column: quoted(name),
                 message: format!("column {} repeats the name of an earlier column", k + 1),
             });
         }
-        let mut rows = Vec::new();
-        for record in reader.records() {
-            let record = record.map_err(csv_err)?;
-            rows.push(record.iter().map(str::to_owned).collect());
+        let mut texts = vec![(String::new(), Vec::new()); header.len()];
+        let mut rows = 0;
+        let mut record = csv::StringRecord::new();
+        // the reader refuses a row whose number of fields differs from the header's
+        while reader.read_record(&mut record).map_err(csv_err)? {
+            for ((text, ends), field) in texts.iter_mut().zip(record.iter()) {
+                text.push_str(field);
+                ends.push(text.len());
+            }
+            rows += 1;
         }
-        if rows.is_empty() {
+        if rows == 0 {
             return Err(FileError::NoRows {
                 path: path.to_path_buf(),
             });
@@ -63,20 +102,28 @@ impl Trace {
             path: path.to_path_buf(),
             header,
             rows,
+            columns: texts
+                .into_iter()
+                .map(|(text, ends)| Column::Text { text, ends })
+                .collect(),
         })
     }
 
-    /// Build a trace in memory from numeric columns.
+    /// Build a trace in memory from numeric columns of one length.
     pub fn from_columns(path: &Path, columns: &[(&str, &[f64])]) -> Self {
-        let n = columns.first().map_or(0, |c| c.1.len());
-        let header = columns.iter().map(|c| c.0.to_string()).collect();
-        let rows = (0..n)
-            .map(|k| columns.iter().map(|c| format_f64(c.1[k])).collect())
-            .collect();
+        let rows = columns.first().map_or(0, |c| c.1.len());
+        assert!(
+            columns.iter().all(|c| c.1.len() == rows),
+            "columns of one trace must have one length"
+        );
         Self {
             path: path.to_path_buf(),
-            header,
+            header: columns.iter().map(|c| c.0.to_string()).collect(),
             rows,
+            columns: columns
+                .iter()
+                .map(|c| Column::Numbers(c.1.to_vec()))
+                .collect(),
         }
     }
 
@@ -92,12 +139,12 @@ impl Trace {
 
     /// Number of data rows.
     pub fn len(&self) -> usize {
-        self.rows.len()
+        self.rows
     }
 
     /// Whether the trace has no data rows.
     pub fn is_empty(&self) -> bool {
-        self.rows.is_empty()
+        self.rows == 0
     }
 
     /// Whether a column exists.
@@ -114,12 +161,14 @@ impl Trace {
                 .ok_or_else(|| FileError::MissingColumn {
                     path: self.path.clone(),
                     column: name.to_string(),
-                    header: self.header.join(","),
+                    header: header_text(&self.header),
                 })?;
-        self.rows
-            .iter()
-            .enumerate()
-            .map(|(k, row)| {
+        let column = &self.columns[idx];
+        if let Column::Numbers(v) = column {
+            return Ok(v.clone());
+        }
+        (0..self.rows)
+            .map(|k| {
                 let bad = |message: String| FileError::BadValue {
                     path: self.path.clone(),
                     row: k + 1,
@@ -127,14 +176,14 @@ impl Trace {
                     column: name.to_string(),
                     message,
                 };
-                let text = &row[idx];
+                let text = column.cell(k);
                 let v: f64 = text
                     .parse()
-                    .map_err(|_| bad(format!("'{text}' is not a number")))?;
+                    .map_err(|_| bad(format!("'{}' is not a number", quoted(&text))))?;
                 if v.is_finite() {
                     Ok(v)
                 } else {
-                    Err(bad(format!("'{text}' is not a finite number")))
+                    Err(bad(format!("'{}' is not a finite number", quoted(&text))))
                 }
             })
             .collect()
@@ -191,7 +240,10 @@ impl Trace {
                 ),
             });
         }
-        self.push_text_column(name, values.iter().map(|&v| format_f64(v)))
+        self.check_new_column(name, values.len())?;
+        self.header.push(name.to_string());
+        self.columns.push(Column::Numbers(values.to_vec()));
+        Ok(())
     }
 
     /// Append a column of already formatted values.
@@ -200,39 +252,66 @@ impl Trace {
         name: &str,
         values: impl IntoIterator<Item = String>,
     ) -> Result<(), FileError> {
+        let (mut text, mut ends) = (String::new(), Vec::with_capacity(self.rows));
+        for v in values.into_iter().take(self.rows + 1) {
+            text.push_str(&v);
+            ends.push(text.len());
+        }
+        self.check_new_column(name, ends.len())?;
+        self.header.push(name.to_string());
+        self.columns.push(Column::Text { text, ends });
+        Ok(())
+    }
+
+    /// A new column's name must be new and its length the trace's.
+    fn check_new_column(&self, name: &str, len: usize) -> Result<(), FileError> {
         if self.has_column(name) {
             return Err(FileError::ColumnExists {
                 path: self.path.clone(),
                 column: name.to_string(),
             });
         }
-        self.header.push(name.to_string());
-        let mut count = 0;
-        for (row, v) in self.rows.iter_mut().zip(values) {
-            row.push(v);
-            count += 1;
+        if len != self.rows {
+            return Err(FileError::ColumnLength {
+                path: self.path.clone(),
+                column: name.to_string(),
+                expected: self.rows,
+                found: len,
+            });
         }
-        assert_eq!(count, self.rows.len(), "column length must match the trace");
         Ok(())
     }
 
-    /// Write the trace to `path`, atomically.
+    /// Write the trace to `path`, atomically, row by row (no copy of the
+    /// whole text in memory).
     pub fn write(&self, path: &Path) -> Result<(), FileError> {
-        let mut out = Vec::with_capacity(self.rows.len() * 16 * self.header.len());
-        let mut w = csv::Writer::from_writer(&mut out);
-        let csv_err = |e: csv::Error| FileError::Csv {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        };
-        w.write_record(&self.header).map_err(csv_err)?;
-        for row in &self.rows {
-            w.write_record(row).map_err(csv_err)?;
-        }
-        w.flush().map_err(|error| FileError::Io {
-            path: path.to_path_buf(),
-            error,
-        })?;
-        drop(w);
-        write_atomic(path, &out)
+        write_atomic_with(path, |out| {
+            let mut w = csv::Writer::from_writer(out);
+            w.write_record(&self.header)?;
+            for k in 0..self.rows {
+                for c in &self.columns {
+                    w.write_field(c.cell(k).as_bytes())?;
+                }
+                w.write_record(None::<&[u8]>)?;
+            }
+            w.flush()
+        })
+    }
+}
+
+/// The header for a message: at most 20 names, each shortened.
+fn header_text(header: &[String]) -> String {
+    let mut text: Vec<String> = header.iter().take(20).map(|h| quoted(h)).collect();
+    if header.len() > 20 {
+        text.push(format!("… {} columns in all", header.len()));
+    }
+    text.join(",")
+}
+
+/// At most 40 characters of a cell, for a message of one short line.
+fn quoted(text: &str) -> String {
+    match text.char_indices().nth(40) {
+        Some((cut, _)) => format!("{}…", &text[..cut]),
+        None => text.to_string(),
     }
 }

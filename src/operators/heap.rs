@@ -14,8 +14,23 @@ impl Storage for Heap {
     type Delay<T: Real> = Vec<T>;
 }
 
+/// The longest list any heap buffer holds: every kind's own limit is
+/// checked with its parameters ([`crate::limits`]); this is the last guard
+/// for a caller that skipped them.
+const LONGEST: usize = crate::limits::MAX_DELAY;
+
 impl<T: Real> Buffer<T> for Vec<T> {
-    fn zeroed(_field: &'static str, len: usize) -> Result<Self, ParameterError> {
-        Ok(vec![T::ZERO; len])
+    fn zeroed(field: &'static str, len: usize) -> Result<Self, ParameterError> {
+        crate::limits::check(field, LONGEST, len)?;
+        // fallible: an allocation that fails is an error, not an abort
+        let mut v = Vec::new();
+        v.try_reserve_exact(len)
+            .map_err(|_| ParameterError::ExceedsLimit {
+                field,
+                limit: LONGEST,
+                found: len,
+            })?;
+        v.resize(len, T::ZERO);
+        Ok(v)
     }
 }

@@ -27,6 +27,7 @@ pub struct DelayLine<T: Real, S: Storage> {
 impl<T: Real, S: Storage> DelayLine<T, S> {
     /// A line of `d` samples, not started.
     pub fn new(d: usize) -> Result<Self, ParameterError> {
+        crate::limits::check("delay", crate::limits::MAX_DELAY, d)?;
         Ok(Self {
             line: S::Delay::<T>::zeroed("delay", d)?,
             head: 0,

@@ -86,6 +86,17 @@ pub enum ParameterError {
         capacity: usize,
         found: usize,
     },
+    /// A single value that must be finite.
+    NonFiniteValue { field: &'static str, value: f64 },
+    /// A duration (s) that must be finite and positive.
+    InvalidDuration { field: &'static str, value: f64 },
+    /// A count above its documented limit ([`crate::limits`]): refused
+    /// before anything is allocated from it.
+    ExceedsLimit {
+        field: &'static str,
+        limit: usize,
+        found: usize,
+    },
 }
 
 impl ParameterError {
@@ -106,7 +117,10 @@ impl ParameterError {
             | P::NonPositiveEigenvalue { field, .. }
             | P::InadmissibleState { field, .. }
             | P::ChannelMismatch { field, .. }
-            | P::ExceedsCapacity { field, .. } => field,
+            | P::ExceedsCapacity { field, .. }
+            | P::ExceedsLimit { field, .. }
+            | P::InvalidDuration { field, .. }
+            | P::NonFiniteValue { field, .. } => field,
             P::NonPositiveSampleTime { .. } => "sample_time",
             P::SampleTimeMismatch { .. } => "creep",
             P::InvalidLimits { .. } => "limits",
@@ -173,7 +187,10 @@ impl fmt::Display for Message<'_> {
                 "{field}[{index}]: a creep eigenvalue must be > 0, found {value}"
             ),
             P::NonPositiveSampleTime { value } => {
-                write!(f, "sample_time: must be a finite number > 0, found {value}")
+                write!(f, "{field}: must be a finite number > 0, found {value}")
+            }
+            P::NonFiniteValue { value, .. } => {
+                write!(f, "{field}: {value} is not a finite number")
             }
             P::InadmissibleState {
                 index, gap, allowed, ..
@@ -201,6 +218,13 @@ impl fmt::Display for Message<'_> {
             } => write!(
                 f,
                 "{field}: {found} values exceed the capacity of {capacity} fixed at compile time"
+            ),
+            P::InvalidDuration { value, .. } => {
+                write!(f, "{field}: must be a finite number > 0 (s), found {value}")
+            }
+            P::ExceedsLimit { limit, found, .. } => write!(
+                f,
+                "{field}: {found} exceeds the limit of {limit} (docs/FILES.md, \"Limits\")"
             ),
         }
     }

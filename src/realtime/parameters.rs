@@ -3,6 +3,7 @@
 //! of the superposition operator `S` every constructor checks (the `std`
 //! operators use the same checks).
 
+use crate::limits;
 use crate::realtime::error::ParameterError;
 
 /// `H` (10): thresholds `0 = r_0 < … < r_n` (12), weights with positive
@@ -48,7 +49,9 @@ pub struct ModelParameters<'a> {
 
 impl HysteresisParameters<'_> {
     pub fn validate(&self) -> Result<(), ParameterError> {
-        check_thresholds("hysteresis.thresholds", self.thresholds)?;
+        let field = "hysteresis.thresholds";
+        limits::check(field, limits::MAX_PLAYS, self.thresholds.len())?;
+        check_thresholds(field, self.thresholds)?;
         check_finite("hysteresis.weights", self.weights)?;
         check_length(
             "hysteresis.weights",
@@ -61,6 +64,14 @@ impl HysteresisParameters<'_> {
 
 impl CreepParameters<'_> {
     pub fn validate(&self, sample_time: f64) -> Result<(), ParameterError> {
+        let (n, m) = (self.thresholds.len(), self.eigenvalues.len());
+        limits::check("creep.thresholds", limits::MAX_CREEP_THRESHOLDS, n)?;
+        limits::check("creep.eigenvalues", limits::MAX_CREEP_EIGENVALUES, m)?;
+        limits::check(
+            "creep (thresholds × eigenvalues)",
+            limits::MAX_CREEP_ELEMENTS,
+            n.saturating_mul(m),
+        )?;
         check_thresholds("creep.thresholds", self.thresholds)?;
         check_finite("creep.weights", self.weights)?;
         check_length("creep.weights", self.thresholds.len(), self.weights.len())?;
@@ -74,6 +85,7 @@ impl SuperpositionParameters<'_> {
     pub fn validate(&self) -> Result<(), ParameterError> {
         let field = "superposition.thresholds";
         let r = self.thresholds;
+        limits::check(field, limits::MAX_SUPERPOSITION_TERMS, r.len())?;
         if r.is_empty() {
             return Err(ParameterError::Empty { field });
         }
@@ -108,6 +120,7 @@ impl ModelParameters<'_> {
     /// Every condition on the parameters, the first one broken named.
     pub fn validate(&self) -> Result<(), ParameterError> {
         check_sample_time(self.sample_time)?;
+        limits::check("delay", limits::MAX_DELAY, self.delay)?;
         self.hysteresis.validate()?;
         if let Some(c) = &self.creep {
             c.validate(self.sample_time)?;

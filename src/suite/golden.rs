@@ -264,7 +264,11 @@ pub fn align(
     if rows == golden_rows {
         return Ok(candidate);
     }
-    if decimation > 1 && golden_rows > 0 && rows == (golden_rows - 1) * decimation + 1 {
+    // saturating: the decimation comes from a manifest, which may be hostile
+    let full_rate = (golden_rows.max(1) - 1)
+        .saturating_mul(decimation)
+        .saturating_add(1);
+    if decimation > 1 && golden_rows > 0 && rows == full_rate {
         return Ok(candidate
             .into_iter()
             .map(|(n, v)| (n, v.into_iter().step_by(decimation).collect()))
@@ -273,8 +277,7 @@ pub fn align(
     Err(FileError::Csv {
         path: path.to_path_buf(),
         message: format!(
-            "{rows} rows: expected {golden_rows} (as stored) or {} (every sample at 5 kHz, decimation {decimation})",
-            (golden_rows.max(1) - 1) * decimation + 1
+            "{rows} rows: expected {golden_rows} (as stored) or {full_rate} (every sample at 5 kHz, decimation {decimation})"
         ),
     })
 }

@@ -175,35 +175,38 @@ fn draw<DB: DrawingBackend>(
 
 /// Write `fig` as `stem.svg` and `stem.png`.
 pub fn write_figure(fig: &Figure, stem: &Path) -> Result<Vec<PathBuf>, String> {
-    register();
-    let h = 330 * fig.panels.len() as u32 + 50;
     let svg = stem.with_extension("svg");
     let png = stem.with_extension("png");
-    draw(SVGBackend::new(&svg, (1000, h)).into_drawing_area(), fig, 2)
-        .map_err(|e| format!("{}: {e}", svg.display()))?;
-    draw(
-        BitMapBackend::new(&png, (1000, h)).into_drawing_area(),
-        fig,
-        1,
-    )
-    .map_err(|e| format!("{}: {e}", png.display()))?;
+    write_figure_file(fig, &svg)?;
+    write_figure_file(fig, &png)?;
     Ok(vec![svg, png])
 }
 
-/// Write `fig` to `path`, SVG or PNG by its extension.
+/// Write `fig` to `path`, SVG or PNG by its extension, atomically (the old
+/// file or the complete new one, see [`crate::io::write_atomic_via`]).
 pub fn write_figure_file(fig: &Figure, path: &Path) -> Result<(), String> {
     register();
     let h = 330 * fig.panels.len() as u32 + 50;
-    let result = match path.extension().and_then(|e| e.to_str()) {
-        Some("svg") => draw(SVGBackend::new(path, (1000, h)).into_drawing_area(), fig, 2),
-        Some("png") => draw(
-            BitMapBackend::new(path, (1000, h)).into_drawing_area(),
-            fig,
-            1,
-        ),
-        _ => Err("name a .png or .svg file".into()),
-    };
-    result.map_err(|e| format!("{}: {e}", path.display()))
+    let extension = path.extension().and_then(|e| e.to_str());
+    if !matches!(extension, Some("svg" | "png")) {
+        return Err(format!("{}: name a .png or .svg file", path.display()));
+    }
+    let drawn = crate::io::write_atomic_via(path, |tmp| {
+        if extension == Some("svg") {
+            draw(SVGBackend::new(tmp, (1000, h)).into_drawing_area(), fig, 2)
+        } else {
+            draw(
+                BitMapBackend::new(tmp, (1000, h)).into_drawing_area(),
+                fig,
+                1,
+            )
+        }
+    });
+    match drawn {
+        Ok(Ok(())) => Ok(()),
+        Ok(Err(e)) => Err(format!("{}: {e}", path.display())),
+        Err(e) => Err(e.to_string()),
+    }
 }
 
 /// The identification figure: measured and model output over the input

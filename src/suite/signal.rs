@@ -1,6 +1,9 @@
 //! Test and excitation signals: smooth staircases (the inputs of the paper's
 //! Figs. 3, 9 and 10 and of the identification in section 4.1).
 
+use crate::limits;
+use crate::realtime::ParameterError;
+
 /// A staircase of plateaus joined by smooth (raised-cosine) transitions.
 ///
 /// The signal starts at `start`, moves to `levels[0]` in `rise` seconds, holds
@@ -87,6 +90,49 @@ impl Staircase {
     pub fn sample(&self, sample_time: f64) -> Vec<f64> {
         let n = (self.duration() / sample_time).round() as usize + 1;
         (0..n).map(|k| self.value(k as f64 * sample_time)).collect()
+    }
+
+    /// [`Self::sample`] for a staircase built from options: the number of
+    /// samples is checked against [`limits::MAX_GENERATED_SAMPLES`] first.
+    pub fn try_sample(&self, sample_time: f64) -> Result<Vec<f64>, ParameterError> {
+        let n = limits::generated_samples(self.duration(), sample_time)?;
+        Ok((0..n).map(|k| self.value(k as f64 * sample_time)).collect())
+    }
+
+    /// [`Self::shrinking_loops`] for counts from options: `periods` loops of
+    /// `4 · steps` levels are refused beyond
+    /// [`limits::MAX_GENERATED_SAMPLES`] levels before any is made, and
+    /// the durations must be finite and `> 0`.
+    pub fn try_shrinking_loops(
+        amplitude: f64,
+        periods: usize,
+        steps: usize,
+        rise: f64,
+        plateau: f64,
+    ) -> Result<Self, ParameterError> {
+        for (field, value) in [("rise", rise), ("plateau", plateau)] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(ParameterError::InvalidDuration { field, value });
+            }
+        }
+        if !amplitude.is_finite() {
+            return Err(ParameterError::NonFiniteValue {
+                field: "amplitude",
+                value: amplitude,
+            });
+        }
+        let levels = periods
+            .max(1)
+            .saturating_mul(steps.max(1))
+            .saturating_mul(4);
+        limits::check(
+            "levels (4 · steps · periods)",
+            limits::MAX_GENERATED_SAMPLES,
+            levels,
+        )?;
+        Ok(Self::shrinking_loops(
+            amplitude, periods, steps, rise, plateau,
+        ))
     }
 }
 

@@ -30,6 +30,7 @@ use std::time::{Duration, Instant};
 
 use thiserror::Error;
 
+use crate::io::scratch::{self, ScratchDir};
 use crate::io::{format_f64, Trace};
 use crate::operators::compensator::CompensatorSettings;
 use crate::operators::model::ModelFile;
@@ -147,7 +148,7 @@ fn resolve(program: &str) -> Option<PathBuf> {
 pub struct ExternalCandidate {
     words: Vec<String>,
     timeout: Duration,
-    dir: PathBuf,
+    dir: ScratchDir,
     counter: AtomicUsize,
     /// Runs so far (for progress display).
     pub runs: AtomicUsize,
@@ -169,15 +170,9 @@ impl ExternalCandidate {
                 program: program.clone(),
             });
         }
-        // unique per process and per candidate: each removes its own on drop
-        static CANDIDATES: AtomicUsize = AtomicUsize::new(0);
-        let dir = std::env::temp_dir().join(format!(
-            "mfcbeam-conform-{}-{}",
-            std::process::id(),
-            CANDIDATES.fetch_add(1, Ordering::Relaxed)
-        ));
-        fs::create_dir_all(&dir).map_err(|e| ExternalError::Io {
-            path: dir.display().to_string(),
+        // unique per process and per candidate, removed on every way out
+        let dir = ScratchDir::new("mfcbeam-conform").map_err(|e| ExternalError::Io {
+            path: std::env::temp_dir().display().to_string(),
             reason: e.to_string(),
         })?;
         Ok(Self {
@@ -309,20 +304,23 @@ impl ExternalCandidate {
                 reason: e.to_string(),
             })?;
         let start = Instant::now();
+        scratch::register_child(child.id());
         let status = loop {
             match child.try_wait() {
-                Ok(Some(status)) => break status,
+                Ok(Some(status)) => break Ok(status),
                 Ok(None) if start.elapsed() > self.timeout => {
                     let _ = child.kill();
                     let _ = child.wait();
-                    return Err(ExternalError::Timeout {
+                    break Err(ExternalError::Timeout {
                         seconds: self.timeout.as_secs_f64(),
                     });
                 }
                 Ok(None) => std::thread::sleep(Duration::from_micros(200)),
-                Err(e) => return Err(io(&o, &e)),
+                Err(e) => break Err(io(&o, &e)),
             }
         };
+        scratch::unregister_child(child.id());
+        let status = status?;
         if !status.success() {
             let text = fs::read_to_string(&stderr_path).unwrap_or_default();
             if status.code() == Some(UNSUPPORTED_EXIT_CODE) {
@@ -340,15 +338,14 @@ impl ExternalCandidate {
                 stderr: text.lines().next().unwrap_or("").to_string(),
             });
         }
-        Trace::read(&o).map_err(|e| ExternalError::BadOutput {
-            reason: e.to_string(),
-        })
+        read_output(&o, input.len())
     }
 
     /// A fresh scratch directory for one run.
     fn scratch(&self) -> Result<PathBuf, ExternalError> {
         let d = self
             .dir
+            .path()
             .join(self.counter.fetch_add(1, Ordering::Relaxed).to_string());
         fs::create_dir_all(&d).map_err(|e| ExternalError::Io {
             path: d.display().to_string(),
@@ -443,6 +440,47 @@ impl ExternalCandidate {
     }
 }
 
+/// The most a candidate's output may take for `rows` rows: a generous
+/// kilobyte per row (its input's columns and one or two of its own are a
+/// few dozen bytes) and a megabyte for the header and the rest, so that a
+/// runaway candidate's file is refused, not read into memory.
+pub fn max_output_bytes(rows: usize) -> u64 {
+    (1 << 20) + 1024 * rows as u64
+}
+
+/// Read a candidate's output for an input of `rows` rows.
+pub fn read_output(path: &Path, rows: usize) -> Result<Trace, ExternalError> {
+    let bad = |reason: String| ExternalError::BadOutput { reason };
+    let size = fs::metadata(path)
+        .map_err(|e| bad(format!("{}: {e}", path.display())))?
+        .len();
+    check_output_size(path, size, rows)?;
+    let bytes = fs::read(path).map_err(|e| bad(format!("{}: {e}", path.display())))?;
+    parse_output(path, &bytes, rows)
+}
+
+fn check_output_size(path: &Path, size: u64, rows: usize) -> Result<(), ExternalError> {
+    if size > max_output_bytes(rows) {
+        return Err(ExternalError::BadOutput {
+            reason: format!(
+                "{}: {size} bytes for {rows} rows (at most {} are read)",
+                path.display(),
+                max_output_bytes(rows)
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// A candidate's output (the bytes of `path`) for an input of `rows` rows:
+/// what [`read_output`] does once the file is read.
+pub fn parse_output(path: &Path, bytes: &[u8], rows: usize) -> Result<Trace, ExternalError> {
+    check_output_size(path, bytes.len() as u64, rows)?;
+    Trace::parse(path, bytes).map_err(|e| ExternalError::BadOutput {
+        reason: e.to_string(),
+    })
+}
+
 fn check_rows(found: usize, expected: usize) -> Result<(), ExternalError> {
     if found == expected {
         Ok(())
@@ -450,12 +488,6 @@ fn check_rows(found: usize, expected: usize) -> Result<(), ExternalError> {
         Err(ExternalError::BadOutput {
             reason: format!("{found} rows for {expected} input rows"),
         })
-    }
-}
-
-impl Drop for ExternalCandidate {
-    fn drop(&mut self) {
-        let _ = fs::remove_dir_all(&self.dir);
     }
 }
 

@@ -53,6 +53,7 @@ pub mod tolerance;
 use std::fmt;
 
 use crate::error::ModelError;
+use crate::limits;
 use crate::operators::compensator::CompensatorSettings;
 use crate::operators::model::{HysteresisCreepModel, ModelFile};
 use crate::operators::traits::{ActuatorCompensator, ActuatorModel, InverseHysteresis};
@@ -170,6 +171,9 @@ impl ConformanceSettings {
         if self.cases == 0 {
             return bad("cases", "must be at least 1".into());
         }
+        if let Err(e) = limits::check("cases", limits::MAX_CONFORMANCE_CASES, self.cases) {
+            return Err(e.into());
+        }
         if !(self.tolerance_scale.is_finite() && self.tolerance_scale >= 1.0) {
             return bad(
                 "tolerance_scale",
@@ -182,8 +186,18 @@ impl ConformanceSettings {
         if self.max_plays == 0 {
             return bad("max_plays", "must be at least 1".into());
         }
+        if let Err(e) = limits::check("max_plays", limits::MAX_PLAYS, self.max_plays) {
+            return Err(e.into());
+        }
         if self.max_samples < 4 {
             return bad("max_samples", "must be at least 4".into());
+        }
+        if let Err(e) = limits::check(
+            "max_samples",
+            limits::MAX_GENERATED_SAMPLES,
+            self.max_samples,
+        ) {
+            return Err(e.into());
         }
         if let Some(m) = &self.fixed_model {
             HysteresisCreepModel::from_file(m)?;
