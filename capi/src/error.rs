@@ -81,6 +81,13 @@ pub(crate) unsafe fn write_error(err: *mut c_char, err_len: usize, message: &dyn
     let _ = fmt::write(&mut buffer, format_args!("{message}"));
     let end = buffer.len;
     buffer.bytes[end] = 0;
+    // one line: a line break inside the message (a field name read from the
+    // file may hold one) becomes a space
+    for b in &mut buffer.bytes[..end] {
+        if *b == b'\n' || *b == b'\r' {
+            *b = b' ';
+        }
+    }
 }
 
 /// The flags word of a compensator step.

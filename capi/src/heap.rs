@@ -32,7 +32,8 @@ pub(crate) unsafe fn model_file(json: *const c_char) -> Result<ModelFile, Failur
     let text = unsafe { CStr::from_ptr(json) }
         .to_str()
         .map_err(|e| Failure::Text(format!("json: not UTF-8: {e}")))?;
-    serde_json::from_str(text).map_err(|e| Failure::Text(format!("malformed model file JSON: {e}")))
+    mfcbeam_rs::io::parse_json(text)
+        .map_err(|e| Failure::Text(format!("malformed model file JSON: {e}")))
 }
 
 /// Run a constructor; its error (or a panic, which would be a bug) goes to

@@ -56,6 +56,30 @@ int main(void) {
     m = mfcbeam_model_from_json("not json", tiny, sizeof tiny);
     check(!m && strlen(tiny) == 7, "error truncated to the buffer", tiny);
 
+    /* counts that would decide an allocation: refused before it, not an abort */
+    static const char *HUGE_DELAYS[] = {"1000000000000", "18446744073709551615", "100000000", "100001"};
+    for (size_t i = 0; i < sizeof HUGE_DELAYS / sizeof *HUGE_DELAYS; i++) {
+        char json[256];
+        snprintf(json, sizeof json,
+                 "{\"sample_time\": 0.0002, \"hysteresis\": {\"thresholds\": [0, 100], \"weights\": [0.5, 0.25]}, "
+                 "\"delay\": %s}",
+                 HUGE_DELAYS[i]);
+        err[0] = 0;
+        m = mfcbeam_model_from_json(json, err, sizeof err);
+        check(!m && strstr(err, "delay") && strstr(err, "exceeds the limit"), "huge dead time (model)", err);
+        err[0] = 0;
+        c = mfcbeam_compensator_from_json(json, -1000.0, 1000.0, err, sizeof err);
+        check(!c && strstr(err, "delay") && strstr(err, "exceeds the limit"), "huge dead time (compensator)", err);
+    }
+    err[0] = 0;
+    m = mfcbeam_model_from_json("{\"sample_time\": 0.0002, \"hysteresis\": {\"thresholds\": [0], \"weights\": [1]}, "
+                                "\"creep\": {\"thresholds\": [0], \"weights\": [0], \"eigenvalues\": "
+                                "[1,2,3,4,5,6,7,8,9,10,11,12,13,14,15,16,17,18,19,20,21,22,23,24,25,26,27,28,29,30,31,32,"
+                                "33,34,35,36,37,38,39,40,41,42,43,44,45,46,47,48,49,50,51,52,53,54,55,56,57,58,59,60,61,62,"
+                                "63,64,65]}}",
+                                err, sizeof err);
+    check(!m && strstr(err, "creep.eigenvalues") && strstr(err, "exceeds the limit"), "65 creep eigenvalues", err);
+
     /* NULL handles are refused, not dereferenced */
     int flags = 0;
     check(isnan(mfcbeam_model_step(NULL, 1.0)), "model step on NULL", NULL);

@@ -54,3 +54,57 @@ fn shape_text(shape: &[usize]) -> String {
         }
     }
 }
+
+/// A count argument as `usize`, or `ValueError` naming it: a negative or
+/// huge Python int is a bad value, not an `OverflowError`, and a count
+/// above its limit is refused by the library before anything is
+/// allocated.
+pub fn count(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<usize> {
+    let bad = || {
+        PyValueError::new_err(format!(
+            "{name}: must be a whole number >= 0, found {}",
+            obj.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+        ))
+    };
+    if obj.is_instance_of::<pyo3::types::PyBool>() {
+        return Err(bad());
+    }
+    obj.extract::<usize>().map_err(|_| bad())
+}
+
+/// The extractors of the count arguments, one per name (`from_py_with`
+/// takes a function of the object alone); `optional` ones take `None` too.
+macro_rules! counts {
+    ($($name:ident),*; optional: $($opt:ident),*) => {
+        pub mod counts {
+            use pyo3::prelude::*;
+            $(
+                pub fn $name(obj: &Bound<'_, PyAny>) -> PyResult<usize> {
+                    super::count(stringify!($name), obj)
+                }
+            )*
+            pub mod optional {
+                use pyo3::prelude::*;
+                $(
+                    pub fn $opt(obj: &Bound<'_, PyAny>) -> PyResult<Option<usize>> {
+                        if obj.is_none() {
+                            Ok(None)
+                        } else {
+                            super::super::count(stringify!($opt), obj).map(Some)
+                        }
+                    }
+                )*
+            }
+        }
+    };
+}
+
+counts!(
+    elements,
+    hysteresis_operators,
+    creep_operators,
+    creep_eigenvalues,
+    superposition,
+    max_delay;
+    optional: fit_from, validate_from
+);

@@ -59,8 +59,8 @@ impl Beam {
     /// the field.
     #[staticmethod]
     fn from_json(text: &str) -> PyResult<Self> {
-        let inner: BeamParameters =
-            serde_json::from_str(text).map_err(|e| value_error(format!("malformed JSON: {e}")))?;
+        let inner: BeamParameters = mfcbeam::io::parse_json(text)
+            .map_err(|e| value_error(format!("malformed JSON: {e}")))?;
         inner.validate().map_err(value_error)?;
         Ok(Self { inner })
     }
@@ -91,7 +91,7 @@ impl Beam {
         &self,
         py: Python<'py>,
         beam_model: &str,
-        elements: usize,
+        #[pyo3(from_py_with = crate::arrays::counts::elements)] elements: usize,
     ) -> PyResult<Bound<'py, PyDict>> {
         let k = kind(beam_model, elements)?;
         let beam = &self.inner;
@@ -117,7 +117,7 @@ impl Beam {
         u: &Bound<'py, PyAny>,
         sample_time: f64,
         beam_model: &str,
-        elements: usize,
+        #[pyo3(from_py_with = crate::arrays::counts::elements)] elements: usize,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let u = signal("u", u)?;
         let k = kind(beam_model, elements)?;
@@ -167,7 +167,7 @@ pub fn feedforward<'py>(
     end: f64,
     sample_time: Option<f64>,
     beam_model: &str,
-    elements: usize,
+    #[pyo3(from_py_with = crate::arrays::counts::elements)] elements: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
     let k = kind(beam_model, elements)?;
     let model = model.map(|m| m.inner.clone());

@@ -47,8 +47,8 @@ impl Model {
     /// Raises ValueError naming the field if the text is not a valid model.
     #[staticmethod]
     fn from_json(text: &str) -> PyResult<Self> {
-        let file: ModelFile =
-            serde_json::from_str(text).map_err(|e| value_error(format!("malformed JSON: {e}")))?;
+        let file: ModelFile = mfcbeam::io::parse_json(text)
+            .map_err(|e| value_error(format!("malformed JSON: {e}")))?;
         let inner = HysteresisCreepModel::from_file(&file).map_err(value_error)?;
         Ok(Self { inner })
     }

@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# Coverage-guided fuzzing on the stable toolchain, offline: the targets are
+# built with LLVM's sanitizer-coverage passes (stable `-C passes` and
+# `-C llvm-args` flags, what cargo-fuzz passes minus its nightly-only
+# sanitizers) and linked with libFuzzer (the libfuzzer-sys crate builds it
+# from source with the C++ compiler). Each target first replays its seed
+# corpus (fuzz/corpus/TARGET) and its past findings (fuzz/regressions/TARGET),
+# then mutates for SECONDS. A single allocation over 100 MB, a resident set
+# over 300 MB, an input that takes over 10 s, a panic or an abort is a
+# finding: written to target/fuzz/artifacts/ and the run fails.
+#
+#   fuzz/run.sh [SECONDS [TARGET ...]]     (default: 60 s, every target)
+set -euo pipefail
+cd "$(dirname "$0")"
+seconds=${1:-60}
+shift || true
+targets=("$@")
+if [ ${#targets[@]} -eq 0 ]; then
+  targets=(model_json model_fields beam_json trace_csv candidate_output capi)
+fi
+host=$(rustc -vV | sed -n 's/^host: //p')
+export CARGO_TARGET_DIR="$PWD/../target"
+# --target: the flags then apply to the targets, not to build scripts
+RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
+-Cllvm-args=-sanitizer-coverage-inline-8bit-counters \
+-Cllvm-args=-sanitizer-coverage-pc-table \
+-Cllvm-args=-sanitizer-coverage-trace-compares --cfg fuzzing" \
+  cargo build --release --locked --target "$host"
+work="$CARGO_TARGET_DIR/fuzz"
+mkdir -p "$work/artifacts"
+for t in "${targets[@]}"; do
+  mkdir -p "$work/corpus/$t" "regressions/$t"
+  echo "fuzz $t: $seconds s"
+  set +e
+  "$CARGO_TARGET_DIR/$host/release/$t" \
+    -max_total_time="$seconds" -timeout=10 -malloc_limit_mb=100 -rss_limit_mb=300 \
+    -max_len=65536 -print_final_stats=1 \
+    -artifact_prefix="$work/artifacts/$t-" \
+    "$work/corpus/$t" "corpus/$t" "regressions/$t" >"$work/$t.log" 2>&1
+  status=$?
+  set -e
+  grep -E '^(Done|INFO: seed corpus|stat::number_of_executed_units|stat::peak_rss_mb|==[0-9]+==|SUMMARY)|panicked|out-of-memory|Test unit written' "$work/$t.log" || true
+  if [ "$status" -ne 0 ]; then
+    echo "fuzz $t: finding (exit $status), see $work/artifacts/" >&2
+    exit 1
+  fi
+done
