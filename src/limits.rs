@@ -107,7 +107,7 @@ pub fn generated_samples(duration: f64, sample_time: f64) -> Result<usize, Param
             value: duration,
         });
     }
-    let steps = (duration / sample_time).round();
+    let steps = libm::round(duration / sample_time);
     // compared as f64: the quotient may be far beyond usize, or infinite
     // (never NaN: the duration is finite, the sample time finite and > 0)
     if steps >= MAX_GENERATED_SAMPLES as f64 {
