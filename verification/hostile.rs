@@ -433,6 +433,23 @@ fn a_one_megabyte_trace_takes_a_small_multiple_of_its_size() {
     );
     eprintln!("simulate of {rows} one-byte rows: peak {} MB", rss >> 20);
     fs::remove_file(dir.path("o.csv")).unwrap();
+    // identification on a 1 MB record of the most rows (262 143), with the
+    // dead-time search and its figure, and with the most weights allowed
+    let mut record = String::from("u,y\n");
+    for k in 0..(1 << 20) / 4 - 1 {
+        record.push_str(&format!("{},{}\n", k % 10, (k * 7) % 10));
+    }
+    let record = dir.write("record.csv", record);
+    for extra in [
+        &["--delay", "auto", "--max-delay", "3", "--plot", "fit.png"][..],
+        &["--hysteresis-operators", "300", "--creep-operators", "200"],
+    ] {
+        let mut args = vec!["identify", "--input", &record, "--output", "id.json"];
+        args.extend_from_slice(&["--sample-time", "2e-4"]);
+        args.extend_from_slice(extra);
+        let rss = accepted(&dir, &args);
+        eprintln!("identify {extra:?} on 1 MB: peak {} MB", rss >> 20);
+    }
     // one cell of a megabyte
     let long = dir.write("long.csv", format!("u\n{}\n", "1".repeat(1 << 20)));
     refused(
@@ -467,6 +484,39 @@ fn a_one_megabyte_trace_takes_a_small_multiple_of_its_size() {
             "simulate", "--model", &big, "--input", &short, "--output", "o.csv",
         ],
         &["big.json", "hysteresis.state"],
+    );
+}
+
+/// A candidate whose output is far larger than its input can explain is
+/// refused before its file is read; one that writes garbage is named.
+#[test]
+fn a_runaway_candidate_output_is_refused_unread() {
+    let dir = Dir::new("runaway");
+    let script = |name: &str, body: &str| {
+        let path = dir.write(name, format!("#!/bin/sh\nfor a; do out=$a; done\n{body}\n"));
+        let mut perm = fs::metadata(&path).unwrap().permissions();
+        std::os::unix::fs::PermissionsExt::set_mode(&mut perm, 0o755);
+        fs::set_permissions(&path, perm).unwrap();
+        path
+    };
+    let huge = script(
+        "huge.sh",
+        "head -c 300000000 /dev/zero | tr '\\0' '0' > \"$out\"",
+    );
+    refused(
+        &dir,
+        &[
+            "conform", "--kind", "model", "--cases", "4", "--exec", &huge, "--out", "ce",
+        ],
+        &["bytes for", "rows"],
+    );
+    let garbage = script("garbage.sh", "printf 'u,y\\n\\377\\376,x\\n' > \"$out\"");
+    refused(
+        &dir,
+        &[
+            "conform", "--kind", "model", "--cases", "4", "--exec", &garbage, "--out", "ce",
+        ],
+        &["unusable"],
     );
 }
 
