@@ -520,6 +520,40 @@ fn a_runaway_candidate_output_is_refused_unread() {
     );
 }
 
+/// An FMU that unpacks far beyond its size (a description of 64 MB in a
+/// 64 kB archive) is refused with one line, within the memory bound, and
+/// its scratch directory goes.
+#[test]
+fn a_zip_bomb_fmu_is_refused() {
+    use std::io::Write;
+    let dir = Dir::new("zip-bomb");
+    let mut zip = zip::ZipWriter::new(fs::File::create(dir.path("bomb.fmu")).unwrap());
+    let options = zip::write::SimpleFileOptions::default()
+        .compression_method(zip::CompressionMethod::Deflated)
+        .large_file(true);
+    zip.start_file("modelDescription.xml", options).unwrap();
+    let spaces = vec![b' '; 1 << 20];
+    for _ in 0..64 {
+        zip.write_all(&spaces).unwrap();
+    }
+    zip.finish().unwrap();
+    assert!(fs::metadata(dir.path("bomb.fmu")).unwrap().len() < 1 << 20);
+    let model = fs::canonicalize("golden/nominal_model.json").unwrap();
+    refused(
+        &dir,
+        &[
+            "conform",
+            "--kind",
+            "model",
+            "--fmu",
+            "bomb.fmu",
+            "--model",
+            model.to_str().unwrap(),
+        ],
+        &["modelDescription.xml", "more than the 16777216 read"],
+    );
+}
+
 /// `conform` leaves no scratch directory: on success, on a failure (it
 /// writes counterexamples and exits 1), with a candidate that hangs, and on
 /// Ctrl-C.

@@ -353,6 +353,10 @@ impl std::fmt::Debug for Fmu {
 /// platform's binaries some tens.
 pub const MAX_UNPACKED: u64 = 256 << 20;
 
+/// The largest `modelDescription.xml` read: one with thousands of variables
+/// is a few megabytes.
+pub const MAX_DESCRIPTION: u64 = 16 << 20;
+
 fn unpack(path: &Path, dir: &Path) -> Result<(), ImportError> {
     let bad = |reason: String| ImportError::Archive {
         path: path.display().to_string(),
@@ -416,10 +420,20 @@ impl Fmu {
         let dir = scratch.path();
         unpack(path, dir)?;
         let xml_path = dir.join("modelDescription.xml");
-        let xml = std::fs::read_to_string(&xml_path).map_err(|e| ImportError::Archive {
+        let unreadable = |reason: String| ImportError::Archive {
             path: path.display().to_string(),
-            reason: format!("modelDescription.xml: {e}"),
-        })?;
+            reason: format!("modelDescription.xml: {reason}"),
+        };
+        // parsed into a tree of some times its size: bounded first
+        let size = std::fs::metadata(&xml_path)
+            .map_err(|e| unreadable(e.to_string()))?
+            .len();
+        if size > MAX_DESCRIPTION {
+            return Err(unreadable(format!(
+                "{size} bytes, more than the {MAX_DESCRIPTION} read"
+            )));
+        }
+        let xml = std::fs::read_to_string(&xml_path).map_err(|e| unreadable(e.to_string()))?;
         let description = ImportedDescription::parse(&xml)?;
         // the standard folder first; some exporters use the other name
         let folders = match description.version {
