@@ -602,22 +602,16 @@ fn conform_leaves_no_scratch_directory_on_any_way_out() {
     // a candidate that hangs, stopped by the timeout
     let hang = dir.write("hang.sh", "#!/bin/sh\nsleep 30\n");
     fs::set_permissions(&hang, perm.clone()).unwrap();
-    let child = Command::new(me)
-        .args([
-            "conform",
-            "--kind",
-            "model",
-            "--cases",
-            "4",
-            "--timeout",
-            "0.5",
-            "--exec",
-            &hang,
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let conform_hanging = |timeout: &str| {
+        Command::new(me)
+            .args(["conform", "--kind", "model", "--cases", "4"])
+            .args(["--timeout", timeout, "--exec", &hang])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap()
+    };
+    let child = conform_hanging("0.5");
     let pid = child.id();
     let out = child.wait_with_output().unwrap();
     assert_eq!(out.status.code(), Some(2));
@@ -627,22 +621,7 @@ fn conform_leaves_no_scratch_directory_on_any_way_out() {
         "timeout: scratch left behind"
     );
     // Ctrl-C while the candidate hangs: the candidate is killed too
-    let mut child = Command::new(me)
-        .args([
-            "conform",
-            "--kind",
-            "model",
-            "--cases",
-            "4",
-            "--timeout",
-            "60",
-            "--exec",
-            &hang,
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut child = conform_hanging("60");
     let pid = child.id();
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
     while mine(pid).is_empty() && std::time::Instant::now() < deadline {

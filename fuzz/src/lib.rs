@@ -319,42 +319,29 @@ fn capi_constructors(text: &[u8], inputs: &[f64]) {
         }
         capi::mfcbeam_compensator_free(comp);
 
-        let mut c32: Box<capi::MfcbeamCompensatorStorageF32> = Box::new(std::mem::zeroed());
-        let r = capi::mfcbeam_compensator_f32_init_json(
-            &mut *c32,
-            json.as_ptr(),
+        // caller-owned storage (zeroed: refused until initialised)
+        macro_rules! storage {
+            ($ty:ty, $init:ident $(, $limit:expr)*) => {{
+                let mut storage: Box<$ty> = Box::new(std::mem::zeroed());
+                let r = capi::$init(&mut *storage, json.as_ptr() $(, $limit)*, err.as_mut_ptr(), err.len());
+                check_refusal(r != 0, &err);
+                storage
+            }};
+        }
+        let mut c32 = storage!(
+            capi::MfcbeamCompensatorStorageF32,
+            mfcbeam_compensator_f32_init_json,
             lo,
-            hi,
-            err.as_mut_ptr(),
-            err.len(),
+            hi
         );
-        check_refusal(r != 0, &err);
-        let mut c64: Box<capi::MfcbeamCompensatorStorageF64> = Box::new(std::mem::zeroed());
-        let r = capi::mfcbeam_compensator_f64_init_json(
-            &mut *c64,
-            json.as_ptr(),
+        let mut c64 = storage!(
+            capi::MfcbeamCompensatorStorageF64,
+            mfcbeam_compensator_f64_init_json,
             lo,
-            hi,
-            err.as_mut_ptr(),
-            err.len(),
+            hi
         );
-        check_refusal(r != 0, &err);
-        let mut m32: Box<capi::MfcbeamModelStorageF32> = Box::new(std::mem::zeroed());
-        let r = capi::mfcbeam_model_f32_init_json(
-            &mut *m32,
-            json.as_ptr(),
-            err.as_mut_ptr(),
-            err.len(),
-        );
-        check_refusal(r != 0, &err);
-        let mut m64: Box<capi::MfcbeamModelStorageF64> = Box::new(std::mem::zeroed());
-        let r = capi::mfcbeam_model_f64_init_json(
-            &mut *m64,
-            json.as_ptr(),
-            err.as_mut_ptr(),
-            err.len(),
-        );
-        check_refusal(r != 0, &err);
+        let mut m32 = storage!(capi::MfcbeamModelStorageF32, mfcbeam_model_f32_init_json);
+        let mut m64 = storage!(capi::MfcbeamModelStorageF64, mfcbeam_model_f64_init_json);
         for &v in inputs {
             capi::mfcbeam_compensate_f32(&mut *c32, v as f32, &mut flags);
             capi::mfcbeam_compensate_f64(&mut *c64, v, &mut flags);
