@@ -24,13 +24,21 @@ fn main() {
             std::process::exit(2);
         }
     };
-    if let Err(e) = cli::run(args) {
+    let result = cli::run(args);
+    // a termination signal being handled decides the exit code (it may
+    // have killed the candidate this run just saw fail)
+    use mfcbeam::io::scratch::exit_unless_terminating;
+    if let Err(e) = result {
         if let Some(cli::Exit(code)) = e.downcast_ref::<cli::Exit>() {
-            std::process::exit(*code);
+            exit_unless_terminating(*code);
+        }
+        if mfcbeam::io::scratch::terminating() {
+            exit_unless_terminating(2);
         }
         // `{:#}` joins the context chain on one line; keep it one line.
         let msg = format!("{e:#}").replace(['\n', '\r'], " ");
         eprintln!("mfcbeam: error: {msg}");
-        std::process::exit(2);
+        exit_unless_terminating(2);
     }
+    exit_unless_terminating(0);
 }

@@ -21,6 +21,28 @@ struct Live {
     children: Vec<u32>,
 }
 
+/// Set once a termination signal has arrived: the signal thread is cleaning
+/// up and will exit with `128 + signal`.
+static TERMINATING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Whether a termination signal is being handled. A program about to exit
+/// on its own (a candidate it was waiting for was just killed, say) waits
+/// instead, so that the exit code is the signal's: see
+/// [`exit_unless_terminating`].
+pub fn terminating() -> bool {
+    TERMINATING.load(Ordering::SeqCst)
+}
+
+/// `std::process::exit(code)`, unless a termination signal is being
+/// handled: then the signal's thread exits (with `128 + signal`) and this
+/// thread waits for it.
+pub fn exit_unless_terminating(code: i32) -> ! {
+    while terminating() {
+        std::thread::park_timeout(std::time::Duration::from_secs(1));
+    }
+    std::process::exit(code)
+}
+
 fn live() -> std::sync::MutexGuard<'static, Live> {
     LIVE.lock().unwrap_or_else(|e| e.into_inner())
 }
@@ -145,6 +167,7 @@ pub fn clean_up_on_termination_signals() {
         let mut signal = 0;
         // SAFETY: set and signal are valid for the call.
         if unsafe { libc::sigwait(&set, &mut signal) } == 0 {
+            TERMINATING.store(true, Ordering::SeqCst);
             clean_up_now();
             std::process::exit(128 + signal);
         }
