@@ -62,7 +62,9 @@ struct Run {
     max_rss: u64,
 }
 
-/// Run `mfcbeam args…` in `dir`, with its peak resident memory.
+/// Run `mfcbeam args…` in `dir`, with its peak resident memory (`wait4`'s
+/// `ru_maxrss`: the kernel counts what the process held at the moment it
+/// was spawned too, a few MB of this test, so it is an upper bound).
 fn run(dir: &Dir, args: &[&str]) -> Run {
     let err_path = dir.path(".stderr");
     let child = Command::new(env!("CARGO_BIN_EXE_mfcbeam"))
@@ -358,6 +360,43 @@ fn option_values_that_would_make_huge_outputs_are_refused_up_front() {
     }
     let model = fs::canonicalize("golden/nominal_model.json").unwrap();
     let model = model.to_str().unwrap();
+    // the largest accepted: just under the generated-samples limit, the
+    // feedforward also with the finest beam and a model
+    let rss = accepted(
+        &dir,
+        &[
+            "signal",
+            "--output",
+            "big.csv",
+            "--plateau",
+            "16.5",
+            "--rise",
+            "0.1",
+        ],
+    );
+    eprintln!("signal of 996 001 samples: peak {} MB", rss >> 20);
+    let rss = accepted(
+        &dir,
+        &[
+            "feedforward",
+            "--beam",
+            beam,
+            "--model",
+            model,
+            "--end",
+            "199",
+            "--elements",
+            "500",
+            "--output",
+            "ff.csv",
+        ],
+    );
+    eprintln!(
+        "feedforward of 995 001 samples, 500 elements, with a model: peak {} MB",
+        rss >> 20
+    );
+    fs::remove_file(dir.path("big.csv")).unwrap();
+    fs::remove_file(dir.path("ff.csv")).unwrap();
     accepted(
         &dir,
         &[

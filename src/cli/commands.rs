@@ -282,20 +282,26 @@ fn feedforward(a: &FeedforwardArgs) -> Result<()> {
         sample_time: ts,
     };
     let ff = design(&flat, &settings)?;
-    let mut trace = Trace::from_columns(
-        &a.output,
-        &[("t", &ff.t), ("y_d", &ff.y_d), ("u_d", &ff.u_d)],
-    );
     eprintln!(
         "mfcbeam: feedforward of {} m in {} s (σ = {}), peak |u_d| = {:.4} V effective, static gain {:.6e} m/V",
         a.y_final, a.duration, a.sigma, ff.peak, flat.static_gain()
     );
-    if let Some(m) = &model {
-        let supply = mfcbeam::operators::supply::Supply::default();
-        let c = compensate_ff(&ff.u_d, m, &supply)?;
-        trace.push_column("u", &c.u)?;
-        trace.push_column("u_fs", &c.u_fs)?;
-        trace.push_column("u_bs", &c.u_bs)?;
+    let compensated = model
+        .as_ref()
+        .map(|m| {
+            let supply = mfcbeam::operators::supply::Supply::default();
+            compensate_ff(&ff.u_d, m, &supply).map(|c| (c, supply))
+        })
+        .transpose()?;
+    // the columns taken over, not copied: a long trace is held once
+    let mut trace = Trace::from_owned_columns(
+        &a.output,
+        vec![("t", ff.t), ("y_d", ff.y_d), ("u_d", ff.u_d)],
+    );
+    if let Some((c, supply)) = compensated {
+        trace.push_owned_column("u", c.u)?;
+        trace.push_owned_column("u_fs", c.u_fs)?;
+        trace.push_owned_column("u_bs", c.u_bs)?;
         trace.push_text_column(
             "saturated",
             c.saturated
@@ -318,7 +324,7 @@ fn feedforward(a: &FeedforwardArgs) -> Result<()> {
     trace.write(&a.output)?;
     eprintln!(
         "mfcbeam: wrote {} samples to {}",
-        ff.t.len(),
+        trace.len(),
         a.output.display()
     );
     Ok(())
@@ -570,11 +576,12 @@ fn signal(a: &SignalArgs) -> Result<()> {
         .map_err(option_error)?;
     let x = s.try_sample(a.sample_time).map_err(option_error)?;
     let t = time_axis(x.len(), a.sample_time);
-    let trace = Trace::from_columns(Path::new(&a.output), &[("t", &t), (&a.column, &x)]);
+    let samples = x.len();
+    let trace = Trace::from_owned_columns(Path::new(&a.output), vec![("t", t), (&a.column, x)]);
     trace.write(&a.output)?;
     eprintln!(
         "mfcbeam: wrote {} samples ({} s) to {}",
-        x.len(),
+        samples,
         s.duration(),
         a.output.display()
     );

@@ -109,6 +109,23 @@ impl Trace {
         })
     }
 
+    /// [`Trace::from_columns`] taking the columns over instead of copying
+    /// them (a long generated trace is held once).
+    pub fn from_owned_columns(path: &Path, columns: Vec<(&str, Vec<f64>)>) -> Self {
+        let rows = columns.first().map_or(0, |c| c.1.len());
+        assert!(
+            columns.iter().all(|c| c.1.len() == rows),
+            "columns of one trace must have one length"
+        );
+        let header = columns.iter().map(|c| c.0.to_string()).collect();
+        Self {
+            path: path.to_path_buf(),
+            header,
+            rows,
+            columns: columns.into_iter().map(|c| Column::Numbers(c.1)).collect(),
+        }
+    }
+
     /// Build a trace in memory from numeric columns of one length.
     pub fn from_columns(path: &Path, columns: &[(&str, &[f64])]) -> Self {
         let rows = columns.first().map_or(0, |c| c.1.len());
@@ -228,6 +245,11 @@ impl Trace {
     /// Append a numeric column; refuses a name already present and a
     /// non-finite value (naming its row): no command writes one.
     pub fn push_column(&mut self, name: &str, values: &[f64]) -> Result<(), FileError> {
+        self.push_owned_column(name, values.to_vec())
+    }
+
+    /// [`Trace::push_column`] taking the values over instead of copying them.
+    pub fn push_owned_column(&mut self, name: &str, values: Vec<f64>) -> Result<(), FileError> {
         if let Some(k) = values.iter().position(|v| !v.is_finite()) {
             return Err(FileError::BadValue {
                 path: self.path.clone(),
@@ -242,7 +264,7 @@ impl Trace {
         }
         self.check_new_column(name, values.len())?;
         self.header.push(name.to_string());
-        self.columns.push(Column::Numbers(values.to_vec()));
+        self.columns.push(Column::Numbers(values));
         Ok(())
     }
 
