@@ -160,6 +160,12 @@ def test_hostile_cases_stay_within_100_mb():
         t.test_counts_of_the_beam_raise_value_error()
         t.test_identification_counts_raise_value_error()
         t.test_one_field_changed_at_a_time_is_accepted_or_a_value_error()
+        # the largest accepted: the finest beam, and a feedforward just
+        # under the generated-samples limit through it and a model
+        b = mfcbeam.Beam.nominal()
+        b.modes(elements=500)
+        r = mfcbeam.feedforward(b, mfcbeam.Model.nominal(), end=199.0, elements=500)
+        assert len(r["u"]) == 995001
         for line in open("/proc/self/status"):
             if line.startswith("VmHWM:"):
                 print(int(line.split()[1]) * 1024)

@@ -193,12 +193,24 @@ impl FiniteElementModel {
     pub fn modal(&self, n: usize) -> Result<ModalModel, BeamError> {
         let ne = self.elements();
         let w = self.flexibility_factor();
-        let mw = self.mass_like_times(&w, |c| c.mass);
-        let c = w.transpose() * &mw;
-        let c = Mat::from_fn(2 * ne, 2 * ne, |i, j| 0.5 * (c[(i, j)] + c[(j, i)]));
+        // each 2N × 2N intermediate dropped as soon as it is used, and the
+        // product symmetrized in place: at the element limit they are 8 MB
+        // each, and the peak is what counts (docs/FILES.md, "Limits")
+        let mut c = {
+            let mw = self.mass_like_times(&w, |c| c.mass);
+            w.transpose() * &mw
+        };
+        for j in 0..2 * ne {
+            for i in j + 1..2 * ne {
+                let s = 0.5 * (c[(i, j)] + c[(j, i)]);
+                c[(i, j)] = s;
+                c[(j, i)] = s;
+            }
+        }
         let evd = c
             .self_adjoint_eigen(Side::Lower)
             .map_err(|_| BeamError::Numerical("symmetric eigensolver did not converge".into()))?;
+        drop(c);
         let total = 2 * ne;
         let n = n.min(total);
         // largest flexibility eigenvalues first: μ_k = 1/ω_k²
