@@ -40,28 +40,49 @@ fn temp_path(dir: &Path, name: &OsString, extension: Option<&str>) -> PathBuf {
 /// files, while writing).
 fn remove_stale(dir: &Path, name: &OsString) {
     let prefix = temp_prefix(name);
+    for_stale_entries(
+        dir,
+        &prefix,
+        '.',
+        |tail| tail.starts_with("tmp"),
+        |path| {
+            let _ = fs::remove_file(path);
+        },
+    );
+}
+
+/// Call `remove` on each entry of `dir` named `PREFIX PID SEP TAIL` whose
+/// `TAIL` passes `tail_ok` and whose process `PID` (not this one) no
+/// longer runs.
+pub(super) fn for_stale_entries(
+    dir: &Path,
+    prefix: &str,
+    sep: char,
+    tail_ok: impl Fn(&str) -> bool,
+    mut remove: impl FnMut(&Path),
+) {
     let Ok(entries) = fs::read_dir(dir) else {
         return;
     };
     for entry in entries.flatten() {
         let file = entry.file_name();
-        let Some(rest) = file.to_str().and_then(|f| f.strip_prefix(&prefix)) else {
+        let Some(rest) = file.to_str().and_then(|f| f.strip_prefix(prefix)) else {
             continue;
         };
-        let Some((pid, tail)) = rest.split_once('.') else {
+        let Some((pid, tail)) = rest.split_once(sep) else {
             continue;
         };
         let Ok(pid) = pid.parse::<u32>() else {
             continue;
         };
-        if tail.starts_with("tmp") && pid != std::process::id() && !process_alive(pid) {
-            let _ = fs::remove_file(entry.path());
+        if tail_ok(tail) && pid != std::process::id() && !process_alive(pid) {
+            remove(&entry.path());
         }
     }
 }
 
 #[cfg(unix)]
-pub(super) fn process_alive(pid: u32) -> bool {
+fn process_alive(pid: u32) -> bool {
     let Ok(pid) = libc::pid_t::try_from(pid) else {
         return false;
     };
@@ -71,7 +92,7 @@ pub(super) fn process_alive(pid: u32) -> bool {
 }
 
 #[cfg(not(unix))]
-pub(super) fn process_alive(_pid: u32) -> bool {
+fn process_alive(_pid: u32) -> bool {
     // cannot tell: keep it
     true
 }

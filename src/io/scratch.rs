@@ -103,25 +103,10 @@ pub fn unregister_child(pid: u32) {
 
 /// Remove the directories `KIND-PID-N` in `base` whose process is gone.
 fn remove_stale(base: &Path, kind: &str) {
-    let Ok(entries) = fs::read_dir(base) else {
-        return;
-    };
-    let prefix = format!("{kind}-");
-    for entry in entries.flatten() {
-        let name = entry.file_name();
-        let Some(rest) = name.to_str().and_then(|n| n.strip_prefix(&prefix)) else {
-            continue;
-        };
-        let Some((pid, n)) = rest.split_once('-') else {
-            continue;
-        };
-        let (Ok(pid), true) = (pid.parse::<u32>(), n.parse::<usize>().is_ok()) else {
-            continue;
-        };
-        if pid != std::process::id() && !super::atomic::process_alive(pid) {
-            let _ = fs::remove_dir_all(entry.path());
-        }
-    }
+    let numbered = |n: &str| n.parse::<usize>().is_ok();
+    super::atomic::for_stale_entries(base, &format!("{kind}-"), '-', numbered, |path| {
+        let _ = fs::remove_dir_all(path);
+    });
 }
 
 /// Remove every live scratch directory and kill every registered child
