@@ -172,8 +172,20 @@ pub(super) fn weights_from_sums(sums: &[f64], bound: f64) -> Vec<f64> {
     for &s in sums {
         let s = s.max(bound);
         let mut wj = s - prev_exact;
-        while running + wj < bound {
+        // a few ulps of `wj` usually do; when `running` is far larger than
+        // `wj` they change nothing for a very long time (a fuzzed record with
+        // inputs of 1e15 took 16 s here), so then the step grows from an ulp
+        // of the larger operand, doubling: O(log) steps, a few ulps above
+        // the smallest such weight
+        let mut ulps = 0;
+        while running + wj < bound && ulps < 64 {
             wj = wj.next_up();
+            ulps += 1;
+        }
+        let mut step = running.abs().max(bound.abs()) * f64::EPSILON;
+        while running + wj < bound {
+            wj = wj.max(bound - running) + step;
+            step = (2.0 * step).max(f64::MIN_POSITIVE);
         }
         running += wj;
         prev_exact = s;
@@ -200,6 +212,30 @@ mod tests {
         for wj in w {
             s += wj;
             assert!(s >= 0.0);
+        }
+    }
+
+    /// Fuzzing finding (`fuzz/regressions/trace_csv/`): a running sum whose
+    /// ulp is 10⁸ of the step's took ulp steps for seconds (16 s on the
+    /// fuzzed record; more than 10⁷ steps on these sums, found by search).
+    #[test]
+    fn weights_from_sums_are_quick_when_the_sum_dwarfs_the_step() {
+        let sums = [
+            9.945799809269083e-15,
+            3.092264566010291e-15,
+            3.0922645657010645e-15,
+        ];
+        let bound = sums[2];
+        let w = weights_from_sums(&sums, bound);
+        let mut s = 0.0;
+        for (wj, exact) in w.iter().zip(sums) {
+            s += wj;
+            assert!(s >= bound, "{s} below the bound {bound}");
+            // a few ulps of the sum above the exact one, no more
+            assert!(
+                s - exact.max(bound) <= 8.0 * f64::EPSILON * 1e-14,
+                "{s} vs {exact}"
+            );
         }
     }
 }
