@@ -48,6 +48,13 @@ impl From<ParameterError> for ModelError {
 }
 
 impl ParameterError {
+    /// The message without its field, for an error type of another layer
+    /// that names the field itself (a setting, an option).
+    pub fn reason(&self) -> String {
+        let text = self.display_as("").to_string();
+        text.strip_prefix(": ").unwrap_or(&text).to_string()
+    }
+
     /// The same error about `field` (a name built at run time).
     pub fn named(self, field: &str) -> ModelError {
         ModelError::Parameter {

@@ -149,7 +149,7 @@ pub fn model_fields(data: &[u8]) {
     let paths = leaf_paths(&value);
     let path = &paths[field as usize % paths.len()];
     let hostile = hostile_value(kind, rest);
-    if let Some(slot) = pointer(&mut value, path) {
+    if let Some(slot) = value.pointer_mut(path) {
         *slot = hostile;
     }
     let text = value.to_string();
@@ -180,10 +180,6 @@ fn leaf_paths(v: &serde_json::Value) -> Vec<String> {
     // the whole document is not a field
     out.remove(0);
     out
-}
-
-fn pointer<'a>(v: &'a mut serde_json::Value, path: &str) -> Option<&'a mut serde_json::Value> {
-    v.pointer_mut(path)
 }
 
 /// A hostile JSON value: huge, negative, fractional counts, extreme floats,

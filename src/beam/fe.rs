@@ -56,7 +56,7 @@ impl FiniteElementModel {
         crate::limits::check("elements", crate::limits::MAX_ELEMENTS, elements).map_err(|e| {
             BeamError::InvalidSetting {
                 field: "elements",
-                reason: e.display_as("").to_string().trim_start_matches(": ").into(),
+                reason: e.reason(),
             }
         })?;
         let mut nodes = vec![0.0];

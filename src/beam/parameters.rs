@@ -199,7 +199,7 @@ impl BeamParameters {
         )
         .map_err(|e| BeamError::InvalidSetting {
             field: "basis_functions",
-            reason: e.display_as("").to_string().trim_start_matches(": ").into(),
+            reason: e.reason(),
         })?;
         Ok(())
     }

@@ -110,7 +110,7 @@ pub fn search_delay(
     crate::limits::check("max_delay", crate::limits::MAX_DELAY_SEARCH, max_delay).map_err(|e| {
         IdentificationError::InvalidSetting {
             field: "max_delay",
-            reason: e.display_as("").to_string().trim_start_matches(": ").into(),
+            reason: e.reason(),
         }
     })?;
     let mut fits = Vec::with_capacity(max_delay + 1);

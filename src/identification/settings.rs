@@ -188,7 +188,7 @@ impl IdentificationSettings {
         let counted = |field, limit, found| {
             check(field, limit, found).map_err(|e| IdentificationError::InvalidSetting {
                 field,
-                reason: e.display_as("").to_string().trim_start_matches(": ").into(),
+                reason: e.reason(),
             })
         };
         counted("hysteresis_operators", l::MAX_PLAYS, plays)?;

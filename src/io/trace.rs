@@ -128,20 +128,7 @@ impl Trace {
 
     /// Build a trace in memory from numeric columns of one length.
     pub fn from_columns(path: &Path, columns: &[(&str, &[f64])]) -> Self {
-        let rows = columns.first().map_or(0, |c| c.1.len());
-        assert!(
-            columns.iter().all(|c| c.1.len() == rows),
-            "columns of one trace must have one length"
-        );
-        Self {
-            path: path.to_path_buf(),
-            header: columns.iter().map(|c| c.0.to_string()).collect(),
-            rows,
-            columns: columns
-                .iter()
-                .map(|c| Column::Numbers(c.1.to_vec()))
-                .collect(),
-        }
+        Self::from_owned_columns(path, columns.iter().map(|c| (c.0, c.1.to_vec())).collect())
     }
 
     /// The file this trace came from.
