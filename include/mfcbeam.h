@@ -59,22 +59,22 @@
 /**
  * Words of `MfcbeamCompensatorStorageF32`.
  */
-#define MFCBEAM_COMPENSATOR_F32_WORDS 550
+#define MFCBEAM_COMPENSATOR_F32_WORDS 600
 
 /**
  * Words of `MfcbeamCompensatorStorageF64`.
  */
-#define MFCBEAM_COMPENSATOR_F64_WORDS 1077
+#define MFCBEAM_COMPENSATOR_F64_WORDS 1140
 
 /**
  * Words of `MfcbeamModelStorageF32`.
  */
-#define MFCBEAM_MODEL_F32_WORDS 508
+#define MFCBEAM_MODEL_F32_WORDS 530
 
 /**
  * Words of `MfcbeamModelStorageF64`.
  */
-#define MFCBEAM_MODEL_F64_WORDS 993
+#define MFCBEAM_MODEL_F64_WORDS 1020
 
 #if defined(MFCBEAM_STD)
 /**
@@ -110,9 +110,14 @@ typedef struct MfcbeamCompensatorStorageF32 {
  * each; 0 for none, `S` the identity); the dead time `delay` in whole
  * samples (`y_k = S[H + C]_{max(k−d, 0)} + offset`; at most
  * `MFCBEAM_MAX_DELAY` in caller-owned model storage). The arrays are read
- * during `*_init` only. The `S` fields and `delay` come last, so an
+ * during `*_init` only. Then the linear dynamics `G` after `S`
+ * (`y = G[S[H + C]]`): a first-order low-pass of cut-off
+ * `low_pass_frequency` (Hz) and a resonance of natural frequency
+ * `resonance_frequency` (Hz, below the Nyquist frequency) and damping ratio
+ * `resonance_damping` (`0 < ζ < 1`); a frequency of 0 means that part is
+ * absent. The `S` fields, `delay` and the dynamics come last, so an
  * initializer that stops after `offset` leaves them zero: no `S`, no dead
- * time.
+ * time, no dynamics.
  */
 typedef struct MfcbeamParameters {
   double sample_time;
@@ -129,6 +134,9 @@ typedef struct MfcbeamParameters {
   const double *superposition_weights;
   size_t superposition_len;
   size_t delay;
+  double low_pass_frequency;
+  double resonance_frequency;
+  double resonance_damping;
 } MfcbeamParameters;
 
 /**

@@ -21,6 +21,7 @@ const K: usize = 72;
 fn settings() -> ConformanceSettings {
     ConformanceSettings {
         cases: 40,
+        dynamics: true,
         ..ConformanceSettings::default()
     }
 }

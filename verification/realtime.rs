@@ -159,6 +159,7 @@ fn parameters_beyond_the_capacity_are_refused() {
             eigenvalues: &[10.0],
         }),
         superposition: None,
+        dynamics: None,
         delay: 0,
         offset: 0.0,
     };

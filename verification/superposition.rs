@@ -47,6 +47,7 @@ fn alone<'a>(s: &SuperpositionParameters<'a>) -> ModelParameters<'a> {
         },
         creep: None,
         superposition: Some(*s),
+        dynamics: None,
         delay: 0,
         offset: 0.0,
     }

@@ -1,7 +1,8 @@
 //! Model parameters as C arrays.
 
 use mfcbeam_rs::realtime::{
-    CreepParameters, HysteresisParameters, ModelParameters, SuperpositionParameters,
+    CreepParameters, DynamicsParameters, HysteresisParameters, ModelParameters, Resonance,
+    SuperpositionParameters,
 };
 
 use crate::error::Failure;
@@ -15,9 +16,14 @@ use crate::error::Failure;
 /// each; 0 for none, `S` the identity); the dead time `delay` in whole
 /// samples (`y_k = S[H + C]_{max(k−d, 0)} + offset`; at most
 /// `MFCBEAM_MAX_DELAY` in caller-owned model storage). The arrays are read
-/// during `*_init` only. The `S` fields and `delay` come last, so an
+/// during `*_init` only. Then the linear dynamics `G` after `S`
+/// (`y = G[S[H + C]]`): a first-order low-pass of cut-off
+/// `low_pass_frequency` (Hz) and a resonance of natural frequency
+/// `resonance_frequency` (Hz, below the Nyquist frequency) and damping ratio
+/// `resonance_damping` (`0 < ζ < 1`); a frequency of 0 means that part is
+/// absent. The `S` fields, `delay` and the dynamics come last, so an
 /// initializer that stops after `offset` leaves them zero: no `S`, no dead
-/// time.
+/// time, no dynamics.
 #[repr(C)]
 #[derive(Debug, Clone, Copy)]
 pub struct MfcbeamParameters {
@@ -35,6 +41,9 @@ pub struct MfcbeamParameters {
     pub superposition_weights: *const f64,
     pub superposition_len: usize,
     pub delay: usize,
+    pub low_pass_frequency: f64,
+    pub resonance_frequency: f64,
+    pub resonance_damping: f64,
 }
 
 /// `len` values at `ptr`, refusing a NULL pointer with a non-zero length.
@@ -102,11 +111,19 @@ impl MfcbeamParameters {
                     weights: slice(self.superposition_weights, len, "superposition_weights")?,
                 })
             };
+            let dynamics = DynamicsParameters {
+                low_pass: (self.low_pass_frequency != 0.0).then_some(self.low_pass_frequency),
+                resonance: (self.resonance_frequency != 0.0).then_some(Resonance {
+                    frequency: self.resonance_frequency,
+                    damping: self.resonance_damping,
+                }),
+            };
             Ok(ModelParameters {
                 sample_time: self.sample_time,
                 hysteresis,
                 creep,
                 superposition,
+                dynamics: (!dynamics.is_identity()).then_some(dynamics),
                 delay: self.delay,
                 offset: self.offset,
             })

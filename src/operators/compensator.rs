@@ -35,6 +35,9 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             let x = file.hysteresis.state.as_deref().unwrap_or(&zeros);
             comp.set_model_state(x, creep.as_deref())?;
         }
+        if let Some(g) = &file.dynamics {
+            comp.set_dynamics_state(g.state.as_deref())?;
+        }
         Ok(comp)
     }
 }
@@ -52,6 +55,9 @@ pub struct CompensatorState {
     pub inverse: Vec<f64>,
     /// Creep state, one row of `m` values per threshold.
     pub creep: Option<Vec<Vec<f64>>>,
+    /// The plant's last outputs of `G` (newest first) as the compensator
+    /// tracks them; `None` before the first sample or without dynamics.
+    pub dynamics: Option<Vec<f64>>,
 }
 
 impl<T: Real, S: Storage> Operator for Compensator<T, S> {
@@ -99,6 +105,11 @@ impl<T: Real, S: Storage> Snapshot for Compensator<T, S> {
             forward: to_f64(&forward),
             inverse: to_f64(self.inverse.play_states()),
             creep: self.creep.as_ref().map(Snapshot::state),
+            dynamics: self.dynamics().and_then(|g| {
+                let mut y = [T::ZERO; crate::realtime::dynamics::MAX_ORDER];
+                g.state_into(&mut y[..g.order()])?;
+                Some(to_f64(&y[..g.order()]))
+            }),
         }
     }
 
@@ -153,6 +164,9 @@ impl<T: Real, S: Storage> Snapshot for Compensator<T, S> {
         for (x, &v) in trial.inverse.state_mut().iter_mut().zip(&state.inverse) {
             *x = T::from_f64(v);
         }
+        trial
+            .set_dynamics_state(state.dynamics.as_deref())
+            .map_err(|e| e.named("compensator.dynamics"))?;
         *self = trial;
         Ok(())
     }

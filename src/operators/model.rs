@@ -14,8 +14,8 @@ use crate::error::ModelError;
 use crate::operators::heap::Heap;
 use crate::operators::traits::{ActuatorModel, Snapshot};
 use crate::realtime::{
-    CreepParameters, HysteresisParameters, Model, ModelParameters, Real, Storage,
-    SuperpositionParameters,
+    CreepParameters, DynamicsParameters, HysteresisParameters, Model, ModelParameters, Real,
+    Resonance, Storage, SuperpositionParameters,
 };
 
 /// `W = H + C + offset` in `f64` on the heap: what most programs use.
@@ -52,6 +52,65 @@ pub struct SuperpositionData {
     pub weights: Vec<f64>,
 }
 
+/// A first-order low-pass of a model file's dynamics.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LowPassData {
+    /// Cut-off frequency (Hz).
+    pub frequency: f64,
+}
+
+/// A resonance of a model file's dynamics.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ResonanceData {
+    /// Natural frequency (Hz), below the Nyquist frequency.
+    pub frequency: f64,
+    /// Damping ratio, `0 < ζ < 1`.
+    pub damping: f64,
+}
+
+/// The linear dynamics `G` after `S` of a model file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DynamicsData {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub low_pass: Option<LowPassData>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resonance: Option<ResonanceData>,
+    /// The last outputs of `G` (before the offset), newest first, one per
+    /// order of its denominator; absent means not started (at rest on the
+    /// first sample's value).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub state: Option<Vec<f64>>,
+}
+
+impl DynamicsData {
+    pub fn parameters(&self) -> DynamicsParameters {
+        DynamicsParameters {
+            low_pass: self.low_pass.map(|l| l.frequency),
+            resonance: self.resonance.map(|r| Resonance {
+                frequency: r.frequency,
+                damping: r.damping,
+            }),
+        }
+    }
+
+    /// The file form of `parameters` (no state).
+    pub fn of(parameters: &DynamicsParameters) -> Self {
+        Self {
+            low_pass: parameters
+                .low_pass
+                .map(|frequency| LowPassData { frequency }),
+            resonance: parameters.resonance.map(|r| ResonanceData {
+                frequency: r.frequency,
+                damping: r.damping,
+            }),
+            state: None,
+        }
+    }
+}
+
 /// A model file as it is stored (JSON).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -63,7 +122,10 @@ pub struct ModelFile {
     /// `S` after `H + C`; absent means the identity.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub superposition: Option<SuperpositionData>,
-    /// Dead time `d` in whole samples: `y_k = S[H + C]_{max(k−d, 0)} +
+    /// Linear dynamics `G` after `S`; absent means none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dynamics: Option<DynamicsData>,
+    /// Dead time `d` in whole samples: `y_k = G[S[H + C]]_{max(k−d, 0)} +
     /// offset`. Absent means 0.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub delay: Option<usize>,
@@ -85,10 +147,11 @@ impl ModelFile {
         (
             self.creep,
             self.superposition,
+            self.dynamics,
             self.delay,
             self.delay_state,
             self.offset,
-        ) = (None, None, None, None, None);
+        ) = (None, None, None, None, None, None);
         self
     }
 
@@ -97,6 +160,9 @@ impl ModelFile {
         self.hysteresis.state = None;
         if let Some(c) = &mut self.creep {
             c.state = None;
+        }
+        if let Some(g) = &mut self.dynamics {
+            g.state = None;
         }
         self.delay_state = None;
         self
@@ -108,6 +174,9 @@ impl ModelFile {
 pub struct ModelState {
     pub hysteresis: Vec<f64>,
     pub creep: Option<Vec<Vec<f64>>>,
+    /// The last outputs of the dynamics `G` (newest first); `None` before
+    /// the first sample or without dynamics.
+    pub dynamics: Option<Vec<f64>>,
     /// The values waiting in the dead time (oldest first); `None` before
     /// the first sample or without dead time.
     pub delay: Option<Vec<f64>>,
@@ -135,6 +204,7 @@ impl ModelFile {
                     thresholds: &s.thresholds,
                     weights: &s.weights,
                 }),
+            dynamics: self.dynamics.as_ref().map(DynamicsData::parameters),
             delay: self.delay.unwrap_or(0),
             offset: self.offset.unwrap_or(0.0),
         }
@@ -169,6 +239,9 @@ impl<T: Real, S: Storage> Model<T, S> {
         if let (Some(state), Some(c)) = (file.creep_state_flat()?, model.creep_mut()) {
             c.set_state_flat(&state)?;
         }
+        if let (Some(g), Some(data)) = (model.dynamics_mut(), &file.dynamics) {
+            g.set_state(data.state.as_deref())?;
+        }
         model
             .delay_line_mut()
             .set_state(file.delay_state.as_deref())?;
@@ -197,10 +270,23 @@ impl<T: Real, S: Storage> Model<T, S> {
                 thresholds: f64s(s.thresholds()),
                 weights: f64s(s.weights()),
             }),
+            dynamics: self.dynamics().map(|g| DynamicsData {
+                state: self.dynamics_state(),
+                ..DynamicsData::of(g.parameters())
+            }),
             delay: (self.delay() != 0).then_some(self.delay()),
             delay_state: self.delay_state(),
             offset: (offset != 0.0).then_some(offset),
         }
+    }
+
+    /// The last outputs of `G`, newest first (`None`: not started, or no
+    /// dynamics).
+    pub fn dynamics_state(&self) -> Option<Vec<f64>> {
+        let g = self.dynamics()?;
+        let mut values = [T::ZERO; crate::realtime::dynamics::MAX_ORDER];
+        g.state_into(&mut values[..g.order()])?;
+        Some(values[..g.order()].iter().map(|v| v.to_f64()).collect())
     }
 
     /// The values waiting in the dead time, oldest first (`None`: not
@@ -222,16 +308,32 @@ impl<T: Real, S: Storage> Snapshot for Model<T, S> {
         ModelState {
             hysteresis: Snapshot::state(self.hysteresis()),
             creep: self.creep().map(Snapshot::state),
+            dynamics: self.dynamics_state(),
             delay: self.delay_state(),
         }
     }
 
     fn set_state(&mut self, state: &ModelState) -> Result<(), ModelError> {
-        // the delay line checked first, on a copy, so a refusal changes nothing
+        // the delay line and G checked first, on copies, so a refusal
+        // changes nothing
         let mut line = self.delay_line().clone();
         line.set_state(state.delay.as_deref())?;
+        let mut g = self.dynamics().copied();
+        match &mut g {
+            Some(g) => g.set_state(state.dynamics.as_deref())?,
+            None if state.dynamics.is_none() => {}
+            None => {
+                return Err(ModelError::Inconsistent {
+                    field: "dynamics.state".into(),
+                    reason: "the model has no dynamics".into(),
+                })
+            }
+        }
         self.set_memory_state(state)?;
         *self.delay_line_mut() = line;
+        if let (Some(mine), Some(g)) = (self.dynamics_mut(), g) {
+            *mine = g;
+        }
         Ok(())
     }
 }

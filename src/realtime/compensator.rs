@@ -11,6 +11,12 @@
 //! of `H⁻¹` and are not stepped. A non-finite target holds the last voltage
 //! and is flagged; creep keeps advancing with the voltage applied.
 //!
+//! Linear dynamics `G` after `S` are inverted first, exactly (their inverse
+//! is an FIR filter on the target, [`Dynamics::input_for`]); the state of
+//! `G` advances with the output the plant produces, which after a clipped or
+//! held sample is the forward model's (`S[H(u) + C]` through `G`), so the
+//! identity resumes on the branch the plant is on.
+//!
 //! A model's dead time is not inverted here (no causal inverse exists): the
 //! compensator inverts the memory part `S[H + C]`, and a caller whose model
 //! has a delay `d` ([`Compensator::delay`]) gives it the target `d` samples
@@ -19,6 +25,7 @@
 use crate::realtime::creep::Creep;
 #[cfg(doc)]
 use crate::realtime::delay::preview;
+use crate::realtime::dynamics::Dynamics;
 use crate::realtime::error::ParameterError;
 use crate::realtime::hysteresis::{self, Hysteresis};
 use crate::realtime::inverse::{forward_state_in_place, inverse_state_into};
@@ -166,6 +173,13 @@ pub struct Compensator<T: Real, S: Storage> {
     pub(crate) creep: Option<Creep<T, S>>,
     /// `S⁻¹` by its inverse rules, if the model has `S`.
     inverse_superposition: Option<Superposition<T, S>>,
+    /// `S` itself (with dynamics only: the plant's output after a clipped
+    /// sample goes through it).
+    superposition: Option<Superposition<T, S>>,
+    /// `G`, whose inverse runs first.
+    dynamics: Option<Dynamics<T>>,
+    /// `H[u]` of the last sample (with dynamics: a held sample repeats it).
+    last_h: T,
     offset: T,
     lower: T,
     upper: T,
@@ -202,6 +216,18 @@ impl<T: Real, S: Storage> Compensator<T, S> {
                 .map(|c| Creep::from_parameters(c, ts))
                 .transpose()?,
             inverse_superposition: superposition.map(Superposition::inverse_of).transpose()?,
+            superposition: match parameters.dynamics {
+                Some(_) => superposition
+                    .map(Superposition::from_parameters)
+                    .transpose()?,
+                None => None,
+            },
+            dynamics: parameters
+                .dynamics
+                .as_ref()
+                .map(|g| Dynamics::new(g, ts))
+                .transpose()?,
+            last_h: T::ZERO,
             offset: T::from_f64(parameters.offset),
             // rounded inward: an f32 limit rounded to nearest can lie outside
             lower: T::from_f64_up(settings.lower_limit),
@@ -228,6 +254,20 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         c.set_model_state(model.hysteresis().play_states(), None)?;
         if let (Some(mine), Some(theirs)) = (&mut c.creep, model.creep()) {
             mine.copy_state_from(theirs)?;
+        }
+        if let (Some(mine), Some(theirs)) = (&mut c.dynamics, model.dynamics()) {
+            let mut y = [0.0; crate::realtime::dynamics::MAX_ORDER];
+            let y = &mut y[..theirs.order()];
+            let y64 = &mut [0.0; crate::realtime::dynamics::MAX_ORDER][..y.len()];
+            match theirs.state_into(y) {
+                Some(()) => {
+                    for (a, b) in y64.iter_mut().zip(y.iter()) {
+                        *a = b.to_f64();
+                    }
+                    mine.set_state(Some(y64))?;
+                }
+                None => mine.reset(),
+            }
         }
         Ok(c)
     }
@@ -273,6 +313,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             *x = T::from_f64(v);
         }
         self.last_u = T::from_f64(hysteresis[0]);
+        self.last_h = T::from_f64(w.iter().zip(hysteresis).map(|(w, x)| w * x).sum());
         self.creep = creep_trial;
         Ok(())
     }
@@ -287,6 +328,26 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     /// `k + d` ([`preview`]).
     pub fn delay(&self) -> usize {
         self.delay
+    }
+
+    /// The linear dynamics `G` as the compensator tracks them (its state:
+    /// the plant's last outputs before the offset).
+    pub fn dynamics(&self) -> Option<&Dynamics<T>> {
+        self.dynamics.as_ref()
+    }
+
+    /// Set the state of `G` (the last outputs before the offset, newest
+    /// first; `None`: not started) to match a plant's.
+    pub fn set_dynamics_state(&mut self, values: Option<&[f64]>) -> Result<(), ParameterError> {
+        match &mut self.dynamics {
+            Some(g) => g.set_state(values),
+            None if values.is_none() => Ok(()),
+            None => Err(ParameterError::LengthMismatch {
+                field: "dynamics.state",
+                expected: 0,
+                found: values.map_or(0, <[f64]>::len),
+            }),
+        }
     }
 
     /// `S⁻¹` as its inverse rules give it, if the model has `S`.
@@ -368,9 +429,14 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             Some(op) => op.output(),
             None => T::ZERO,
         };
+        let t = target - self.offset;
+        let v = match &self.dynamics {
+            Some(g) => g.input_for(t),
+            None => t,
+        };
         let y = match &self.inverse_superposition {
-            Some(s) => s.apply(target - self.offset),
-            None => target - self.offset,
+            Some(s) => s.apply(v),
+            None => v,
         };
         let (inv_r, inv_w, inv_x) = self.inverse.parts_mut();
         let (u, saturated) = invert_saturating(
@@ -388,6 +454,14 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             self.lower,
             self.upper,
         );
+        if self.dynamics.is_some() {
+            let h = if saturated {
+                self.clipped_output()
+            } else {
+                y - c
+            };
+            self.advance_dynamics(t, h, c, saturated);
+        }
         self.last_u = u;
         if let Some(op) = &mut self.creep {
             op.advance_with(k, u);
@@ -405,6 +479,10 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     #[cold]
     fn hold(&mut self) -> Compensated<T> {
         let u = self.last_u;
+        if self.dynamics.is_some() {
+            let c = self.creep.as_ref().map_or(T::ZERO, |op| op.output());
+            self.advance_dynamics(T::ZERO, self.last_h, c, true);
+        }
         if let Some(op) = &mut self.creep {
             op.advance(u);
         }
@@ -415,9 +493,43 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         }
     }
 
+    /// Advance `G` with the plant's output: the target `t` when the
+    /// voltage was applied as computed, else (`off_target`: clipped or held)
+    /// `G[S[h + c]]` with `h` the plays' output.
+    #[inline(always)]
+    fn advance_dynamics(&mut self, t: T, h: T, c: T, off_target: bool) {
+        self.last_h = h;
+        if let Some(g) = &mut self.dynamics {
+            if off_target {
+                let w = match &self.superposition {
+                    Some(s) => s.apply(h + c),
+                    None => h + c,
+                };
+                g.step(w);
+            } else {
+                g.push_output(t);
+            }
+        }
+    }
+
+    /// `H[u]` after a clipped sample: the forward plays re-seated with the
+    /// applied voltage are in `scratch`.
+    #[cold]
+    fn clipped_output(&self) -> T {
+        let mut sum = T::ZERO;
+        for (w, x) in self.weights.iter().zip(self.scratch.iter()) {
+            sum += *w * *x;
+        }
+        sum
+    }
+
     /// Back to the virgin state (the model's, not the one set last).
     pub fn reset(&mut self) {
         self.last_u = T::ZERO;
+        self.last_h = T::ZERO;
+        if let Some(g) = &mut self.dynamics {
+            g.reset();
+        }
         self.inverse.reset();
         if let Some(c) = &mut self.creep {
             c.reset();

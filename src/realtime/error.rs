@@ -97,6 +97,13 @@ pub enum ParameterError {
         limit: usize,
         found: usize,
     },
+    /// A value outside the open interval `(lower, upper)`.
+    OutOfRange {
+        field: &'static str,
+        value: f64,
+        lower: f64,
+        upper: f64,
+    },
 }
 
 impl ParameterError {
@@ -120,7 +127,8 @@ impl ParameterError {
             | P::ExceedsCapacity { field, .. }
             | P::ExceedsLimit { field, .. }
             | P::InvalidDuration { field, .. }
-            | P::NonFiniteValue { field, .. } => field,
+            | P::NonFiniteValue { field, .. }
+            | P::OutOfRange { field, .. } => field,
             P::NonPositiveSampleTime { .. } => "sample_time",
             P::SampleTimeMismatch { .. } => "creep",
             P::InvalidLimits { .. } => "limits",
@@ -225,6 +233,15 @@ impl fmt::Display for Message<'_> {
             P::ExceedsLimit { limit, found, .. } => write!(
                 f,
                 "{field}: {found} exceeds the limit of {limit} (docs/FILES.md, \"Limits\")"
+            ),
+            P::OutOfRange {
+                value,
+                lower,
+                upper,
+                ..
+            } => write!(
+                f,
+                "{field}: {value} must lie strictly between {lower} and {upper}"
             ),
         }
     }

@@ -15,6 +15,8 @@
 //! * [`Creep`] — `C` (16) of log(t)-creep operators (13)–(15);
 //! * [`Superposition`] — the memory-free `S` of the modified PI model, which
 //!   makes the loops asymmetric, and its inverse;
+//! * [`Dynamics`] — linear dynamics `G` after `S[H + C]` (a low-pass, a
+//!   resonance), all-pole with unit gain at DC, so that its inverse is exact;
 //! * [`DelayLine`] — a dead time of `d` whole samples after `S[H + C]`;
 //! * [`Model`] — `W = S[H + C] + offset` (4), (6), delayed by `d` samples;
 //! * [`Compensator`] — `W⁻¹` (21) with saturation ([`CompensatorSettings`]),
@@ -41,6 +43,7 @@
 pub mod compensator;
 pub mod creep;
 pub mod delay;
+pub mod dynamics;
 pub mod error;
 pub mod hysteresis;
 pub(crate) mod inverse;
@@ -57,6 +60,7 @@ pub mod superposition;
 pub use compensator::{Compensated, Compensator, CompensatorSettings};
 pub use creep::Creep;
 pub use delay::{preview, preview_into, DelayLine};
+pub use dynamics::{Dynamics, DynamicsParameters, Resonance};
 pub use error::ParameterError;
 pub use hysteresis::Hysteresis;
 pub use model::Model;

@@ -3,11 +3,13 @@
 //! the linear beam; the offset is a measurement's sensor offset. `C` may be
 //! absent (pure hysteresis), and so may the superposition operator `S` (the
 //! identity: the paper's symmetric model `H + C + offset`). The output may
-//! be delayed by a dead time of `d` whole samples ([`DelayLine`]):
-//! `y_k = S[H + C]_{max(k−d, 0)} + offset`.
+//! pass linear dynamics `G` ([`Dynamics`]: a low-pass, a resonance) and be
+//! delayed by a dead time of `d` whole samples ([`DelayLine`]):
+//! `y_k = G[S[H + C]]_{max(k−d, 0)} + offset`.
 
 use crate::realtime::creep::Creep;
 use crate::realtime::delay::DelayLine;
+use crate::realtime::dynamics::Dynamics;
 use crate::realtime::error::ParameterError;
 use crate::realtime::hysteresis::Hysteresis;
 use crate::realtime::parameters::{
@@ -25,6 +27,7 @@ pub struct Model<T: Real, S: Storage> {
     hysteresis: Hysteresis<T, S>,
     creep: Option<Creep<T, S>>,
     superposition: Option<Superposition<T, S>>,
+    dynamics: Option<Dynamics<T>>,
     delay: DelayLine<T, S>,
 }
 
@@ -44,6 +47,11 @@ impl<T: Real, S: Storage> Model<T, S> {
                 .transpose()?,
             superposition: superposition
                 .map(Superposition::from_parameters)
+                .transpose()?,
+            dynamics: parameters
+                .dynamics
+                .as_ref()
+                .map(|g| Dynamics::new(g, ts))
                 .transpose()?,
             delay: DelayLine::new(parameters.delay)?,
         })
@@ -72,6 +80,7 @@ impl<T: Real, S: Storage> Model<T, S> {
             hysteresis,
             creep,
             superposition: None,
+            dynamics: None,
             delay: DelayLine::new(0)?,
         })
     }
@@ -80,6 +89,18 @@ impl<T: Real, S: Storage> Model<T, S> {
     pub fn with_superposition(mut self, superposition: Option<Superposition<T, S>>) -> Self {
         self.superposition = superposition;
         self
+    }
+
+    /// The same model with linear dynamics `G` after `S` (not started;
+    /// `None`: none).
+    pub fn with_dynamics(
+        mut self,
+        dynamics: Option<&crate::realtime::DynamicsParameters>,
+    ) -> Result<Self, ParameterError> {
+        self.dynamics = dynamics
+            .map(|g| Dynamics::new(g, self.sample_time))
+            .transpose()?;
+        Ok(self)
     }
 
     /// The same model with its output delayed by `d` samples (not started).
@@ -125,6 +146,15 @@ impl<T: Real, S: Storage> Model<T, S> {
     /// The superposition operator `S`, if any (none: the identity).
     pub fn superposition(&self) -> Option<&Superposition<T, S>> {
         self.superposition.as_ref()
+    }
+
+    /// The linear dynamics `G` after `S`, if any.
+    pub fn dynamics(&self) -> Option<&Dynamics<T>> {
+        self.dynamics.as_ref()
+    }
+
+    pub fn dynamics_mut(&mut self) -> Option<&mut Dynamics<T>> {
+        self.dynamics.as_mut()
     }
 
     /// The dead time `d` (samples).
@@ -188,12 +218,19 @@ impl<T: Real, S: Storage> Model<T, S> {
             Some(s) => s.apply(w),
             None => w,
         };
+        let w = match &mut self.dynamics {
+            Some(g) => g.step(w),
+            None => w,
+        };
         self.delay.step(w) + self.offset
     }
 
     /// Back to the virgin state.
     pub fn reset(&mut self) {
         self.delay.reset();
+        if let Some(g) = &mut self.dynamics {
+            g.reset();
+        }
         self.hysteresis.reset();
         if let Some(c) = &mut self.creep {
             c.reset();
@@ -217,6 +254,7 @@ impl<S: Storage> Model<f64, S> {
                 eigenvalues: c.eigenvalues(),
             }),
             superposition: self.superposition.as_ref().map(|s| s.parameters()),
+            dynamics: self.dynamics.as_ref().map(|g| *g.parameters()),
             delay: self.delay.len(),
             offset: self.offset,
         }

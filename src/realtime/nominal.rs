@@ -55,6 +55,7 @@ pub const PARAMETERS: ModelParameters<'static> = ModelParameters {
         eigenvalues: &CREEP_EIGENVALUES,
     }),
     superposition: None,
+    dynamics: None,
     delay: 0,
     offset: 0.0,
 };

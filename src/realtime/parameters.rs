@@ -4,6 +4,7 @@
 //! operators use the same checks).
 
 use crate::limits;
+use crate::realtime::dynamics::DynamicsParameters;
 use crate::realtime::error::ParameterError;
 
 /// `H` (10): thresholds `0 = r_0 < … < r_n` (12), weights with positive
@@ -42,7 +43,10 @@ pub struct ModelParameters<'a> {
     pub hysteresis: HysteresisParameters<'a>,
     pub creep: Option<CreepParameters<'a>>,
     pub superposition: Option<SuperpositionParameters<'a>>,
-    /// Dead time `d` (samples): `y_k = S[H + C]_{max(k−d, 0)} + offset`.
+    /// Linear dynamics `G` after `S` (`None`: the identity):
+    /// `y = G[S[H + C]]`, delayed, plus the offset.
+    pub dynamics: Option<DynamicsParameters>,
+    /// Dead time `d` (samples): `y_k = G[S[H + C]]_{max(k−d, 0)} + offset`.
     pub delay: usize,
     pub offset: f64,
 }
@@ -127,6 +131,9 @@ impl ModelParameters<'_> {
         }
         if let Some(s) = &self.superposition {
             s.validate()?;
+        }
+        if let Some(g) = &self.dynamics {
+            g.validate(self.sample_time)?;
         }
         check_finite("offset", core::slice::from_ref(&self.offset))
     }

@@ -24,9 +24,17 @@
 //!   `1/σ_min`. Its inverse parameters carry a relative rounding of order
 //!   `k ε` each.
 //!
+//! * The dynamics `G` (all-pole, `y_k = g w_k − Σ c_j y_{k−j}`) carry an
+//!   error at their input to the output amplified by at most `‖g/A‖₁` (the
+//!   sum of `|h_k|` of its impulse response); a rounding made in one output
+//!   step, `(order + 2) ε (g|w| + Σ|c_j| |y|)`, is carried on by `‖1/A‖₁`.
+//!   The inverse step `(y + Σ c_j y_{k−j})/g` makes `|w| ≤ (1 + Σ|c_j|)|y|/g`
+//!   and rounds by `(order + 2) ε` of that.
+//!
 //! Every bound is linear in `ε`: for another precision, pass its `ε`.
 
 use crate::realtime::creep::creep_gain;
+use crate::realtime::dynamics::l1_gains;
 use crate::realtime::parameters::{zero_index, ModelParameters};
 use crate::realtime::superposition::inverse_parameters_into;
 
@@ -164,19 +172,67 @@ impl RoundingBounds<'_> {
         let (_, s_max) = self.superposition_slopes();
         let inner = self.hysteresis_sum(v_max) + self.creep_sum(v_max);
         let outer = self.superposition_sum(self.inner_max(v_max));
-        2.0 * (s_max * inner + outer + self.offset())
+        let g1 = self.dynamics().0;
+        let w_max = s_max * self.inner_max(v_max) + self.superposition_offset();
+        2.0 * (g1 * (s_max * inner + outer) + self.dynamics_sum(w_max) + self.offset())
     }
 
-    /// `|S⁻¹[y − offset]|` for `|y| ≤ y_max` (`y_max + |offset|` without
-    /// `S`), and the rounding of forming it.
+    /// `|S(0)|`-scale: the largest `|r|` of `S` times its steepest slope
+    /// (what `S` may add beyond `σ_max |z|`).
+    fn superposition_offset(&self) -> f64 {
+        self.parameters.superposition.as_ref().map_or(0.0, |s| {
+            let r_max = s.thresholds.iter().fold(0.0f64, |m, r| m.max(r.abs()));
+            r_max * abs_sum(s.weights)
+        })
+    }
+
+    /// The dynamics' `(‖g/A‖₁, ‖1/A‖₁, Σ|c_j|, g, order)`; `(1, 1, 0, 1,
+    /// 0)` without dynamics.
+    fn dynamics(&self) -> (f64, f64, f64, f64, f64) {
+        let ts = self.parameters.sample_time;
+        match &self.parameters.dynamics {
+            None => (1.0, 1.0, 0.0, 1.0, 0.0),
+            Some(d) => {
+                let (g1, a1) = l1_gains(d, ts);
+                let (c, order, g) = d.coefficients(ts);
+                (g1, a1, abs_sum(&c[..order]), g, order as f64)
+            }
+        }
+    }
+
+    /// The rounding `G` adds to its output for inputs up to `w_max`, the
+    /// state of two implementations (or one and exact arithmetic) carried
+    /// on by `‖1/A‖₁`, and its coefficients' rounding (relative `ε` each,
+    /// carried the same way). 0 without dynamics.
+    pub fn dynamics_sum(&self, w_max: f64) -> f64 {
+        if self.parameters.dynamics.is_none() {
+            return 0.0;
+        }
+        let (g1, a1, c_abs, g, order) = self.dynamics();
+        4.0 * (order + 3.0) * self.eps * (g + c_abs * g1) * w_max * a1
+    }
+
+    /// `|G⁻¹[y − offset]|` and `|S⁻¹[·]|` of it for `|y| ≤ y_max`, and the
+    /// rounding of forming it (`y_max + |offset|` without `G` and `S`).
     fn inner_target(&self, y_max: f64) -> (f64, f64) {
         let y = y_max + self.parameters.offset.abs();
-        match &self.parameters.superposition {
+        let (_, _, c_abs, g, order) = self.dynamics();
+        let (v, v_error) = match &self.parameters.dynamics {
             None => (y, 0.0),
-            Some(_) => (
-                y / self.superposition_slopes().0,
-                self.inverse_superposition_sum(y),
-            ),
+            Some(_) => {
+                let v = (1.0 + c_abs) * y / g;
+                (v, 4.0 * (order + 3.0) * self.eps * v)
+            }
+        };
+        match &self.parameters.superposition {
+            None => (v, v_error),
+            Some(_) => {
+                let s_min = self.superposition_slopes().0;
+                (
+                    v / s_min,
+                    self.inverse_superposition_sum(v) + v_error / s_min,
+                )
+            }
         }
     }
 
@@ -232,7 +288,10 @@ impl RoundingBounds<'_> {
         let z = target + creep_out;
         let inner = self.inverse(v_max, z) + 4.0 * self.eps * z + target_error;
         let (_, s_max) = self.superposition_slopes();
-        s_max * inner + self.superposition_sum(self.inner_max(v_max).max(z))
+        let z_max = self.inner_max(v_max).max(z);
+        let g1 = self.dynamics().0;
+        let w_max = s_max * z_max + self.superposition_offset();
+        g1 * (s_max * inner + self.superposition_sum(z_max)) + self.dynamics_sum(w_max)
     }
 
     /// The compensator `W⁻¹` against `W` (either order) or against another
@@ -256,7 +315,10 @@ impl RoundingBounds<'_> {
         let inner = 2.0
             * (self.inverse(v_max, target + creep_out) + 2.0 * errors / self.min_slope() + errors);
         let (_, s_max) = self.superposition_slopes();
-        let outer = self.superposition_sum(self.inner_max(v_max).max(target + creep_out));
-        s_max.max(1.0) * inner + 2.0 * outer
+        let z_max = self.inner_max(v_max).max(target + creep_out);
+        let outer = self.superposition_sum(z_max);
+        let g1 = self.dynamics().0;
+        let w_max = s_max * z_max + self.superposition_offset();
+        g1.max(1.0) * (s_max.max(1.0) * inner + 2.0 * outer) + 2.0 * self.dynamics_sum(w_max)
     }
 }

@@ -230,6 +230,149 @@ fn naive_parts(file: &ModelFile) -> Result<(NaiveHysteresis, Option<NaiveCreep>)
     Ok((hysteresis, creep))
 }
 
+/// One all-pole section `y_k = g x_k − Σ_j a_j y_{k−j}` with `g = 1 + Σ a_j`,
+/// at rest on its first input, textbook form.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NaiveSection {
+    /// `a_1, a_2, …`.
+    pub a: Vec<f64>,
+    /// The last outputs, newest first (empty before the first sample).
+    pub y: VecDeque<f64>,
+}
+
+impl NaiveSection {
+    fn gain(&self) -> f64 {
+        1.0 + self.a.iter().sum::<f64>()
+    }
+
+    fn past(&self) -> f64 {
+        self.a.iter().zip(&self.y).map(|(a, y)| a * y).sum()
+    }
+
+    /// One sample forward.
+    pub fn step(&mut self, x: f64) -> f64 {
+        let y = if self.y.is_empty() {
+            x
+        } else {
+            self.gain() * x - self.past()
+        };
+        self.push(y);
+        y
+    }
+
+    /// The input giving the output `y` next (state unchanged).
+    pub fn input_for(&self, y: f64) -> f64 {
+        if self.y.is_empty() {
+            y
+        } else {
+            (y + self.past()) / self.gain()
+        }
+    }
+
+    fn push(&mut self, y: f64) {
+        if self.y.is_empty() {
+            self.y.extend(std::iter::repeat_n(y, self.a.len()));
+        } else {
+            self.y.pop_back();
+            self.y.push_front(y);
+        }
+    }
+}
+
+/// The linear dynamics `G`, textbook form: the low-pass section
+/// `(1 − p)/(1 − p z⁻¹)`, then the resonance section
+/// `(1 + a₁ + a₂)/(1 + a₁ z⁻¹ + a₂ z⁻²)`, each with its poles at `e^{sT_s}`
+/// of the continuous one (computed here from `exp`, `cos` and `sqrt`, apart
+/// from the fast code's product polynomial).
+#[derive(Debug, Clone, PartialEq)]
+pub struct NaiveDynamics {
+    pub sections: Vec<NaiveSection>,
+}
+
+impl NaiveDynamics {
+    fn of(file: &ModelFile) -> Option<Self> {
+        let g = file.dynamics.as_ref()?;
+        let ts = file.sample_time;
+        let mut sections = Vec::new();
+        if let Some(l) = &g.low_pass {
+            let p = (-2.0 * std::f64::consts::PI * l.frequency * ts).exp();
+            sections.push(NaiveSection {
+                a: vec![-p],
+                y: VecDeque::new(),
+            });
+        }
+        if let Some(r) = &g.resonance {
+            let w = 2.0 * std::f64::consts::PI * r.frequency * ts;
+            let (sigma, theta) = (r.damping * w, w * (1.0 - r.damping * r.damping).sqrt());
+            sections.push(NaiveSection {
+                a: vec![-2.0 * (-sigma).exp() * theta.cos(), (-2.0 * sigma).exp()],
+                y: VecDeque::new(),
+            });
+        }
+        let mut d = Self { sections };
+        if let Some(state) = &g.state {
+            d.set_state(state);
+        }
+        Some(d)
+    }
+
+    /// The file's state (the last outputs of the whole `G`, newest first):
+    /// the last section's outputs, and the earlier section's from them
+    /// through the last section's inverse.
+    fn set_state(&mut self, y: &[f64]) {
+        let n = self.sections.len();
+        let last = &mut self.sections[n - 1];
+        last.y = y[..last.a.len()].iter().copied().collect();
+        if n == 2 {
+            let res = &self.sections[1];
+            let x1 = (y[0] + res.a[0] * y[1] + res.a[1] * y[2]) / res.gain();
+            self.sections[0].y = VecDeque::from([x1]);
+        }
+    }
+
+    /// The state as the file holds it (the last outputs of the whole `G`,
+    /// newest first; empty before the first sample): with both sections,
+    /// the third from the low-pass's last output through the resonance's
+    /// recursion.
+    pub fn state(&self) -> Vec<f64> {
+        let last = &self.sections[self.sections.len() - 1];
+        let mut y: Vec<f64> = last.y.iter().copied().collect();
+        if self.sections.len() == 2 && !y.is_empty() {
+            let (res, x1) = (&self.sections[1], self.sections[0].y[0]);
+            y.push((res.gain() * x1 - y[0] - res.a[0] * y[1]) / res.a[1]);
+        }
+        y
+    }
+
+    pub fn step(&mut self, w: f64) -> f64 {
+        self.sections.iter_mut().fold(w, |x, s| s.step(x))
+    }
+
+    /// The input of `G` that gives the output `y` next, and the output of
+    /// every section on the way (for [`NaiveDynamics::push_outputs`]).
+    pub fn input_for(&self, y: f64) -> (f64, Vec<f64>) {
+        let mut outputs = vec![0.0; self.sections.len()];
+        let mut x = y;
+        for (i, s) in self.sections.iter().enumerate().rev() {
+            outputs[i] = x;
+            x = s.input_for(x);
+        }
+        (x, outputs)
+    }
+
+    pub fn push_outputs(&mut self, outputs: &[f64]) {
+        for (s, &y) in self.sections.iter_mut().zip(outputs) {
+            s.push(y);
+        }
+    }
+
+    pub fn reset(&mut self) {
+        for s in &mut self.sections {
+            s.y.clear();
+        }
+    }
+}
+
 /// The model `W = S[H + C]` (6), textbook form.
 #[derive(Debug, Clone, PartialEq)]
 pub struct NaiveModel {
@@ -239,6 +382,8 @@ pub struct NaiveModel {
     pub creep: Option<NaiveCreep>,
     /// `S`, if the model has one.
     pub superposition: Option<NaiveSuperposition>,
+    /// `G`, if the model has dynamics.
+    pub dynamics: Option<NaiveDynamics>,
     /// Output offset.
     pub offset: f64,
     /// The dead time `d` (samples).
@@ -256,6 +401,7 @@ impl NaiveModel {
             hysteresis,
             creep,
             superposition: naive_superposition(file),
+            dynamics: NaiveDynamics::of(file),
             offset: file.offset.unwrap_or(0.0),
             delay: file.delay.unwrap_or(0),
             pending: file.delay_state.clone().unwrap_or_default().into(),
@@ -297,11 +443,18 @@ impl Operator for NaiveModel {
             Some(s) => s.evaluate(w),
             None => w,
         };
+        let w = match &mut self.dynamics {
+            Some(g) => g.step(w),
+            None => w,
+        };
         self.delayed(w) + self.offset
     }
 
     fn reset(&mut self) {
         self.pending.clear();
+        if let Some(g) = &mut self.dynamics {
+            g.reset();
+        }
         self.hysteresis.reset();
         if let Some(c) = &mut self.creep {
             c.reset();
@@ -339,6 +492,7 @@ pub struct NaiveCompensator {
     inverse: NaiveHysteresis,
     creep: Option<NaiveCreep>,
     superposition: Option<NaiveSuperposition>,
+    dynamics: Option<NaiveDynamics>,
     offset: f64,
     delay: usize,
     last_request: f64,
@@ -361,6 +515,7 @@ impl NaiveCompensator {
             forward,
             creep,
             superposition: naive_superposition(file),
+            dynamics: NaiveDynamics::of(file),
             offset: file.offset.unwrap_or(0.0),
             delay: file.delay.unwrap_or(0),
             last_request: 0.0,
@@ -373,6 +528,8 @@ impl ActuatorCompensator for NaiveCompensator {
         if !target.is_finite() {
             // hold the previous output; the creep advances with it
             let u = self.forward.x[0];
+            let c = self.creep.as_ref().map_or(0.0, NaiveCreep::output);
+            self.advance_dynamics(self.forward.evaluate(u) + c);
             if let Some(cr) = &mut self.creep {
                 cr.advance(u);
             }
@@ -383,16 +540,23 @@ impl ActuatorCompensator for NaiveCompensator {
             };
         }
         let c = self.creep.as_ref().map_or(0.0, NaiveCreep::output);
+        let (g_in, g_outputs) = match &self.dynamics {
+            Some(g) => g.input_for(target - self.offset),
+            None => (target - self.offset, Vec::new()),
+        };
         let y = match &self.superposition {
-            Some(s) => s.invert(target - self.offset),
-            None => target - self.offset,
+            Some(s) => s.invert(g_in),
+            None => g_in,
         };
         let v = self.inverse.step(y - c);
         self.last_request = v;
         let (u, saturated) = clip(v, &self.settings);
-        self.forward.step(u);
+        let h = self.forward.step(u);
         if saturated {
             self.inverse = self.forward.inverse();
+            self.advance_dynamics(h + c);
+        } else if let Some(g) = &mut self.dynamics {
+            g.push_outputs(&g_outputs);
         }
         if let Some(cr) = &mut self.creep {
             cr.advance(u);
@@ -417,6 +581,22 @@ impl ActuatorCompensator for NaiveCompensator {
         self.inverse = h.inverse();
         self.forward = h;
         self.creep = c;
+        if let Some(g) = &mut self.dynamics {
+            g.reset();
+        }
+    }
+}
+
+impl NaiveCompensator {
+    /// `G` advanced with what the plant produces from `H + C = z`.
+    fn advance_dynamics(&mut self, z: f64) {
+        if let Some(g) = &mut self.dynamics {
+            let w = match &self.superposition {
+                Some(s) => s.evaluate(z),
+                None => z,
+            };
+            g.step(w);
+        }
     }
 }
 
@@ -480,9 +660,14 @@ impl ActuatorCompensator for BisectionCompensator {
         let h = &self.model.hysteresis;
         // S[H(v) + C_k] = ς_k − offset; without S, H(v) = ς_k − offset − C_k
         let s = self.model.superposition.as_ref();
+        // G's input that gives the target next
+        let t = match &self.model.dynamics {
+            Some(g) => g.input_for(target - self.model.offset).0,
+            None => target - self.model.offset,
+        };
         let goal = match s {
-            Some(_) => target - self.model.offset,
-            None => target - self.model.offset - c,
+            Some(_) => t,
+            None => t - c,
         };
         let h = Forward { h, c, s };
         // A bracket: the limits, or where they are infinite, doubling steps

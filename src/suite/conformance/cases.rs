@@ -1,7 +1,10 @@
 //! Seeded generators of conformance cases: admissible random models, inputs
 //! of several shapes, nested extrema for the branching rules.
 
-use crate::operators::model::{CreepData, HysteresisData, ModelFile, SuperpositionData};
+use crate::operators::model::{
+    CreepData, DynamicsData, HysteresisData, LowPassData, ModelFile, ResonanceData,
+    SuperpositionData,
+};
 use crate::suite::conformance::Case;
 use crate::suite::reference::NaiveModel;
 
@@ -93,6 +96,7 @@ pub fn random_model(rng: &mut Rng, max_plays: usize, shape: ModelShape) -> Model
         },
         creep,
         superposition: None,
+        dynamics: None,
         delay: None,
         delay_state: None,
         offset: None,
@@ -132,7 +136,34 @@ pub fn case_model(
 ) -> ModelFile {
     match &settings.fixed_model {
         Some(m) => m.clone(),
-        None => random_model(rng, settings.max_plays, shape),
+        None => {
+            let mut file = random_model(rng, settings.max_plays, shape);
+            // drawn last, so that without dynamics a case is what it was
+            if settings.dynamics && shape == ModelShape::Any && rng.chance(0.3) {
+                file.dynamics = Some(random_dynamics(rng, file.sample_time));
+            }
+            file
+        }
+    }
+}
+
+/// Random dynamics: a low-pass, a resonance or both, their frequencies
+/// log-uniform in `[0.05, 0.4]` of the sample rate, the damping
+/// log-uniform in `[0.02, 0.7]` (lighter damping is allowed, but its
+/// rounding bounds grow as `1/ζ²`, too loose to test anything in `f32`).
+pub fn random_dynamics(rng: &mut Rng, sample_time: f64) -> DynamicsData {
+    let fs = 1.0 / sample_time;
+    let frequency = |rng: &mut Rng| fs * 10f64.powf(rng.uniform(0.05f64.log10(), 0.4f64.log10()));
+    let which = rng.int(0, 2);
+    DynamicsData {
+        low_pass: (which != 1).then(|| LowPassData {
+            frequency: frequency(rng),
+        }),
+        resonance: (which != 0).then(|| ResonanceData {
+            frequency: frequency(rng),
+            damping: 10f64.powf(rng.uniform(0.02f64.log10(), 0.7f64.log10())),
+        }),
+        state: None,
     }
 }
 
@@ -141,11 +172,19 @@ pub fn case_model(
 /// them out, and an input long enough for the dead time to show. A run of a
 /// few cases then covers each part, not by luck (a part in 30 % of the
 /// draws is absent from both of two cases half the time).
-pub fn with_every_part(rng: &mut Rng, i: usize, mut case: super::Case) -> super::Case {
+pub fn with_every_part(
+    rng: &mut Rng,
+    s: &super::ConformanceSettings,
+    i: usize,
+    mut case: super::Case,
+) -> super::Case {
     if i > 0 {
         return case;
     }
     let file = &mut case.model;
+    if s.dynamics && file.dynamics.is_none() {
+        file.dynamics = Some(random_dynamics(rng, file.sample_time));
+    }
     if file.offset.is_none() {
         file.offset = Some(rng.uniform(-0.2, 0.2) * reach(file));
     }
@@ -223,6 +262,7 @@ pub fn superposition_model(rng: &mut Rng, samples: usize) -> Case {
         },
         creep: None,
         superposition: Some(random_superposition(rng, scale)),
+        dynamics: None,
         delay: None,
         delay_state: None,
         offset: rng.chance(0.5).then(|| rng.uniform(-0.2, 0.2) * scale),
@@ -292,6 +332,10 @@ pub fn with_state_after(file: &ModelFile, history: &[f64]) -> ModelFile {
     }
     if !m.pending.is_empty() {
         out.delay_state = Some(m.pending.iter().copied().collect());
+    }
+    if let (Some(g), Some(mg)) = (&mut out.dynamics, &m.dynamics) {
+        let state = mg.state();
+        g.state = (!state.is_empty()).then_some(state);
     }
     out
 }

@@ -111,7 +111,7 @@ fn voltage_case(rng: &mut Rng, s: &ConformanceSettings, i: usize) -> Case {
     if s.fixed_model.is_some() {
         return case;
     }
-    with_every_part(rng, i, case)
+    with_every_part(rng, s, i, case)
 }
 
 /// `S` alone ([`superposition_model`]) and random arguments `z`.

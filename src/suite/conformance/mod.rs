@@ -113,6 +113,12 @@ pub struct ConformanceSettings {
     /// implementation of `H` alone, as most published PI code is (default
     /// false). Properties that need a part then skip.
     pub hysteresis_only: bool,
+    /// Draw models with linear dynamics `G` after `S` as well (a low-pass,
+    /// a resonance; default false: the file contract's models before
+    /// dynamics, which every earlier candidate reads). Properties that take
+    /// the output sample by sample (rate independence, the branching rules)
+    /// never get them: `G` has memory of its own.
+    pub dynamics: bool,
     /// The fixed mode ([`fixed`]): the one model the candidate implements
     /// (default `None`: random models). Every case uses it; properties
     /// that need other models do not run, and split and resume goes
@@ -136,6 +142,7 @@ impl Default for ConformanceSettings {
             shrink_budget: 1500,
             exact: false,
             hysteresis_only: false,
+            dynamics: false,
             fixed_model: None,
             fixed_limits: None,
         }

@@ -94,7 +94,7 @@ fn any_case(rng: &mut Rng, s: &ConformanceSettings, i: usize) -> Case {
     if s.fixed_model.is_some() {
         return case;
     }
-    with_every_part(rng, i, case)
+    with_every_part(rng, s, i, case)
 }
 
 fn virgin_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
@@ -263,7 +263,7 @@ fn split_and_resume(case: &Case, factory: &ModelFactory, s: &ConformanceSettings
 }
 
 fn hysteresis_only(case: &Case) -> bool {
-    case.model.creep.is_none()
+    case.model.creep.is_none() && case.model.dynamics.is_none()
 }
 
 fn rate_independence(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
