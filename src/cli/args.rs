@@ -10,7 +10,9 @@ use clap::{Args, Parser, Subcommand};
 
 use mfcbeam::beam::step_response_fit::BeamModelKind;
 use mfcbeam::feedforward::FeedforwardSettings;
-use mfcbeam::identification::{DelaySetting, FitStart, IdentificationSettings, DEFAULT_MAX_DELAY};
+use mfcbeam::identification::{
+    DelaySetting, DynamicsParts, FitStart, IdentificationSettings, ZeroSegment, DEFAULT_MAX_DELAY,
+};
 use mfcbeam::operators::nominal::SAMPLE_TIME;
 use mfcbeam::suite::conformance::ConformanceSettings;
 
@@ -107,8 +109,27 @@ pub struct InvertArgs {
 #[derive(Debug, Args)]
 pub struct IdentifyArgs {
     /// Measurement (CSV) with columns `u` (V), `y` and, unless --sample-time is given, `t` (s).
-    #[arg(long)]
-    pub input: PathBuf,
+    /// Give it several times to fit one model to several records (each from
+    /// the virgin state, each skipping its own --fit-from; same sample time).
+    #[arg(long, required = true)]
+    pub input: Vec<PathBuf>,
+    /// With several --input records: `shared` (one output offset for all)
+    /// or `per-record` (each its own; the model file keeps the first
+    /// record's, the report lists every one).
+    #[arg(long, value_name = "shared|per-record", default_value = "shared")]
+    pub offset: OffsetSetting,
+    /// Linear dynamics after the hysteresis to fit with the weights:
+    /// `none`, `low-pass`, `resonance` or `low-pass,resonance` (a sensor's
+    /// or amplifier's lag, a stage's lightly damped resonance). The model
+    /// carries them and its compensator inverts them exactly.
+    #[arg(long, value_name = "PARTS", default_value = "none")]
+    pub dynamics: DynamicsParts,
+    /// Before scoring each --validate record, estimate its constant offset
+    /// on this stretch (`1.0s..1.5s` or samples `10000..15000`, the end
+    /// of a hold: the practice of zeroing a sensor before a run) and report
+    /// its errors with and without it removed.
+    #[arg(long, value_name = "A..B")]
+    pub validate_zero: Option<ZeroSegment>,
     /// Output model file (JSON, virgin state).
     #[arg(long)]
     pub output: PathBuf,
@@ -181,6 +202,24 @@ pub struct IdentifyArgs {
     /// time (`.png` or `.svg`).
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
+}
+
+/// How the output offset of several records is fitted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OffsetSetting {
+    Shared,
+    PerRecord,
+}
+
+impl std::str::FromStr for OffsetSetting {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "shared" => Ok(Self::Shared),
+            "per-record" => Ok(Self::PerRecord),
+            _ => Err(format!("'{s}' is neither shared nor per-record")),
+        }
+    }
 }
 
 #[derive(Debug, Args)]

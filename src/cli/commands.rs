@@ -9,8 +9,9 @@ use serde::Serialize;
 use mfcbeam::beam::step_response_fit::{modal_model, simulate_response, FitParameter};
 use mfcbeam::beam::BeamParameters;
 use mfcbeam::identification::{
-    check_record, dominant_rate, holdout_samples, identify as identify_model, search_delay,
-    validate_record, DelaySetting, IdentificationSettings, Record, ValidationRow, ValidationTable,
+    check_record, dominant_rate, fit_dynamics, holdout_samples, identify_records,
+    search_delay_records, validate_record, validate_record_zeroed, DelaySetting, FitRecord,
+    Identification, IdentificationSettings, Record, ValidationRow, ValidationTable,
 };
 use mfcbeam::io::{read_beam, read_model, write_atomic, write_json, Trace};
 use mfcbeam::operators::compensator::CompensatorSettings;
@@ -125,15 +126,33 @@ fn invert(a: &InvertArgs) -> Result<()> {
 }
 
 fn identify(a: &IdentifyArgs) -> Result<()> {
-    let trace = Trace::read(&a.input)?;
-    let ts = trace_sample_time(&trace, a.sample_time, None)?;
-    let jitter = if trace.has_column("t") && trace.len() > 1 {
-        Some(trace.time_axis()?.jitter)
+    let first = Trace::read(&a.input[0])?;
+    let ts = trace_sample_time(&first, a.sample_time, None)?;
+    let jitter = if first.has_column("t") && first.len() > 1 {
+        Some(first.time_axis()?.jitter)
     } else {
         None
     };
-    let u = trace.column("u")?;
-    let y = trace.column("y")?;
+    // every fitted record: its name, input and output
+    let mut fitted = vec![(
+        a.input[0].display().to_string(),
+        first.column("u")?,
+        first.column("y")?,
+    )];
+    for path in &a.input[1..] {
+        let other = Trace::read(path)?;
+        other.check_time_column(ts)?;
+        fitted.push((
+            path.display().to_string(),
+            other.column("u")?,
+            other.column("y")?,
+        ));
+    }
+    let several = fitted.len() > 1;
+    if several && a.holdout.is_some() {
+        bail!("--holdout: with several --input records, validate on another record (--validate) instead");
+    }
+    let (u, y) = (&fitted[0].1, &fitted[0].2);
     let holdout =
         holdout_samples(a.holdout.unwrap_or(0.0), u.len()).map_err(|e| anyhow!("--{e}"))?;
     let mut validation = Vec::new();
@@ -142,7 +161,23 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
         other.check_time_column(ts)?;
         validation.push((path, other.column("u")?, other.column("y")?));
     }
-    let fit_from = a.fit_from.map(|f| f.resolve(&u, ts));
+    // each record's own start
+    let starts: Vec<Option<usize>> = fitted
+        .iter()
+        .map(|(_, u, _)| a.fit_from.map(|f| f.resolve(u, ts)))
+        .collect();
+    if several {
+        for ((name, u, _), start) in fitted.iter().zip(&starts) {
+            if let Some(k) = start {
+                if *k >= u.len() {
+                    bail!(
+                        "--fit-from: {name}: sample {k} is beyond its {} samples",
+                        u.len()
+                    );
+                }
+            }
+        }
+    }
     let validate_from = a.validate_from.or(a.fit_from).unwrap_or_default();
     if let Some(p) = &a.plot {
         if !matches!(p.extension().and_then(|e| e.to_str()), Some("png" | "svg")) {
@@ -151,7 +186,7 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
     }
     let settings = IdentificationSettings {
         fit_offset: !a.no_offset,
-        fit_from,
+        fit_from: starts[0],
         holdout,
         hysteresis_operators: a.hysteresis_operators,
         creep_operators: a.creep_operators,
@@ -166,6 +201,8 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
             DelaySetting::Fixed(d) => d,
             DelaySetting::Auto => 0,
         },
+        offset_per_record: a.offset == OffsetSetting::PerRecord,
+        dynamics: None,
     };
     // the settings are options: named as such, not after the input file
     if let Err(mfcbeam::identification::IdentificationError::InvalidSetting { field, reason }) =
@@ -195,30 +232,94 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
     for r in &records {
         check_record(r.name, r.u, r.y, r.from).with_context(|| r.name.to_string())?;
     }
-    let (id, search) = match a.delay {
-        DelaySetting::Fixed(_) => (identify_model(&u, &y, ts, &settings), None),
-        DelaySetting::Auto => match search_delay(&u, &y, ts, &settings, a.max_delay, &records) {
-            Ok((id, search)) => (Ok(id), Some(search)),
-            Err(e) => (Err(e), None),
-        },
+    let zero_segments = match &a.validate_zero {
+        Some(z) => records
+            .iter()
+            .map(|r| {
+                z.resolve(r.u.len(), ts)
+                    .map_err(|e| anyhow!("--validate-zero: {}: {e}", r.name))
+            })
+            .collect::<Result<Vec<_>>>()?,
+        None => Vec::new(),
     };
-    let id = id.with_context(|| a.input.display().to_string())?;
+    let fit_records: Vec<FitRecord> = fitted
+        .iter()
+        .zip(&starts)
+        .map(|((_, u, y), &fit_from)| FitRecord { u, y, fit_from })
+        .collect();
+    let name_of = |e: mfcbeam::identification::IdentificationError| -> anyhow::Error {
+        let what = if several {
+            "the --input records".to_string()
+        } else {
+            a.input[0].display().to_string()
+        };
+        anyhow!("{what}: {e}")
+    };
+    let (mut id, search) = match a.delay {
+        DelaySetting::Fixed(_) => (
+            identify_records(&fit_records, ts, &settings).map_err(name_of)?,
+            None,
+        ),
+        DelaySetting::Auto => {
+            let (id, search) =
+                search_delay_records(&fit_records, ts, &settings, a.max_delay, &records)
+                    .map_err(name_of)?;
+            (id, Some(search))
+        }
+    };
+    if a.dynamics.any() {
+        // the dynamics add a lag of their own: the dead time may drop by one
+        let d0 = id.report.delay;
+        let mut best: Option<Identification> = None;
+        for d in [Some(d0), d0.checked_sub(1)].into_iter().flatten() {
+            let s = IdentificationSettings {
+                delay: d,
+                ..settings.clone()
+            };
+            let fit = fit_dynamics(&fit_records, ts, &s, a.dynamics).map_err(|e| match e {
+                mfcbeam::identification::IdentificationError::InvalidSetting {
+                    field: "dynamics",
+                    reason,
+                } => anyhow!("--dynamics: {reason}"),
+                e => name_of(e),
+            })?;
+            let rms =
+                |i: &Identification| i.report.dynamics.as_ref().map_or(f64::INFINITY, |g| g.rms);
+            if best.as_ref().is_none_or(|b| rms(&fit) < rms(b)) {
+                best = Some(fit);
+            }
+        }
+        id = best.expect("at least one dead time");
+    }
     let mut rows = Vec::new();
-    for r in &records {
-        rows.push(validate_record(&id.model, r.name, r.u, r.y, r.from)?);
+    for (i, r) in records.iter().enumerate() {
+        rows.push(match zero_segments.get(i) {
+            Some(z) => validate_record_zeroed(&id.model, r.name, r.u, r.y, r.from, z.clone())?,
+            None => validate_record(&id.model, r.name, r.u, r.y, r.from)?,
+        });
     }
     if let Some(p) = &a.plot {
-        let fit = id.model.clone().run(&u);
-        let others: Vec<(String, Vec<f64>)> = validation
-            .iter()
-            .map(|(path, vu, vy)| {
-                let fit = id.model.clone().run(vu);
-                let e = fit.iter().zip(vy.iter()).map(|(a, b)| a - b).collect();
-                (path.display().to_string(), e)
-            })
-            .collect();
-        let fitted = &id.report.fitted;
-        mfcbeam::suite::plots::write_identification_plot(p, &u, &y, &fit, ts, fitted, &others)
+        let fit = id.model.clone().run(u);
+        let mut others: Vec<(String, Vec<f64>)> = Vec::new();
+        for (i, (name, fu, fy)) in fitted.iter().enumerate().skip(1) {
+            let offset = id
+                .report
+                .records
+                .get(i)
+                .map_or(id.model.offset(), |r| r.offset);
+            let fit = id.model.clone().with_offset(offset).run(fu);
+            others.push((
+                format!("{name} (fitted)"),
+                fit.iter().zip(fy).map(|(a, b)| a - b).collect(),
+            ));
+        }
+        for (path, vu, vy) in &validation {
+            let fit = id.model.clone().run(vu);
+            let e = fit.iter().zip(vy.iter()).map(|(a, b)| a - b).collect();
+            others.push((path.display().to_string(), e));
+        }
+        let fitted_range = &id.report.fitted;
+        mfcbeam::suite::plots::write_identification_plot(p, u, y, &fit, ts, fitted_range, &others)
             .map_err(anyhow::Error::msg)?;
     }
     write_json(&a.output, &id.model.to_file().without_state())?;
@@ -232,23 +333,76 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
     if let Some(search) = &search {
         eprint!("{search}");
     }
-    if !rows.is_empty() {
-        // the fitted record first, then one row per validation record
-        let input = a.input.display().to_string();
-        let mut table = vec![ValidationRow {
-            name: input,
-            from: id.report.fitted.start,
-            errors: id.report.fit,
-            rate: dominant_rate(&u, ts),
-        }];
+    if let Some(g) = &id.report.dynamics {
+        eprint!("{}", DynamicsLine(g));
+    }
+    if several || !rows.is_empty() {
+        // the fitted records first, then one row per validation record
+        let mut table = Vec::new();
+        for (i, (name, fu, _)) in fitted.iter().enumerate() {
+            let (from, errors) = match id.report.records.get(i) {
+                Some(r) => (r.fitted.start, r.fit),
+                None => (id.report.fitted.start, id.report.fit),
+            };
+            table.push(ValidationRow {
+                name: name.clone(),
+                from,
+                errors,
+                rate: dominant_rate(fu, ts),
+                zeroed: None,
+            });
+        }
         table.extend(rows);
         eprint!("{}", ValidationTable(table));
+    }
+    if several && settings.offset_per_record && settings.fit_offset {
+        let first = id
+            .report
+            .records
+            .first()
+            .map_or(id.model.offset(), |r| r.offset);
+        for (r, (name, _, _)) in id.report.records.iter().zip(&fitted) {
+            eprintln!("offset of {name}: {:.6e}", r.offset);
+        }
+        eprintln!("the model file keeps the first record's offset, {first:.6e}");
     }
     if let Some(p) = &a.plot {
         eprintln!("mfcbeam: wrote {}", p.display());
     }
     eprintln!("mfcbeam: wrote {}", a.output.display());
     Ok(())
+}
+
+/// The fitted dynamics in one block of the report.
+struct DynamicsLine<'a>(&'a mfcbeam::identification::DynamicsReport);
+
+impl std::fmt::Display for DynamicsLine<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let g = self.0;
+        let se = |s: Option<f64>| s.map_or("?".to_string(), |s| format!("{s:.2e}"));
+        if let Some(fc) = g.parameters.low_pass {
+            writeln!(
+                f,
+                "dynamics: low-pass    {fc:.6e} Hz ± {}",
+                se(g.standard_errors[0])
+            )?;
+        }
+        if let Some(r) = g.parameters.resonance {
+            writeln!(
+                f,
+                "dynamics: resonance   {:.6e} Hz ± {}, damping {:.6e} ± {}",
+                r.frequency,
+                se(g.standard_errors[1]),
+                r.damping,
+                se(g.standard_errors[2])
+            )?;
+        }
+        writeln!(
+            f,
+            "dynamics: output error rms {:.6e} without, {:.6e} with them ({} steps)",
+            g.rms_static, g.rms, g.iterations
+        )
+    }
 }
 
 fn feedforward(a: &FeedforwardArgs) -> Result<()> {

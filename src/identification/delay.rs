@@ -12,7 +12,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use super::identify::{identify, Identification};
+use super::identify::{identify_records, FitRecord, Identification};
 use super::report::FitErrors;
 use super::settings::{IdentificationError, IdentificationSettings};
 use super::validation::validate_record;
@@ -107,6 +107,26 @@ pub fn search_delay(
     max_delay: usize,
     records: &[Record<'_>],
 ) -> Result<(Identification, DelaySearch), IdentificationError> {
+    let fitted = [FitRecord {
+        u,
+        y,
+        fit_from: settings.fit_from,
+    }];
+    search_delay_records(&fitted, sample_time, settings, max_delay, records)
+}
+
+/// [`search_delay`] for a model fitted to several records at once
+/// ([`identify_records`]); without validation records and held-out
+/// samples the criterion is the pooled rms of every fitted record (the
+/// first record's over the samples every candidate fits).
+pub fn search_delay_records(
+    fitted: &[FitRecord<'_>],
+    sample_time: f64,
+    settings: &IdentificationSettings,
+    max_delay: usize,
+    records: &[Record<'_>],
+) -> Result<(Identification, DelaySearch), IdentificationError> {
+    let (u, y) = (fitted[0].u, fitted[0].y);
     crate::limits::check("max_delay", crate::limits::MAX_DELAY_SEARCH, max_delay).map_err(|e| {
         IdentificationError::InvalidSetting {
             field: "max_delay",
@@ -119,7 +139,7 @@ pub fn search_delay(
             delay: d,
             ..settings.clone()
         };
-        let id = identify(u, y, sample_time, &s)?;
+        let id = identify_records(fitted, sample_time, &s)?;
         let mut validations = Vec::with_capacity(records.len());
         for r in records {
             validations.push(validate_record(&id.model, r.name, r.u, r.y, r.from)?.errors);
@@ -147,6 +167,10 @@ pub fn search_delay(
             let score = match criterion {
                 DelayCriterion::Validation => pooled_rms(validations),
                 DelayCriterion::Holdout => id.report.holdout.map_or(f64::INFINITY, |h| h.rms),
+                DelayCriterion::Fit if id.report.records.len() > 1 => {
+                    let errors: Vec<FitErrors> = id.report.records.iter().map(|r| r.fit).collect();
+                    pooled_rms(&errors)
+                }
                 DelayCriterion::Fit => fit.rms,
             };
             DelayRow {

@@ -7,14 +7,14 @@
 
 use faer::Mat;
 
-use super::regressor::regressor_factor;
+use super::regressor::{regressor_factor, Segment};
 use super::report::StartCheck;
 use super::report::{check_record_signals, first_at_max, range};
 use super::settings::{
     superposition_kinks, thresholds_23, IdentificationError, IdentificationSettings,
 };
 use super::solve::{nnls, null_space_members, singular_values, weights_from_sums, RANK_TOLERANCE};
-use super::{ActiveConstraint, FitErrors, FitReport, UnexcitedOperator};
+use super::{ActiveConstraint, FitErrors, FitReport, RecordFit, UnexcitedOperator};
 use crate::error::ModelError;
 use crate::operators::creep::{log_spaced_eigenvalues, CreepOperator};
 use crate::operators::hysteresis::HysteresisOperator;
@@ -48,35 +48,122 @@ pub fn identify(
     sample_time: f64,
     settings: &IdentificationSettings,
 ) -> Result<Identification, IdentificationError> {
-    check_record_signals(u, y)?;
-    let (n, d) = (u.len(), settings.delay);
-    if d >= n {
+    let record = FitRecord {
+        u,
+        y,
+        fit_from: settings.fit_from,
+    };
+    identify_records(&[record], sample_time, settings)
+}
+
+/// A record of a multi-record identification: input, output and the first
+/// sample of `y` fitted (`None`: where `|u|` first reaches `max|u|`).
+#[derive(Debug, Clone, Copy)]
+pub struct FitRecord<'a> {
+    pub u: &'a [f64],
+    pub y: &'a [f64],
+    pub fit_from: Option<usize>,
+}
+
+/// One model fitted to several records at once ([`identify`] for each
+/// alone): each record starts from the virgin state and skips its own
+/// start; with `settings.offset_per_record` each has its own output offset
+/// (the model keeps the first record's; the report lists all), else they
+/// share one. `settings.fit_from` is ignored (each record has its own);
+/// `settings.holdout` must be 0 with several records (validate on another
+/// record instead).
+pub fn identify_records(
+    records: &[FitRecord<'_>],
+    sample_time: f64,
+    settings: &IdentificationSettings,
+) -> Result<Identification, IdentificationError> {
+    settings.validate()?;
+    if records.is_empty() {
         return Err(IdentificationError::InvalidSetting {
-            field: "delay",
-            reason: format!("{d} samples of dead time leave nothing of {n} samples"),
+            field: "input",
+            reason: "no record to fit".into(),
         });
     }
-    let aligned = IdentificationSettings {
-        fit_from: settings.fit_from.map(|k| k.saturating_sub(d)),
-        delay: 0,
-        ..settings.clone()
-    };
-    let (u_d, y_d) = (&u[..n - d], &y[d..]);
-    let plan = FitPlan::new(u_d, y_d, sample_time, &aligned)?;
-    let regression = Regression::of(u_d, y_d, &plan)?;
+    if records.len() > 1 && settings.holdout > 0 {
+        return Err(IdentificationError::InvalidSetting {
+            field: "holdout",
+            reason: "with several records, validate on another record instead".into(),
+        });
+    }
+    let d = settings.delay;
+    let (mut u_cat, mut y_cat, mut parts) = (Vec::new(), Vec::new(), Vec::new());
+    for (index, r) in records.iter().enumerate() {
+        check_record_signals(r.u, r.y).map_err(|e| in_record(e, index, records.len()))?;
+        let n = r.u.len();
+        if d >= n {
+            return Err(in_record(
+                IdentificationError::InvalidSetting {
+                    field: "delay",
+                    reason: format!("{d} samples of dead time leave nothing of {n} samples"),
+                },
+                index,
+                records.len(),
+            ));
+        }
+        let start = u_cat.len();
+        u_cat.extend_from_slice(&r.u[..n - d]);
+        let y_d = &r.y[d..];
+        match &settings.dynamics {
+            // the regressor's columns pass through G; its measurement is G⁻¹[y]
+            Some(g) => {
+                let mut inverse = crate::realtime::Dynamics::<f64>::new(g, sample_time)?;
+                y_cat.extend(y_d.iter().map(|&v| {
+                    let w = inverse.input_for(v);
+                    inverse.push_output(v);
+                    w
+                }));
+            }
+            None => y_cat.extend_from_slice(y_d),
+        }
+        parts.push((start..u_cat.len(), r.fit_from.map(|k| k.saturating_sub(d))));
+    }
+    let plan = FitPlan::new(&u_cat, &y_cat, sample_time, settings, &parts, records.len())?;
+    let regression = Regression::of(&u_cat, &y_cat, &plan)?;
     let solution = regression.solve(&plan)?;
-    let model = plan.model(&solution)?.with_delay(d)?;
+    let model = plan
+        .model(&solution)?
+        .with_dynamics(settings.dynamics.as_ref())?
+        .with_delay(d)?;
     let standard_errors = regression.standard_errors(&plan);
-    // the fit of the model as it will be used, from the virgin state
+    // the fit of the model as it will be used, from the virgin state, on
+    // each record (the first one's in the main fields)
+    let mut record_reports = Vec::with_capacity(records.len());
+    for (index, (r, segment)) in records.iter().zip(&plan.segments).enumerate() {
+        let fitted = segment.fitted.start - segment.whole.start + d
+            ..segment.fitted.end - segment.whole.start + d;
+        let own = solution
+            .offsets
+            .get(index)
+            .copied()
+            .unwrap_or(solution.offset);
+        let own = plan
+            .model_with(&solution, own)?
+            .with_dynamics(settings.dynamics.as_ref())?
+            .with_delay(d)?;
+        let fit = own.clone().run(r.u);
+        record_reports.push(RecordFit {
+            samples: r.u.len(),
+            fit: FitErrors::of(&fit, r.y, fitted.clone()),
+            fitted,
+            offset: own.offset(),
+        });
+    }
+    let first = &record_reports[0];
+    let (u, y, n) = (records[0].u, records[0].y, records[0].u.len());
     let fit = model.clone().run(u);
-    let (first, end) = (plan.fitted.start + d, plan.fitted.end + d);
+    let (start, end) = (first.fitted.start, first.fitted.end);
     let unknowns = plan.excited();
     let report = FitReport {
         samples: n,
-        fitted: first..end,
+        fitted: start..end,
         delay: d,
-        skip_reason: plan.skip_reason,
-        fit: FitErrors::of(&fit, y, first..end),
+        skip_reason: plan.skip_reason.clone(),
+        fit: first.fit,
         holdout: (end < n).then(|| FitErrors::of(&fit, y, end..n)),
         offset: model.offset(),
         condition_number: regression.condition_number,
@@ -95,20 +182,42 @@ pub fn identify(
             .copied()
             .collect(),
         standard_errors,
-        start: StartCheck::of(&fit, y, first..end),
+        start: StartCheck::of(&fit, y, start..end),
         superposition: model
             .superposition()
             .map(|s| (s.thresholds().to_vec(), s.weights().to_vec())),
+        records: if records.len() > 1 {
+            record_reports
+        } else {
+            Vec::new()
+        },
+        dynamics: None,
     };
     Ok(Identification { model, report })
+}
+
+/// An error about record `index` of `count`, named when there are several.
+fn in_record(e: IdentificationError, index: usize, count: usize) -> IdentificationError {
+    if count < 2 {
+        return e;
+    }
+    IdentificationError::InvalidSetting {
+        field: "input",
+        reason: format!("record {}: {e}", index + 1),
+    }
 }
 
 /// What an identification fits: samples, operators and the margin of (11).
 struct FitPlan {
     sample_time: f64,
-    fitted: std::ops::Range<usize>,
+    /// Every record's samples in the concatenated signals and its fitted
+    /// rows.
+    segments: Vec<Segment>,
+    /// Fitted rows in all.
+    rows: usize,
     skip_reason: String,
-    fit_offset: bool,
+    /// Offset columns: 0, 1, or one per record.
+    offsets: usize,
     /// Hysteresis and creep thresholds, all of them; the first `nh` and `nc`
     /// are excited (`r < max|u|`), the rest keep weight 0.
     r_h: Vec<f64>,
@@ -124,6 +233,8 @@ struct FitPlan {
     r_s: Vec<f64>,
     ns_pos: usize,
     centre: f64,
+    /// The fixed dynamics `G` the columns pass through.
+    dynamics: Option<crate::realtime::DynamicsParameters>,
 }
 
 /// The four groups of columns with partial-sum bounds: the plays, the creep
@@ -137,38 +248,72 @@ const GROUPS: [&str; 4] = [
 
 impl FitPlan {
     /// Check the data and settings and fix every choice the fit makes.
+    /// `parts`: each record's samples in `u` and `y` (concatenated) and
+    /// its first fitted sample, relative to its start.
     fn new(
         u: &[f64],
         y: &[f64],
         sample_time: f64,
         settings: &IdentificationSettings,
+        parts: &[(std::ops::Range<usize>, Option<usize>)],
+        records: usize,
     ) -> Result<Self, IdentificationError> {
         settings.validate()?;
         check_record_signals(u, y)?;
         crate::realtime::parameters::check_sample_time(sample_time).map_err(ModelError::from)?;
-        let n = u.len();
         let r_max = u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        if n == 0 || u.iter().all(|&v| v == u[0]) {
+        if u.is_empty() || u.iter().all(|&v| v == u[0]) {
             return Err(IdentificationError::ConstantInput {
                 value: u.first().copied().unwrap_or(0.0),
             });
         }
-        let (first, skip_reason) = match settings.fit_from {
-            Some(k) => (k, "--fit-from".to_string()),
-            None => (
-                first_at_max(u),
-                format!(
-                    "before |u| first reaches max|u| = {r_max} the play states depend on the unknown history"
-                ),
-            ),
+        let offsets = match (settings.fit_offset, settings.offset_per_record) {
+            (false, _) => 0,
+            (true, false) => 1,
+            (true, true) => records,
         };
-        let end = n.saturating_sub(settings.holdout);
-        if first >= end {
-            return Err(IdentificationError::InvalidSetting {
-                field: "fit_from",
-                reason: format!("sample {first} leaves nothing to fit before sample {end}"),
+        let mut segments = Vec::with_capacity(parts.len());
+        let mut skip_reason = String::new();
+        for (index, (whole, fit_from)) in parts.iter().enumerate() {
+            let (first, reason) = match fit_from {
+                Some(k) => (*k, "--fit-from".to_string()),
+                None => {
+                    let own = &u[whole.clone()];
+                    let m = own.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                    (
+                        first_at_max(own),
+                        format!(
+                            "before |u| first reaches max|u| = {m} the play states depend on the unknown history"
+                        ),
+                    )
+                }
+            };
+            if index == 0 {
+                skip_reason = reason;
+            }
+            let end = whole.len().saturating_sub(settings.holdout);
+            if first >= end {
+                return Err(in_record(
+                    IdentificationError::InvalidSetting {
+                        field: "fit_from",
+                        reason: format!("sample {first} leaves nothing to fit before sample {end}"),
+                    },
+                    index,
+                    records,
+                ));
+            }
+            segments.push(Segment {
+                whole: whole.clone(),
+                fitted: whole.start + first..whole.start + end,
+                offset_column: if offsets > 1 { index } else { 0 },
             });
         }
+        let rows: usize = segments.iter().map(|s| s.fitted.len()).sum();
+        let fitted_y = || {
+            segments
+                .iter()
+                .flat_map(|s| y[s.fitted.clone()].iter().copied())
+        };
         let r_h = settings
             .hysteresis_thresholds
             .clone()
@@ -181,11 +326,9 @@ impl FitPlan {
             .eigenvalues
             .clone()
             .unwrap_or_else(|| log_spaced_eigenvalues(settings.creep_eigenvalues, sample_time));
-        let (lo, hi) = y[first..end]
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-                (a.min(v), b.max(v))
-            });
+        let (lo, hi) = fitted_y().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
         // with the offset fixed at 0 the zero of S⁻¹ stays at y = 0
         let centre = if settings.fit_offset {
             0.5 * (lo + hi)
@@ -216,11 +359,11 @@ impl FitPlan {
         });
         r_s.dedup();
         let ns_pos = r_s.iter().filter(|&&r| r > 0.0).count();
-        let unknowns = r_h.len() + r_c.len() + r_s.len() + usize::from(settings.fit_offset);
+        let unknowns = r_h.len() + r_c.len() + r_s.len() + offsets;
         let needed = 2 * unknowns + 1;
-        if end - first < needed {
+        if rows < needed {
             return Err(IdentificationError::TooFewSamples {
-                found: end - first,
+                found: rows,
                 needed,
                 unknowns,
             });
@@ -240,12 +383,13 @@ impl FitPlan {
         }
         let epsilon_h = settings
             .epsilon_h
-            .unwrap_or(1e-3 * range(&y[first..end]).max(f64::MIN_POSITIVE) / range(u));
+            .unwrap_or(1e-3 * (hi - lo).max(f64::MIN_POSITIVE) / range(u));
         Ok(Self {
             sample_time,
-            fitted: first..end,
+            segments,
+            rows,
             skip_reason,
-            fit_offset: settings.fit_offset,
+            offsets,
             r_h,
             r_c,
             nh,
@@ -256,6 +400,7 @@ impl FitPlan {
             r_s,
             ns_pos,
             centre,
+            dynamics: settings.dynamics,
         })
     }
 
@@ -323,6 +468,16 @@ impl FitPlan {
 
     /// The model with the solved weights (unexcited operators weigh 0).
     fn model(&self, solution: &Solution) -> Result<HysteresisCreepModel, IdentificationError> {
+        self.model_with(solution, solution.offset)
+    }
+
+    /// The model with the solved weights and offset `offset` (with `S`, in
+    /// the domain of `H + C`: `S⁻¹[ς − c] = H + C + offset`).
+    fn model_with(
+        &self,
+        solution: &Solution,
+        offset: f64,
+    ) -> Result<HysteresisCreepModel, IdentificationError> {
         let hysteresis = HysteresisOperator::new(self.r_h.clone(), solution.w_h.clone())?;
         let creep = if self.r_c.is_empty() {
             None
@@ -336,7 +491,7 @@ impl FitPlan {
         };
         let model = HysteresisCreepModel::from_parts(self.sample_time, hysteresis, creep)?;
         if self.r_s.is_empty() {
-            return Ok(model.with_offset(solution.offset));
+            return Ok(model.with_offset(offset));
         }
         // H + C + d = S⁻¹[ς − c], so ς = S[H + C + d] + c: S shifted along its
         // input by d, and the constant S(d) + c as the output offset
@@ -347,7 +502,7 @@ impl FitPlan {
                 weights: &w_inv,
             },
         )?;
-        let d = solution.offset;
+        let d = offset;
         let (r, w) = shifted_superposition(s.thresholds(), s.weights(), d)?;
         let shifted = Superposition::new(&r, &w)?;
         Ok(model
@@ -380,11 +535,12 @@ impl Regression {
         let factor = regressor_factor(
             u,
             y,
-            plan.fitted.clone(),
-            plan.fit_offset,
+            &plan.segments,
+            plan.offsets,
             &plan.r_h[..plan.nh],
             creep,
             (!plan.r_s.is_empty()).then_some((plan.r_s.as_slice(), plan.centre)),
+            plan.dynamics.as_ref().map(|g| (g, plan.sample_time)),
         );
         let p = plan.excited();
         let r = Self::weights_block(&factor, plan);
@@ -413,12 +569,12 @@ impl Regression {
     /// (the factor's last diagonal entry) over `√(N − p − q)`; infinite when
     /// the rank is deficient.
     fn standard_errors(&self, plan: &FitPlan) -> Vec<f64> {
-        let (p, q) = (plan.excited(), usize::from(plan.fit_offset));
+        let (p, q) = (plan.excited(), plan.offsets);
         if self.rank < p {
             return vec![f64::INFINITY; p];
         }
         let r = Self::weights_block(&self.factor, plan);
-        let dof = plan.fitted.len().saturating_sub(p + q).max(1) as f64;
+        let dof = plan.rows.saturating_sub(p + q).max(1) as f64;
         let sigma = self.factor[(q + p, q + p)].abs() / dof.sqrt();
         // R⁻¹ column by column (back substitution), then its row norms
         let mut inv = Mat::<f64>::zeros(p, p);
@@ -443,14 +599,14 @@ impl Regression {
     /// `R` of the weights: the factor with the offset eliminated (its first
     /// row and column dropped).
     fn weights_block(factor: &Mat<f64>, plan: &FitPlan) -> Mat<f64> {
-        let (p, q) = (plan.excited(), usize::from(plan.fit_offset));
+        let (p, q) = (plan.excited(), plan.offsets);
         Mat::from_fn(p, p, |i, j| factor[(q + i, q + j)])
     }
 
     /// Stage 2: non-negative least squares in the shifted partial sums
     /// `x = S − b`, then the weights and the offset.
     fn solve(&self, plan: &FitPlan) -> Result<Solution, IdentificationError> {
-        let (p, q, nh) = (plan.excited(), usize::from(plan.fit_offset), plan.nh);
+        let (p, q, nh) = (plan.excited(), plan.offsets, plan.nh);
         let r = Self::weights_block(&self.factor, plan);
         let c: Vec<f64> = (0..p).map(|i| self.factor[(q + i, q + p)]).collect();
         // M = R D: column j of R D is R_j − R_{j+1} within each group
@@ -485,22 +641,37 @@ impl Regression {
         let s_bound = EPSILON_S - 1.0;
         let mut w_s = weights_from_sums(&sums[groups[2].clone()], s_bound);
         w_s.extend(weights_from_sums(&sums[groups[3].clone()], s_bound));
-        // the offset from the first row of the factor: r_00 o + r_0j w_j = c_0
-        let offset = if plan.fit_offset && self.factor[(0, 0)] != 0.0 {
-            let w_all = w_h[..nh].iter().chain(&w_c[..plan.nc]).chain(&w_s);
+        // the offsets from the first q rows of the factor (upper triangular):
+        // R_oo o + R_ow w = c_o, by back substitution
+        let w_all: Vec<f64> = w_h[..nh]
+            .iter()
+            .chain(&w_c[..plan.nc])
+            .chain(&w_s)
+            .copied()
+            .collect();
+        let mut offsets = vec![0.0; q];
+        for i in (0..q).rev() {
             let dot: f64 = w_all
+                .iter()
                 .enumerate()
-                .map(|(j, w)| self.factor[(0, 1 + j)] * w)
-                .sum();
-            (self.factor[(0, p + 1)] - dot) / self.factor[(0, 0)]
-        } else {
-            0.0
-        };
+                .map(|(j, w)| self.factor[(i, q + j)] * w)
+                .sum::<f64>()
+                + (i + 1..q)
+                    .map(|k| self.factor[(i, k)] * offsets[k])
+                    .sum::<f64>();
+            offsets[i] = if self.factor[(i, i)] != 0.0 {
+                (self.factor[(i, q + p)] - dot) / self.factor[(i, i)]
+            } else {
+                0.0
+            };
+        }
+        let offset = offsets.first().copied().unwrap_or(0.0);
         Ok(Solution {
             w_h,
             w_c,
             w_s,
             offset,
+            offsets,
             active_constraints,
             kkt_residual: solution.kkt_residual,
             iterations: solution.iterations,
@@ -515,7 +686,10 @@ struct Solution {
     w_c: Vec<f64>,
     /// The weights of `S⁻¹`'s dead zones, in column order.
     w_s: Vec<f64>,
+    /// The first record's offset (in the domain of `H + C` with `S`).
     offset: f64,
+    /// Every record's (one, or one per record).
+    offsets: Vec<f64>,
     active_constraints: Vec<ActiveConstraint>,
     kkt_residual: f64,
     iterations: usize,

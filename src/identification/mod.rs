@@ -51,6 +51,7 @@
 //! partial sums, and so (11), intact) and are named in the report.
 
 pub mod delay;
+mod dynamics;
 mod identify;
 mod regressor;
 pub mod report;
@@ -59,11 +60,14 @@ mod solve;
 pub mod validation;
 
 pub use delay::{
-    search_delay, DelayCriterion, DelayRow, DelaySearch, DelaySetting, Record, DEFAULT_MAX_DELAY,
+    search_delay, search_delay_records, DelayCriterion, DelayRow, DelaySearch, DelaySetting,
+    Record, DEFAULT_MAX_DELAY,
 };
-pub use identify::{identify, Identification, EPSILON_S};
+pub use dynamics::{fit_dynamics, DynamicsParts};
+pub use identify::{identify, identify_records, FitRecord, Identification, EPSILON_S};
 pub use report::{
-    first_at_max, validate, ActiveConstraint, FitErrors, FitReport, UnexcitedOperator,
+    first_at_max, validate, ActiveConstraint, DynamicsReport, FitErrors, FitReport, RecordFit,
+    UnexcitedOperator,
 };
 pub use settings::{
     holdout_samples, superposition_kinks, thresholds_23, IdentificationError,
@@ -71,5 +75,6 @@ pub use settings::{
 };
 pub use solve::RANK_TOLERANCE;
 pub use validation::{
-    check_record, dominant_rate, validate_record, FitStart, ValidationRow, ValidationTable,
+    check_record, dominant_rate, validate_record, validate_record_zeroed, FitStart, ValidationRow,
+    ValidationTable, ZeroSegment,
 };

@@ -28,20 +28,92 @@ const CHUNK: usize = 4096;
 /// `superposition = (kinks, c)`: the columns `−d_{r'}(ς_k − c)` of `S⁻¹`'s
 /// dead zones at `kinks` (relative to `c`), and `ς − c` as the right-hand
 /// side (the weight of `S⁻¹`'s linear term fixed at 1).
+/// One record of a regression: its samples in the concatenated signals
+/// (the operators start from the virgin state at `whole.start`), the rows
+/// that enter (`fitted`, inside `whole`), and its offset column.
+#[derive(Debug, Clone)]
+pub(crate) struct Segment {
+    pub whole: std::ops::Range<usize>,
+    pub fitted: std::ops::Range<usize>,
+    pub offset_column: usize,
+}
+
+/// The all-pole filter `g / A(q⁻¹)` applied to every column of the rows, one
+/// state per column, at rest on a record's first row.
+struct RowFilter {
+    c: Vec<f64>,
+    gain: f64,
+    /// Per column, the last outputs (newest first).
+    past: Vec<Vec<f64>>,
+}
+
+impl RowFilter {
+    fn new(dynamics: &crate::realtime::DynamicsParameters, sample_time: f64, cols: usize) -> Self {
+        let (c, order, gain) = dynamics.coefficients(sample_time);
+        Self {
+            c: c[..order].to_vec(),
+            gain,
+            past: vec![Vec::new(); cols],
+        }
+    }
+
+    fn restart(&mut self) {
+        self.past.iter_mut().for_each(Vec::clear);
+    }
+
+    fn apply(&mut self, row: &mut [f64]) {
+        for (x, past) in row.iter_mut().zip(&mut self.past) {
+            if past.is_empty() {
+                past.resize(self.c.len(), *x);
+                continue;
+            }
+            let y = self.gain * *x
+                - self
+                    .c
+                    .iter()
+                    .zip(past.iter())
+                    .map(|(c, p)| c * p)
+                    .sum::<f64>();
+            past.pop();
+            past.insert(0, y);
+            *x = y;
+        }
+    }
+}
+
+/// The upper-triangular factor `R` of `[1 | Φ | ς]` over several records
+/// (`segments`), each from the virgin state, with `offsets` offset columns
+/// (0: none; one per segment's `offset_column`): play outputs, log(t)-creep
+/// outputs (before the update with `v_k`: the one-sample delay of (20)) and
+/// the measurement. The regressor is never stored whole: chunks of
+/// [`CHUNK`] rows are stacked under the factor so far and factored again (a
+/// streaming "tall-skinny" QR), which gives the factor of the whole (up to
+/// the signs of its rows) with the same backward stability.
+///
+/// `superposition = (kinks, c)`: the columns `−d_{r'}(ς_k − c)` of `S⁻¹`'s
+/// dead zones at `kinks` (relative to `c`), and `ς − c` as the right-hand
+/// side (the weight of `S⁻¹`'s linear term fixed at 1).
+///
+/// `dynamics`: `y` is then `G⁻¹` of the measurement, and every column
+/// (the right-hand side too, which gives back the measurement) passes
+/// through `G` before it enters: the fit is the output error of
+/// `y = G[S[H + C]]` for a fixed `G`, linear in the weights.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn regressor_factor(
     u: &[f64],
     y: &[f64],
-    rows: std::ops::Range<usize>,
-    offset: bool,
+    segments: &[Segment],
+    offsets: usize,
     r_h: &[f64],
-    mut creep: Option<CreepOperator>,
+    creep: Option<CreepOperator>,
     superposition: Option<(&[f64], f64)>,
+    dynamics: Option<(&crate::realtime::DynamicsParameters, f64)>,
 ) -> Mat<f64> {
     let nh = r_h.len();
     let nc = creep.as_ref().map_or(0, |c| c.thresholds().len());
     let (kinks, centre) = superposition.unwrap_or((&[], 0.0));
     let p = nh + nc + kinks.len();
-    let q = usize::from(offset);
+    let q = offsets;
     let cols = q + p + 1;
     // the factor so far in the first `cols` rows, the new chunk below it
     let mut stack = Mat::<f64>::zeros(cols + CHUNK, cols);
@@ -49,51 +121,74 @@ pub(crate) fn regressor_factor(
     let mut have_r = false;
     let mut x = vec![0.0; nh];
     let mut creep_row = vec![0.0; nc];
-    for k in 0..rows.end {
-        let v = u[k];
-        for (xi, &r) in x.iter_mut().zip(r_h) {
-            *xi = play(v, r, *xi);
+    let mut row = vec![0.0; cols];
+    let mut filter = dynamics.map(|(g, ts)| RowFilter::new(g, ts, cols));
+    let total: usize = segments.iter().map(|s| s.fitted.len()).sum();
+    let mut done = 0;
+    for segment in segments {
+        x.fill(0.0);
+        let mut creep = creep.clone();
+        if let Some(f) = &mut filter {
+            f.restart();
         }
-        let keep = k >= rows.start;
-        if let Some(c) = &mut creep {
-            if keep {
-                c.log_creep_outputs_into(&mut creep_row);
+        // with G every row from the record's start enters the filter
+        let first = if filter.is_some() {
+            segment.whole.start
+        } else {
+            segment.fitted.start
+        };
+        for k in segment.whole.start..segment.fitted.end {
+            let v = u[k];
+            for (xi, &r) in x.iter_mut().zip(r_h) {
+                *xi = play(v, r, *xi);
             }
-            c.advance(v);
-        }
-        if !keep {
-            continue;
-        }
-        let row = cols + filled;
-        if offset {
-            stack[(row, 0)] = 1.0;
-        }
-        for (j, &xj) in x.iter().enumerate() {
-            stack[(row, q + j)] = xj;
-        }
-        for (j, &cj) in creep_row.iter().enumerate() {
-            stack[(row, q + nh + j)] = cj;
-        }
-        match superposition {
-            None => stack[(row, q + p)] = y[k],
-            Some(_) => {
-                let z = y[k] - centre;
-                for (j, &r) in kinks.iter().enumerate() {
-                    let d = if r > 0.0 {
-                        (z - r).max(0.0)
-                    } else {
-                        (z - r).min(0.0)
-                    };
-                    stack[(row, q + nh + nc + j)] = -d;
+            let keep = k >= segment.fitted.start;
+            if let Some(c) = &mut creep {
+                if k >= first {
+                    c.log_creep_outputs_into(&mut creep_row);
                 }
-                stack[(row, q + p)] = z;
+                c.advance(v);
             }
-        }
-        filled += 1;
-        if filled == CHUNK || k + 1 == rows.end {
-            fold_chunk(&mut stack, cols, filled, have_r);
-            have_r = true;
-            filled = 0;
+            if k < first {
+                continue;
+            }
+            row.fill(0.0);
+            if q > 0 {
+                row[segment.offset_column] = 1.0;
+            }
+            row[q..q + nh].copy_from_slice(&x);
+            row[q + nh..q + nh + nc].copy_from_slice(&creep_row);
+            match superposition {
+                None => row[q + p] = y[k],
+                Some(_) => {
+                    let z = y[k] - centre;
+                    for (j, &r) in kinks.iter().enumerate() {
+                        let d = if r > 0.0 {
+                            (z - r).max(0.0)
+                        } else {
+                            (z - r).min(0.0)
+                        };
+                        row[q + nh + nc + j] = -d;
+                    }
+                    row[q + p] = z;
+                }
+            }
+            if let Some(f) = &mut filter {
+                f.apply(&mut row);
+            }
+            if !keep {
+                continue;
+            }
+            for (j, &value) in row.iter().enumerate() {
+                stack[(cols + filled, j)] = value;
+            }
+            filled += 1;
+            done += 1;
+            if filled == CHUNK || done == total {
+                fold_chunk(&mut stack, cols, filled, have_r);
+                have_r = true;
+                filled = 0;
+            }
         }
     }
     Mat::from_fn(cols, cols, |i, j| if i <= j { stack[(i, j)] } else { 0.0 })

@@ -72,6 +72,33 @@ impl FitErrors {
     }
 }
 
+/// One record of a multi-record identification.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordFit {
+    pub samples: usize,
+    /// Its samples fitted.
+    pub fitted: std::ops::Range<usize>,
+    /// Its errors there, with its own offset.
+    pub fit: FitErrors,
+    /// Its output offset (the model file keeps the first record's).
+    pub offset: f64,
+}
+
+/// The fitted linear dynamics and how well the records determine them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DynamicsReport {
+    pub parameters: crate::realtime::DynamicsParameters,
+    /// Standard errors of the low-pass frequency, the resonance frequency
+    /// and damping (as fitted; `None` for a part not fitted), from the
+    /// Jacobian of the output error at the optimum.
+    pub standard_errors: [Option<f64>; 3],
+    /// Gauss–Newton steps taken.
+    pub iterations: usize,
+    /// The output error's rms before (static model) and after.
+    pub rms_static: f64,
+    pub rms: f64,
+}
+
 /// How the identification went and how well the model fits.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FitReport {
@@ -118,6 +145,11 @@ pub struct FitReport {
     /// The fitted superposition operator `S` (thresholds, weights), if one
     /// was fitted.
     pub superposition: Option<(Vec<f64>, Vec<f64>)>,
+    /// With several records, each one's fit (the main fields are the first
+    /// record's); empty for one record.
+    pub records: Vec<RecordFit>,
+    /// The fitted dynamics, if they were fitted.
+    pub dynamics: Option<DynamicsReport>,
     /// The first 5 % of the fitted samples against the rest.
     pub start: StartCheck,
 }

@@ -84,6 +84,13 @@ pub struct IdentificationSettings {
     /// Dead time `d` (whole samples) between the input and the output
     /// (default 0); [`search_delay`](super::search_delay) chooses it.
     pub delay: usize,
+    /// With several records ([`identify_records`](super::identify_records)):
+    /// one output offset per record (default false: one for all).
+    pub offset_per_record: bool,
+    /// Known linear dynamics `G` after `S` (default none); the weights are
+    /// then fitted to `y = G[S[H + C]]`.
+    /// [`fit_dynamics`](super::fit_dynamics) finds `G`.
+    pub dynamics: Option<crate::realtime::DynamicsParameters>,
 }
 
 impl Default for IdentificationSettings {
@@ -103,6 +110,8 @@ impl Default for IdentificationSettings {
             superposition: 0,
             superposition_kinks: None,
             delay: 0,
+            offset_per_record: false,
+            dynamics: None,
         }
     }
 }

@@ -85,6 +85,51 @@ pub struct ValidationRow {
     pub errors: FitErrors,
     /// Its input's dominant rate (Hz), if it has one.
     pub rate: Option<f64>,
+    /// With a zeroing segment: the constant offset estimated on it (the
+    /// mean of `y − W[u]` there) and the errors from `from` with it removed.
+    pub zeroed: Option<(f64, FitErrors)>,
+}
+
+/// A stretch of a record on which its constant offset is estimated before
+/// the rest is scored (the practice of zeroing a sensor before a run):
+/// `A..B`, each a sample or a time like `1.0s`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ZeroSegment {
+    pub start: FitStart,
+    pub end: FitStart,
+}
+
+impl FromStr for ZeroSegment {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        let (a, b) = s
+            .split_once("..")
+            .ok_or_else(|| format!("'{s}' is not a segment like 1.0s..1.5s"))?;
+        Ok(Self {
+            start: a.parse()?,
+            end: b.parse()?,
+        })
+    }
+}
+
+impl ZeroSegment {
+    /// The samples of the segment in a record of `len` samples, or why
+    /// there are none.
+    pub fn resolve(&self, len: usize, sample_time: f64) -> Result<std::ops::Range<usize>, String> {
+        let at = |s: FitStart| match s {
+            FitStart::Seconds(t) => (t / sample_time).round() as usize,
+            FitStart::Sample(k) => k,
+            FitStart::FirstAtMax => 0,
+        };
+        let (a, b) = (at(self.start), at(self.end));
+        if a >= b || b > len {
+            return Err(format!(
+                "samples {a}..{b} are not a non-empty stretch inside the record's {len} samples"
+            ));
+        }
+        Ok(a..b)
+    }
 }
 
 /// Errors of `model` (run from the virgin state over the whole record) on
@@ -105,7 +150,37 @@ pub fn validate_record(
         from,
         errors: FitErrors::of(&fit, y, from..u.len()),
         rate: dominant_rate(u, model.sample_time()),
+        zeroed: None,
     })
+}
+
+/// [`validate_record`], and the errors with the record's constant offset
+/// estimated on `zero` (the mean of `y − W[u]` there) removed.
+pub fn validate_record_zeroed(
+    model: &HysteresisCreepModel,
+    name: &str,
+    u: &[f64],
+    y: &[f64],
+    from: usize,
+    zero: std::ops::Range<usize>,
+) -> Result<ValidationRow, IdentificationError> {
+    let mut row = validate_record(model, name, u, y, from)?;
+    if zero.is_empty() || zero.end > u.len() {
+        return Err(IdentificationError::InvalidSetting {
+            field: "validate_zero",
+            reason: format!(
+                "{name}: samples {}..{} are not inside its {} samples",
+                zero.start,
+                zero.end,
+                u.len()
+            ),
+        });
+    }
+    let fit = model.clone().run(u);
+    let offset = zero.clone().map(|k| y[k] - fit[k]).sum::<f64>() / zero.len() as f64;
+    let shifted: Vec<f64> = fit.iter().map(|f| f + offset).collect();
+    row.zeroed = Some((offset, FitErrors::of(&shifted, y, from..u.len())));
+    Ok(row)
 }
 
 /// A record fit to validate on: `u` and `y` of one length, finite, and
@@ -133,17 +208,22 @@ pub struct ValidationTable(pub Vec<ValidationRow>);
 
 impl fmt::Display for ValidationTable {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        writeln!(
+        let zeroed = self.0.iter().any(|r| r.zeroed.is_some());
+        write!(
             f,
-            "validation {:<13} {:>8} {:>9} {:>13} {:>9} {:>13} {:>9}   input rate",
+            "validation {:<13} {:>8} {:>9} {:>13} {:>9} {:>13} {:>9}",
             "(record)", "from", "samples", "rms", "rms %", "max", "max %"
         )?;
+        if zeroed {
+            write!(f, " {:>13} {:>9} {:>9}", "zero offset", "rms %z", "max %z")?;
+        }
+        writeln!(f, "   input rate")?;
         for r in &self.0 {
             let e = &r.errors;
             let rate = r.rate.map_or("-".to_string(), |f| format!("{f:.4} Hz"));
-            writeln!(
+            write!(
                 f,
-                "{:<24} {:>8} {:>9} {:>13.6e} {:>9.4} {:>13.6e} {:>9.4}   {rate}",
+                "{:<24} {:>8} {:>9} {:>13.6e} {:>9.4} {:>13.6e} {:>9.4}",
                 r.name,
                 r.from,
                 e.samples,
@@ -151,6 +231,24 @@ impl fmt::Display for ValidationTable {
                 e.rms_percent(),
                 e.max,
                 e.max_percent()
+            )?;
+            match (&r.zeroed, zeroed) {
+                (Some((o, z)), _) => write!(
+                    f,
+                    " {:>13.6e} {:>9.4} {:>9.4}",
+                    o,
+                    z.rms_percent(),
+                    z.max_percent()
+                )?,
+                (None, true) => write!(f, " {:>13} {:>9} {:>9}", "-", "-", "-")?,
+                (None, false) => {}
+            }
+            writeln!(f, "   {rate}")?;
+        }
+        if zeroed {
+            writeln!(
+                f,
+                "(%z: with each record's constant offset estimated on the --validate-zero stretch removed)"
             )?;
         }
         Ok(())

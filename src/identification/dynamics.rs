@@ -1,0 +1,348 @@
+//! Fitting the linear dynamics `G` after `S[H + C]` (a low-pass, a
+//! resonance): `y = G[S[H + C]] + offset` is linear in the weights for a
+//! fixed `G` ([`identify_records`] with `settings.dynamics`), so the weights
+//! are eliminated (variable projection) and the few parameters of `G` are
+//! fitted to the output error by Levenberg–Marquardt steps on a forward-
+//! difference Jacobian, in coordinates that keep them admissible:
+//! `ln f_c`, `ln f_n` (below 0.49 of the sample rate) and `logit ζ`.
+//!
+//! The start: the static model's residual shows a resonance as ringing, so
+//! `f_n` starts at the peak of its spectrum above the input's own band;
+//! `ζ` at 0.05; `f_c` at the best of a few fractions of the sample rate.
+//! Without noise the parameters come back to rounding (the output error is
+//! then zero at the true `G`, where Gauss–Newton converges quadratically).
+//! The standard errors follow from the Jacobian at the optimum; a part the
+//! records do not determine (a singular or ill-conditioned Jacobian, or a
+//! relative standard error above 1/2) is reported as an error, not guessed.
+
+use super::identify::{identify_records, FitRecord, Identification};
+use super::report::DynamicsReport;
+use super::settings::{IdentificationError, IdentificationSettings};
+use crate::operators::traits::Operator;
+use crate::realtime::{DynamicsParameters, Resonance};
+
+/// Which parts of `G` to fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct DynamicsParts {
+    pub low_pass: bool,
+    pub resonance: bool,
+}
+
+impl std::str::FromStr for DynamicsParts {
+    type Err = String;
+
+    /// `none`, `low-pass`, `resonance` or both, comma-separated.
+    fn from_str(s: &str) -> Result<Self, String> {
+        let mut parts = Self::default();
+        for word in s.split(',').map(str::trim) {
+            match word {
+                "none" => {}
+                "low-pass" => parts.low_pass = true,
+                "resonance" => parts.resonance = true,
+                other => return Err(format!("'{other}' is none of none, low-pass, resonance")),
+            }
+        }
+        Ok(parts)
+    }
+}
+
+impl DynamicsParts {
+    pub fn any(&self) -> bool {
+        self.low_pass || self.resonance
+    }
+}
+
+/// The largest resonance frequency tried, as a fraction of the sample rate.
+const MAX_RESONANCE: f64 = 0.49;
+/// Levenberg–Marquardt steps at most.
+const MAX_ITERATIONS: usize = 60;
+
+/// The parameters of `G` from the coordinates `x` (module docs).
+fn parameters(parts: DynamicsParts, x: &[f64], fs: f64) -> DynamicsParameters {
+    let mut i = 0;
+    let low_pass = parts.low_pass.then(|| {
+        i += 1;
+        x[i - 1].exp()
+    });
+    let resonance = parts.resonance.then(|| {
+        let (f, z) = (x[i], x[i + 1]);
+        Resonance {
+            frequency: f.exp().min(MAX_RESONANCE * fs),
+            damping: 1.0 / (1.0 + (-z).exp()),
+        }
+    });
+    DynamicsParameters {
+        low_pass,
+        resonance,
+    }
+}
+
+/// The output errors of the model fitted with `G` on every record's fitted
+/// samples (each with its own offset), one after another.
+fn residual(
+    records: &[FitRecord<'_>],
+    sample_time: f64,
+    settings: &IdentificationSettings,
+    g: Option<DynamicsParameters>,
+) -> Result<(Identification, Vec<f64>), IdentificationError> {
+    let s = IdentificationSettings {
+        dynamics: g,
+        ..settings.clone()
+    };
+    let id = identify_records(records, sample_time, &s)?;
+    let mut r = Vec::new();
+    for (index, rec) in records.iter().enumerate() {
+        let (fitted, offset) = match id.report.records.get(index) {
+            Some(f) => (f.fitted.clone(), f.offset),
+            None => (id.report.fitted.clone(), id.model.offset()),
+        };
+        let fit = id.model.clone().with_offset(offset).run(rec.u);
+        r.extend(fitted.map(|k| fit[k] - rec.y[k]));
+    }
+    Ok((id, r))
+}
+
+fn sum_squares(r: &[f64]) -> f64 {
+    r.iter().map(|e| e * e).sum()
+}
+
+/// The frequency (Hz) of the largest peak of `|Σ e_k e^{−iωk}|` over a
+/// logarithmic grid from 20 times the lowest frequency the record resolves
+/// to [`MAX_RESONANCE`] of the sample rate.
+fn spectral_peak(e: &[f64], fs: f64) -> f64 {
+    let n = e.len().max(2) as f64;
+    let (lo, hi) = ((20.0 * fs / n).min(0.1 * fs), MAX_RESONANCE * fs);
+    let steps = 240;
+    let mut best = (0.0, 0.25 * fs);
+    for i in 0..=steps {
+        let f = lo * (hi / lo).powf(i as f64 / steps as f64);
+        let w = std::f64::consts::TAU * f / fs;
+        // Goertzel's recursion
+        let c = 2.0 * w.cos();
+        let (mut s1, mut s2) = (0.0, 0.0);
+        for &x in e {
+            let s0 = x + c * s1 - s2;
+            s2 = s1;
+            s1 = s0;
+        }
+        let power = s1 * s1 + s2 * s2 - c * s1 * s2;
+        if power > best.0 {
+            best = (power, f);
+        }
+    }
+    best.1
+}
+
+/// Solve the small symmetric system `a x = b` (Gaussian elimination with
+/// partial pivoting); `None` when singular.
+fn solve_small(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
+    let n = b.len();
+    for k in 0..n {
+        let p = (k..n).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))?;
+        if a[p][k] == 0.0 || !a[p][k].is_finite() {
+            return None;
+        }
+        a.swap(k, p);
+        b.swap(k, p);
+        for i in k + 1..n {
+            let f = a[i][k] / a[k][k];
+            for j in k..n {
+                a[i][j] -= f * a[k][j];
+            }
+            b[i] -= f * b[k];
+        }
+    }
+    let mut x = vec![0.0; n];
+    for i in (0..n).rev() {
+        let s: f64 = (i + 1..n).map(|j| a[i][j] * x[j]).sum();
+        x[i] = (b[i] - s) / a[i][i];
+    }
+    Some(x)
+}
+
+/// Fit the weights and the `parts` of `G` to the records (module docs), at
+/// the dead time `settings.delay`; `settings.dynamics` is ignored.
+pub fn fit_dynamics(
+    records: &[FitRecord<'_>],
+    sample_time: f64,
+    settings: &IdentificationSettings,
+    parts: DynamicsParts,
+) -> Result<Identification, IdentificationError> {
+    let (static_id, e0) = residual(records, sample_time, settings, None)?;
+    if !parts.any() {
+        return Ok(static_id);
+    }
+    let fs = 1.0 / sample_time;
+    let rms_static = (sum_squares(&e0) / e0.len().max(1) as f64).sqrt();
+    // the start
+    let f_n0 = spectral_peak(&e0, fs);
+    let mut x: Vec<f64> = Vec::new();
+    if parts.low_pass {
+        x.push(0.0);
+    }
+    if parts.resonance {
+        x.push(f_n0.ln());
+        x.push((0.05f64 / 0.95).ln());
+    }
+    let mut best: Option<(f64, Vec<f64>)> = None;
+    let candidates: &[f64] = if parts.low_pass {
+        &[0.03, 0.1, 0.3, 1.0]
+    } else {
+        &[1.0]
+    };
+    for &fraction in candidates {
+        if parts.low_pass {
+            x[0] = (fraction * fs).ln();
+        }
+        let (_, r) = residual(
+            records,
+            sample_time,
+            settings,
+            Some(parameters(parts, &x, fs)),
+        )?;
+        let ss = sum_squares(&r);
+        if best.as_ref().is_none_or(|b| ss < b.0) {
+            best = Some((ss, x.clone()));
+        }
+    }
+    let (mut ss, mut x) = best.expect("at least one candidate");
+    let k = x.len();
+    let mut lambda = 1e-3;
+    let mut iterations = 0;
+    let mut jtj = vec![vec![0.0; k]; k];
+    let mut r = residual(
+        records,
+        sample_time,
+        settings,
+        Some(parameters(parts, &x, fs)),
+    )?
+    .1;
+    while iterations < MAX_ITERATIONS {
+        iterations += 1;
+        // forward differences in the coordinates
+        let h = 1e-6;
+        let mut columns = Vec::with_capacity(k);
+        for i in 0..k {
+            let mut xh = x.clone();
+            xh[i] += h;
+            let (_, rh) = residual(
+                records,
+                sample_time,
+                settings,
+                Some(parameters(parts, &xh, fs)),
+            )?;
+            columns.push(
+                rh.iter()
+                    .zip(&r)
+                    .map(|(a, b)| (a - b) / h)
+                    .collect::<Vec<f64>>(),
+            );
+        }
+        for i in 0..k {
+            for j in 0..k {
+                jtj[i][j] = columns[i].iter().zip(&columns[j]).map(|(a, b)| a * b).sum();
+            }
+        }
+        let jtr: Vec<f64> = columns
+            .iter()
+            .map(|c| c.iter().zip(&r).map(|(a, b)| a * b).sum())
+            .collect();
+        let mut improved = false;
+        for _ in 0..12 {
+            let mut a = jtj.clone();
+            for (i, row) in a.iter_mut().enumerate() {
+                row[i] += lambda * jtj[i][i].max(f64::MIN_POSITIVE);
+            }
+            let Some(step) = solve_small(a, jtr.clone()) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let trial: Vec<f64> = x.iter().zip(&step).map(|(a, b)| a - b).collect();
+            let attempt = residual(
+                records,
+                sample_time,
+                settings,
+                Some(parameters(parts, &trial, fs)),
+            );
+            if let Ok((_, rt)) = attempt {
+                let st = sum_squares(&rt);
+                if st < ss {
+                    let small = step.iter().all(|d| d.abs() < 1e-12) || (ss - st) <= 1e-15 * ss;
+                    (x, r, ss) = (trial, rt, st);
+                    lambda = (lambda / 3.0).max(1e-12);
+                    improved = !small;
+                    break;
+                }
+            }
+            lambda *= 4.0;
+        }
+        if !improved {
+            break;
+        }
+    }
+    let g = parameters(parts, &x, fs);
+    let (mut id, r) = residual(records, sample_time, settings, Some(g))?;
+    // standard errors: σ̂² (JᵀJ)⁻¹ in the coordinates, then in the units
+    let dof = (r.len().saturating_sub(id.report.unknowns + k)).max(1) as f64;
+    let sigma2 = sum_squares(&r) / dof;
+    let mut se = [None; 3];
+    let mut covariance = Vec::with_capacity(k);
+    for i in 0..k {
+        let mut unit = vec![0.0; k];
+        unit[i] = 1.0;
+        covariance.push(solve_small(jtj.clone(), unit).map(|c| c[i]));
+    }
+    let scale = |i: usize, derivative: f64| {
+        covariance[i].map(|c| (sigma2 * c).max(0.0).sqrt() * derivative)
+    };
+    let mut i = 0;
+    if let Some(f) = g.low_pass {
+        se[0] = scale(0, f);
+        i = 1;
+    }
+    if let Some(res) = g.resonance {
+        se[1] = scale(i, res.frequency);
+        se[2] = scale(i + 1, res.damping * (1.0 - res.damping));
+    }
+    // a part the records do not determine
+    let diag_max = (0..k).map(|i| jtj[i][i]).fold(0.0f64, f64::max);
+    let names = [
+        "low-pass frequency",
+        "resonance frequency",
+        "resonance damping",
+    ];
+    let values = [
+        g.low_pass,
+        g.resonance.map(|r| r.frequency),
+        g.resonance.map(|r| r.damping),
+    ];
+    for (j, name) in names.iter().enumerate() {
+        let Some(value) = values[j] else { continue };
+        let column = match j {
+            0 => 0,
+            _ => usize::from(parts.low_pass) + j - 1,
+        };
+        let flat = jtj[column][column] <= 1e-14 * diag_max || diag_max == 0.0;
+        let loose = se[j].is_none_or(|s| !(s <= 0.5 * value));
+        if flat || loose {
+            return Err(IdentificationError::InvalidSetting {
+                field: "dynamics",
+                reason: format!(
+                    "the {name} is not determined by these records ({}): give records whose input excites it (other rates, faster steps), or leave that part out",
+                    match se[j] {
+                        Some(s) if !flat => format!("{value:.4e} ± {s:.2e}"),
+                        _ => "the output error does not change with it".into(),
+                    }
+                ),
+            });
+        }
+    }
+    id.report.dynamics = Some(DynamicsReport {
+        parameters: g,
+        standard_errors: se,
+        iterations,
+        rms_static,
+        rms: (sum_squares(&r) / r.len().max(1) as f64).sqrt(),
+    });
+    Ok(id)
+}

@@ -1,0 +1,276 @@
+//! Linear dynamics `G` after `S[H + C]`: the matched-pole filters against
+//! their closed-form impulse responses, the exact inverse through the
+//! compensator (f64 to the derived rounding bound, f32 to its own), and the
+//! identification of `G` with the weights from several records: without
+//! noise the frequencies and damping come back to the solver's precision,
+//! the per-record offsets exactly, and a record's offset estimated on a
+//! leading stretch is removed.
+
+use mfcbeam::identification::{
+    fit_dynamics, identify_records, validate_record_zeroed, DynamicsParts, FitRecord,
+    IdentificationSettings,
+};
+use mfcbeam::operators::model::{DynamicsData, LowPassData, ResonanceData};
+use mfcbeam::prelude::*;
+use mfcbeam::realtime::{
+    Dynamics, DynamicsParameters, Inline, ParameterError, Resonance, RoundingBounds,
+};
+
+const TS: f64 = 1e-4;
+
+fn resonance(frequency: f64, damping: f64) -> DynamicsParameters {
+    DynamicsParameters {
+        low_pass: None,
+        resonance: Some(Resonance { frequency, damping }),
+    }
+}
+
+/// The response to a unit impulse after rest at 0.
+fn impulse_response(g: &DynamicsParameters, n: usize) -> Vec<f64> {
+    let mut d = Dynamics::<f64>::new(g, TS).unwrap();
+    d.step(0.0);
+    (0..n)
+        .map(|k| d.step(if k == 0 { 1.0 } else { 0.0 }))
+        .collect()
+}
+
+#[test]
+fn a_resonance_rings_as_its_continuous_poles_say() {
+    // 1/(1 + a1 z⁻¹ + a2 z⁻²) with poles r e^{±iθ}: h_k = r^k sin((k+1)θ)/sin θ
+    let (f, zeta) = (740.0, 0.014);
+    let w = std::f64::consts::TAU * f * TS;
+    let (r, theta) = ((-zeta * w).exp(), w * (1.0 - zeta * zeta).sqrt());
+    let g = 1.0 - 2.0 * r * theta.cos() + r * r;
+    let h = impulse_response(&resonance(f, zeta), 400);
+    for (k, &hk) in h.iter().enumerate() {
+        let exact = g * r.powi(k as i32) * ((k + 1) as f64 * theta).sin() / theta.sin();
+        // a recursion of 400 steps with |poles| < 1: rounding ~ k ε
+        assert!(
+            (hk - exact).abs() <= 64.0 * (k + 1) as f64 * f64::EPSILON,
+            "k {k}: {hk} vs {exact}"
+        );
+    }
+}
+
+#[test]
+fn a_low_pass_decays_as_its_pole_says_and_passes_a_constant() {
+    let g = DynamicsParameters {
+        low_pass: Some(1500.0),
+        resonance: None,
+    };
+    let p = (-std::f64::consts::TAU * 1500.0 * TS).exp();
+    for (k, hk) in impulse_response(&g, 200).into_iter().enumerate() {
+        let exact = (1.0 - p) * p.powi(k as i32);
+        assert!((hk - exact).abs() <= 16.0 * (k + 1) as f64 * f64::EPSILON);
+    }
+    let both = DynamicsParameters {
+        low_pass: Some(1500.0),
+        resonance: Some(Resonance {
+            frequency: 600.0,
+            damping: 0.05,
+        }),
+    };
+    let mut d = Dynamics::<f64>::new(&both, TS).unwrap();
+    // the unit DC gain holds to the rounding of the coefficients and the
+    // recursion (`RoundingBounds::dynamics_sum`): per step
+    // 6 ε (g + Σ|c_j| ‖g/A‖₁) |w|, carried on by ‖1/A‖₁
+    let (c, g) = d.coefficients();
+    let c_abs: f64 = c.iter().map(|c| c.abs()).sum();
+    let (g1, a1) = d.gains();
+    let bound = 4.0 * 6.0 * f64::EPSILON * (g + c_abs * g1) * 3.25 * a1;
+    for _ in 0..100 {
+        assert!((d.step(3.25) - 3.25).abs() <= bound);
+    }
+}
+
+#[test]
+fn bad_dynamics_are_refused_by_name() {
+    let field = |g: DynamicsParameters| match g.validate(TS) {
+        Err(ParameterError::OutOfRange { field, .. }) => field,
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(
+        field(resonance(5000.0, 0.1)),
+        "dynamics.resonance.frequency"
+    );
+    assert_eq!(field(resonance(100.0, 1.0)), "dynamics.resonance.damping");
+    assert_eq!(field(resonance(100.0, 0.0)), "dynamics.resonance.damping");
+    let lp = DynamicsParameters {
+        low_pass: Some(-1.0),
+        resonance: None,
+    };
+    assert_eq!(field(lp), "dynamics.low_pass.frequency");
+}
+
+/// The nominal model (creep and all) with a resonance and a low-pass.
+fn dynamic_nominal() -> ModelFile {
+    let mut file = nominal_model().to_file().without_state();
+    file.sample_time = TS;
+    file.dynamics = Some(DynamicsData {
+        low_pass: Some(LowPassData { frequency: 1500.0 }),
+        resonance: Some(ResonanceData {
+            frequency: 740.0,
+            damping: 0.014,
+        }),
+        state: None,
+    });
+    file
+}
+
+/// 30 raised-cosine cycles of rising amplitude at `rate` Hz after a hold.
+fn drive(rate: f64, amplitude: f64) -> Vec<f64> {
+    let n = (30.0 / rate / TS) as usize + 500;
+    (0..n)
+        .map(|k| {
+            if k < 500 {
+                return -amplitude;
+            }
+            let t = (k - 500) as f64 * TS;
+            let a = amplitude * (0.4 + 0.6 * (k - 500) as f64 / (n - 500) as f64);
+            -a * (std::f64::consts::TAU * rate * t).cos()
+        })
+        .collect()
+}
+
+#[test]
+fn the_compensator_inverts_the_dynamics_exactly() {
+    let file = dynamic_nominal();
+    let model = HysteresisCreepModel::from_file(&file).unwrap();
+    let y = model.clone().run(&drive(100.0, 600.0));
+    let y_max = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    for (eps, found) in [
+        (f64::EPSILON, {
+            let mut c = Compensator::<f64, Inline<12, 60>>::from_file(
+                &file,
+                CompensatorSettings::unlimited(),
+            )
+            .unwrap();
+            let mut m = Model::<f64, Inline<12, 60>>::from_file(&file).unwrap();
+            y.iter()
+                .map(|&t| m.step(c.compensate(t).u) - t)
+                .collect::<Vec<f64>>()
+        }),
+        (f32::EPSILON as f64, {
+            let mut c = Compensator::<f32, Inline<12, 60>>::from_file(
+                &file,
+                CompensatorSettings::unlimited(),
+            )
+            .unwrap();
+            let mut m = Model::<f32, Inline<12, 60>>::from_file(&file).unwrap();
+            y.iter()
+                .map(|&t| (m.step(c.compensate(t as f32).u) - t as f32) as f64)
+                .collect()
+        }),
+    ] {
+        let bound = RoundingBounds {
+            parameters: file.parameters(),
+            state_max: 0.0,
+            eps,
+        }
+        .identity(1000.0, y_max);
+        let worst = found.iter().fold(0.0f64, |m, e| m.max(e.abs()));
+        eprintln!("eps {eps:e}: worst |W[W⁻¹[y]] − y| = {worst:e}, bound {bound:e}");
+        assert!(worst <= bound, "{worst} > {bound}");
+    }
+}
+
+#[test]
+fn dynamics_and_offsets_come_back_from_two_rates() {
+    let truth = dynamic_nominal();
+    let model = HysteresisCreepModel::from_file(&truth).unwrap();
+    let g_true = truth.dynamics.as_ref().unwrap().parameters();
+    // two records at 20 and 40 Hz, each with its own sensor offset
+    let (u1, u2) = (drive(20.0, 600.0), drive(40.0, 600.0));
+    let y1: Vec<f64> = model.clone().run(&u1).iter().map(|v| v + 0.3).collect();
+    let y2: Vec<f64> = model.clone().run(&u2).iter().map(|v| v - 1.7).collect();
+    let records = [
+        FitRecord {
+            u: &u1,
+            y: &y1,
+            fit_from: Some(0),
+        },
+        FitRecord {
+            u: &u2,
+            y: &y2,
+            fit_from: Some(0),
+        },
+    ];
+    let h = &truth.hysteresis;
+    let c = truth.creep.as_ref().unwrap();
+    let settings = IdentificationSettings {
+        hysteresis_thresholds: Some(h.thresholds.clone()),
+        creep_thresholds: Some(c.thresholds.clone()),
+        eigenvalues: Some(c.eigenvalues.clone()),
+        offset_per_record: true,
+        ..IdentificationSettings::default()
+    };
+    // with G known the weights are linear: back to rounding
+    let known = identify_records(
+        &records,
+        TS,
+        &IdentificationSettings {
+            dynamics: Some(g_true),
+            ..settings.clone()
+        },
+    )
+    .unwrap();
+    let offsets: Vec<f64> = known.report.records.iter().map(|r| r.offset).collect();
+    assert!(
+        (offsets[0] - 0.3).abs() < 1e-9 && (offsets[1] + 1.7).abs() < 1e-9,
+        "{offsets:?}"
+    );
+    for r in &known.report.records {
+        assert!(r.fit.rms_percent() < 1e-9, "{:?}", r.fit);
+    }
+    // and G itself by the output error
+    let parts = DynamicsParts {
+        low_pass: true,
+        resonance: true,
+    };
+    let id = fit_dynamics(&records, TS, &settings, parts).unwrap();
+    let g = id.report.dynamics.as_ref().unwrap();
+    eprintln!("{g:?}");
+    let (r, rt) = (g.parameters.resonance.unwrap(), g_true.resonance.unwrap());
+    let rel = |a: f64, b: f64| ((a - b) / b).abs();
+    assert!(rel(g.parameters.low_pass.unwrap(), 1500.0) < 1e-6);
+    assert!(rel(r.frequency, rt.frequency) < 1e-6);
+    assert!(rel(r.damping, rt.damping) < 1e-6);
+    // a third rate predicted, its offset zeroed on the hold
+    let u3 = drive(100.0, 600.0);
+    let y3: Vec<f64> = model.clone().run(&u3).iter().map(|v| v + 4.0).collect();
+    let row = validate_record_zeroed(&id.model, "100 Hz", &u3, &y3, 500, 300..500).unwrap();
+    let (offset, zeroed) = row.zeroed.unwrap();
+    assert!((offset - (4.0 - 0.3)).abs() < 1e-4, "{offset}");
+    assert!(zeroed.rms_percent() < 1e-3, "{zeroed:?}");
+    assert!(row.errors.rms_percent() > 100.0 * 3.0 / zeroed.output_range);
+}
+
+#[test]
+fn a_part_the_records_do_not_excite_is_reported_not_guessed() {
+    // slow sine records through a model without any resonance: the
+    // resonance's parameters do not change the output error
+    let mut truth = dynamic_nominal();
+    truth.dynamics = None;
+    truth.creep = None;
+    let model = HysteresisCreepModel::from_file(&truth).unwrap();
+    let u = drive(20.0, 600.0);
+    let y = model.clone().run(&u);
+    let records = [FitRecord {
+        u: &u,
+        y: &y,
+        fit_from: Some(0),
+    }];
+    let settings = IdentificationSettings {
+        hysteresis_thresholds: Some(truth.hysteresis.thresholds.clone()),
+        creep_operators: 0,
+        ..IdentificationSettings::default()
+    };
+    let parts = DynamicsParts {
+        low_pass: false,
+        resonance: true,
+    };
+    match fit_dynamics(&records, TS, &settings, parts) {
+        Err(e) => assert!(e.to_string().contains("not determined"), "{e}"),
+        Ok(id) => panic!("guessed {:?}", id.report.dynamics),
+    }
+}
