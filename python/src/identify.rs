@@ -145,6 +145,7 @@ pub fn identify<'py>(
             DelaySetting::Fixed(d) => d,
             DelaySetting::Auto => 0,
         },
+        ..IdentificationSettings::default()
     };
     let (id, validated, search) = py
         .detach(move || {

@@ -144,10 +144,11 @@ fn solve_small(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
         }
         a.swap(k, p);
         b.swap(k, p);
+        let pivot = a[k].clone();
         for i in k + 1..n {
-            let f = a[i][k] / a[k][k];
-            for j in k..n {
-                a[i][j] -= f * a[k][j];
+            let f = a[i][k] / pivot[k];
+            for (x, p) in a[i][k..].iter_mut().zip(&pivot[k..]) {
+                *x -= f * p;
             }
             b[i] -= f * b[k];
         }
@@ -323,7 +324,7 @@ pub fn fit_dynamics(
             _ => usize::from(parts.low_pass) + j - 1,
         };
         let flat = jtj[column][column] <= 1e-14 * diag_max || diag_max == 0.0;
-        let loose = se[j].is_none_or(|s| !(s <= 0.5 * value));
+        let loose = se[j].is_none_or(|s| s.is_nan() || s > 0.5 * value);
         if flat || loose {
             return Err(IdentificationError::InvalidSetting {
                 field: "dynamics",
