@@ -570,6 +570,95 @@ fn identify_error_contract() {
     );
 }
 
+/// Several records: each bad one named, with one line and exit 2.
+#[test]
+fn identify_several_records_error_contract() {
+    let d = TempDir::new("identify-records");
+    let output = d.path("m.json");
+    let rows = |n: usize, ts: f64| -> String {
+        let mut t = String::from("t,u,y\n");
+        for k in 0..n {
+            let u = (k % 37) as f64 - 18.0;
+            t.push_str(&format!("{},{u},{}\n", k as f64 * ts, 0.5 * u));
+        }
+        t
+    };
+    let a = d.write("a.csv", &rows(400, 2e-4));
+    let b = d.write("b.csv", &rows(300, 2e-4));
+    let fast = d.write("fast.csv", &rows(400, 1e-4));
+    let run = |extra: &[&str]| {
+        let mut args = vec!["identify", "--output", s(&output), "--creep-operators", "0"];
+        args.extend_from_slice(extra);
+        mfcbeam(&args)
+    };
+    // a record at another sample time
+    assert_clean_failure(
+        &run(&["--input", s(&a), "--input", s(&fast)]),
+        &["fast.csv", "'t'"],
+        Some(&output),
+    );
+    // a record too short for its --fit-from
+    assert_clean_failure(
+        &run(&["--input", s(&a), "--input", s(&b), "--fit-from", "350"]),
+        &["--fit-from", "b.csv", "beyond"],
+        Some(&output),
+    );
+    // a zeroing stretch outside a validation record
+    assert_clean_failure(
+        &run(&[
+            "--input",
+            s(&a),
+            "--validate",
+            s(&b),
+            "--validate-zero",
+            "1.0s..1.5s",
+        ]),
+        &["--validate-zero", "b.csv"],
+        Some(&output),
+    );
+    assert_clean_failure(
+        &run(&["--input", s(&a), "--input", s(&b), "--holdout", "0.1"]),
+        &["--holdout"],
+        Some(&output),
+    );
+    assert_clean_failure(
+        &run(&["--input", s(&a), "--offset", "each"]),
+        &["--offset"],
+        Some(&output),
+    );
+    assert_clean_failure(
+        &run(&["--input", s(&a), "--dynamics", "spring"]),
+        &["--dynamics"],
+        Some(&output),
+    );
+    // and the good case: both records, their own offsets, a table of both
+    let out = run(&[
+        "--input",
+        s(&a),
+        "--input",
+        s(&b),
+        "--offset",
+        "per-record",
+        "--fit-from",
+        "0",
+        "--validate",
+        s(&a),
+        "--validate-zero",
+        "0..100",
+    ]);
+    let report = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{report}");
+    for needle in [
+        "offset of",
+        "a.csv",
+        "b.csv",
+        "zero offset",
+        "first record's offset",
+    ] {
+        assert!(report.contains(needle), "{needle}: {report}");
+    }
+}
+
 const BEAM: &str = "golden/nominal_beam.json";
 
 #[test]
