@@ -329,12 +329,14 @@ fn auto_finds_a_known_dead_time_by_validation_holdout_and_fit() {
             u: &u40,
             y: &y40,
             from: 0,
+            zero: None,
         },
         Record {
             name: "100 Hz",
             u: &u100,
             y: &y100,
             from: 0,
+            zero: None,
         },
     ];
     let (id, search) = search_delay(&u20, &y20, TS, &no_creep(), 6, &records).unwrap();
@@ -385,6 +387,7 @@ fn auto_finds_a_dead_time_with_a_superposition_operator() {
         u: &u100,
         y: &y100,
         from: 1000,
+        zero: None,
     }];
     let (id, search) = search_delay(&u20, &y20, TS, &settings, 5, &records).unwrap();
     eprintln!("{}{search}", id.report);

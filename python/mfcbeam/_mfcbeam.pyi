@@ -22,6 +22,8 @@ class ModelState(TypedDict):
     """Creep states, shape (creep thresholds, eigenvalues); None without creep."""
     delay: Optional[FloatArray]
     """The values waiting in the dead time, oldest first; None without one or before the first sample."""
+    dynamics: Optional[FloatArray]
+    """The last outputs of the dynamics G, newest first; None without G or before the first sample."""
 
 class Model:
     """The hysteresis and creep model W = S[H + C] + offset (S, the optional
@@ -55,7 +57,10 @@ class Model:
         """The superposition operator S after H + C as (thresholds, weights), or None."""
     @property
     def delay(self) -> int:
-        """The dead time d (samples): y_k = S[H + C]_{max(k-d, 0)} + offset."""
+        """The dead time d (samples): y_k = G[S[H + C]]_{max(k-d, 0)} + offset."""
+    @property
+    def dynamics(self) -> Optional[Dict[str, Any]]:
+        """The dynamics G after S: {"low_pass": Hz or None, "resonance": (Hz, damping) or None}, or None."""
     @property
     def state(self) -> ModelState:
         """The current play and creep states."""
@@ -117,6 +122,8 @@ class ValidationRow(TypedDict):
     name: str
     start: int
     rate: Optional[float]
+    zero_offset: Optional[float]
+    zeroed: Optional[FitErrors]
     samples: int
     rms: float
     rms_percent: float
@@ -162,6 +169,8 @@ class FitReport(TypedDict):
     active_constraints: List[ActiveConstraint]
     unexcited: List[NamedOperator]
     undetermined: List[NamedOperator]
+    records: List[Dict[str, Any]]
+    dynamics: Optional[Dict[str, Any]]
     text: str
 
 def identify(
@@ -186,11 +195,18 @@ def identify(
     validate_from: Optional[int] = None,
     delay: Union[None, int, str] = None,
     max_delay: int = 10,
+    records: Optional[List[Tuple[ArrayLike, ArrayLike]]] = None,
+    offset: str = "shared",
+    dynamics: str = "none",
+    validate_zero: Optional[Tuple[int, int]] = None,
 ) -> Tuple[Model, FitReport]:
-    """Identify W = S[H + C] + offset from input u (V) and measured y, at
+    """Identify W = G[S[H + C]] + offset from input u (V) and measured y, at
     `sample_time` (s) or timestamps `t` (`superposition=M`: M dead zones of S
     per side; 0, the paper's symmetric model; `delay=d` or "auto": a dead
-    time); returns the model and the fit report."""
+    time; `records`: more records fitted together, `offset="per-record"`;
+    `dynamics`: "low-pass", "resonance" or both, comma-separated;
+    `validate_zero=(a, b)`: each validation record's offset estimated on its
+    samples a..b); returns the model and the fit report."""
 
 class Modes(TypedDict):
     frequencies_hz: FloatArray

@@ -6,9 +6,9 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use mfcbeam::identification::{
-    check_record, holdout_samples, identify as identify_model, search_delay, validate_record,
-    DelayCriterion, DelaySetting, FitErrors, FitStart, IdentificationError, IdentificationSettings,
-    Record, UnexcitedOperator,
+    check_record, fit_dynamics_and_delay, holdout_samples, identify_records, search_delay_records,
+    DelayCriterion, DelaySetting, DynamicsParts, FitErrors, FitRecord, FitStart,
+    IdentificationError, IdentificationSettings, Record, UnexcitedOperator,
 };
 use mfcbeam::io::TimeAxis;
 
@@ -47,6 +47,17 @@ const _: () = assert!(mfcbeam::identification::DEFAULT_MAX_DELAY == 10);
 /// fit): report["delays"] holds each one's errors and
 /// report["delay_criterion"] what chose it.
 ///
+/// `records=[(u2, y2), ...]` fits one model to (u, y) and these records
+/// together, each from the virgin state and from its own `fit_from`;
+/// `offset="per-record"` gives each its own output offset (the model keeps
+/// the first record's; report["records"] lists every record's fit and
+/// offset). `dynamics="low-pass"`, `"resonance"` or `"low-pass,resonance"`
+/// fits linear dynamics after the hysteresis with the weights
+/// (report["dynamics"]: the parameters and their standard errors); a part
+/// the records do not determine raises ValueError. `validate_zero=(a, b)`
+/// estimates each validation record's constant offset on its samples
+/// a..b and reports its errors with it removed too ("zeroed").
+///
 /// Returns (model, report): the identified model (virgin state) and a dict
 /// of the figures the command line prints; report["text"] is that text.
 #[pyfunction]
@@ -56,7 +67,8 @@ const _: () = assert!(mfcbeam::identification::DEFAULT_MAX_DELAY == 10);
     hysteresis_thresholds = None, creep_thresholds = None, eigenvalues = None,
     epsilon_h = None, fit_offset = true, fit_from = None, holdout = 0.0, validate = None,
     superposition = 0, superposition_kinks = None, validate_from = None,
-    delay = None, max_delay = 10
+    delay = None, max_delay = 10, records = None, offset = "shared", dynamics = "none",
+    validate_zero = None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify<'py>(
@@ -83,7 +95,30 @@ pub fn identify<'py>(
     >,
     delay: Option<&Bound<'py, PyAny>>,
     #[pyo3(from_py_with = crate::arrays::counts::max_delay)] max_delay: usize,
+    records: Option<Bound<'py, PyAny>>,
+    offset: &str,
+    dynamics: &str,
+    validate_zero: Option<(usize, usize)>,
 ) -> PyResult<(Model, Bound<'py, PyDict>)> {
+    let offset_per_record = match offset {
+        "shared" => false,
+        "per-record" => true,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "offset: '{other}' is neither \"shared\" nor \"per-record\""
+            )))
+        }
+    };
+    let parts: DynamicsParts = dynamics
+        .parse()
+        .map_err(|e: String| PyValueError::new_err(format!("dynamics: {e}")))?;
+    if let Some((a, b)) = validate_zero {
+        if a >= b {
+            return Err(PyValueError::new_err(format!(
+                "validate_zero: ({a}, {b}) is not a non-empty stretch"
+            )));
+        }
+    }
     let delay = match delay {
         None => DelaySetting::Fixed(0),
         Some(d) => match d.extract::<usize>() {
@@ -101,6 +136,38 @@ pub fn identify<'py>(
     let y = signal("y", y)?;
     let t = optional_signal("t", t)?;
     let (ts, jitter) = sample_time_of(sample_time, t.as_deref(), u.len())?;
+    // the other fitted records
+    let mut fitted = Vec::new();
+    if let Some(list) = records {
+        let list = list
+            .cast::<PyList>()
+            .map_err(|_| PyValueError::new_err("records: must be a list of pairs (u, y)"))?;
+        for (i, r) in list.iter().enumerate() {
+            let name = format!("records[{i}]");
+            let (ru, ry): (Bound<'py, PyAny>, Bound<'py, PyAny>) = r.extract().map_err(|_| {
+                PyValueError::new_err(format!("{name}: must be a pair (u, y) of arrays"))
+            })?;
+            fitted.push((
+                signal(&format!("{name}[0]"), &ru)?,
+                signal(&format!("{name}[1]"), &ry)?,
+            ));
+        }
+    }
+    if !fitted.is_empty() && holdout > 0.0 {
+        return Err(PyValueError::new_err(
+            "holdout: with several records, validate on another record instead",
+        ));
+    }
+    for (i, (ru, _)) in fitted.iter().enumerate() {
+        if let Some(k) = fit_from {
+            if k >= ru.len() {
+                return Err(PyValueError::new_err(format!(
+                    "fit_from: records[{i}]: sample {k} is beyond its {} samples",
+                    ru.len()
+                )));
+            }
+        }
+    }
     let holdout = holdout_samples(holdout, u.len()).map_err(value_error)?;
     // a tuple is one record, a list several
     let mut validation = Vec::new();
@@ -145,6 +212,7 @@ pub fn identify<'py>(
             DelaySetting::Fixed(d) => d,
             DelaySetting::Auto => 0,
         },
+        offset_per_record,
         ..IdentificationSettings::default()
     };
     let (id, validated, search) = py
@@ -156,6 +224,7 @@ pub fn identify<'py>(
                     u: vu,
                     y: vy,
                     from: start.resolve(vu, ts),
+                    zero: validate_zero.map(|(a, b)| a..b),
                 })
                 .collect();
             // a bad record named before anything is fitted
@@ -172,16 +241,34 @@ pub fn identify<'py>(
                     }
                 })?;
             }
-            let (id, search) = match delay {
-                DelaySetting::Fixed(_) => (identify_model(&u, &y, ts, &settings)?, None),
+            let mut fit_records = vec![FitRecord {
+                u: &u,
+                y: &y,
+                fit_from,
+            }];
+            fit_records.extend(fitted.iter().map(|(ru, ry)| FitRecord {
+                u: ru,
+                y: ry,
+                fit_from,
+            }));
+            let (mut id, search) = match delay {
+                DelaySetting::Fixed(_) => (identify_records(&fit_records, ts, &settings)?, None),
                 DelaySetting::Auto => {
-                    let (id, search) = search_delay(&u, &y, ts, &settings, max_delay, &records)?;
+                    let (id, search) =
+                        search_delay_records(&fit_records, ts, &settings, max_delay, &records)?;
                     (id, Some(search))
                 }
             };
+            if parts.any() {
+                let s = IdentificationSettings {
+                    delay: id.report.delay,
+                    ..settings.clone()
+                };
+                id = fit_dynamics_and_delay(&fit_records, ts, &s, parts, &records)?;
+            }
             let mut validated = Vec::new();
             for r in &records {
-                validated.push(validate_record(&id.model, r.name, r.u, r.y, r.from)?);
+                validated.push(r.row(&id.model)?);
             }
             Ok::<_, IdentificationError>((id, validated, search))
         })
@@ -211,9 +298,47 @@ pub fn identify<'py>(
         row.set_item("name", &v.name)?;
         row.set_item("start", v.from)?;
         row.set_item("rate", v.rate)?;
+        match &v.zeroed {
+            Some((offset, z)) => {
+                row.set_item("zero_offset", offset)?;
+                row.set_item("zeroed", errors(py, z)?)?;
+            }
+            None => {
+                row.set_item("zero_offset", py.None())?;
+                row.set_item("zeroed", py.None())?;
+            }
+        }
         rows.append(row)?;
     }
     d.set_item("validations", rows)?;
+    let fits = PyList::empty(py);
+    for f in &r.records {
+        let row = errors(py, &f.fit)?;
+        row.set_item("fitted", (f.fitted.start, f.fitted.end))?;
+        row.set_item("offset", f.offset)?;
+        fits.append(row)?;
+    }
+    d.set_item("records", fits)?;
+    match &r.dynamics {
+        None => d.set_item("dynamics", py.None())?,
+        Some(g) => {
+            let e = PyDict::new(py);
+            e.set_item("low_pass", g.parameters.low_pass)?;
+            e.set_item(
+                "resonance_frequency",
+                g.parameters.resonance.map(|r| r.frequency),
+            )?;
+            e.set_item(
+                "resonance_damping",
+                g.parameters.resonance.map(|r| r.damping),
+            )?;
+            e.set_item("standard_errors", g.standard_errors.to_vec())?;
+            e.set_item("rms_static", g.rms_static)?;
+            e.set_item("rms", g.rms)?;
+            e.set_item("iterations", g.iterations)?;
+            d.set_item("dynamics", e)?;
+        }
+    }
     d.set_item("offset", r.offset)?;
     d.set_item("condition_number", r.condition_number)?;
     d.set_item("rank", r.rank)?;

@@ -104,10 +104,24 @@ impl Model {
             .map(|s| (s.thresholds().to_vec(), s.weights().to_vec()))
     }
 
-    /// The dead time d (samples): y_k = S[H + C]_{max(k−d, 0)} + offset.
+    /// The dead time d (samples): y_k = G[S[H + C]]_{max(k−d, 0)} + offset.
     #[getter]
     fn delay(&self) -> usize {
         self.inner.delay()
+    }
+
+    /// The linear dynamics G after S as a dict ("low_pass": cut-off Hz or
+    /// None, "resonance": (frequency Hz, damping) or None), or None.
+    #[getter]
+    fn dynamics<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(g) = self.inner.dynamics() else {
+            return Ok(None);
+        };
+        let p = g.parameters();
+        let d = PyDict::new(py);
+        d.set_item("low_pass", p.low_pass)?;
+        d.set_item("resonance", p.resonance.map(|r| (r.frequency, r.damping)))?;
+        Ok(Some(d))
     }
 
     /// The current state: a dict with "hysteresis" (the play states, one per
@@ -127,6 +141,7 @@ impl Model {
             None => d.set_item("creep", py.None())?,
         }
         d.set_item("delay", s.delay.map(|x| to_numpy(py, x)))?;
+        d.set_item("dynamics", s.dynamics.map(|x| to_numpy(py, x)))?;
         Ok(d)
     }
 

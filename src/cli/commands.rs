@@ -9,9 +9,9 @@ use serde::Serialize;
 use mfcbeam::beam::step_response_fit::{modal_model, simulate_response, FitParameter};
 use mfcbeam::beam::BeamParameters;
 use mfcbeam::identification::{
-    check_record, dominant_rate, fit_dynamics, holdout_samples, identify_records,
-    search_delay_records, validate_record, validate_record_zeroed, DelaySetting, FitRecord,
-    Identification, IdentificationSettings, Record, ValidationRow, ValidationTable,
+    check_record, dominant_rate, fit_dynamics_and_delay, holdout_samples, identify_records,
+    search_delay_records, DelaySetting, FitRecord, IdentificationSettings, Record, ValidationRow,
+    ValidationTable,
 };
 use mfcbeam::io::{read_beam, read_model, write_atomic, write_json, Trace};
 use mfcbeam::operators::compensator::CompensatorSettings;
@@ -218,30 +218,27 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
         .iter()
         .map(|(path, _, _)| path.display().to_string())
         .collect();
-    let records: Vec<Record> = validation
-        .iter()
-        .zip(&names)
-        .map(|((_, vu, vy), name)| Record {
+    let mut records: Vec<Record> = Vec::with_capacity(validation.len());
+    for ((_, vu, vy), name) in validation.iter().zip(&names) {
+        let zero = match &a.validate_zero {
+            Some(z) => Some(
+                z.resolve(vu.len(), ts)
+                    .map_err(|e| anyhow!("--validate-zero: {name}: {e}"))?,
+            ),
+            None => None,
+        };
+        records.push(Record {
             name,
             u: vu,
             y: vy,
             from: validate_from.resolve(vu, ts),
-        })
-        .collect();
+            zero,
+        });
+    }
     // a record's own errors first, so that a bad one is named by its file
     for r in &records {
         check_record(r.name, r.u, r.y, r.from).with_context(|| r.name.to_string())?;
     }
-    let zero_segments = match &a.validate_zero {
-        Some(z) => records
-            .iter()
-            .map(|r| {
-                z.resolve(r.u.len(), ts)
-                    .map_err(|e| anyhow!("--validate-zero: {}: {e}", r.name))
-            })
-            .collect::<Result<Vec<_>>>()?,
-        None => Vec::new(),
-    };
     let fit_records: Vec<FitRecord> = fitted
         .iter()
         .zip(&starts)
@@ -268,35 +265,23 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
         }
     };
     if a.dynamics.any() {
-        // the dynamics add a lag of their own: the dead time may drop by one
-        let d0 = id.report.delay;
-        let mut best: Option<Identification> = None;
-        for d in [Some(d0), d0.checked_sub(1)].into_iter().flatten() {
-            let s = IdentificationSettings {
-                delay: d,
-                ..settings.clone()
-            };
-            let fit = fit_dynamics(&fit_records, ts, &s, a.dynamics).map_err(|e| match e {
+        let s = IdentificationSettings {
+            delay: id.report.delay,
+            ..settings.clone()
+        };
+        id = fit_dynamics_and_delay(&fit_records, ts, &s, a.dynamics, &records).map_err(
+            |e| match e {
                 mfcbeam::identification::IdentificationError::InvalidSetting {
                     field: "dynamics",
                     reason,
                 } => anyhow!("--dynamics: {reason}"),
                 e => name_of(e),
-            })?;
-            let rms =
-                |i: &Identification| i.report.dynamics.as_ref().map_or(f64::INFINITY, |g| g.rms);
-            if best.as_ref().is_none_or(|b| rms(&fit) < rms(b)) {
-                best = Some(fit);
-            }
-        }
-        id = best.expect("at least one dead time");
+            },
+        )?;
     }
     let mut rows = Vec::new();
-    for (i, r) in records.iter().enumerate() {
-        rows.push(match zero_segments.get(i) {
-            Some(z) => validate_record_zeroed(&id.model, r.name, r.u, r.y, r.from, z.clone())?,
-            None => validate_record(&id.model, r.name, r.u, r.y, r.from)?,
-        });
+    for r in &records {
+        rows.push(r.row(&id.model)?);
     }
     if let Some(p) = &a.plot {
         let fit = id.model.clone().run(u);

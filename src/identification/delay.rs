@@ -3,7 +3,7 @@
 //! A delay of one sample on a slow record looks almost like hysteresis: the
 //! fit on the record itself barely tells `d = 0` from `d = 1` (the lag is
 //! absorbed by the plays' widths), but the error of the wrong one grows
-//! with the rate. So every `d` in `0..=max` is fitted ([`identify`] with
+//! with the rate. So every `d` in `0..=max` is fitted ([`identify`](super::identify) with
 //! `settings.delay = d`) and the one kept is the best on what the fit did
 //! not see: the validation records when there are any (their pooled rms),
 //! else the held-out samples, else the fitted record's own rms over the
@@ -51,14 +51,56 @@ impl FromStr for DelaySetting {
     }
 }
 
-/// A record to validate on: its name, input and output, and the first
-/// sample evaluated.
-#[derive(Debug, Clone, Copy)]
+/// A record to validate on: its name, input and output, the first sample
+/// evaluated, and where its constant offset is estimated first (`None`:
+/// scored as it is).
+#[derive(Debug, Clone)]
 pub struct Record<'a> {
     pub name: &'a str,
     pub u: &'a [f64],
     pub y: &'a [f64],
     pub from: usize,
+    pub zero: Option<std::ops::Range<usize>>,
+}
+
+impl Record<'_> {
+    /// The errors of `model` on the record: zeroed on `zero` when given.
+    pub fn errors(
+        &self,
+        model: &crate::operators::model::HysteresisCreepModel,
+    ) -> Result<FitErrors, IdentificationError> {
+        Ok(self.row(model)?.score())
+    }
+
+    /// The validation row of `model` on the record.
+    pub fn row(
+        &self,
+        model: &crate::operators::model::HysteresisCreepModel,
+    ) -> Result<super::ValidationRow, IdentificationError> {
+        match &self.zero {
+            Some(z) => super::validate_record_zeroed(
+                model,
+                self.name,
+                self.u,
+                self.y,
+                self.from,
+                z.clone(),
+            ),
+            None => validate_record(model, self.name, self.u, self.y, self.from),
+        }
+    }
+}
+
+/// Pooled rms of `model` over validation records (zeroed where they say).
+pub fn validation_rms(
+    model: &crate::operators::model::HysteresisCreepModel,
+    records: &[Record<'_>],
+) -> Result<f64, IdentificationError> {
+    let errors = records
+        .iter()
+        .map(|r| r.errors(model))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(pooled_rms(&errors))
 }
 
 /// What the dead time was chosen by.
@@ -142,7 +184,7 @@ pub fn search_delay_records(
         let id = identify_records(fitted, sample_time, &s)?;
         let mut validations = Vec::with_capacity(records.len());
         for r in records {
-            validations.push(validate_record(&id.model, r.name, r.u, r.y, r.from)?.errors);
+            validations.push(r.errors(&id.model)?);
         }
         fits.push((id, validations));
     }

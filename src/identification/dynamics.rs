@@ -347,3 +347,51 @@ pub fn fit_dynamics(
     });
     Ok(id)
 }
+
+/// [`fit_dynamics`] at the dead time `settings.delay` and one sample less
+/// (`G` adds a lag of its own, which a whole sample of dead time may have
+/// stood for), keeping the better: on the validation records' pooled rms
+/// (zeroed where they say) when there are any, else on the fitted records'
+/// output error.
+pub fn fit_dynamics_and_delay(
+    records: &[FitRecord<'_>],
+    sample_time: f64,
+    settings: &IdentificationSettings,
+    parts: DynamicsParts,
+    validation: &[super::Record<'_>],
+) -> Result<Identification, IdentificationError> {
+    let d0 = settings.delay;
+    let mut best: Option<(f64, Identification)> = None;
+    let mut last_error = None;
+    for d in [Some(d0), d0.checked_sub(1)].into_iter().flatten() {
+        let s = IdentificationSettings {
+            delay: d,
+            ..settings.clone()
+        };
+        // the dead time one less may leave a part undetermined where the
+        // first did not: only an error when no dead time fits
+        let fit = match fit_dynamics(records, sample_time, &s, parts) {
+            Ok(fit) => fit,
+            Err(e) => {
+                last_error.get_or_insert(e);
+                continue;
+            }
+        };
+        let score = if validation.is_empty() {
+            fit.report
+                .dynamics
+                .as_ref()
+                .map_or(f64::INFINITY, |g| g.rms)
+        } else {
+            super::delay::validation_rms(&fit.model, validation)?
+        };
+        if best.as_ref().is_none_or(|b| score < b.0) {
+            best = Some((score, fit));
+        }
+    }
+    match (best, last_error) {
+        (Some((_, id)), _) => Ok(id),
+        (None, Some(e)) => Err(e),
+        (None, None) => unreachable!("d0 itself is always tried"),
+    }
+}

@@ -60,10 +60,10 @@ mod solve;
 pub mod validation;
 
 pub use delay::{
-    search_delay, search_delay_records, DelayCriterion, DelayRow, DelaySearch, DelaySetting,
-    Record, DEFAULT_MAX_DELAY,
+    search_delay, search_delay_records, validation_rms, DelayCriterion, DelayRow, DelaySearch,
+    DelaySetting, Record, DEFAULT_MAX_DELAY,
 };
-pub use dynamics::{fit_dynamics, DynamicsParts};
+pub use dynamics::{fit_dynamics, fit_dynamics_and_delay, DynamicsParts};
 pub use identify::{identify, identify_records, FitRecord, Identification, EPSILON_S};
 pub use report::{
     first_at_max, validate, ActiveConstraint, DynamicsReport, FitErrors, FitReport, RecordFit,

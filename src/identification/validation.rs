@@ -90,6 +90,13 @@ pub struct ValidationRow {
     pub zeroed: Option<(f64, FitErrors)>,
 }
 
+impl ValidationRow {
+    /// The errors that count: zeroed when a zeroing stretch was given.
+    pub fn score(&self) -> FitErrors {
+        self.zeroed.map_or(self.errors, |(_, z)| z)
+    }
+}
+
 /// A stretch of a record on which its constant offset is estimated before
 /// the rest is scored (the practice of zeroing a sensor before a run):
 /// `A..B`, each a sample or a time like `1.0s`.

@@ -290,7 +290,8 @@ pub struct NaiveDynamics {
 }
 
 impl NaiveDynamics {
-    fn of(file: &ModelFile) -> Option<Self> {
+    /// `G` of a model file, in the file's state; `None` without dynamics.
+    pub fn of(file: &ModelFile) -> Option<Self> {
         let g = file.dynamics.as_ref()?;
         let ts = file.sample_time;
         let mut sections = Vec::new();

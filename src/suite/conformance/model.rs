@@ -7,19 +7,19 @@
 
 use super::candidate;
 use super::cases::{
-    case_model, input_length, nested_extrema, path, random_input, reach, refine, segment,
-    superposition_is_odd, superposition_model, valid_extrema, with_every_part, with_state_after,
-    ModelShape, Rng,
+    case_model, input_length, nested_extrema, path, random_dynamics, random_input, reach, refine,
+    segment, superposition_is_odd, superposition_model, valid_extrema, with_every_part,
+    with_state_after, ModelShape, Rng,
 };
 use super::fixed::resume_from_saved;
 use super::{compare, fail, refused, tolerance, two, Case, ConformanceReport, ConformanceSettings};
 use super::{ModelFactory, Outcome, Properties, Property};
 use crate::error::ModelError;
-use crate::operators::model::ModelFile;
+use crate::operators::model::{DynamicsData, ModelFile};
 use crate::operators::nominal::nominal_model_file;
 use crate::operators::traits::{ActuatorModel, Operator};
 use crate::realtime::RoundingBounds;
-use crate::suite::reference::NaiveModel;
+use crate::suite::reference::{NaiveDynamics, NaiveModel};
 use crate::suite::signal::Staircase;
 
 /// Run every property of the model on the implementations `factory` builds.
@@ -40,6 +40,7 @@ pub fn model_properties<'a>() -> Properties<ModelFactory<'a>> {
         p("paper_inputs", "W equals the reference on the nominal model and the paper's inputs (Figs. 2, 3, 8a)", 3, paper_case, agreement),
         p("odd_symmetry", "W[-v] = -W[v] from the virgin state (6)", usize::MAX, virgin_case, odd_symmetry),
         p("split_and_resume", "the candidate resumed from the model file's state continues its own whole run (state semantics)", usize::MAX, any_case, split_and_resume),
+        p("dynamics_after_memory", "G is linear and acts after S[H + C] only: W with G equals the naive G applied to the candidate's own W without it", usize::MAX, dynamics_case, dynamics_after_memory).needs_other_models("the same model without G"),
         p("rate_independence", "H: samples inserted on monotone segments change nothing at the original samples (7)", usize::MAX, hysteresis_case, rate_independence).needs_hysteresis_alone(),
         p("monotonicity", "H: on a monotone input the output moves the same way with slope >= s_min (11)", usize::MAX, hysteresis_case, monotonicity).needs_hysteresis_alone(),
         p("superposition_monotone", "S alone: on an increasing input each output step lies between its smallest and largest slope times the input step", usize::MAX, superposition_case, superposition_monotone).needs_other_models("S alone"),
@@ -175,6 +176,60 @@ fn agreement(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Ou
     let found = cand.run(&case.input);
     let tol = s.tolerance_scale * tolerance::model(&case.model, max_abs(&case.input));
     compare(&case.input, &expected, &found, tol, "W")
+}
+
+/// A random model with dynamics (when the settings draw them; else the
+/// property skips).
+fn dynamics_case(rng: &mut Rng, s: &ConformanceSettings, _: usize) -> Case {
+    let mut case = signal_case(rng, s, ModelShape::Any);
+    if s.dynamics {
+        case.model.dynamics = Some(random_dynamics(rng, case.model.sample_time));
+    }
+    case
+}
+
+/// `y = G[S[H + C]]` delayed, plus the offset: the candidate's output with
+/// `G` (from rest) against the naive `G` applied to its own output without
+/// it (offset removed and put back; `G` commutes with the dead time, both
+/// at rest on the first value). Two runs of the candidate and one of `G`.
+fn dynamics_after_memory(case: &Case, factory: &ModelFactory, s: &ConformanceSettings) -> Outcome {
+    let Some(g) = &case.model.dynamics else {
+        return Outcome::Skipped;
+    };
+    let mut with = case.model.clone();
+    with.dynamics = Some(DynamicsData {
+        state: None,
+        ..g.clone()
+    });
+    with.delay_state = None;
+    let mut without = with.clone();
+    without.dynamics = None;
+    let plain = Case {
+        model: without,
+        ..case.clone()
+    };
+    let dynamic = Case {
+        model: with,
+        ..case.clone()
+    };
+    let mut a = candidate!(build(factory, &plain));
+    let mut b = candidate!(build(factory, &dynamic));
+    let offset = case.model.offset.unwrap_or(0.0);
+    let mut naive = NaiveDynamics::of(&dynamic.model).expect("the case has dynamics");
+    let expected: Vec<f64> = a
+        .run(&case.input)
+        .into_iter()
+        .map(|y| naive.step(y - offset) + offset)
+        .collect();
+    let found = b.run(&case.input);
+    let tol = 2.0 * s.tolerance_scale * tolerance::model(&dynamic.model, max_abs(&case.input));
+    compare(
+        &case.input,
+        &expected,
+        &found,
+        tol,
+        "W with G against G[W without G]",
+    )
 }
 
 /// On an increasing input, `S` alone moves by between `σ_min` and `σ_max`
