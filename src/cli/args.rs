@@ -15,6 +15,7 @@ use mfcbeam::identification::{
 };
 use mfcbeam::operators::nominal::SAMPLE_TIME;
 use mfcbeam::suite::conformance::ConformanceSettings;
+use mfcbeam::suite::records::RecordSettings;
 
 #[derive(Debug, Parser)]
 #[command(
@@ -65,6 +66,11 @@ pub enum Command {
     Nominal(NominalArgs),
     /// Write a test signal (a smooth staircase) as a trace with columns `t` and the chosen name.
     Signal(SignalArgs),
+    /// Write synthetic lab records at several rates (`t`, `u`, `y`): a hold,
+    /// then raised-cosine cycles of rising amplitude, from an actuator with
+    /// rate-dependent thresholds, asymmetric loops, creep, a resonance, a
+    /// sensor low-pass, a history before each record, offsets and noise.
+    Records(RecordsArgs),
 }
 
 /// A model applied to one trace, written to another.
@@ -503,6 +509,29 @@ pub struct BeamIdentifyArgs {
     /// column `u` is a single step).
     #[arg(long)]
     pub no_step_time: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct RecordsArgs {
+    /// Directory for the records (`<rate>hz.csv`, one per rate).
+    #[arg(long)]
+    pub output_dir: PathBuf,
+    /// Rates of the records (Hz).
+    #[arg(long, value_delimiter = ',', default_values_t = RecordSettings::default().rates)]
+    pub rates: Vec<f64>,
+    /// β (s) of the thresholds r_i + β|du/dt| (0: rate-independent loops;
+    /// below the sample time).
+    #[arg(long, default_value_t = RecordSettings::default().rate_gain)]
+    pub rate_gain: f64,
+    /// Noise as a fraction of the output range.
+    #[arg(long, default_value_t = RecordSettings::default().noise)]
+    pub noise: f64,
+    /// Seed of the history, offsets and noise.
+    #[arg(long, default_value_t = RecordSettings::default().seed)]
+    pub seed: u64,
+    /// Draw the loops of every record in one figure (`.png` or `.svg`).
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]

@@ -41,6 +41,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Fmu(a) => super::fmu::fmu(&a),
         Command::Nominal(a) => nominal(&a),
         Command::Signal(a) => signal(&a),
+        Command::Records(a) => records(&a),
     }
 }
 
@@ -724,6 +725,80 @@ fn signal(a: &SignalArgs) -> Result<()> {
         s.duration(),
         a.output.display()
     );
+    Ok(())
+}
+
+fn records(a: &RecordsArgs) -> Result<()> {
+    use mfcbeam::suite::records::{generate, RecordSettings};
+    let settings = RecordSettings {
+        rates: a.rates.clone(),
+        rate_gain: a.rate_gain,
+        noise: a.noise,
+        seed: a.seed,
+        ..RecordSettings::default()
+    };
+    let ts = settings.sample_time;
+    if a.rates.is_empty()
+        || a.rates
+            .iter()
+            .any(|r| !(r.is_finite() && *r > 0.0 && *r < 0.1 / ts))
+    {
+        bail!(
+            "--rates: each rate must be > 0 and below a tenth of the sample rate {} Hz",
+            1.0 / ts
+        );
+    }
+    if !(a.rate_gain.is_finite() && a.rate_gain >= 0.0 && a.rate_gain < ts) {
+        bail!("--rate-gain: must be >= 0 and below the sample time {ts} s (else a play is not monotone)");
+    }
+    if !(a.noise.is_finite() && a.noise >= 0.0) {
+        bail!("--noise: must be a finite number >= 0");
+    }
+    if let Some(p) = &a.plot {
+        if !matches!(p.extension().and_then(|e| e.to_str()), Some("png" | "svg")) {
+            bail!("--plot: {}: name a .png or .svg file", p.display());
+        }
+    }
+    std::fs::create_dir_all(&a.output_dir)
+        .with_context(|| format!("--output-dir {}", a.output_dir.display()))?;
+    let records = generate(&settings);
+    let mut names = Vec::new();
+    for r in &records {
+        let path = a.output_dir.join(format!("{}hz.csv", r.rate));
+        let trace = Trace::from_owned_columns(
+            &path,
+            vec![
+                ("t", time_axis(r.u.len(), ts)),
+                ("u", r.u.clone()),
+                ("y", r.y.clone()),
+            ],
+        );
+        trace.write(&path)?;
+        eprintln!(
+            "mfcbeam: wrote {} ({} samples, {} Hz, sensor offset {:.4})",
+            path.display(),
+            r.u.len(),
+            r.rate,
+            r.offset
+        );
+        names.push(format!("{} Hz", r.rate));
+    }
+    if let Some(p) = &a.plot {
+        let loops: Vec<(String, &[f64], &[f64])> = records
+            .iter()
+            .zip(&names)
+            .map(|(r, n)| (n.clone(), r.u.as_slice(), r.y.as_slice()))
+            .collect();
+        let hold = (settings.hold / ts).round() as usize;
+        mfcbeam::suite::plots::write_loops_plot(
+            p,
+            "synthetic records: the loops at each rate",
+            &loops,
+            hold,
+        )
+        .map_err(anyhow::Error::msg)?;
+        eprintln!("mfcbeam: wrote {}", p.display());
+    }
     Ok(())
 }
 

@@ -161,52 +161,23 @@ fn solve_small(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
     Some(x)
 }
 
-/// Fit the weights and the `parts` of `G` to the records (module docs), at
-/// the dead time `settings.delay`; `settings.dynamics` is ignored.
-pub fn fit_dynamics(
+/// The end of a Levenberg–Marquardt run.
+struct Refined {
+    ss: f64,
+    x: Vec<f64>,
+    jtj: Vec<Vec<f64>>,
+    iterations: usize,
+}
+
+/// Levenberg–Marquardt steps on a forward-difference Jacobian from `x`.
+fn refine(
     records: &[FitRecord<'_>],
     sample_time: f64,
     settings: &IdentificationSettings,
     parts: DynamicsParts,
-) -> Result<Identification, IdentificationError> {
-    let (static_id, e0) = residual(records, sample_time, settings, None)?;
-    if !parts.any() {
-        return Ok(static_id);
-    }
+    mut x: Vec<f64>,
+) -> Result<Refined, IdentificationError> {
     let fs = 1.0 / sample_time;
-    let rms_static = (sum_squares(&e0) / e0.len().max(1) as f64).sqrt();
-    // the start
-    let f_n0 = spectral_peak(&e0, fs);
-    let mut x: Vec<f64> = Vec::new();
-    if parts.low_pass {
-        x.push(0.0);
-    }
-    if parts.resonance {
-        x.push(f_n0.ln());
-        x.push((0.05f64 / 0.95).ln());
-    }
-    let mut best: Option<(f64, Vec<f64>)> = None;
-    let candidates: &[f64] = if parts.low_pass {
-        &[0.03, 0.1, 0.3, 1.0]
-    } else {
-        &[1.0]
-    };
-    for &fraction in candidates {
-        if parts.low_pass {
-            x[0] = (fraction * fs).ln();
-        }
-        let (_, r) = residual(
-            records,
-            sample_time,
-            settings,
-            Some(parameters(parts, &x, fs)),
-        )?;
-        let ss = sum_squares(&r);
-        if best.as_ref().is_none_or(|b| ss < b.0) {
-            best = Some((ss, x.clone()));
-        }
-    }
-    let (mut ss, mut x) = best.expect("at least one candidate");
     let k = x.len();
     let mut lambda = 1e-3;
     let mut iterations = 0;
@@ -218,6 +189,7 @@ pub fn fit_dynamics(
         Some(parameters(parts, &x, fs)),
     )?
     .1;
+    let mut ss = sum_squares(&r);
     while iterations < MAX_ITERATIONS {
         iterations += 1;
         // forward differences in the coordinates
@@ -281,8 +253,131 @@ pub fn fit_dynamics(
             break;
         }
     }
+    Ok(Refined {
+        ss,
+        x,
+        jtj,
+        iterations,
+    })
+}
+
+/// Fit the weights and the `parts` of `G` to the records (module docs), at
+/// the dead time `settings.delay`; `settings.dynamics` is ignored.
+pub fn fit_dynamics(
+    records: &[FitRecord<'_>],
+    sample_time: f64,
+    settings: &IdentificationSettings,
+    parts: DynamicsParts,
+) -> Result<Identification, IdentificationError> {
+    let (static_id, e0) = residual(records, sample_time, settings, None)?;
+    if !parts.any() {
+        return Ok(static_id);
+    }
+    let fs = 1.0 / sample_time;
+    let rms_static = (sum_squares(&e0) / e0.len().max(1) as f64).sqrt();
+    // the start: the best of a grid (the output error is far from convex
+    // in G, and on slow records nearly flat), the resonance first with a
+    // mild low-pass, then the low-pass with the best resonance
+    let f_peak = spectral_peak(&e0, fs);
+    let n = records.iter().map(|r| r.u.len()).max().unwrap_or(2) as f64;
+    let (f_lo, f_hi) = ((20.0 * fs / n).max(0.02 * fs), 0.45 * fs);
+    let mut resonances: Vec<(f64, f64)> = Vec::new();
+    if parts.resonance {
+        for i in 0..12 {
+            let f = f_lo * (f_hi / f_lo).powf(i as f64 / 11.0);
+            for zeta in [0.01, 0.05, 0.2] {
+                resonances.push((f, zeta));
+            }
+        }
+        resonances.push((f_peak.clamp(f_lo, f_hi), 0.05));
+    }
+    let coordinates = |lp: Option<f64>, res: Option<(f64, f64)>| -> Vec<f64> {
+        let mut x = Vec::new();
+        if let Some(f) = lp {
+            x.push(f.ln());
+        }
+        if let Some((f, zeta)) = res {
+            x.push(f.ln());
+            x.push((zeta / (1.0 - zeta)).ln());
+        }
+        x
+    };
+    let mut best: Option<(f64, Vec<f64>)> = None;
+    let try_start =
+        |best: &mut Option<(f64, Vec<f64>)>, x: Vec<f64>| -> Result<(), IdentificationError> {
+            let (_, r) = residual(
+                records,
+                sample_time,
+                settings,
+                Some(parameters(parts, &x, fs)),
+            )?;
+            let ss = sum_squares(&r);
+            if std::env::var_os("MFCBEAM_DEBUG_DYNAMICS").is_some() {
+                eprintln!("grid {:?} ss {ss:e}", parameters(parts, &x, fs));
+            }
+            if best.as_ref().is_none_or(|b| ss < b.0) {
+                *best = Some((ss, x));
+            }
+            Ok(())
+        };
+    let low_passes = [0.03, 0.1, 0.3, 1.0].map(|f| f * fs);
+    if parts.resonance {
+        let lp = parts.low_pass.then_some(0.3 * fs);
+        for &res in &resonances {
+            try_start(&mut best, coordinates(lp, Some(res)))?;
+        }
+    }
+    if parts.low_pass {
+        // with the best resonance so far
+        let res = best.as_ref().map(|(_, x)| {
+            let g = parameters(parts, x, fs).resonance.expect("fitted");
+            (g.frequency, g.damping)
+        });
+        for &lp in &low_passes {
+            try_start(
+                &mut best,
+                coordinates(Some(lp), res.filter(|_| parts.resonance)),
+            )?;
+        }
+    }
+    // Levenberg–Marquardt from the best grid point and from the residual's
+    // spectral peak (where a resonance rings), the better kept
+    let mut starts = vec![best.expect("at least one candidate").1];
+    if parts.resonance {
+        let mut x = coordinates(
+            parts.low_pass.then_some(0.3 * fs),
+            Some((f_peak.clamp(f_lo, f_hi), 0.05)),
+        );
+        if let Some(lp) = parts.low_pass.then(|| starts[0][0]) {
+            x[0] = lp;
+        }
+        starts.push(x);
+    }
+    let mut refined: Option<Refined> = None;
+    for x0 in starts {
+        let r = refine(records, sample_time, settings, parts, x0.clone())?;
+        if std::env::var_os("MFCBEAM_DEBUG_DYNAMICS").is_some() {
+            eprintln!("start {:?} -> {:?} ss {:e}", parameters(parts, &x0, fs), parameters(parts, &r.x, fs), r.ss);
+        }
+        if refined.as_ref().is_none_or(|b| r.ss < b.ss) {
+            refined = Some(r);
+        }
+    }
+    let Refined {
+        x, jtj, iterations, ..
+    } = refined.expect("at least one start");
+    let k = x.len();
     let g = parameters(parts, &x, fs);
     let (mut id, r) = residual(records, sample_time, settings, Some(g))?;
+    if sum_squares(&r) >= sum_squares(&e0) {
+        return Err(IdentificationError::InvalidSetting {
+            field: "dynamics",
+            reason: format!(
+                "the records show no such dynamics: the best fit with them ({:.4e} rms) is no better than without ({rms_static:.4e}); leave them out or give records whose input excites them (other rates, faster steps)",
+                (sum_squares(&r) / r.len().max(1) as f64).sqrt()
+            ),
+        });
+    }
     // standard errors: σ̂² (JᵀJ)⁻¹ in the coordinates, then in the units
     let dof = (r.len().saturating_sub(id.report.unknowns + k)).max(1) as f64;
     let sigma2 = sum_squares(&r) / dof;

@@ -92,6 +92,7 @@ pub fn identify_records(
     }
     let d = settings.delay;
     let (mut u_cat, mut y_cat, mut parts) = (Vec::new(), Vec::new(), Vec::new());
+    let mut y_raw = Vec::new();
     for (index, r) in records.iter().enumerate() {
         check_record_signals(r.u, r.y).map_err(|e| in_record(e, index, records.len()))?;
         let n = r.u.len();
@@ -108,6 +109,7 @@ pub fn identify_records(
         let start = u_cat.len();
         u_cat.extend_from_slice(&r.u[..n - d]);
         let y_d = &r.y[d..];
+        y_raw.extend_from_slice(y_d);
         match &settings.dynamics {
             // the regressor's columns pass through G; its measurement is G⁻¹[y]
             Some(g) => {
@@ -122,9 +124,34 @@ pub fn identify_records(
         }
         parts.push((start..u_cat.len(), r.fit_from.map(|k| k.saturating_sub(d))));
     }
-    let plan = FitPlan::new(&u_cat, &y_cat, sample_time, settings, &parts, records.len())?;
-    let regression = Regression::of(&u_cat, &y_cat, &plan)?;
-    let solution = regression.solve(&plan)?;
+    // the plan (thresholds, kinks, margins) from the measurement itself:
+    // G⁻¹[y] carries its noise amplified
+    let plan = FitPlan::new(&u_cat, &y_raw, sample_time, settings, &parts, records.len())?;
+    let mut regression = Regression::of(&u_cat, &y_cat, &plan, None)?;
+    let mut solution = regression.solve(&plan)?;
+    if settings.dynamics.is_some() && !plan.r_s.is_empty() {
+        // With G, the dead zones of S⁻¹ take S's output, which only G⁻¹[y]
+        // measures, with the noise amplified; as an instrument, the output
+        // of the model without G fitted so far (noise-free, from u) takes
+        // its place, starting from y itself (G ≈ 1 at the rates fitted).
+        let mut zone = y_raw.clone();
+        for _ in 0..2 {
+            let next = Regression::of(&u_cat, &y_cat, &plan, Some(&zone))?;
+            let next_solution = next.solve(&plan)?;
+            (regression, solution) = (next, next_solution);
+            for (index, segment) in plan.segments.iter().enumerate() {
+                let own = solution
+                    .offsets
+                    .get(index)
+                    .copied()
+                    .unwrap_or(solution.offset);
+                let w = plan
+                    .model_with(&solution, own)?
+                    .run(&u_cat[segment.whole.clone()]);
+                zone[segment.whole.clone()].copy_from_slice(&w);
+            }
+        }
+    }
     let model = plan
         .model(&solution)?
         .with_dynamics(settings.dynamics.as_ref())?
@@ -521,7 +548,14 @@ struct Regression {
 }
 
 impl Regression {
-    fn of(u: &[f64], y: &[f64], plan: &FitPlan) -> Result<Self, IdentificationError> {
+    /// `zone`: the argument of `S⁻¹`'s dead zones where it is not `y`
+    /// (an instrument, with dynamics).
+    fn of(
+        u: &[f64],
+        y: &[f64],
+        plan: &FitPlan,
+        zone: Option<&[f64]>,
+    ) -> Result<Self, IdentificationError> {
         let creep = if plan.nc > 0 {
             Some(CreepOperator::new(
                 &plan.r_c[..plan.nc],
@@ -541,6 +575,7 @@ impl Regression {
             creep,
             (!plan.r_s.is_empty()).then_some((plan.r_s.as_slice(), plan.centre)),
             plan.dynamics.as_ref().map(|g| (g, plan.sample_time)),
+            zone,
         );
         let p = plan.excited();
         let r = Self::weights_block(&factor, plan);

@@ -94,6 +94,9 @@ impl RowFilter {
 /// dead zones at `kinks` (relative to `c`), and `ς − c` as the right-hand
 /// side (the weight of `S⁻¹`'s linear term fixed at 1).
 ///
+/// `zone`: the argument of the dead zones where it is not `ς` (with
+/// dynamics, the model's noise-free prediction as an instrument).
+///
 /// `dynamics`: `y` is then `G⁻¹` of the measurement, and every column
 /// (the right-hand side too, which gives back the measurement) passes
 /// through `G` before it enters: the fit is the output error of
@@ -108,6 +111,7 @@ pub(crate) fn regressor_factor(
     creep: Option<CreepOperator>,
     superposition: Option<(&[f64], f64)>,
     dynamics: Option<(&crate::realtime::DynamicsParameters, f64)>,
+    zone: Option<&[f64]>,
 ) -> Mat<f64> {
     let nh = r_h.len();
     let nc = creep.as_ref().map_or(0, |c| c.thresholds().len());
@@ -162,11 +166,12 @@ pub(crate) fn regressor_factor(
                 None => row[q + p] = y[k],
                 Some(_) => {
                     let z = y[k] - centre;
+                    let a = zone.map_or(z, |w| w[k] - centre);
                     for (j, &r) in kinks.iter().enumerate() {
                         let d = if r > 0.0 {
-                            (z - r).max(0.0)
+                            (a - r).max(0.0)
                         } else {
-                            (z - r).min(0.0)
+                            (a - r).min(0.0)
                         };
                         row[q + nh + nc + j] = -d;
                     }

@@ -13,6 +13,8 @@ pub mod golden;
 #[cfg(feature = "suite")]
 pub mod plots;
 #[cfg(feature = "suite")]
+pub mod records;
+#[cfg(feature = "suite")]
 pub mod reproduce;
 #[cfg(feature = "suite")]
 pub mod scenarios;

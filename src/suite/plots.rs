@@ -259,3 +259,26 @@ pub fn write_identification_plot(
     };
     write_figure_file(&fig, path)
 }
+
+/// Output over input of several records in one panel (the loops at each
+/// rate), each from sample `from` on.
+pub fn write_loops_plot(
+    path: &Path,
+    title: &str,
+    records: &[(String, &[f64], &[f64])],
+    from: usize,
+) -> Result<(), String> {
+    let curves = records
+        .iter()
+        .enumerate()
+        .map(|(i, (name, u, y))| {
+            let k = from.min(u.len());
+            series(name, &u[k..], &y[k..], COLORS[i % COLORS.len()])
+        })
+        .collect();
+    let fig = Figure {
+        title: title.into(),
+        panels: vec![panel("output over input", "u (V)", "y", curves)],
+    };
+    write_figure_file(&fig, path)
+}

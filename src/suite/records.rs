@@ -1,0 +1,216 @@
+//! Synthetic lab records at several excitation rates, from an actuator whose
+//! behaviour changes with the rate the way a piezo stage's does: play
+//! thresholds that grow with the input rate (Al Janaideh–Krejčí,
+//! `r_i + β|u_k − u_{k−1}|/T_s`), an asymmetric superposition operator,
+//! creep, a lightly damped resonance and a sensor low-pass after them, a
+//! history before each record (the state at its start is unknown), a
+//! sensor offset per record and white measurement noise. Each record is
+//! the lab protocol: a hold at `−A`, then raised-cosine cycles of rising
+//! amplitude from `−A` up to `+A`.
+//!
+//! The truth is not the identified model class when `β > 0` (no
+//! compensator inverts it exactly): what an identification of these
+//! records reaches shows what the model class carries from rate to rate.
+
+use crate::operators::creep::CreepOperator;
+use crate::operators::heap::Heap;
+use crate::operators::nominal::nominal_model_file;
+use crate::realtime::{Dynamics, DynamicsParameters, Resonance, Superposition};
+use crate::suite::conformance::Rng;
+
+/// The actuator and the protocol of [`generate`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordSettings {
+    /// Sample time (s), default 1e-4 (10 kHz).
+    pub sample_time: f64,
+    /// Rates of the records (Hz), default 20, 40, 100.
+    pub rates: Vec<f64>,
+    /// Drive amplitude `A` (V), default 90.
+    pub amplitude: f64,
+    /// The hold at `−A` before the cycles (s), default 1.5.
+    pub hold: f64,
+    /// Raised-cosine cycles per record, default 50.
+    pub cycles: usize,
+    /// `β` (s) of the rate-dependent thresholds, default 2e-5 (below
+    /// `T_s`, so that each play stays monotone in its input).
+    pub rate_gain: f64,
+    /// The stage's resonance, default 740 Hz with damping 0.014.
+    pub resonance: Option<Resonance>,
+    /// The sensor's first-order low-pass (Hz), default 2 kHz.
+    pub sensor_low_pass: Option<f64>,
+    /// Noise (standard deviation) as a fraction of the output range,
+    /// default 5e-4.
+    pub noise: f64,
+    /// Offsets drawn uniformly within this fraction of the output range,
+    /// default 5e-3.
+    pub offset_spread: f64,
+    /// Seconds of random drive before each record, default 0.5.
+    pub history: f64,
+    pub seed: u64,
+}
+
+impl Default for RecordSettings {
+    fn default() -> Self {
+        Self {
+            sample_time: 1e-4,
+            rates: vec![20.0, 40.0, 100.0],
+            amplitude: 90.0,
+            hold: 1.5,
+            cycles: 50,
+            rate_gain: 2e-5,
+            resonance: Some(Resonance {
+                frequency: 740.0,
+                damping: 0.014,
+            }),
+            sensor_low_pass: Some(2000.0),
+            noise: 5e-4,
+            offset_spread: 5e-3,
+            history: 0.5,
+            seed: 20_131,
+        }
+    }
+}
+
+/// One generated record.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SyntheticRecord {
+    /// Its rate (Hz).
+    pub rate: f64,
+    pub u: Vec<f64>,
+    pub y: Vec<f64>,
+    /// The sensor offset added.
+    pub offset: f64,
+}
+
+/// The record protocol at `rate`: the hold at `−A`, then `cycles` raised
+/// cosines `−A + A a(t) (1 − cos 2πft)` with `a` rising from 0.1 to 1.
+pub fn protocol(settings: &RecordSettings, rate: f64) -> Vec<f64> {
+    let ts = settings.sample_time;
+    let a = settings.amplitude;
+    let hold = (settings.hold / ts).round() as usize;
+    let cycling = (settings.cycles as f64 / rate / ts).round() as usize;
+    (0..hold + cycling)
+        .map(|k| {
+            if k < hold {
+                return -a;
+            }
+            let t = (k - hold) as f64 * ts;
+            let rise = 0.1 + 0.9 * (k - hold) as f64 / cycling.max(1) as f64;
+            -a + a * rise * (1.0 - (std::f64::consts::TAU * rate * t).cos())
+        })
+        .collect()
+}
+
+/// The actuator of [`generate`], stepped one sample at a time.
+struct Actuator {
+    thresholds: Vec<f64>,
+    weights: Vec<f64>,
+    plays: Vec<f64>,
+    last: Option<f64>,
+    beta: f64,
+    creep: CreepOperator,
+    superposition: Superposition<f64, Heap>,
+    dynamics: Option<Dynamics<f64>>,
+}
+
+impl Actuator {
+    /// The nominal model's loops scaled from ±1000 V to ±`A`, its creep,
+    /// an asymmetric `S`, and the dynamics of `settings`.
+    fn new(settings: &RecordSettings) -> Self {
+        let nominal = nominal_model_file();
+        let scale = settings.amplitude / 1000.0;
+        let r: Vec<f64> = nominal
+            .hysteresis
+            .thresholds
+            .iter()
+            .map(|r| r * scale)
+            .collect();
+        let c = nominal.creep.as_ref().expect("the nominal model has creep");
+        let creep = CreepOperator::new(
+            c.thresholds.iter().map(|r| r * scale).collect::<Vec<f64>>(),
+            c.weights.clone(),
+            c.eigenvalues.clone(),
+            settings.sample_time,
+        )
+        .expect("the nominal creep is valid");
+        let a = settings.amplitude;
+        let superposition = Superposition::new(
+            [-0.5 * a, -0.2 * a, 0.0, 0.15 * a, 0.4 * a],
+            [0.25, -0.25, 1.0, -0.2, -0.15],
+        )
+        .expect("a valid S");
+        let g = DynamicsParameters {
+            low_pass: settings.sensor_low_pass,
+            resonance: settings.resonance,
+        };
+        let dynamics = (!g.is_identity())
+            .then(|| Dynamics::new(&g, settings.sample_time).expect("valid dynamics"));
+        Self {
+            plays: vec![0.0; r.len()],
+            thresholds: r,
+            weights: nominal.hysteresis.weights.clone(),
+            last: None,
+            beta: settings.rate_gain / settings.sample_time,
+            creep,
+            superposition,
+            dynamics,
+        }
+    }
+
+    fn step(&mut self, u: f64) -> f64 {
+        let grow = self.last.map_or(0.0, |l| self.beta * (u - l).abs());
+        self.last = Some(u);
+        let mut h = 0.0;
+        for ((x, r), w) in self
+            .plays
+            .iter_mut()
+            .zip(&self.thresholds)
+            .zip(&self.weights)
+        {
+            let r = r + grow;
+            *x = (u - r).max((u + r).min(*x));
+            h += w * *x;
+        }
+        let w = self.superposition.apply(h + self.creep.step(u));
+        match &mut self.dynamics {
+            Some(g) => g.step(w),
+            None => w,
+        }
+    }
+}
+
+/// The records of `settings` (module docs), each after its own history.
+pub fn generate(settings: &RecordSettings) -> Vec<SyntheticRecord> {
+    let mut rng = Rng::new(settings.seed);
+    let mut actuator = Actuator::new(settings);
+    let ts = settings.sample_time;
+    let a = settings.amplitude;
+    let range = 2.0 * a;
+    let mut records = Vec::with_capacity(settings.rates.len());
+    for &rate in &settings.rates {
+        // a history: random levels held and ramped, within ±A
+        let history = (settings.history / ts).round() as usize;
+        let mut level = 0.0;
+        for k in 0..history {
+            if k % 500 == 0 {
+                level = rng.uniform(-a, a);
+            }
+            actuator.step(level);
+        }
+        let u = protocol(settings, rate);
+        let offset = rng.uniform(-1.0, 1.0) * settings.offset_spread * range;
+        let y = u
+            .iter()
+            .map(|&v| actuator.step(v) + offset + settings.noise * range * gaussian(&mut rng))
+            .collect();
+        records.push(SyntheticRecord { rate, u, y, offset });
+    }
+    records
+}
+
+/// A standard normal draw (Box–Muller).
+fn gaussian(rng: &mut Rng) -> f64 {
+    let u1 = rng.uniform(f64::MIN_POSITIVE, 1.0);
+    let u2 = rng.uniform(0.0, 1.0);
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
