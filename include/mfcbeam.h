@@ -114,8 +114,10 @@ typedef struct MfcbeamCompensatorStorageF32 {
  * (`y = G[S[H + C]]`): a first-order low-pass of cut-off
  * `low_pass_frequency` (Hz) and a resonance of natural frequency
  * `resonance_frequency` (Hz, below the Nyquist frequency) and damping ratio
- * `resonance_damping` (`0 < ζ < 1`); a frequency of 0 means that part is
- * absent. The `S` fields, `delay` and the dynamics come last, so an
+ * `resonance_damping` (`0 < ζ < 1`; the resonance brings one sample of lag,
+ * which the compensator's preview covers: `mfcbeam_*_delay` reports it),
+ * and a delay of `delay_fraction` of a sample (`|τ| < 0.5`); a frequency
+ * or fraction of 0 means that part is absent. The `S` fields, `delay` and the dynamics come last, so an
  * initializer that stops after `offset` leaves them zero: no `S`, no dead
  * time, no dynamics.
  */
@@ -137,6 +139,7 @@ typedef struct MfcbeamParameters {
   double low_pass_frequency;
   double resonance_frequency;
   double resonance_damping;
+  double delay_fraction;
 } MfcbeamParameters;
 
 /**

@@ -13,15 +13,15 @@ use mfcbeam::identification::{
 use mfcbeam::operators::model::{DynamicsData, LowPassData, ResonanceData};
 use mfcbeam::prelude::*;
 use mfcbeam::realtime::{
-    Dynamics, DynamicsParameters, Inline, ParameterError, Resonance, RoundingBounds,
+    preview, Dynamics, DynamicsParameters, Inline, ParameterError, Resonance, RoundingBounds,
 };
 
 const TS: f64 = 1e-4;
 
 fn resonance(frequency: f64, damping: f64) -> DynamicsParameters {
     DynamicsParameters {
-        low_pass: None,
         resonance: Some(Resonance { frequency, damping }),
+        ..DynamicsParameters::default()
     }
 }
 
@@ -36,14 +36,16 @@ fn impulse_response(g: &DynamicsParameters, n: usize) -> Vec<f64> {
 
 #[test]
 fn a_resonance_rings_as_its_continuous_poles_say() {
-    // 1/(1 + a1 z⁻¹ + a2 z⁻²) with poles r e^{±iθ}: h_k = r^k sin((k+1)θ)/sin θ
+    // impulse-invariant: the continuous e^{−σt} sin(ω_d t) at t = kT_s,
+    // g z⁻¹/(1 + a1 z⁻¹ + a2 z⁻²) with poles r e^{±iθ}: h_k = g r^{k−1} sin(kθ)/sin θ
     let (f, zeta) = (740.0, 0.014);
     let w = std::f64::consts::TAU * f * TS;
     let (r, theta) = ((-zeta * w).exp(), w * (1.0 - zeta * zeta).sqrt());
     let g = 1.0 - 2.0 * r * theta.cos() + r * r;
     let h = impulse_response(&resonance(f, zeta), 400);
-    for (k, &hk) in h.iter().enumerate() {
-        let exact = g * r.powi(k as i32) * ((k + 1) as f64 * theta).sin() / theta.sin();
+    assert_eq!(h[0], 0.0);
+    for (k, &hk) in h.iter().enumerate().skip(1) {
+        let exact = g * r.powi(k as i32 - 1) * (k as f64 * theta).sin() / theta.sin();
         // a recursion of 400 steps with |poles| < 1: rounding ~ k ε
         assert!(
             (hk - exact).abs() <= 64.0 * (k + 1) as f64 * f64::EPSILON,
@@ -56,7 +58,7 @@ fn a_resonance_rings_as_its_continuous_poles_say() {
 fn a_low_pass_decays_as_its_pole_says_and_passes_a_constant() {
     let g = DynamicsParameters {
         low_pass: Some(1500.0),
-        resonance: None,
+        ..DynamicsParameters::default()
     };
     let p = (-std::f64::consts::TAU * 1500.0 * TS).exp();
     for (k, hk) in impulse_response(&g, 200).into_iter().enumerate() {
@@ -69,15 +71,16 @@ fn a_low_pass_decays_as_its_pole_says_and_passes_a_constant() {
             frequency: 600.0,
             damping: 0.05,
         }),
+        delay_fraction: 0.3,
     };
     let mut d = Dynamics::<f64>::new(&both, TS).unwrap();
     // the unit DC gain holds to the rounding of the coefficients and the
     // recursion (`RoundingBounds::dynamics_sum`): per step
     // 6 ε (g + Σ|c_j| ‖g/A‖₁) |w|, carried on by ‖1/A‖₁
-    let (c, g) = d.coefficients();
+    let (c, g, _) = d.coefficients();
     let c_abs: f64 = c.iter().map(|c| c.abs()).sum();
     let (g1, a1) = d.gains();
-    let bound = 4.0 * 6.0 * f64::EPSILON * (g + c_abs * g1) * 3.25 * a1;
+    let bound = 4.0 * 8.0 * f64::EPSILON * (2.0 * g + c_abs * g1) * 3.25 * a1;
     for _ in 0..100 {
         assert!((d.step(3.25) - 3.25).abs() <= bound);
     }
@@ -97,9 +100,33 @@ fn bad_dynamics_are_refused_by_name() {
     assert_eq!(field(resonance(100.0, 0.0)), "dynamics.resonance.damping");
     let lp = DynamicsParameters {
         low_pass: Some(-1.0),
-        resonance: None,
+        ..DynamicsParameters::default()
     };
     assert_eq!(field(lp), "dynamics.low_pass.frequency");
+    let fraction = DynamicsParameters {
+        delay_fraction: 0.5,
+        ..DynamicsParameters::default()
+    };
+    assert_eq!(field(fraction), "dynamics.delay_fraction");
+}
+
+#[test]
+fn a_delay_fraction_delays_a_ramp_by_that_fraction() {
+    for tau in [-0.45, -0.2, 0.3, 0.49] {
+        let g = DynamicsParameters {
+            delay_fraction: tau,
+            ..DynamicsParameters::default()
+        };
+        let mut d = Dynamics::<f64>::new(&g, TS).unwrap();
+        d.step(0.0);
+        for k in 1..50 {
+            let y = d.step(k as f64);
+            assert!(
+                (y - (k as f64 - tau)).abs() <= 4.0 * k as f64 * f64::EPSILON,
+                "{tau}: {y}"
+            );
+        }
+    }
 }
 
 /// The nominal model (creep and all) with a resonance and a low-pass.
@@ -112,6 +139,7 @@ fn dynamic_nominal() -> ModelFile {
             frequency: 740.0,
             damping: 0.014,
         }),
+        delay_fraction: Some(0.3),
         state: None,
     });
     file
@@ -146,8 +174,11 @@ fn the_compensator_inverts_the_dynamics_exactly() {
             )
             .unwrap();
             let mut m = Model::<f64, Inline<12, 60>>::from_file(&file).unwrap();
-            y.iter()
-                .map(|&t| m.step(c.compensate(t).u) - t)
+            // the resonance's lag: the target leads by one sample
+            assert_eq!((c.delay(), m.preview()), (1, 1));
+            (0..y.len())
+                .map(|k| m.step(c.compensate(preview(&y, 1, k)).u) - y[k])
+                .skip(1)
                 .collect::<Vec<f64>>()
         }),
         (f32::EPSILON as f64, {
@@ -157,8 +188,9 @@ fn the_compensator_inverts_the_dynamics_exactly() {
             )
             .unwrap();
             let mut m = Model::<f32, Inline<12, 60>>::from_file(&file).unwrap();
-            y.iter()
-                .map(|&t| (m.step(c.compensate(t as f32).u) - t as f32) as f64)
+            (0..y.len())
+                .map(|k| (m.step(c.compensate(preview(&y, 1, k) as f32).u) - y[k] as f32) as f64)
+                .skip(1)
                 .collect()
         }),
     ] {
@@ -226,6 +258,7 @@ fn dynamics_and_offsets_come_back_from_two_rates() {
     let parts = DynamicsParts {
         low_pass: true,
         resonance: true,
+        delay_fraction: true,
     };
     let id = fit_dynamics(&records, TS, &settings, parts).unwrap();
     let g = id.report.dynamics.as_ref().unwrap();
@@ -235,6 +268,7 @@ fn dynamics_and_offsets_come_back_from_two_rates() {
     assert!(rel(g.parameters.low_pass.unwrap(), 1500.0) < 1e-6);
     assert!(rel(r.frequency, rt.frequency) < 1e-6);
     assert!(rel(r.damping, rt.damping) < 1e-6);
+    assert!((g.parameters.delay_fraction - 0.3).abs() < 1e-6);
     // a third rate predicted, its offset zeroed on the hold
     let u3 = drive(100.0, 600.0);
     let y3: Vec<f64> = model.clone().run(&u3).iter().map(|v| v + 4.0).collect();
@@ -266,8 +300,8 @@ fn a_part_the_records_do_not_excite_is_reported_not_guessed() {
         ..IdentificationSettings::default()
     };
     let parts = DynamicsParts {
-        low_pass: false,
         resonance: true,
+        ..DynamicsParts::default()
     };
     match fit_dynamics(&records, TS, &settings, parts) {
         Err(e) => assert!(

@@ -20,8 +20,10 @@ use crate::error::Failure;
 /// (`y = G[S[H + C]]`): a first-order low-pass of cut-off
 /// `low_pass_frequency` (Hz) and a resonance of natural frequency
 /// `resonance_frequency` (Hz, below the Nyquist frequency) and damping ratio
-/// `resonance_damping` (`0 < ζ < 1`); a frequency of 0 means that part is
-/// absent. The `S` fields, `delay` and the dynamics come last, so an
+/// `resonance_damping` (`0 < ζ < 1`; the resonance brings one sample of lag,
+/// which the compensator's preview covers: `mfcbeam_*_delay` reports it),
+/// and a delay of `delay_fraction` of a sample (`|τ| < 0.5`); a frequency
+/// or fraction of 0 means that part is absent. The `S` fields, `delay` and the dynamics come last, so an
 /// initializer that stops after `offset` leaves them zero: no `S`, no dead
 /// time, no dynamics.
 #[repr(C)]
@@ -44,6 +46,7 @@ pub struct MfcbeamParameters {
     pub low_pass_frequency: f64,
     pub resonance_frequency: f64,
     pub resonance_damping: f64,
+    pub delay_fraction: f64,
 }
 
 /// `len` values at `ptr`, refusing a NULL pointer with a non-zero length.
@@ -117,6 +120,7 @@ impl MfcbeamParameters {
                     frequency: self.resonance_frequency,
                     damping: self.resonance_damping,
                 }),
+                delay_fraction: self.delay_fraction,
             };
             Ok(ModelParameters {
                 sample_time: self.sample_time,

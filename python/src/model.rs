@@ -111,7 +111,8 @@ impl Model {
     }
 
     /// The linear dynamics G after S as a dict ("low_pass": cut-off Hz or
-    /// None, "resonance": (frequency Hz, damping) or None), or None.
+    /// None, "resonance": (frequency Hz, damping) or None, "delay_fraction":
+    /// samples), or None.
     #[getter]
     fn dynamics<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
         let Some(g) = self.inner.dynamics() else {
@@ -121,6 +122,7 @@ impl Model {
         let d = PyDict::new(py);
         d.set_item("low_pass", p.low_pass)?;
         d.set_item("resonance", p.resonance.map(|r| (r.frequency, r.damping)))?;
+        d.set_item("delay_fraction", p.delay_fraction)?;
         Ok(Some(d))
     }
 

@@ -124,10 +124,12 @@ pub struct IdentifyArgs {
     /// record's, the report lists every one).
     #[arg(long, value_name = "shared|per-record", default_value = "shared")]
     pub offset: OffsetSetting,
-    /// Linear dynamics after the hysteresis to fit with the weights:
-    /// `none`, `low-pass`, `resonance` or `low-pass,resonance` (a sensor's
-    /// or amplifier's lag, a stage's lightly damped resonance). The model
-    /// carries them and its compensator inverts them exactly.
+    /// Linear dynamics after the hysteresis to fit with the weights: `none`
+    /// or any of `low-pass`, `resonance`, `delay-fraction`, comma-separated
+    /// (a sensor's or amplifier's lag, a stage's lightly damped resonance, a
+    /// delay of a fraction of a sample on top of --delay). The model carries
+    /// them and its compensator inverts them exactly (a resonance adds one
+    /// sample to the preview).
     #[arg(long, value_name = "PARTS", default_value = "none")]
     pub dynamics: DynamicsParts,
     /// Before scoring each --validate record, estimate its constant offset

@@ -383,6 +383,13 @@ impl std::fmt::Display for DynamicsLine<'_> {
                 se(g.standard_errors[2])
             )?;
         }
+        if let Some(se) = g.standard_errors[3] {
+            writeln!(
+                f,
+                "dynamics: delay fraction {:.6} samples ± {se:.2e} (on top of the dead time)",
+                g.parameters.delay_fraction
+            )?;
+        }
         writeln!(
             f,
             "dynamics: output error rms {:.6e} without, {:.6e} with them ({} steps)",

@@ -172,7 +172,7 @@ impl Component {
         };
         let model = crate::io::read_model(&model_path).map_err(file_error)?;
         self.sample_time = model.sample_time();
-        self.delay = model.delay();
+        self.delay = model.preview();
         let live = match self.config.kind {
             FmuKind::Compensator => {
                 let settings = CompensatorSettings::with_limits(self.u_min, self.u_max);

@@ -126,7 +126,7 @@ impl FmuPackage {
         };
         let info = DescriptionInfo {
             sample_time: model.sample_time(),
-            delay: model.delay(),
+            delay: model.preview(),
             description: match self.kind {
                 FmuKind::Compensator => "The hysteresis and creep compensator W^-1 of a piezoelectric actuator (Prandtl-Ishlinskii hysteresis and creep, analytic inverse), from mfcbeam.",
                 FmuKind::Model => "The actuator model W = S[H + C] + offset (Prandtl-Ishlinskii hysteresis and creep), from mfcbeam.",

@@ -26,12 +26,15 @@ use crate::realtime::{DynamicsParameters, Resonance};
 pub struct DynamicsParts {
     pub low_pass: bool,
     pub resonance: bool,
+    /// A delay of a fraction of a sample on top of the dead time.
+    pub delay_fraction: bool,
 }
 
 impl std::str::FromStr for DynamicsParts {
     type Err = String;
 
-    /// `none`, `low-pass`, `resonance` or both, comma-separated.
+    /// `none`, or any of `low-pass`, `resonance`, `delay-fraction`,
+    /// comma-separated.
     fn from_str(s: &str) -> Result<Self, String> {
         let mut parts = Self::default();
         for word in s.split(',').map(str::trim) {
@@ -39,7 +42,12 @@ impl std::str::FromStr for DynamicsParts {
                 "none" => {}
                 "low-pass" => parts.low_pass = true,
                 "resonance" => parts.resonance = true,
-                other => return Err(format!("'{other}' is none of none, low-pass, resonance")),
+                "delay-fraction" => parts.delay_fraction = true,
+                other => {
+                    return Err(format!(
+                        "'{other}' is none of none, low-pass, resonance, delay-fraction"
+                    ))
+                }
             }
         }
         Ok(parts)
@@ -48,7 +56,7 @@ impl std::str::FromStr for DynamicsParts {
 
 impl DynamicsParts {
     pub fn any(&self) -> bool {
-        self.low_pass || self.resonance
+        self.low_pass || self.resonance || self.delay_fraction
     }
 }
 
@@ -57,7 +65,12 @@ const MAX_RESONANCE: f64 = 0.49;
 /// Levenberg–Marquardt steps at most.
 const MAX_ITERATIONS: usize = 60;
 
-/// The parameters of `G` from the coordinates `x` (module docs).
+/// The largest delay fraction: the zero of `N` at `−τ/(1 − τ)` stays
+/// inside `|z| ≤ 0.96`.
+const MAX_FRACTION: f64 = 0.49;
+
+/// The parameters of `G` from the coordinates `x` (module docs): `ln f_c`,
+/// `ln f_n`, `logit ζ`, `artanh(τ/0.49)`, those of the parts fitted.
 fn parameters(parts: DynamicsParts, x: &[f64], fs: f64) -> DynamicsParameters {
     let mut i = 0;
     let low_pass = parts.low_pass.then(|| {
@@ -66,15 +79,38 @@ fn parameters(parts: DynamicsParts, x: &[f64], fs: f64) -> DynamicsParameters {
     });
     let resonance = parts.resonance.then(|| {
         let (f, z) = (x[i], x[i + 1]);
+        i += 2;
         Resonance {
             frequency: f.exp().min(MAX_RESONANCE * fs),
             damping: 1.0 / (1.0 + (-z).exp()),
         }
     });
+    let delay_fraction = if parts.delay_fraction {
+        MAX_FRACTION * x[i].tanh()
+    } else {
+        0.0
+    };
     DynamicsParameters {
         low_pass,
         resonance,
+        delay_fraction,
     }
+}
+
+/// The coordinates of a low-pass, a resonance and a delay fraction.
+fn coordinates(lp: Option<f64>, res: Option<(f64, f64)>, fraction: Option<f64>) -> Vec<f64> {
+    let mut x = Vec::new();
+    if let Some(f) = lp {
+        x.push(f.ln());
+    }
+    if let Some((f, zeta)) = res {
+        x.push(f.ln());
+        x.push((zeta / (1.0 - zeta)).ln());
+    }
+    if let Some(t) = fraction {
+        x.push((t / MAX_FRACTION).atanh());
+    }
+    x
 }
 
 /// The output errors of the model fitted with `G` on every record's fitted
@@ -291,17 +327,6 @@ pub fn fit_dynamics(
         }
         resonances.push((f_peak.clamp(f_lo, f_hi), 0.05));
     }
-    let coordinates = |lp: Option<f64>, res: Option<(f64, f64)>| -> Vec<f64> {
-        let mut x = Vec::new();
-        if let Some(f) = lp {
-            x.push(f.ln());
-        }
-        if let Some((f, zeta)) = res {
-            x.push(f.ln());
-            x.push((zeta / (1.0 - zeta)).ln());
-        }
-        x
-    };
     let mut best: Option<(f64, Vec<f64>)> = None;
     let try_start =
         |best: &mut Option<(f64, Vec<f64>)>, x: Vec<f64>| -> Result<(), IdentificationError> {
@@ -321,43 +346,57 @@ pub fn fit_dynamics(
             Ok(())
         };
     let low_passes = [0.03, 0.1, 0.3, 1.0].map(|f| f * fs);
+    let fraction = parts.delay_fraction.then_some(0.0);
     if parts.resonance {
         let lp = parts.low_pass.then_some(0.3 * fs);
         for &res in &resonances {
-            try_start(&mut best, coordinates(lp, Some(res)))?;
+            try_start(&mut best, coordinates(lp, Some(res), fraction))?;
         }
     }
+    // the best so far as (low-pass, resonance, fraction)
+    let so_far = |best: &Option<(f64, Vec<f64>)>| {
+        best.as_ref().map_or((None, None, fraction), |(_, x)| {
+            let g = parameters(parts, x, fs);
+            (
+                g.low_pass,
+                g.resonance.map(|r| (r.frequency, r.damping)),
+                parts.delay_fraction.then_some(g.delay_fraction),
+            )
+        })
+    };
     if parts.low_pass {
-        // with the best resonance so far
-        let res = best.as_ref().map(|(_, x)| {
-            let g = parameters(parts, x, fs).resonance.expect("fitted");
-            (g.frequency, g.damping)
-        });
+        let (_, res, fraction) = so_far(&best);
         for &lp in &low_passes {
-            try_start(
-                &mut best,
-                coordinates(Some(lp), res.filter(|_| parts.resonance)),
-            )?;
+            try_start(&mut best, coordinates(Some(lp), res, fraction))?;
+        }
+    }
+    if parts.delay_fraction {
+        let (lp, res, _) = so_far(&best);
+        for t in [-0.3, 0.0, 0.3] {
+            try_start(&mut best, coordinates(lp, res, Some(t)))?;
         }
     }
     // Levenberg–Marquardt from the best grid point and from the residual's
     // spectral peak (where a resonance rings), the better kept
     let mut starts = vec![best.expect("at least one candidate").1];
     if parts.resonance {
-        let mut x = coordinates(
-            parts.low_pass.then_some(0.3 * fs),
+        let g = parameters(parts, &starts[0], fs);
+        starts.push(coordinates(
+            g.low_pass,
             Some((f_peak.clamp(f_lo, f_hi), 0.05)),
-        );
-        if let Some(lp) = parts.low_pass.then(|| starts[0][0]) {
-            x[0] = lp;
-        }
-        starts.push(x);
+            parts.delay_fraction.then_some(g.delay_fraction),
+        ));
     }
     let mut refined: Option<Refined> = None;
     for x0 in starts {
         let r = refine(records, sample_time, settings, parts, x0.clone())?;
         if std::env::var_os("MFCBEAM_DEBUG_DYNAMICS").is_some() {
-            eprintln!("start {:?} -> {:?} ss {:e}", parameters(parts, &x0, fs), parameters(parts, &r.x, fs), r.ss);
+            eprintln!(
+                "start {:?} -> {:?} ss {:e}",
+                parameters(parts, &x0, fs),
+                parameters(parts, &r.x, fs),
+                r.ss
+            );
         }
         if refined.as_ref().is_none_or(|b| r.ss < b.ss) {
             refined = Some(r);
@@ -381,7 +420,7 @@ pub fn fit_dynamics(
     // standard errors: σ̂² (JᵀJ)⁻¹ in the coordinates, then in the units
     let dof = (r.len().saturating_sub(id.report.unknowns + k)).max(1) as f64;
     let sigma2 = sum_squares(&r) / dof;
-    let mut se = [None; 3];
+    let mut se = [None; 4];
     let mut covariance = Vec::with_capacity(k);
     for i in 0..k {
         let mut unit = vec![0.0; k];
@@ -399,6 +438,11 @@ pub fn fit_dynamics(
     if let Some(res) = g.resonance {
         se[1] = scale(i, res.frequency);
         se[2] = scale(i + 1, res.damping * (1.0 - res.damping));
+        i += 2;
+    }
+    if parts.delay_fraction {
+        let t = g.delay_fraction / MAX_FRACTION;
+        se[3] = scale(i, MAX_FRACTION * (1.0 - t * t));
     }
     // a part the records do not determine
     let diag_max = (0..k).map(|i| jtj[i][i]).fold(0.0f64, f64::max);
@@ -406,20 +450,23 @@ pub fn fit_dynamics(
         "low-pass frequency",
         "resonance frequency",
         "resonance damping",
+        "delay fraction",
     ];
     let values = [
         g.low_pass,
         g.resonance.map(|r| r.frequency),
         g.resonance.map(|r| r.damping),
+        parts.delay_fraction.then_some(g.delay_fraction),
     ];
+    let mut column = 0;
     for (j, name) in names.iter().enumerate() {
         let Some(value) = values[j] else { continue };
-        let column = match j {
-            0 => 0,
-            _ => usize::from(parts.low_pass) + j - 1,
-        };
         let flat = jtj[column][column] <= 1e-14 * diag_max || diag_max == 0.0;
-        let loose = se[j].is_none_or(|s| s.is_nan() || s > 0.5 * value);
+        column += 1;
+        // a frequency or damping to half its value; a fraction of a
+        // sample to a quarter of a sample
+        let allowed = if j == 3 { 0.25 } else { 0.5 * value };
+        let loose = se[j].is_none_or(|s| s.is_nan() || s > allowed);
         if flat || loose {
             return Err(IdentificationError::InvalidSetting {
                 field: "dynamics",
@@ -444,8 +491,8 @@ pub fn fit_dynamics(
 }
 
 /// [`fit_dynamics`] at the dead time `settings.delay` and one sample less
-/// (`G` adds a lag of its own, which a whole sample of dead time may have
-/// stood for), keeping the better: on the validation records' pooled rms
+/// (two with a resonance: `G` adds a lag of its own, which whole samples of
+/// dead time may have stood for), keeping the best: on the validation records' pooled rms
 /// (zeroed where they say) when there are any, else on the fitted records'
 /// output error.
 pub fn fit_dynamics_and_delay(
@@ -458,7 +505,9 @@ pub fn fit_dynamics_and_delay(
     let d0 = settings.delay;
     let mut best: Option<(f64, Identification)> = None;
     let mut last_error = None;
-    for d in [Some(d0), d0.checked_sub(1)].into_iter().flatten() {
+    // a resonance brings one sample of lag of its own
+    let fewer = 1 + usize::from(parts.resonance);
+    for d in (d0.saturating_sub(fewer)..=d0).rev() {
         let s = IdentificationSettings {
             delay: d,
             ..settings.clone()

@@ -91,38 +91,46 @@ pub fn identify_records(
         });
     }
     let d = settings.delay;
+    // the lag of the dynamics is aligned as dead time is; G then runs
+    // without it
+    let lag = settings.dynamics.as_ref().map_or(0, |g| g.lag());
+    let aligned = d + lag;
     let (mut u_cat, mut y_cat, mut parts) = (Vec::new(), Vec::new(), Vec::new());
     let mut y_raw = Vec::new();
     for (index, r) in records.iter().enumerate() {
         check_record_signals(r.u, r.y).map_err(|e| in_record(e, index, records.len()))?;
         let n = r.u.len();
-        if d >= n {
+        if aligned >= n {
             return Err(in_record(
                 IdentificationError::InvalidSetting {
                     field: "delay",
-                    reason: format!("{d} samples of dead time leave nothing of {n} samples"),
+                    reason: format!("{aligned} samples of dead time leave nothing of {n} samples"),
                 },
                 index,
                 records.len(),
             ));
         }
         let start = u_cat.len();
-        u_cat.extend_from_slice(&r.u[..n - d]);
-        let y_d = &r.y[d..];
+        u_cat.extend_from_slice(&r.u[..n - aligned]);
+        let y_d = &r.y[aligned..];
         y_raw.extend_from_slice(y_d);
         match &settings.dynamics {
             // the regressor's columns pass through G; its measurement is G⁻¹[y]
             Some(g) => {
-                let mut inverse = crate::realtime::Dynamics::<f64>::new(g, sample_time)?;
+                let mut inverse =
+                    crate::realtime::Dynamics::<f64>::new(g, sample_time)?.without_lag();
                 y_cat.extend(y_d.iter().map(|&v| {
                     let w = inverse.input_for(v);
-                    inverse.push_output(v);
+                    inverse.push_exact(v, w);
                     w
                 }));
             }
             None => y_cat.extend_from_slice(y_d),
         }
-        parts.push((start..u_cat.len(), r.fit_from.map(|k| k.saturating_sub(d))));
+        parts.push((
+            start..u_cat.len(),
+            r.fit_from.map(|k| k.saturating_sub(aligned)),
+        ));
     }
     // the plan (thresholds, kinks, margins) from the measurement itself:
     // G⁻¹[y] carries its noise amplified
@@ -161,8 +169,8 @@ pub fn identify_records(
     // each record (the first one's in the main fields)
     let mut record_reports = Vec::with_capacity(records.len());
     for (index, (r, segment)) in records.iter().zip(&plan.segments).enumerate() {
-        let fitted = segment.fitted.start - segment.whole.start + d
-            ..segment.fitted.end - segment.whole.start + d;
+        let fitted = segment.fitted.start - segment.whole.start + aligned
+            ..segment.fitted.end - segment.whole.start + aligned;
         let own = solution
             .offsets
             .get(index)

@@ -38,45 +38,30 @@ pub(crate) struct Segment {
     pub offset_column: usize,
 }
 
-/// The all-pole filter `g / A(q⁻¹)` applied to every column of the rows, one
-/// state per column, at rest on a record's first row.
+/// `G` without its lag (`g N/A`: the lag is part of the alignment) applied
+/// to every column of the rows, one state per column, at rest on a
+/// record's first row.
 struct RowFilter {
-    c: Vec<f64>,
-    gain: f64,
-    /// Per column, the last outputs (newest first).
-    past: Vec<Vec<f64>>,
+    filters: Vec<crate::realtime::Dynamics<f64>>,
 }
 
 impl RowFilter {
     fn new(dynamics: &crate::realtime::DynamicsParameters, sample_time: f64, cols: usize) -> Self {
-        let (c, order, gain) = dynamics.coefficients(sample_time);
+        let g = crate::realtime::Dynamics::new(dynamics, sample_time)
+            .expect("checked dynamics")
+            .without_lag();
         Self {
-            c: c[..order].to_vec(),
-            gain,
-            past: vec![Vec::new(); cols],
+            filters: vec![g; cols],
         }
     }
 
     fn restart(&mut self) {
-        self.past.iter_mut().for_each(Vec::clear);
+        self.filters.iter_mut().for_each(|g| g.reset());
     }
 
     fn apply(&mut self, row: &mut [f64]) {
-        for (x, past) in row.iter_mut().zip(&mut self.past) {
-            if past.is_empty() {
-                past.resize(self.c.len(), *x);
-                continue;
-            }
-            let y = self.gain * *x
-                - self
-                    .c
-                    .iter()
-                    .zip(past.iter())
-                    .map(|(c, p)| c * p)
-                    .sum::<f64>();
-            past.pop();
-            past.insert(0, y);
-            *x = y;
+        for (x, g) in row.iter_mut().zip(&mut self.filters) {
+            *x = g.step(*x);
         }
     }
 }

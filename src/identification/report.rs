@@ -89,9 +89,9 @@ pub struct RecordFit {
 pub struct DynamicsReport {
     pub parameters: crate::realtime::DynamicsParameters,
     /// Standard errors of the low-pass frequency, the resonance frequency
-    /// and damping (as fitted; `None` for a part not fitted), from the
-    /// Jacobian of the output error at the optimum.
-    pub standard_errors: [Option<f64>; 3],
+    /// and damping, and the delay fraction (`None` for a part not fitted),
+    /// from the Jacobian of the output error at the optimum.
+    pub standard_errors: [Option<f64>; 4],
     /// Gauss–Newton steps taken.
     pub iterations: usize,
     /// The output error's rms before (static model) and after.

@@ -55,8 +55,9 @@ pub struct CompensatorState {
     pub inverse: Vec<f64>,
     /// Creep state, one row of `m` values per threshold.
     pub creep: Option<Vec<Vec<f64>>>,
-    /// The plant's last outputs of `G` (newest first) as the compensator
-    /// tracks them; `None` before the first sample or without dynamics.
+    /// `G` as the compensator tracks it (the plant's, advanced by its lag;
+    /// outputs then inputs, newest first); `None` before the first sample
+    /// or without dynamics.
     pub dynamics: Option<Vec<f64>>,
 }
 
@@ -106,9 +107,9 @@ impl<T: Real, S: Storage> Snapshot for Compensator<T, S> {
             inverse: to_f64(self.inverse.play_states()),
             creep: self.creep.as_ref().map(Snapshot::state),
             dynamics: self.dynamics().and_then(|g| {
-                let mut y = [T::ZERO; crate::realtime::dynamics::MAX_ORDER];
-                g.state_into(&mut y[..g.order()])?;
-                Some(to_f64(&y[..g.order()]))
+                let mut y = vec![T::ZERO; g.state_len()];
+                g.state_into(&mut y)?;
+                Some(to_f64(&y))
             }),
         }
     }
@@ -164,9 +165,19 @@ impl<T: Real, S: Storage> Snapshot for Compensator<T, S> {
         for (x, &v) in trial.inverse.state_mut().iter_mut().zip(&state.inverse) {
             *x = T::from_f64(v);
         }
-        trial
-            .set_dynamics_state(state.dynamics.as_deref())
-            .map_err(|e| e.named("compensator.dynamics"))?;
+        // the compensator's own state of G (advanced by its lag), as saved
+        match (&mut trial.dynamics, &state.dynamics) {
+            (Some(g), values) => g
+                .set_state(values.as_deref())
+                .map_err(|e| e.named("compensator.dynamics"))?,
+            (None, None) => {}
+            (None, Some(_)) => {
+                return Err(ModelError::Inconsistent {
+                    field: "compensator.dynamics".into(),
+                    reason: "the model has no dynamics".into(),
+                })
+            }
+        }
         *self = trial;
         Ok(())
     }

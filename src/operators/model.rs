@@ -78,9 +78,13 @@ pub struct DynamicsData {
     pub low_pass: Option<LowPassData>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub resonance: Option<ResonanceData>,
-    /// The last outputs of `G` (before the offset), newest first, one per
-    /// order of its denominator; absent means not started (at rest on the
-    /// first sample's value).
+    /// A delay of a fraction of a sample, `−0.5 < τ < 0.5`; absent means 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delay_fraction: Option<f64>,
+    /// The state of `G`: its last outputs (before the dead time and the
+    /// offset), one per order of its denominator, then its last two inputs,
+    /// each newest first; absent means not started (at rest on the first
+    /// sample's value).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub state: Option<Vec<f64>>,
 }
@@ -93,6 +97,7 @@ impl DynamicsData {
                 frequency: r.frequency,
                 damping: r.damping,
             }),
+            delay_fraction: self.delay_fraction.unwrap_or(0.0),
         }
     }
 
@@ -106,6 +111,7 @@ impl DynamicsData {
                 frequency: r.frequency,
                 damping: r.damping,
             }),
+            delay_fraction: (parameters.delay_fraction != 0.0).then_some(parameters.delay_fraction),
             state: None,
         }
     }
@@ -280,13 +286,13 @@ impl<T: Real, S: Storage> Model<T, S> {
         }
     }
 
-    /// The last outputs of `G`, newest first (`None`: not started, or no
-    /// dynamics).
+    /// The state of `G`: outputs, then inputs, newest first (`None`: not
+    /// started, or no dynamics).
     pub fn dynamics_state(&self) -> Option<Vec<f64>> {
         let g = self.dynamics()?;
-        let mut values = [T::ZERO; crate::realtime::dynamics::MAX_ORDER];
-        g.state_into(&mut values[..g.order()])?;
-        Some(values[..g.order()].iter().map(|v| v.to_f64()).collect())
+        let mut values = vec![T::ZERO; g.state_len()];
+        g.state_into(&mut values)?;
+        Some(values.iter().map(|v| v.to_f64()).collect())
     }
 
     /// The values waiting in the dead time, oldest first (`None`: not

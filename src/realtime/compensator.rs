@@ -176,8 +176,9 @@ pub struct Compensator<T: Real, S: Storage> {
     /// `S` itself (with dynamics only: the plant's output after a clipped
     /// sample goes through it).
     superposition: Option<Superposition<T, S>>,
-    /// `G`, whose inverse runs first.
-    dynamics: Option<Dynamics<T>>,
+    /// `G` advanced by its lag ([`Dynamics::ahead`]), whose inverse runs
+    /// first.
+    pub(crate) dynamics: Option<Dynamics<T>>,
     /// `H[u]` of the last sample (with dynamics: a held sample repeats it).
     last_h: T,
     offset: T,
@@ -232,7 +233,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             // rounded inward: an f32 limit rounded to nearest can lie outside
             lower: T::from_f64_up(settings.lower_limit),
             upper: T::from_f64_down(settings.upper_limit),
-            delay: parameters.delay,
+            delay: parameters.delay + parameters.dynamics.as_ref().map_or(0, |g| g.lag()),
         };
         let mut s = 0.0;
         for i in 0..n {
@@ -256,16 +257,11 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             mine.copy_state_from(theirs)?;
         }
         if let (Some(mine), Some(theirs)) = (&mut c.dynamics, model.dynamics()) {
-            let mut y = [0.0; crate::realtime::dynamics::MAX_ORDER];
-            let y = &mut y[..theirs.order()];
-            let y64 = &mut [0.0; crate::realtime::dynamics::MAX_ORDER][..y.len()];
-            match theirs.state_into(y) {
-                Some(()) => {
-                    for (a, b) in y64.iter_mut().zip(y.iter()) {
-                        *a = b.to_f64();
-                    }
-                    mine.set_state(Some(y64))?;
-                }
+            let mut state =
+                [0.0; crate::realtime::dynamics::MAX_ORDER + crate::realtime::dynamics::INPUTS];
+            let state = &mut state[..theirs.state_len()];
+            match theirs.state_into(state) {
+                Some(()) => c_set_ahead(mine, Some(state))?,
                 None => mine.reset(),
             }
         }
@@ -323,9 +319,9 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         CompensatorSettings::with_limits(self.lower.to_f64(), self.upper.to_f64())
     }
 
-    /// The model's dead time `d` (samples): the compensator inverts the
-    /// memory part, so the target for sample `k` is the one wanted at
-    /// `k + d` ([`preview`]).
+    /// The preview (samples): the model's dead time `d` and the lag `ρ` of
+    /// its dynamics; the compensator inverts the rest, so the target for
+    /// sample `k` is the one wanted at `k + d + ρ` ([`preview`]).
     pub fn delay(&self) -> usize {
         self.delay
     }
@@ -336,11 +332,12 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         self.dynamics.as_ref()
     }
 
-    /// Set the state of `G` (the last outputs before the offset, newest
-    /// first; `None`: not started) to match a plant's.
+    /// Set the state of `G` to match a plant's whose `G` holds `values`
+    /// (its state as [`Dynamics::state_into`] gives it; `None`: not
+    /// started): the compensator tracks `G` advanced by its lag.
     pub fn set_dynamics_state(&mut self, values: Option<&[f64]>) -> Result<(), ParameterError> {
         match &mut self.dynamics {
-            Some(g) => g.set_state(values),
+            Some(g) => c_set_ahead(g, values),
             None if values.is_none() => Ok(()),
             None => Err(ParameterError::LengthMismatch {
                 field: "dynamics.state",
@@ -460,7 +457,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             } else {
                 y - c
             };
-            self.advance_dynamics(t, h, c, saturated);
+            self.advance_dynamics(t, v, h, c, saturated);
         }
         self.last_u = u;
         if let Some(op) = &mut self.creep {
@@ -481,7 +478,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         let u = self.last_u;
         if self.dynamics.is_some() {
             let c = self.creep.as_ref().map_or(T::ZERO, |op| op.output());
-            self.advance_dynamics(T::ZERO, self.last_h, c, true);
+            self.advance_dynamics(T::ZERO, T::ZERO, self.last_h, c, true);
         }
         if let Some(op) = &mut self.creep {
             op.advance(u);
@@ -493,11 +490,12 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         }
     }
 
-    /// Advance `G` with the plant's output: the target `t` when the
-    /// voltage was applied as computed, else (`off_target`: clipped or held)
-    /// `G[S[h + c]]` with `h` the plays' output.
+    /// Advance `G` with the plant's output: the target `t` (from the input
+    /// `v` asked for) when the voltage was applied as computed, else
+    /// (`off_target`: clipped or held) `G` of `S[h + c]`, `h` the plays'
+    /// output.
     #[inline(always)]
-    fn advance_dynamics(&mut self, t: T, h: T, c: T, off_target: bool) {
+    fn advance_dynamics(&mut self, t: T, v: T, h: T, c: T, off_target: bool) {
         self.last_h = h;
         if let Some(g) = &mut self.dynamics {
             if off_target {
@@ -505,9 +503,9 @@ impl<T: Real, S: Storage> Compensator<T, S> {
                     Some(s) => s.apply(h + c),
                     None => h + c,
                 };
-                g.step(w);
+                g.push_input(w);
             } else {
-                g.push_output(t);
+                g.push_exact(t, v);
             }
         }
     }
@@ -535,4 +533,12 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             c.reset();
         }
     }
+}
+
+/// `g` set to a plant's state `values` advanced by its lag (`None`: not
+/// started).
+fn c_set_ahead<T: Real>(g: &mut Dynamics<T>, values: Option<&[f64]>) -> Result<(), ParameterError> {
+    g.set_state(values)?;
+    *g = g.ahead();
+    Ok(())
 }

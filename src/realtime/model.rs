@@ -162,6 +162,12 @@ impl<T: Real, S: Storage> Model<T, S> {
         self.delay.len()
     }
 
+    /// The samples a compensator's target must lead the output by: the
+    /// dead time and the lag of the dynamics (`d + ρ`).
+    pub fn preview(&self) -> usize {
+        self.delay.len() + self.dynamics.as_ref().map_or(0, |g| g.lag())
+    }
+
     /// The dead time's line: the last `d` values of `S[H + C]`.
     pub fn delay_line(&self) -> &DelayLine<T, S> {
         &self.delay

@@ -186,16 +186,25 @@ impl RoundingBounds<'_> {
         })
     }
 
-    /// The dynamics' `(‖g/A‖₁, ‖1/A‖₁, Σ|c_j|, g, order)`; `(1, 1, 0, 1,
-    /// 0)` without dynamics.
-    fn dynamics(&self) -> (f64, f64, f64, f64, f64) {
+    /// The dynamics' `(‖G‖₁, ‖1/A‖₁, Σ|c_j|, g, order, ‖1/N‖₁)`;
+    /// `(1, 1, 0, 1, 0, 1)` without dynamics. `N = b₀ + b₁z⁻¹` with
+    /// `|b₁| < |b₀|`: `‖1/N‖₁ = 1/(|b₀| − |b₁|)`.
+    fn dynamics(&self) -> (f64, f64, f64, f64, f64, f64) {
         let ts = self.parameters.sample_time;
         match &self.parameters.dynamics {
-            None => (1.0, 1.0, 0.0, 1.0, 0.0),
+            None => (1.0, 1.0, 0.0, 1.0, 0.0, 1.0),
             Some(d) => {
                 let (g1, a1) = l1_gains(d, ts);
-                let (c, order, g) = d.coefficients(ts);
-                (g1, a1, abs_sum(&c[..order]), g, order as f64)
+                let k = d.coefficients(ts);
+                let n_inv = 1.0 / (k.b[0].abs() - k.b[1].abs());
+                (
+                    g1,
+                    a1,
+                    abs_sum(&k.c[..k.order]),
+                    k.gain,
+                    k.order as f64,
+                    n_inv,
+                )
             }
         }
     }
@@ -208,20 +217,30 @@ impl RoundingBounds<'_> {
         if self.parameters.dynamics.is_none() {
             return 0.0;
         }
-        let (g1, a1, c_abs, g, order) = self.dynamics();
-        4.0 * (order + 3.0) * self.eps * (g + c_abs * g1) * w_max * a1
+        let (g1, a1, c_abs, g, order, _) = self.dynamics();
+        // |b₀| + |b₁| ≤ 2 on the input's side
+        4.0 * (order + 5.0) * self.eps * (2.0 * g + c_abs * g1) * w_max * a1
     }
 
     /// `|G⁻¹[y − offset]|` and `|S⁻¹[·]|` of it for `|y| ≤ y_max`, and the
     /// rounding of forming it (`y_max + |offset|` without `G` and `S`).
     fn inner_target(&self, y_max: f64) -> (f64, f64) {
+        self.inner_target_reachable(y_max, f64::INFINITY)
+    }
+
+    /// [`Self::inner_target`] for targets a voltage reaches, whose value
+    /// before `G` is at most `w_reach` in magnitude: `G⁻¹` of an arbitrary
+    /// signal can be `(1 + Σ|c_j|)/g · ‖1/N‖₁` times larger, but its
+    /// rounding is that of the terms summed, whatever their sum:
+    /// `(order + 3) ε (1 + Σ|c_j|) |y| / g`, carried through `1/N`.
+    fn inner_target_reachable(&self, y_max: f64, w_reach: f64) -> (f64, f64) {
         let y = y_max + self.parameters.offset.abs();
-        let (_, _, c_abs, g, order) = self.dynamics();
+        let (_, _, c_abs, g, order, n_inv) = self.dynamics();
         let (v, v_error) = match &self.parameters.dynamics {
             None => (y, 0.0),
             Some(_) => {
-                let v = (1.0 + c_abs) * y / g;
-                (v, 4.0 * (order + 3.0) * self.eps * v)
+                let terms = (1.0 + c_abs) * y / g * n_inv;
+                (terms.min(w_reach), (order + 3.0) * self.eps * terms * n_inv)
             }
         };
         match &self.parameters.superposition {
@@ -284,14 +303,29 @@ impl RoundingBounds<'_> {
             .creep
             .as_ref()
             .map_or(0.0, |c| abs_sum(c.weights) * self.state_bound(v_max));
-        let (target, target_error) = self.inner_target(y_max);
+        let (_, s_max) = self.superposition_slopes();
+        // the targets are reached: before G they are the plant's S[H + C]
+        let w_reach = s_max * self.inner_max(v_max) + self.superposition_offset();
+        let (target, target_error) = self.inner_target_reachable(y_max, w_reach);
         let z = target + creep_out;
         let inner = self.inverse(v_max, z) + 4.0 * self.eps * z + target_error;
-        let (_, s_max) = self.superposition_slopes();
         let z_max = self.inner_max(v_max).max(z);
         let g1 = self.dynamics().0;
         let w_max = s_max * z_max + self.superposition_offset();
-        g1 * (s_max * inner + self.superposition_sum(z_max)) + self.dynamics_sum(w_max)
+        g1 * (s_max * inner + self.superposition_sum(z_max))
+            + self.dynamics_tracking(w_max, y_max + p.offset.abs())
+    }
+
+    /// The plant's `G` against the compensator's copy of it, which holds
+    /// the targets: the plant's rounding per step,
+    /// `(order + 3) ε (|b₀| + |b₁|) g |w| + (order + 3) ε Σ|c_j| |y|` with
+    /// `|y|` the outputs (the targets), carried on by `‖1/A‖₁`.
+    fn dynamics_tracking(&self, w_max: f64, y_max: f64) -> f64 {
+        if self.parameters.dynamics.is_none() {
+            return 0.0;
+        }
+        let (_, a1, c_abs, g, order, _) = self.dynamics();
+        (order + 3.0) * self.eps * (2.0 * g * w_max + c_abs * y_max) * a1
     }
 
     /// The compensator `W⁻¹` against `W` (either order) or against another

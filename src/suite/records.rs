@@ -142,6 +142,7 @@ impl Actuator {
         let g = DynamicsParameters {
             low_pass: settings.sensor_low_pass,
             resonance: settings.resonance,
+            delay_fraction: 0.0,
         };
         let dynamics = (!g.is_identity())
             .then(|| Dynamics::new(&g, settings.sample_time).expect("valid dynamics"));

@@ -279,14 +279,24 @@ impl NaiveSection {
     }
 }
 
-/// The linear dynamics `G`, textbook form: the low-pass section
-/// `(1 − p)/(1 − p z⁻¹)`, then the resonance section
-/// `(1 + a₁ + a₂)/(1 + a₁ z⁻¹ + a₂ z⁻²)`, each with its poles at `e^{sT_s}`
-/// of the continuous one (computed here from `exp`, `cos` and `sqrt`, apart
+/// The linear dynamics `G`, textbook form, as a chain: the interpolation
+/// `N = (1 − τ) + τ z⁻¹` on the input, the low-pass section
+/// `(1 − p)/(1 − p z⁻¹)`, the resonance section
+/// `(1 + a₁ + a₂)/(1 + a₁ z⁻¹ + a₂ z⁻²)` and, with a resonance, one sample
+/// of delay (its impulse response starts at 0); each pole at `e^{sT_s}` of
+/// the continuous one (computed here from `exp`, `cos` and `sqrt`, apart
 /// from the fast code's product polynomial).
 #[derive(Debug, Clone, PartialEq)]
 pub struct NaiveDynamics {
+    /// `τ`.
+    pub fraction: f64,
+    /// The last input (`None` before the first sample).
+    pub last_input: Option<f64>,
+    /// The one before it.
+    pub previous_input: Option<f64>,
     pub sections: Vec<NaiveSection>,
+    /// With a resonance, the value of the chain waiting one sample.
+    pub lag: Option<Option<f64>>,
 }
 
 impl NaiveDynamics {
@@ -310,18 +320,34 @@ impl NaiveDynamics {
                 y: VecDeque::new(),
             });
         }
-        let mut d = Self { sections };
+        let mut d = Self {
+            fraction: g.delay_fraction.unwrap_or(0.0),
+            last_input: None,
+            previous_input: None,
+            sections,
+            lag: g.resonance.is_some().then_some(None),
+        };
         if let Some(state) = &g.state {
             d.set_state(state);
         }
         Some(d)
     }
 
-    /// The file's state (the last outputs of the whole `G`, newest first):
-    /// the last section's outputs, and the earlier section's from them
-    /// through the last section's inverse.
-    fn set_state(&mut self, y: &[f64]) {
+    /// The file's state (outputs of the whole `G`, then its last two
+    /// inputs, newest first): the sections' states from it. With a
+    /// resonance the outputs are the resonance's; the low-pass's last output
+    /// follows through the resonance's inverse, and the value waiting in the
+    /// lag is `N` of the last two inputs.
+    fn set_state(&mut self, state: &[f64]) {
+        let order: usize = self.sections.iter().map(|s| s.a.len()).sum();
+        let (y, w) = (&state[..order], &state[order..]);
+        self.last_input = Some(w[0]);
+        self.previous_input = Some(w[1]);
+        let x = (1.0 - self.fraction) * w[0] + self.fraction * w[1];
         let n = self.sections.len();
+        if n == 0 {
+            return;
+        }
         let last = &mut self.sections[n - 1];
         last.y = y[..last.a.len()].iter().copied().collect();
         if n == 2 {
@@ -329,28 +355,52 @@ impl NaiveDynamics {
             let x1 = (y[0] + res.a[0] * y[1] + res.a[1] * y[2]) / res.gain();
             self.sections[0].y = VecDeque::from([x1]);
         }
+        if let Some(lag) = &mut self.lag {
+            *lag = Some(x);
+        }
     }
 
-    /// The state as the file holds it (the last outputs of the whole `G`,
-    /// newest first; empty before the first sample): with both sections,
-    /// the third from the low-pass's last output through the resonance's
-    /// recursion.
+    /// The state as the file holds it (empty before the first sample): the
+    /// last outputs of the whole `G` (with both sections, the third from
+    /// the low-pass's last output through the resonance's recursion), then
+    /// the last two inputs (the one before the last from the value waiting
+    /// in the lag, `N` solved for it; the last one again when `τ = 0`).
     pub fn state(&self) -> Vec<f64> {
-        let last = &self.sections[self.sections.len() - 1];
-        let mut y: Vec<f64> = last.y.iter().copied().collect();
-        if self.sections.len() == 2 && !y.is_empty() {
+        let Some(w0) = self.last_input else {
+            return Vec::new();
+        };
+        let mut y: Vec<f64> = match self.sections.last() {
+            Some(last) => last.y.iter().copied().collect(),
+            None => Vec::new(),
+        };
+        if self.sections.len() == 2 {
             let (res, x1) = (&self.sections[1], self.sections[0].y[0]);
             y.push((res.gain() * x1 - y[0] - res.a[0] * y[1]) / res.a[1]);
         }
+        let w1 = match (self.lag, self.fraction) {
+            (Some(Some(x)), t) if t != 0.0 => (x - (1.0 - t) * w0) / t,
+            _ => self.previous_input.unwrap_or(w0),
+        };
+        y.push(w0);
+        y.push(w1);
         y
     }
 
     pub fn step(&mut self, w: f64) -> f64 {
-        self.sections.iter_mut().fold(w, |x, s| s.step(x))
+        let previous = self.last_input.unwrap_or(w);
+        self.previous_input = Some(previous);
+        self.last_input = Some(w);
+        let x = (1.0 - self.fraction) * w + self.fraction * previous;
+        let x = match &mut self.lag {
+            Some(waiting) => waiting.replace(x).unwrap_or(x),
+            None => x,
+        };
+        self.sections.iter_mut().fold(x, |x, s| s.step(x))
     }
 
-    /// The input of `G` that gives the output `y` next, and the output of
-    /// every section on the way (for [`NaiveDynamics::push_outputs`]).
+    /// The input of `G` that gives the output `ρ` samples later `y` (the
+    /// output of the chain before the lag), and each section's output on
+    /// the way (for [`NaiveDynamics::push_exact`]).
     pub fn input_for(&self, y: f64) -> (f64, Vec<f64>) {
         let mut outputs = vec![0.0; self.sections.len()];
         let mut x = y;
@@ -358,16 +408,50 @@ impl NaiveDynamics {
             outputs[i] = x;
             x = s.input_for(x);
         }
-        (x, outputs)
+        // N's inverse: w = (x − τ w_prev) / (1 − τ)
+        let w = match self.last_input {
+            Some(previous) => (x - self.fraction * previous) / (1.0 - self.fraction),
+            None => x,
+        };
+        (w, outputs)
     }
 
-    pub fn push_outputs(&mut self, outputs: &[f64]) {
+    /// Advance, ahead by the lag, with the outputs [`NaiveDynamics::input_for`]
+    /// gave and its input `w`.
+    pub fn push_exact(&mut self, w: f64, outputs: &[f64]) {
+        self.previous_input = Some(self.last_input.unwrap_or(w));
+        self.last_input = Some(w);
         for (s, &y) in self.sections.iter_mut().zip(outputs) {
             s.push(y);
         }
     }
 
+    /// Advance, ahead by the lag, with an input `w` applied instead.
+    pub fn push_input(&mut self, w: f64) {
+        let previous = self.last_input.unwrap_or(w);
+        self.previous_input = Some(previous);
+        self.last_input = Some(w);
+        let x = (1.0 - self.fraction) * w + self.fraction * previous;
+        self.sections.iter_mut().fold(x, |x, s| s.step(x));
+    }
+
+    /// The same `G` advanced by its lag: what a compensator tracks (the
+    /// value waiting in the lag goes through the sections).
+    pub fn ahead(&self) -> Self {
+        let mut g = self.clone();
+        if let Some(Some(x)) = g.lag {
+            g.sections.iter_mut().fold(x, |x, s| s.step(x));
+        }
+        g.lag = None;
+        g
+    }
+
     pub fn reset(&mut self) {
+        self.last_input = None;
+        self.previous_input = None;
+        if let Some(lag) = &mut self.lag {
+            *lag = None;
+        }
         for s in &mut self.sections {
             s.y.clear();
         }
@@ -516,9 +600,10 @@ impl NaiveCompensator {
             forward,
             creep,
             superposition: naive_superposition(file),
-            dynamics: NaiveDynamics::of(file),
+            // what the target leads by, the compensator's G leads by
+            dynamics: NaiveDynamics::of(file).map(|g| g.ahead()),
             offset: file.offset.unwrap_or(0.0),
-            delay: file.delay.unwrap_or(0),
+            delay: file.delay.unwrap_or(0) + lag_of(file),
             last_request: 0.0,
         })
     }
@@ -557,7 +642,7 @@ impl ActuatorCompensator for NaiveCompensator {
             self.inverse = self.forward.inverse();
             self.advance_dynamics(h + c);
         } else if let Some(g) = &mut self.dynamics {
-            g.push_outputs(&g_outputs);
+            g.push_exact(g_in, &g_outputs);
         }
         if let Some(cr) = &mut self.creep {
             cr.advance(u);
@@ -596,9 +681,16 @@ impl NaiveCompensator {
                 Some(s) => s.evaluate(z),
                 None => z,
             };
-            g.step(w);
+            g.push_input(w);
         }
     }
+}
+
+/// The lag of a model file's dynamics (1 with a resonance).
+fn lag_of(file: &ModelFile) -> usize {
+    file.dynamics
+        .as_ref()
+        .map_or(0, |g| usize::from(g.resonance.is_some()))
 }
 
 /// The forward map a bisection searches: `v ↦ S[H_state(v) + C_k]`, or
@@ -628,6 +720,8 @@ pub struct BisectionCompensator {
     settings: CompensatorSettings,
     model: NaiveModel,
     initial: NaiveModel,
+    /// The model's `G` advanced by its lag (the target leads by it).
+    ahead: Option<NaiveDynamics>,
     /// Bisection steps per sample (64 reach the last bit of a double).
     pub iterations: u32,
 }
@@ -640,6 +734,7 @@ impl BisectionCompensator {
         Ok(Self {
             settings,
             initial: model.clone(),
+            ahead: model.dynamics.as_ref().map(NaiveDynamics::ahead),
             model,
             iterations: 64,
         })
@@ -650,6 +745,7 @@ impl ActuatorCompensator for BisectionCompensator {
     fn compensate(&mut self, target: f64) -> Compensated {
         if !target.is_finite() {
             let u = self.model.hysteresis.x[0];
+            self.advance_ahead(u);
             self.model.step(u);
             return Compensated {
                 u,
@@ -661,8 +757,8 @@ impl ActuatorCompensator for BisectionCompensator {
         let h = &self.model.hysteresis;
         // S[H(v) + C_k] = ς_k − offset; without S, H(v) = ς_k − offset − C_k
         let s = self.model.superposition.as_ref();
-        // G's input that gives the target next
-        let t = match &self.model.dynamics {
+        // G's input that gives the target (ρ samples later)
+        let t = match &self.ahead {
             Some(g) => g.input_for(target - self.model.offset).0,
             None => target - self.model.offset,
         };
@@ -715,6 +811,7 @@ impl ActuatorCompensator for BisectionCompensator {
                 (hi, false)
             }
         };
+        self.advance_ahead(u);
         self.model.step(u);
         Compensated {
             u,
@@ -724,11 +821,34 @@ impl ActuatorCompensator for BisectionCompensator {
     }
 
     fn delay(&self) -> usize {
-        self.model.delay
+        let lag = self
+            .model
+            .dynamics
+            .as_ref()
+            .map_or(0, |g| usize::from(g.lag.is_some()));
+        self.model.delay + lag
     }
 
     fn reset(&mut self) {
         self.model = self.initial.clone();
         self.model.reset();
+        if let Some(g) = &mut self.ahead {
+            g.reset();
+        }
+    }
+}
+
+impl BisectionCompensator {
+    /// The lag-ahead `G` advanced with what the plant makes of `u` (before
+    /// the model steps: its creep output is this sample's).
+    fn advance_ahead(&mut self, u: f64) {
+        let Some(g) = &mut self.ahead else { return };
+        let c = self.model.creep.as_ref().map_or(0.0, NaiveCreep::output);
+        let z = self.model.hysteresis.evaluate(u) + c;
+        let w = match &self.model.superposition {
+            Some(s) => s.evaluate(z),
+            None => z,
+        };
+        g.push_input(w);
     }
 }

@@ -150,12 +150,15 @@ pub fn case_model(
 /// Random dynamics: a low-pass, a resonance or both, their frequencies
 /// log-uniform in `[0.05, 0.4]` of the sample rate, the damping
 /// log-uniform in `[0.02, 0.7]` (lighter damping is allowed, but its
-/// rounding bounds grow as `1/ζ²`, too loose to test anything in `f32`).
+/// rounding bounds grow as `1/ζ²`, too loose to test anything in `f32`),
+/// and with probability 1/2 a delay fraction uniform in `(−0.45, 0.45)`.
 pub fn random_dynamics(rng: &mut Rng, sample_time: f64) -> DynamicsData {
     let fs = 1.0 / sample_time;
     let frequency = |rng: &mut Rng| fs * 10f64.powf(rng.uniform(0.05f64.log10(), 0.4f64.log10()));
     let which = rng.int(0, 2);
+    let fraction = rng.chance(0.5).then(|| rng.uniform(-0.45, 0.45));
     DynamicsData {
+        delay_fraction: fraction,
         low_pass: (which != 1).then(|| LowPassData {
             frequency: frequency(rng),
         }),
@@ -204,7 +207,8 @@ pub fn with_every_part(
 /// The model's dead time `d` (samples): the identity through a compensator
 /// holds from sample `d` on.
 pub fn delay_of(file: &ModelFile) -> usize {
-    file.delay.unwrap_or(0)
+    let lag = file.dynamics.as_ref().map_or(0, |g| g.parameters().lag());
+    file.delay.unwrap_or(0) + lag
 }
 
 /// A random admissible superposition operator for `H + C` of reach about
