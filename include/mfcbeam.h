@@ -59,22 +59,22 @@
 /**
  * Words of `MfcbeamCompensatorStorageF32`.
  */
-#define MFCBEAM_COMPENSATOR_F32_WORDS 600
+#define MFCBEAM_COMPENSATOR_F32_WORDS 580
 
 /**
  * Words of `MfcbeamCompensatorStorageF64`.
  */
-#define MFCBEAM_COMPENSATOR_F64_WORDS 1140
+#define MFCBEAM_COMPENSATOR_F64_WORDS 1121
 
 /**
  * Words of `MfcbeamModelStorageF32`.
  */
-#define MFCBEAM_MODEL_F32_WORDS 530
+#define MFCBEAM_MODEL_F32_WORDS 523
 
 /**
  * Words of `MfcbeamModelStorageF64`.
  */
-#define MFCBEAM_MODEL_F64_WORDS 1020
+#define MFCBEAM_MODEL_F64_WORDS 1014
 
 #if defined(MFCBEAM_STD)
 /**

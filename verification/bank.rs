@@ -222,6 +222,28 @@ fn bad_banks_and_slices_are_refused_with_the_field_named() {
         CompensatorBank::<f64>::uniform(&p[0], 4, CompensatorSettings::with_limits(1.0, -1.0)),
         Err(ParameterError::InvalidLimits { .. })
     ));
+    // a channel with dynamics: refused by name, not run without them
+    let mut dynamic = files[1].clone();
+    dynamic.dynamics = Some(mfcbeam::operators::model::DynamicsData {
+        low_pass: Some(mfcbeam::operators::model::LowPassData { frequency: 100.0 }),
+        resonance: None,
+        delay_fraction: None,
+        state: None,
+    });
+    let e = CompensatorBank::<f64>::new(
+        &[p[0], dynamic.parameters()],
+        CompensatorSettings::with_limits(-1.0, 1.0),
+    )
+    .unwrap_err();
+    assert!(matches!(
+        e,
+        ParameterError::NotSupported {
+            field: "dynamics",
+            channel: 1,
+            ..
+        }
+    ));
+    assert!(e.to_string().starts_with("models[1].dynamics:"), "{e}");
     // a channel of another order
     let mut other = files[1].clone();
     other

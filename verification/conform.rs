@@ -47,6 +47,10 @@ impl Drop for TempDir {
 }
 
 fn conform(kind: &str, exec: &str, cases: usize, out: &Path) -> Output {
+    conform_with(kind, exec, cases, out, &[])
+}
+
+fn conform_with(kind: &str, exec: &str, cases: usize, out: &Path, extra: &[&str]) -> Output {
     Command::new(BIN)
         .args([
             "conform",
@@ -59,13 +63,18 @@ fn conform(kind: &str, exec: &str, cases: usize, out: &Path) -> Output {
             "--out",
             out.to_str().unwrap(),
         ])
+        .args(extra)
         .output()
         .unwrap()
 }
 
 fn passes(kind: &str, exec: &str, cases: usize) {
-    let d = TempDir::new(&format!("pass-{kind}-{}", exec.len()));
-    let out = conform(kind, exec, cases, &d.0);
+    passes_with(kind, exec, cases, &[]);
+}
+
+fn passes_with(kind: &str, exec: &str, cases: usize, extra: &[&str]) {
+    let d = TempDir::new(&format!("pass-{kind}-{}-{}", exec.len(), extra.len()));
+    let out = conform_with(kind, exec, cases, &d.0, extra);
     let text = String::from_utf8_lossy(&out.stdout);
     eprintln!(
         "{exec} ({kind}):\n{text}{}",
@@ -79,6 +88,19 @@ fn passes(kind: &str, exec: &str, cases: usize) {
 fn mfcbeam_itself_conforms_as_model_and_compensator() {
     passes("model", &format!("{BIN} simulate"), 60);
     passes("compensator", &format!("{BIN} compensate"), 40);
+    // and with dynamics in the model files (the file contract's `dynamics`)
+    passes_with(
+        "model",
+        &format!("{BIN} simulate"),
+        40,
+        &["--with-dynamics"],
+    );
+    passes_with(
+        "compensator",
+        &format!("{BIN} compensate"),
+        30,
+        &["--with-dynamics"],
+    );
 }
 
 // The two Python-candidate checks below start the Python interpreter some

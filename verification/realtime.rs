@@ -5,8 +5,8 @@
 
 use mfcbeam::prelude::*;
 use mfcbeam::realtime::{
-    nominal, Compensator, CompensatorSettings, CreepParameters, HysteresisParameters, Inline,
-    Model, ModelParameters, ParameterError, RoundingBounds,
+    nominal, Compensator, CompensatorSettings, CreepParameters, Dynamics, HysteresisParameters,
+    Inline, Model, ModelParameters, ParameterError, RoundingBounds, Superposition,
 };
 use mfcbeam::suite::conformance::{inline_compensator, inline_model};
 use mfcbeam::suite::scenarios::{run, scenario, ScenarioContext, ScenarioTrace};
@@ -108,10 +108,23 @@ fn paper_sized_storage_and_its_footprint() {
     // sample time, offset, limits, the last voltage, creep output and last
     // input, and the creep's presence; `S⁻¹` with capacity 0 (the paper's
     // model has none) is two lengths, its zero index and its presence; the
-    // model's dead time is one count (the compensator has no delay line).
+    // model's dead time is one count (the compensator has no delay line);
+    // the room for linear dynamics G (absent here) and, for them, `S`
+    // itself and the plays' last output.
+    let extra = |size: usize| {
+        if size == 4 {
+            std::mem::size_of::<Option<Dynamics<f32>>>()
+                + std::mem::size_of::<Option<Superposition<f32, nominal::Capacity>>>()
+                + 4
+        } else {
+            std::mem::size_of::<Option<Dynamics<f64>>>()
+                + std::mem::size_of::<Option<Superposition<f64, nominal::Capacity>>>()
+                + 8
+        }
+    };
     for (bytes, size) in [(f32_bytes, 4), (f64_bytes, 8)] {
         let arrays = (7 * 12 + 6 * 60) * size;
-        let lengths = (13 + 5) * std::mem::size_of::<usize>();
+        let lengths = (13 + 5) * std::mem::size_of::<usize>() + extra(size);
         eprintln!("Compensator<_, nominal::Capacity>: {bytes} bytes with {size}-byte numbers ({arrays} in arrays)");
         assert!(
             bytes >= arrays + lengths && bytes <= arrays + lengths + 8 * 8,

@@ -100,7 +100,7 @@ int main(void) {
 
     const double r[2] = {0.0, 100.0}, w[2] = {0.5, 0.25};
     const double rc[1] = {0.0}, wc[1] = {0.05}, a[2] = {50.0, 0.5};
-    MfcbeamParameters p = {0.0002, r, w, 2, rc, wc, 1, a, 2, 0.0, NULL, NULL, 0, 0};
+    MfcbeamParameters p = {0.0002, r, w, 2, rc, wc, 1, a, 2, 0.0, NULL, NULL, 0, 0, 0.0, 0.0, 0.0, 0.0};
     static MfcbeamCompensatorStorageF32 comp;
     static MfcbeamModelStorageF32 plant;
     err[0] = 0;
@@ -173,6 +173,32 @@ int main(void) {
           "a dead time beyond the capacity", err);
     check(mfcbeam_compensator_f64_delay(NULL) == 0, "the delay of NULL storage", NULL);
 
+    /* linear dynamics: a resonance adds one sample to the preview; a damping
+       of 1 is refused by name */
+    MfcbeamParameters resonant = p;
+    resonant.resonance_frequency = 740.0;
+    resonant.resonance_damping = 0.014;
+    resonant.delay_fraction = 0.25;
+    err[0] = 0;
+    check(mfcbeam_compensator_f64_init(&comp_d, &resonant, -500.0, 500.0, err, sizeof err) == 0 &&
+              mfcbeam_compensator_f64_delay(&comp_d) == 1,
+          "a resonance's lag in the preview", err);
+    err[0] = 0;
+    check(mfcbeam_model_f64_init(&plant_d, &resonant, err, sizeof err) == 0, "model init with dynamics", err);
+    worst = 0.0;
+    for (int k = 0; k < 2000; k++) {
+        double ahead = 60.0 * sin((k + 1) * 0.01), y = 60.0 * sin(k * 0.01);
+        double out = mfcbeam_model_f64_step(&plant_d, mfcbeam_compensate_f64(&comp_d, ahead, &flags));
+        if (k >= 1 && fabs(out - y) > worst) worst = fabs(out - y);
+    }
+    snprintf(line, sizeof line, "max |W[W^-1[y]] - y| through G from sample 1 = %.3g V", worst);
+    check(worst < 1e-9, "f64 identity through a resonance and a delay fraction", line);
+    resonant.resonance_damping = 1.0;
+    err[0] = 0;
+    check(mfcbeam_compensator_f64_init(&comp_d, &resonant, -500.0, 500.0, err, sizeof err) == -1 &&
+              strstr(err, "dynamics.resonance.damping"),
+          "a damping out of range", err);
+
     MfcbeamParameters bad = p;
     bad.hysteresis_weights = NULL;
     err[0] = 0;
@@ -186,7 +212,8 @@ int main(void) {
     check(mfcbeam_compensator_f32_init(NULL, &p, -500.0, 500.0, err, sizeof err) == -1, "NULL storage", err);
     double many[MFCBEAM_MAX_PLAYS + 1], ones[MFCBEAM_MAX_PLAYS + 1];
     for (int i = 0; i <= MFCBEAM_MAX_PLAYS; i++) many[i] = i, ones[i] = 1.0;
-    MfcbeamParameters big = {0.0002, many, ones, MFCBEAM_MAX_PLAYS + 1, NULL, NULL, 0, NULL, 0, 0.0, NULL, NULL, 0, 0};
+    MfcbeamParameters big = {0.0002, many, ones, MFCBEAM_MAX_PLAYS + 1, NULL, NULL, 0, NULL, 0, 0.0, NULL, NULL, 0, 0,
+                             0.0, 0.0, 0.0, 0.0};
     static MfcbeamCompensatorStorageF64 comp64;
     err[0] = 0;
     check(mfcbeam_compensator_f64_init(&comp64, &big, -1.0, 1.0, err, sizeof err) == -1 && strstr(err, "capacity"),

@@ -51,8 +51,8 @@ const _: () = assert!(mfcbeam::identification::DEFAULT_MAX_DELAY == 10);
 /// together, each from the virgin state and from its own `fit_from`;
 /// `offset="per-record"` gives each its own output offset (the model keeps
 /// the first record's; report["records"] lists every record's fit and
-/// offset). `dynamics="low-pass"`, `"resonance"` or `"low-pass,resonance"`
-/// fits linear dynamics after the hysteresis with the weights
+/// offset). `dynamics=` any of "low-pass", "resonance", "delay-fraction",
+/// comma-separated, fits linear dynamics after the hysteresis with the weights
 /// (report["dynamics"]: the parameters and their standard errors); a part
 /// the records do not determine raises ValueError. `validate_zero=(a, b)`
 /// estimates each validation record's constant offset on its samples
@@ -332,6 +332,7 @@ pub fn identify<'py>(
                 "resonance_damping",
                 g.parameters.resonance.map(|r| r.damping),
             )?;
+            e.set_item("delay_fraction", g.parameters.delay_fraction)?;
             e.set_item("standard_errors", g.standard_errors.to_vec())?;
             e.set_item("rms_static", g.rms_static)?;
             e.set_item("rms", g.rms)?;

@@ -357,6 +357,11 @@ pub struct ConformArgs {
     /// Longest a single run of the candidate may take (s) before it is killed.
     #[arg(long, default_value_t = 20.0, allow_hyphen_values = true)]
     pub timeout: f64,
+    /// Draw models with linear dynamics after S too (a low-pass, a
+    /// resonance, a delay fraction: the model file's `dynamics`); off, the
+    /// cases are those a candidate written before them reads.
+    #[arg(long)]
+    pub with_dynamics: bool,
 }
 
 /// What an FMU contains.

@@ -57,6 +57,7 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
         shrink_budget: EXTERNAL_SHRINK_BUDGET,
         // a kind's model files hold only what the kind implements
         hysteresis_only: hysteresis_kind,
+        dynamics: a.with_dynamics,
         fixed_model: fixed_model.clone(),
         ..ConformanceSettings::default()
     };

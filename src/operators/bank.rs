@@ -167,6 +167,14 @@ impl<T: Real> CompensatorBank<T> {
             .map_or((0, 0), |c| (c.thresholds.len(), c.eigenvalues.len()));
         for (channel, model) in models.iter().enumerate() {
             model.validate()?;
+            if model.dynamics.is_some() {
+                // its lanes have no state for G yet: refused, not ignored
+                return Err(ParameterError::NotSupported {
+                    field: "dynamics",
+                    by: "a compensator bank",
+                    channel,
+                });
+            }
             let (mc, mm) = model
                 .creep
                 .as_ref()
