@@ -539,6 +539,18 @@ pub struct RecordsArgs {
     /// Draw the loops of every record in one figure (`.png` or `.svg`).
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
+    /// After the hold: `cycles` (raised cosines of rising amplitude at each
+    /// rate) or `tracking` (2 s of random levels at each rate through a
+    /// lag, the voltage jagged with steps every 5 ms).
+    #[arg(long, value_name = "cycles|tracking", default_value = "cycles")]
+    pub drive: DriveArg,
+}
+
+/// `records --drive`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum DriveArg {
+    Cycles,
+    Tracking,
 }
 
 #[derive(Debug, Args)]

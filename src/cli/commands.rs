@@ -321,6 +321,11 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
     }
     if let Some(g) = &id.report.dynamics {
         eprint!("{}", DynamicsLine(g));
+        eprintln!(
+            "dynamics: dead time    {} samples with them (and {} of the resonance's lag)",
+            id.report.delay,
+            g.parameters.lag()
+        );
     }
     if several || !rows.is_empty() {
         // the fitted records first, then one row per validation record
@@ -736,8 +741,12 @@ fn signal(a: &SignalArgs) -> Result<()> {
 }
 
 fn records(a: &RecordsArgs) -> Result<()> {
-    use mfcbeam::suite::records::{generate, RecordSettings};
+    use mfcbeam::suite::records::{generate, Drive, RecordSettings};
     let settings = RecordSettings {
+        drive: match a.drive {
+            DriveArg::Cycles => Drive::Cycles,
+            DriveArg::Tracking => Drive::Tracking,
+        },
         rates: a.rates.clone(),
         rate_gain: a.rate_gain,
         noise: a.noise,

@@ -421,11 +421,22 @@ pub fn fit_dynamics(
     let dof = (r.len().saturating_sub(id.report.unknowns + k)).max(1) as f64;
     let sigma2 = sum_squares(&r) / dof;
     let mut se = [None; 4];
-    let mut covariance = Vec::with_capacity(k);
-    for i in 0..k {
-        let mut unit = vec![0.0; k];
-        unit[i] = 1.0;
-        covariance.push(solve_small(jtj.clone(), unit).map(|c| c[i]));
+    // a delay fraction pinned at its bound says the whole samples are off
+    // by one (the next dead time is tried): it is left out of the
+    // covariance, which it would make singular, as a fixed value
+    let pinned = |i: usize| {
+        parts.delay_fraction && i == k - 1 && g.delay_fraction.abs() > 0.98 * MAX_FRACTION
+    };
+    let free: Vec<usize> = (0..k).filter(|&i| !pinned(i)).collect();
+    let reduced: Vec<Vec<f64>> = free
+        .iter()
+        .map(|&i| free.iter().map(|&j| jtj[i][j]).collect())
+        .collect();
+    let mut covariance = vec![None; k];
+    for (a, &i) in free.iter().enumerate() {
+        let mut unit = vec![0.0; free.len()];
+        unit[a] = 1.0;
+        covariance[i] = solve_small(reduced.clone(), unit).map(|c| c[a]);
     }
     let scale = |i: usize, derivative: f64| {
         covariance[i].map(|c| (sigma2 * c).max(0.0).sqrt() * derivative)
@@ -462,7 +473,11 @@ pub fn fit_dynamics(
     for (j, name) in names.iter().enumerate() {
         let Some(value) = values[j] else { continue };
         let flat = jtj[column][column] <= 1e-14 * diag_max || diag_max == 0.0;
+        let at_bound = pinned(column);
         column += 1;
+        if at_bound {
+            continue;
+        }
         // a frequency or damping to half its value; a fraction of a
         // sample to a quarter of a sample
         let allowed = if j == 3 { 0.25 } else { 0.5 * value };
@@ -490,9 +505,10 @@ pub fn fit_dynamics(
     Ok(id)
 }
 
-/// [`fit_dynamics`] at the dead time `settings.delay` and one sample less
+/// [`fit_dynamics`] at the dead time `settings.delay`, one sample less
 /// (two with a resonance: `G` adds a lag of its own, which whole samples of
-/// dead time may have stood for), keeping the best: on the validation records' pooled rms
+/// dead time may have stood for) and, with a delay fraction, one more,
+/// keeping the best: on the validation records' pooled rms
 /// (zeroed where they say) when there are any, else on the fitted records'
 /// output error.
 pub fn fit_dynamics_and_delay(
@@ -505,9 +521,11 @@ pub fn fit_dynamics_and_delay(
     let d0 = settings.delay;
     let mut best: Option<(f64, Identification)> = None;
     let mut last_error = None;
-    // a resonance brings one sample of lag of its own
+    // a resonance brings one sample of lag of its own; a delay fraction
+    // may call for one sample more
     let fewer = 1 + usize::from(parts.resonance);
-    for d in (d0.saturating_sub(fewer)..=d0).rev() {
+    let more = usize::from(parts.delay_fraction);
+    for d in (d0.saturating_sub(fewer)..=d0 + more).rev() {
         let s = IdentificationSettings {
             delay: d,
             ..settings.clone()

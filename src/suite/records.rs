@@ -47,6 +47,21 @@ pub struct RecordSettings {
     /// Seconds of random drive before each record, default 0.5.
     pub history: f64,
     pub seed: u64,
+    /// The drive after the hold: raised cosines (default) or a tracking
+    /// run.
+    pub drive: Drive,
+}
+
+/// What follows the hold of a record.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Drive {
+    /// `cycles` raised cosines of rising amplitude at the record's rate.
+    #[default]
+    Cycles,
+    /// 2 s of a tracking task: random levels every `1/rate` s followed by a
+    /// first-order lag, the voltage jagged with steps of ±A/6 every 5 ms
+    /// (what a digital controller's output looks like).
+    Tracking,
 }
 
 impl Default for RecordSettings {
@@ -67,6 +82,7 @@ impl Default for RecordSettings {
             offset_spread: 5e-3,
             history: 0.5,
             seed: 20_131,
+            drive: Drive::Cycles,
         }
     }
 }
@@ -83,11 +99,38 @@ pub struct SyntheticRecord {
 }
 
 /// The record protocol at `rate`: the hold at `−A`, then `cycles` raised
-/// cosines `−A + A a(t) (1 − cos 2πft)` with `a` rising from 0.1 to 1.
-pub fn protocol(settings: &RecordSettings, rate: f64) -> Vec<f64> {
+/// cosines `−A + A a(t) (1 − cos 2πft)` with `a` rising from 0.1 to 1, or a
+/// tracking run ([`Drive::Tracking`], its levels drawn from `rng`).
+pub fn protocol(settings: &RecordSettings, rate: f64, rng: &mut Rng) -> Vec<f64> {
     let ts = settings.sample_time;
     let a = settings.amplitude;
     let hold = (settings.hold / ts).round() as usize;
+    if settings.drive == Drive::Tracking {
+        let run = (2.0 / ts).round() as usize;
+        let (every, jag) = (
+            ((1.0 / rate) / ts).round().max(1.0) as usize,
+            (0.005 / ts).round().max(1.0) as usize,
+        );
+        let (mut level, mut v) = (-a, -a);
+        let lag = 1.0 - (-ts * std::f64::consts::TAU * 3.0 * rate).exp();
+        return (0..hold + run)
+            .map(|k| {
+                if k < hold {
+                    return -a;
+                }
+                if (k - hold) % every == 0 {
+                    level = rng.uniform(-0.8 * a, 0.8 * a);
+                }
+                v += lag * (level - v);
+                let step = if ((k - hold) / jag) % 2 == 0 {
+                    a / 6.0
+                } else {
+                    -a / 6.0
+                };
+                (v + step).clamp(-a, a)
+            })
+            .collect();
+    }
     let cycling = (settings.cycles as f64 / rate / ts).round() as usize;
     (0..hold + cycling)
         .map(|k| {
@@ -198,7 +241,7 @@ pub fn generate(settings: &RecordSettings) -> Vec<SyntheticRecord> {
             }
             actuator.step(level);
         }
-        let u = protocol(settings, rate);
+        let u = protocol(settings, rate, &mut rng);
         let offset = rng.uniform(-1.0, 1.0) * settings.offset_spread * range;
         let y = u
             .iter()
