@@ -118,7 +118,7 @@ pub fn protocol(settings: &RecordSettings, rate: f64, rng: &mut Rng) -> Vec<f64>
                 if k < hold {
                     return -a;
                 }
-                if (k - hold) % every == 0 {
+                if (k - hold).is_multiple_of(every) {
                     level = rng.uniform(-0.8 * a, 0.8 * a);
                 }
                 v += lag * (level - v);
@@ -236,7 +236,7 @@ pub fn generate(settings: &RecordSettings) -> Vec<SyntheticRecord> {
         let history = (settings.history / ts).round() as usize;
         let mut level = 0.0;
         for k in 0..history {
-            if k % 500 == 0 {
+            if k.is_multiple_of(500) {
                 level = rng.uniform(-a, a);
             }
             actuator.step(level);
