@@ -122,7 +122,7 @@ pub fn protocol(settings: &RecordSettings, rate: f64, rng: &mut Rng) -> Vec<f64>
                     level = rng.uniform(-0.8 * a, 0.8 * a);
                 }
                 v += lag * (level - v);
-                let step = if ((k - hold) / jag) % 2 == 0 {
+                let step = if ((k - hold) / jag).is_multiple_of(2) {
                     a / 6.0
                 } else {
                     -a / 6.0
