@@ -311,3 +311,99 @@ fn a_part_the_records_do_not_excite_is_reported_not_guessed() {
         Ok(id) => panic!("guessed {:?}", id.report.dynamics),
     }
 }
+
+/// A jagged tracking drive: random levels through a lag, a step of ±15 V
+/// every 5 ms on top (what excites a resonance).
+fn jagged(seed: u64, n: usize) -> Vec<f64> {
+    let mut rng = mfcbeam::suite::conformance::Rng::new(seed);
+    let (mut v, mut level) = (0.0f64, 0.0f64);
+    (0..n)
+        .map(|k| {
+            if k.is_multiple_of(200) {
+                level = rng.uniform(-700.0, 700.0);
+            }
+            v += 0.02 * (level - v);
+            let jag = if (k / 50).is_multiple_of(2) {
+                15.0
+            } else {
+                -15.0
+            };
+            (v + jag).clamp(-900.0, 900.0)
+        })
+        .collect()
+}
+
+/// With noise the estimates scatter by their standard errors: on a model
+/// class that holds the truth (the thresholds and eigenvalues given), each
+/// parameter of `G` lies within 4 of its reported standard errors of the
+/// truth (σ̂² (JᵀJ)⁻¹ at the optimum: the linearized least-squares
+/// covariance; 4 σ leaves a chance of 6e-5 per parameter for Gaussian
+/// noise, and the noise is seeded).
+#[test]
+fn with_noise_the_dynamics_lie_within_their_standard_errors() {
+    let mut truth = nominal_model().to_file().without_state();
+    truth.sample_time = TS;
+    truth.dynamics = Some(DynamicsData {
+        low_pass: None,
+        resonance: Some(ResonanceData {
+            frequency: 740.0,
+            damping: 0.014,
+        }),
+        delay_fraction: Some(0.3),
+        state: None,
+    });
+    let model = HysteresisCreepModel::from_file(&truth).unwrap();
+    let u = jagged(1, 8000);
+    let mut rng = mfcbeam::suite::conformance::Rng::new(99);
+    let sigma = 0.5;
+    let y: Vec<f64> = model
+        .clone()
+        .run(&u)
+        .iter()
+        .map(|v| {
+            // Box–Muller
+            let (a, b) = (rng.uniform(f64::MIN_POSITIVE, 1.0), rng.uniform(0.0, 1.0));
+            v + sigma * (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+        })
+        .collect();
+    let c = truth.creep.as_ref().unwrap();
+    let settings = IdentificationSettings {
+        hysteresis_thresholds: Some(truth.hysteresis.thresholds.clone()),
+        creep_thresholds: Some(c.thresholds.clone()),
+        eigenvalues: Some(c.eigenvalues.clone()),
+        ..IdentificationSettings::default()
+    };
+    let records = [FitRecord {
+        u: &u,
+        y: &y,
+        fit_from: Some(0),
+    }];
+    let parts = DynamicsParts {
+        resonance: true,
+        delay_fraction: true,
+        ..DynamicsParts::default()
+    };
+    let id = fit_dynamics(&records, TS, &settings, parts).unwrap();
+    let g = id.report.dynamics.as_ref().unwrap();
+    eprintln!("{g:?}");
+    let r = g.parameters.resonance.unwrap();
+    let se = g.standard_errors;
+    for (name, found, expected, s) in [
+        ("frequency", r.frequency, 740.0, se[1].unwrap()),
+        ("damping", r.damping, 0.014, se[2].unwrap()),
+        (
+            "delay fraction",
+            g.parameters.delay_fraction,
+            0.3,
+            se[3].unwrap(),
+        ),
+    ] {
+        assert!(s > 0.0 && s.is_finite(), "{name}: {s}");
+        assert!(
+            (found - expected).abs() <= 4.0 * s,
+            "{name}: {found} vs {expected}, standard error {s}"
+        );
+    }
+    // and the noise is what is left
+    assert!((g.rms / sigma - 1.0).abs() < 0.05, "{} vs {sigma}", g.rms);
+}
