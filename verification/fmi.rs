@@ -148,6 +148,65 @@ fn the_projects_fmus_pass_the_fixed_mode_in_both_versions() {
     assert!(!unpacked.exists());
 }
 
+/// A model with linear dynamics in an FMU: the compensator FMU's preview
+/// is the resonance's lag, and both FMUs pass the fixed mode (split and
+/// resume through the FMU's own state, which holds `G`'s).
+#[test]
+fn fmus_of_a_model_with_dynamics_pass_the_fixed_mode() {
+    use mfcbeam::operators::model::{DynamicsData, ResonanceData};
+    let dir = scratch("dynamics");
+    let mut model = nominal_model_file();
+    model.dynamics = Some(DynamicsData {
+        low_pass: None,
+        resonance: Some(ResonanceData {
+            frequency: 600.0,
+            damping: 0.05,
+        }),
+        delay_fraction: Some(0.2),
+        state: None,
+    });
+    let version = FmiVersion::Fmi3;
+    let path = dir.join("compensator.fmu");
+    package(FmuKind::Compensator, version, &model, &path);
+    let fmu = Fmu::load(&path).unwrap();
+    let bindings = bind(&fmu.description, ImportKind::Compensator, &[]).unwrap();
+    let candidate = FmuCandidate::new(fmu, bindings, model.sample_time);
+    let c = candidate.clone();
+    let preview = mfcbeam::suite::conformance::delay_of(&model);
+    assert_eq!(preview, 1);
+    let factory = fixed_compensator_factory(model.clone(), move |s: CompensatorSettings| {
+        let limits = (
+            s.lower_limit.max(WIDE_LIMITS.0),
+            s.upper_limit.min(WIDE_LIMITS.1),
+        );
+        let b: Box<dyn ActuatorCompensator> =
+            Box::new(FmuCompensator::new(&c, Some(limits), preview).unwrap());
+        Ok(b)
+    });
+    let s = ConformanceSettings {
+        cases: 8,
+        fixed_model: Some(model.clone()),
+        ..ConformanceSettings::default()
+    };
+    let report = check_compensator(&factory, &s).unwrap();
+    eprintln!("{report}");
+    assert!(report.passed(), "{report}");
+    let split = report.property("split_and_resume").unwrap();
+    assert!(split.cases > 0 && split.skipped == 0, "{report}");
+
+    let path = dir.join("model.fmu");
+    package(FmuKind::Model, version, &model, &path);
+    let fmu = Fmu::load(&path).unwrap();
+    let bindings = bind(&fmu.description, ImportKind::Model, &[]).unwrap();
+    let candidate = FmuCandidate::new(fmu, bindings, model.sample_time);
+    let factory = fixed_model_factory(model.clone(), move || {
+        let b: Box<dyn ActuatorModel> = Box::new(FmuModel::new(&candidate).unwrap());
+        Ok(b)
+    });
+    let report = check_model(&factory, &s).unwrap();
+    assert!(report.passed(), "{report}");
+}
+
 fn zip_with(path: &Path, entries: &[(&str, &[u8])]) {
     let mut zip = zip::ZipWriter::new(std::fs::File::create(path).unwrap());
     for (name, bytes) in entries {

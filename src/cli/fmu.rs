@@ -109,7 +109,7 @@ pub fn conform_fmu(a: &ConformArgs, path: &Path, settings: ConformanceSettings) 
             );
         }
     }
-    let delay = fixed_model.delay.unwrap_or(0);
+    let delay = mfcbeam::suite::conformance::delay_of(&fixed_model);
     // limits built in: the cases keep inside them
     let mut settings = settings;
     let own_limits = match (bindings.limits, a.limits) {

@@ -59,7 +59,7 @@ use crate::operators::model::{HysteresisCreepModel, ModelFile};
 use crate::operators::traits::{ActuatorCompensator, ActuatorModel, InverseHysteresis};
 
 pub use cases::{
-    case_model, input_length, nested_extrema, path, random_input, random_model,
+    case_model, delay_of, input_length, nested_extrema, path, random_input, random_model,
     random_superposition, refine, segment, superposition_is_odd, superposition_model,
     with_every_part, with_state_after, ModelShape, Rng,
 };
