@@ -4,7 +4,10 @@
 //! and in `f32` for an asymmetric actuator with dead time: the nominal
 //! `H + C` followed by a superposition operator `S` and 2 samples of delay
 //! (`Inline<12, 60, 5, 2>`; the compensator is given the target 2 samples
-//! ahead, and the identity is checked from sample 2 on).
+//! ahead, and the identity is checked from sample 2 on), and in `f32` for
+//! a stage with linear dynamics after `H + C`: a 300 Hz resonance with
+//! damping 0.05 and a delay of 0.3 samples (the resonance's one sample of
+//! lag is previewed as the dead time is).
 //!
 //! Prints, per run, the worst identity error `max|W[W⁻¹[y]] − y|`
 //! against its rounding bound (`RoundingBounds::identity`), and the cost of
@@ -27,8 +30,8 @@ use cortex_m::peripheral::{syst::SystClkSource, DWT, SYST};
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::{debug, hio};
 use mfcbeam::realtime::{
-    nominal, Compensator, CompensatorSettings, Inline, Model, ModelParameters, Real,
-    RoundingBounds, Storage, SuperpositionParameters,
+    nominal, Compensator, CompensatorSettings, DynamicsParameters, Inline, Model, ModelParameters,
+    Real, Resonance, RoundingBounds, Storage, SuperpositionParameters,
 };
 
 /// The asymmetric actuator's `S`: slopes 0.75 and 1.0 below, 1 in the
@@ -39,6 +42,20 @@ const ASYMMETRIC: ModelParameters<'static> = ModelParameters {
         weights: &[0.25, -0.25, 1.0, -0.2, -0.15],
     }),
     delay: 2,
+    ..nominal::PARAMETERS
+};
+
+/// A stage's resonance and a fraction of a sample of delay after the
+/// nominal `H + C`.
+const RESONANT: ModelParameters<'static> = ModelParameters {
+    dynamics: Some(DynamicsParameters {
+        low_pass: None,
+        resonance: Some(Resonance {
+            frequency: 300.0,
+            damping: 0.05,
+        }),
+        delay_fraction: 0.3,
+    }),
     ..nominal::PARAMETERS
 };
 
@@ -209,6 +226,10 @@ fn main() -> ! {
         (
             "f32 with S and dead time",
             run::<f32, Asymmetric>(&counter, &ASYMMETRIC),
+        ),
+        (
+            "f32 with a resonance and a delay fraction",
+            run::<f32, nominal::Capacity>(&counter, &RESONANT),
         ),
     ] {
         let pass = o.identity <= o.bound && o.saturated == 0;
