@@ -132,6 +132,11 @@ pub struct IdentifyArgs {
     /// sample to the preview).
     #[arg(long, value_name = "PARTS", default_value = "none")]
     pub dynamics: DynamicsParts,
+    /// Where the play thresholds go: `uniform` (23) or `reversals` (half by
+    /// (23), half at the quantiles of the half-amplitudes of the input's
+    /// reversals: records of small loops get plays that move in them).
+    #[arg(long, value_name = "uniform|reversals", default_value = "uniform")]
+    pub thresholds: ThresholdRule,
     /// Before scoring each --validate record, estimate its constant offset
     /// on this stretch (`1.0s..1.5s` or samples `10000..15000`, the end
     /// of a hold: the practice of zeroing a sensor before a run) and report
@@ -210,6 +215,13 @@ pub struct IdentifyArgs {
     /// time (`.png` or `.svg`).
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
+}
+
+/// `identify --thresholds`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ThresholdRule {
+    Uniform,
+    Reversals,
 }
 
 /// How the output offset of several records is fitted.

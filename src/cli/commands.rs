@@ -185,6 +185,25 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
             bail!("--plot: {}: name a .png or .svg file", p.display());
         }
     }
+    let hysteresis_thresholds = match (a.thresholds, &a.hysteresis_thresholds) {
+        (ThresholdRule::Uniform, given) => given.clone(),
+        (ThresholdRule::Reversals, Some(_)) => {
+            bail!("--thresholds reversals: give either the rule or --hysteresis-thresholds")
+        }
+        (ThresholdRule::Reversals, None) => {
+            let all: Vec<f64> = fitted
+                .iter()
+                .flat_map(|(_, u, _)| u.iter().copied())
+                .collect();
+            Some(
+                mfcbeam::identification::thresholds::reversal_thresholds(
+                    &all,
+                    a.hysteresis_operators,
+                )
+                .map_err(|e| anyhow!("--{e}"))?,
+            )
+        }
+    };
     let settings = IdentificationSettings {
         fit_offset: !a.no_offset,
         fit_from: starts[0],
@@ -192,7 +211,7 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
         hysteresis_operators: a.hysteresis_operators,
         creep_operators: a.creep_operators,
         creep_eigenvalues: a.creep_eigenvalues,
-        hysteresis_thresholds: a.hysteresis_thresholds.clone(),
+        hysteresis_thresholds,
         creep_thresholds: a.creep_thresholds.clone(),
         eigenvalues: a.eigenvalues.clone(),
         epsilon_h: a.epsilon_h,
@@ -345,6 +364,18 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
         }
         table.extend(rows);
         eprint!("{}", ValidationTable(table));
+    }
+    // are the measured minor loops congruent (what a PI model can follow)?
+    let from = id.report.fitted.start;
+    if let Some(span) = mfcbeam::identification::thresholds::median_branch(&u[from..]) {
+        let c =
+            |y: &[f64]| mfcbeam::identification::thresholds::branch_congruence(u, y, from, span);
+        if let (Some(measured), Some(model)) = (c(y), c(&id.model.clone().run(u))) {
+            eprintln!(
+                "minor loops          {} branches of at least {span:.4e}: y(u_a ± s) − y(u_a) spreads about its median by {:.4} % of the range measured, {:.4} % in the model (H alone has one curve, Masing; S, creep and G spread it)",
+                measured.branches, measured.spread_percent, model.spread_percent
+            );
+        }
     }
     if several && settings.offset_per_record && settings.fit_offset {
         let first = id

@@ -57,6 +57,7 @@ mod regressor;
 pub mod report;
 pub mod settings;
 mod solve;
+pub mod thresholds;
 pub mod validation;
 
 pub use delay::{
