@@ -631,6 +631,18 @@ fn identify_several_records_error_contract() {
         &["--dynamics"],
         Some(&output),
     );
+    assert_clean_failure(
+        &run(&[
+            "--input",
+            s(&a),
+            "--thresholds",
+            "reversals",
+            "--hysteresis-thresholds",
+            "0,1,2",
+        ]),
+        &["--thresholds reversals"],
+        Some(&output),
+    );
     // and the good case: both records, their own offsets, a table of both
     let out = run(&[
         "--input",
@@ -645,6 +657,8 @@ fn identify_several_records_error_contract() {
         s(&a),
         "--validate-zero",
         "0..100",
+        "--thresholds",
+        "reversals",
     ]);
     let report = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{report}");
@@ -654,6 +668,7 @@ fn identify_several_records_error_contract() {
         "b.csv",
         "zero offset",
         "first record's offset",
+        "minor loops",
     ] {
         assert!(report.contains(needle), "{needle}: {report}");
     }

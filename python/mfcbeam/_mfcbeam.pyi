@@ -199,6 +199,7 @@ def identify(
     offset: str = "shared",
     dynamics: str = "none",
     validate_zero: Optional[Tuple[int, int]] = None,
+    thresholds: str = "uniform",
 ) -> Tuple[Model, FitReport]:
     """Identify W = G[S[H + C]] + offset from input u (V) and measured y, at
     `sample_time` (s) or timestamps `t` (`superposition=M`: M dead zones of S

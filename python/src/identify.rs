@@ -57,6 +57,8 @@ const _: () = assert!(mfcbeam::identification::DEFAULT_MAX_DELAY == 10);
 /// the records do not determine raises ValueError. `validate_zero=(a, b)`
 /// estimates each validation record's constant offset on its samples
 /// a..b and reports its errors with it removed too ("zeroed").
+/// `thresholds="reversals"` places half of the play thresholds at the
+/// quantiles of the input's reversal half-amplitudes (the rest by (23)).
 ///
 /// Returns (model, report): the identified model (virgin state) and a dict
 /// of the figures the command line prints; report["text"] is that text.
@@ -68,7 +70,7 @@ const _: () = assert!(mfcbeam::identification::DEFAULT_MAX_DELAY == 10);
     epsilon_h = None, fit_offset = true, fit_from = None, holdout = 0.0, validate = None,
     superposition = 0, superposition_kinks = None, validate_from = None,
     delay = None, max_delay = 10, records = None, offset = "shared", dynamics = "none",
-    validate_zero = None
+    validate_zero = None, thresholds = "uniform"
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify<'py>(
@@ -99,6 +101,7 @@ pub fn identify<'py>(
     offset: &str,
     dynamics: &str,
     validate_zero: Option<(usize, usize)>,
+    thresholds: &str,
 ) -> PyResult<(Model, Bound<'py, PyDict>)> {
     let offset_per_record = match offset {
         "shared" => false,
@@ -195,11 +198,41 @@ pub fn identify<'py>(
         (Some(k), _) | (None, Some(k)) => FitStart::Sample(k),
         (None, None) => FitStart::FirstAtMax,
     };
+    let hysteresis_thresholds = match (
+        thresholds,
+        optional_signal("hysteresis_thresholds", hysteresis_thresholds)?,
+    ) {
+        ("uniform", given) => given,
+        ("reversals", Some(_)) => {
+            return Err(PyValueError::new_err(
+                "thresholds: give either \"reversals\" or hysteresis_thresholds",
+            ))
+        }
+        ("reversals", None) => {
+            let all: Vec<f64> = u
+                .iter()
+                .chain(fitted.iter().flat_map(|(ru, _)| ru.iter()))
+                .copied()
+                .collect();
+            Some(
+                mfcbeam::identification::thresholds::reversal_thresholds(
+                    &all,
+                    hysteresis_operators,
+                )
+                .map_err(value_error)?,
+            )
+        }
+        (other, _) => {
+            return Err(PyValueError::new_err(format!(
+                "thresholds: '{other}' is neither \"uniform\" nor \"reversals\""
+            )))
+        }
+    };
     let settings = IdentificationSettings {
         hysteresis_operators,
         creep_operators,
         creep_eigenvalues,
-        hysteresis_thresholds: optional_signal("hysteresis_thresholds", hysteresis_thresholds)?,
+        hysteresis_thresholds,
         creep_thresholds: optional_signal("creep_thresholds", creep_thresholds)?,
         eigenvalues: optional_signal("eigenvalues", eigenvalues)?,
         epsilon_h,

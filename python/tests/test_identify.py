@@ -268,7 +268,18 @@ def test_several_records_with_their_offsets_and_dynamics_agree_with_the_cli(cli)
     ours = json.loads(model.to_json())
     ours["hysteresis"].pop("state")
     assert ours == json.loads(out.read_text())
+    # the reversal rule agrees with the command line's
+    _, rev = mfcbeam.identify(u1, y1, sample_time=ts, creep_operators=0, thresholds="reversals")
+    out2 = cli.tmp / "reversals.json"
+    cli.run("identify", "--input", csv[0], "--output", out2, "--creep-operators", "0",
+            "--thresholds", "reversals", "--sample-time", repr(ts))
+    assert rev["weights"] is not None
+    model2, _ = mfcbeam.identify(u1, y1, sample_time=ts, creep_operators=0, thresholds="reversals")
+    ours2 = json.loads(model2.to_json())
+    ours2["hysteresis"].pop("state")
+    assert ours2 == json.loads(out2.read_text())
     for bad in ({"offset": "each"}, {"dynamics": "spring"}, {"validate_zero": (5, 5)},
-                {"records": [(u2, y2)], "holdout": 0.1}):
+                {"records": [(u2, y2)], "holdout": 0.1}, {"thresholds": "even"},
+                {"thresholds": "reversals", "hysteresis_thresholds": [0.0, 1.0]}):
         with pytest.raises(ValueError):
             mfcbeam.identify(u1, y1, sample_time=ts, **bad)

@@ -69,7 +69,7 @@ pub fn reversal_thresholds(u: &[f64], count: usize) -> Result<Vec<f64>, Identifi
     let mut half: Vec<f64> = turns
         .windows(2)
         .map(|w| 0.5 * (u[w[1]] - u[w[0]]).abs())
-        .filter(|a| *a > 0.0 && *a < r_max)
+        .filter(|a| *a > 0.0)
         .collect();
     let from_data = count / 2;
     if half.len() < 2 * from_data.max(1) {
@@ -83,9 +83,11 @@ pub fn reversal_thresholds(u: &[f64], count: usize) -> Result<Vec<f64>, Identifi
     }
     half.sort_by(f64::total_cmp);
     let mut r = thresholds_23(count - from_data, r_max);
+    // a quantile at or above max|u| would never move: it stays below
+    let top = r_max * (1.0 - 1e-6);
     for i in 1..=from_data {
         let q = i as f64 / (from_data + 1) as f64;
-        r.push(half[((q * half.len() as f64) as usize).min(half.len() - 1)]);
+        r.push(half[((q * half.len() as f64) as usize).min(half.len() - 1)].min(top));
     }
     r.sort_by(f64::total_cmp);
     // strictly increasing: a repeated value moves halfway to the next
@@ -93,7 +95,11 @@ pub fn reversal_thresholds(u: &[f64], count: usize) -> Result<Vec<f64>, Identifi
     for (i, &v) in r.iter().enumerate() {
         let v = match out.last() {
             Some(&p) if v <= p => {
-                let next = r[i + 1..].iter().copied().find(|&x| x > p).unwrap_or(r_max);
+                let next = r[i + 1..]
+                    .iter()
+                    .copied()
+                    .find(|&x| x > p)
+                    .unwrap_or(r_max.max(p));
                 0.5 * (p + next)
             }
             _ => v,
