@@ -407,3 +407,30 @@ fn with_noise_the_dynamics_lie_within_their_standard_errors() {
     // and the noise is what is left
     assert!((g.rms / sigma - 1.0).abs() < 0.05, "{} vs {sigma}", g.rms);
 }
+
+/// With the rate part off — a `dynamics` entry with no part, or none — the
+/// model and its compensator are today's, bit for bit.
+#[test]
+fn with_the_rate_part_off_the_model_is_todays_bit_for_bit() {
+    let plain = nominal_model().to_file().without_state();
+    let mut off = plain.clone();
+    off.dynamics = Some(DynamicsData {
+        low_pass: None,
+        resonance: None,
+        delay_fraction: None,
+        state: None,
+    });
+    let u = jagged(3, 3000);
+    let a = HysteresisCreepModel::from_file(&plain).unwrap().run(&u);
+    let b = HysteresisCreepModel::from_file(&off).unwrap().run(&u);
+    assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+    let settings = CompensatorSettings::with_limits(-1000.0, 1000.0);
+    let mut c1 = Compensator::<f32, Inline<12, 60>>::from_file(&plain, settings).unwrap();
+    let mut c2 = Compensator::<f32, Inline<12, 60>>::from_file(&off, settings).unwrap();
+    assert_eq!(c2.delay(), 0);
+    for &t in &a {
+        let (x, y) = (c1.compensate(t as f32), c2.compensate(t as f32));
+        assert_eq!(x.u.to_bits(), y.u.to_bits());
+        assert_eq!((x.saturated, x.fault), (y.saturated, y.fault));
+    }
+}
