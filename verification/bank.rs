@@ -222,28 +222,6 @@ fn bad_banks_and_slices_are_refused_with_the_field_named() {
         CompensatorBank::<f64>::uniform(&p[0], 4, CompensatorSettings::with_limits(1.0, -1.0)),
         Err(ParameterError::InvalidLimits { .. })
     ));
-    // a channel with dynamics: refused by name, not run without them
-    let mut dynamic = files[1].clone();
-    dynamic.dynamics = Some(mfcbeam::operators::model::DynamicsData {
-        low_pass: Some(mfcbeam::operators::model::LowPassData { frequency: 100.0 }),
-        resonance: None,
-        delay_fraction: None,
-        state: None,
-    });
-    let e = CompensatorBank::<f64>::new(
-        &[p[0], dynamic.parameters()],
-        CompensatorSettings::with_limits(-1.0, 1.0),
-    )
-    .unwrap_err();
-    assert!(matches!(
-        e,
-        ParameterError::NotSupported {
-            field: "dynamics",
-            channel: 1,
-            ..
-        }
-    ));
-    assert!(e.to_string().starts_with("models[1].dynamics:"), "{e}");
     // a channel of another order
     let mut other = files[1].clone();
     other
@@ -349,6 +327,58 @@ fn a_bank_on_worker_threads_gives_the_bits_of_one_thread() {
                     workers.parts()
                 );
             }
+        }
+    }
+}
+
+/// Channels whose models have linear dynamics run on their own compensator
+/// inside the bank: the bits of a single compensator of that model, the
+/// preview with the resonance's lag, on one thread and on workers, and a
+/// reset back to the virgin state.
+#[test]
+fn channels_with_dynamics_give_the_bits_of_their_own_compensator() {
+    use mfcbeam::operators::bank::Workers;
+    use mfcbeam::operators::model::{DynamicsData, ResonanceData};
+    let mut rng = Rng::new(11);
+    let mut files = models(&mut rng, 19);
+    for (i, f) in files.iter_mut().enumerate() {
+        if i % 3 == 1 {
+            f.dynamics = Some(DynamicsData {
+                low_pass: None,
+                resonance: Some(ResonanceData {
+                    frequency: 0.1 / f.sample_time,
+                    damping: 0.05,
+                }),
+                delay_fraction: Some(0.2),
+                state: None,
+            });
+        }
+    }
+    let params: Vec<_> = files.iter().map(ModelFile::parameters).collect();
+    let settings = CompensatorSettings::with_limits(-400.0, 400.0);
+    let mut bank = CompensatorBank::<f64>::new(&params, settings).unwrap();
+    let mut split = bank.clone();
+    let workers = Workers::new(2).unwrap();
+    let mut single: Vec<_> = params
+        .iter()
+        .map(|p| Compensator::<f64, Inline<12, 72, 9, 4>>::new(p, settings).unwrap())
+        .collect();
+    for (c, d) in bank.delays().iter().enumerate() {
+        assert_eq!(*d, files[c].delay.unwrap_or(0) + usize::from(c % 3 == 1));
+    }
+    let (mut out, mut out_split) = (vec![Default::default(); 19], vec![Default::default(); 19]);
+    for (step, row) in targets(&mut rng, 19, 200, 400.0).into_iter().enumerate() {
+        bank.compensate(&row, &mut out).unwrap();
+        split.compensate_on(&workers, &row, &mut out_split).unwrap();
+        assert_eq!(out, out_split);
+        for (c, comp) in single.iter_mut().enumerate() {
+            let expected = comp.compensate(row[c]);
+            assert_eq!(out[c], expected, "channel {c}, step {step}");
+        }
+        if step == 100 {
+            bank.reset();
+            split.reset();
+            single.iter_mut().for_each(|c| c.reset());
         }
     }
 }

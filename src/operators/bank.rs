@@ -19,6 +19,11 @@
 //! Like a single compensator, each channel inverts its model's memory part:
 //! a channel whose model has a dead time `d` ([`CompensatorBank::delays`])
 //! takes the target wanted `d` samples later.
+//!
+//! A channel whose model has linear dynamics `G` runs on a single
+//! [`Compensator`](crate::realtime::Compensator) of its model kept in the
+//! bank (its lane's result is not used): the same bits, none of the
+//! bank's speed, until the lanes carry `G`'s state.
 
 use std::vec;
 use std::vec::Vec;
@@ -122,8 +127,11 @@ pub struct CompensatorBank<T: Real> {
     /// Whether a lane of the block has `S` (the block then applies `S⁻¹`
     /// lane by lane).
     superposed: Vec<bool>,
-    /// Each channel's dead time, for its caller's preview.
+    /// Each channel's preview (dead time and the lag of its dynamics).
     delays: Vec<usize>,
+    /// The channels whose model has dynamics, each with its own
+    /// compensator.
+    dynamic: Vec<(usize, crate::realtime::Compensator<T, Heap>)>,
 }
 
 impl<T: Real> CompensatorBank<T> {
@@ -167,14 +175,6 @@ impl<T: Real> CompensatorBank<T> {
             .map_or((0, 0), |c| (c.thresholds.len(), c.eigenvalues.len()));
         for (channel, model) in models.iter().enumerate() {
             model.validate()?;
-            if model.dynamics.is_some() {
-                // its lanes have no state for G yet: refused, not ignored
-                return Err(ParameterError::NotSupported {
-                    field: "dynamics",
-                    by: "a compensator bank",
-                    channel,
-                });
-            }
             let (mc, mm) = model
                 .creep
                 .as_ref()
@@ -248,9 +248,19 @@ impl<T: Real> CompensatorBank<T> {
                 })
             })
             .collect();
+        let model_of = |c: usize| &models[if shared { 0 } else { c }];
         let delays = (0..channels)
-            .map(|c| models[if shared { 0 } else { c }].delay)
+            .map(|c| {
+                let m = model_of(c);
+                m.delay + m.dynamics.as_ref().map_or(0, |g| g.lag())
+            })
             .collect();
+        let mut dynamic = Vec::new();
+        for c in 0..channels {
+            if model_of(c).dynamics.is_some() {
+                dynamic.push((c, crate::realtime::Compensator::new(model_of(c), settings)?));
+            }
+        }
         Ok(Self {
             channels,
             blocks,
@@ -264,6 +274,7 @@ impl<T: Real> CompensatorBank<T> {
             inverse_superposition,
             superposed,
             delays,
+            dynamic,
         })
     }
 
@@ -272,8 +283,9 @@ impl<T: Real> CompensatorBank<T> {
         self.channels
     }
 
-    /// Each channel's dead time `d` (samples): its target at a step is the
-    /// one wanted `d` samples later.
+    /// Each channel's preview (samples): its dead time `d` and the lag of
+    /// its dynamics; its target at a step is the one wanted that many
+    /// samples later.
     pub fn delays(&self) -> &[usize] {
         &self.delays
     }
@@ -314,7 +326,15 @@ impl<T: Real> CompensatorBank<T> {
         let (fixed, state) = self.split();
         step_blocks(k, &fixed, 0, state, targets, out);
         self.parity ^= 1;
+        self.dynamic_channels(targets, out);
         Ok(())
+    }
+
+    /// The channels with dynamics, on their own compensators.
+    fn dynamic_channels(&mut self, targets: &[T], out: &mut [Compensated<T>]) {
+        for (c, comp) in &mut self.dynamic {
+            out[*c] = comp.compensate(targets[*c]);
+        }
     }
 
     /// [`CompensatorBank::compensate`] with the blocks split over `workers`
@@ -334,7 +354,7 @@ impl<T: Real> CompensatorBank<T> {
         let per = self.blocks.div_ceil(parts);
         let (fixed, state) = self.split();
         let state = SharedMut::new(state);
-        let out = SharedMut::new(out);
+        let shared_out = SharedMut::new(&mut *out);
         let (sr, width) = (fixed.layout.state_rows(), lanes::<T>());
         workers.run(&|part: usize| {
             let blocks = (part * per).min(fixed.superposed.len())
@@ -348,12 +368,13 @@ impl<T: Real> CompensatorBank<T> {
             let (state, out) = unsafe {
                 (
                     state.slice(blocks.start * sr..blocks.end * sr),
-                    out.slice(channels.clone()),
+                    shared_out.slice(channels.clone()),
                 )
             };
             step_blocks(k, &fixed, blocks.start, state, &targets[channels], out);
         });
         self.parity ^= 1;
+        self.dynamic_channels(targets, out);
         Ok(())
     }
 
@@ -379,6 +400,9 @@ impl<T: Real> CompensatorBank<T> {
     pub fn reset(&mut self) {
         self.state.fill(Row::default());
         self.parity = 0;
+        for (_, comp) in &mut self.dynamic {
+            comp.reset();
+        }
     }
 }
 

@@ -97,12 +97,6 @@ pub enum ParameterError {
         limit: usize,
         found: usize,
     },
-    /// A part of a model that this implementation does not run.
-    NotSupported {
-        field: &'static str,
-        by: &'static str,
-        channel: usize,
-    },
     /// A value outside the open interval `(lower, upper)`.
     OutOfRange {
         field: &'static str,
@@ -134,7 +128,6 @@ impl ParameterError {
             | P::ExceedsLimit { field, .. }
             | P::InvalidDuration { field, .. }
             | P::NonFiniteValue { field, .. }
-            | P::NotSupported { field, .. }
             | P::OutOfRange { field, .. } => field,
             P::NonPositiveSampleTime { .. } => "sample_time",
             P::SampleTimeMismatch { .. } => "creep",
@@ -240,10 +233,6 @@ impl fmt::Display for Message<'_> {
             P::ExceedsLimit { limit, found, .. } => write!(
                 f,
                 "{field}: {found} exceeds the limit of {limit} (docs/FILES.md, \"Limits\")"
-            ),
-            P::NotSupported { by, channel, .. } => write!(
-                f,
-                "models[{channel}].{field}: {by} does not run linear dynamics yet; compensate such a channel with its own Compensator"
             ),
             P::OutOfRange {
                 value,
