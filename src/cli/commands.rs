@@ -419,12 +419,17 @@ impl std::fmt::Display for DynamicsLine<'_> {
                 se(g.standard_errors[2])
             )?;
         }
-        if let Some(se) = g.standard_errors[3] {
-            writeln!(
+        let tau = g.parameters.delay_fraction;
+        match g.standard_errors[3] {
+            Some(se) => writeln!(
                 f,
-                "dynamics: delay fraction {:.6} samples ± {se:.2e} (on top of the dead time)",
-                g.parameters.delay_fraction
-            )?;
+                "dynamics: delay fraction {tau:.6} samples ± {se:.2e} (on top of the dead time)"
+            )?,
+            None if tau != 0.0 => writeln!(
+                f,
+                "dynamics: delay fraction {tau:.6} samples, at its bound (the dead time was tried one sample either way)"
+            )?,
+            None => {}
         }
         writeln!(
             f,
