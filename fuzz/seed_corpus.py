@@ -35,6 +35,10 @@ m["delay_state"] = [12.5, 13.1]
 m["offset"] = 0.25
 models["delay-offset"] = m
 m = dict(nominal)
+m["dynamics"] = {"low_pass": {"frequency": 1500.0}, "resonance": {"frequency": 600.0, "damping": 0.05},
+                 "delay_fraction": 0.3, "state": [1.0, 2.0, 3.0, 4.0, 5.0]}
+models["dynamics"] = m
+m = dict(nominal)
 n = len(m["hysteresis"]["thresholds"])
 m["hysteresis"] = dict(m["hysteresis"], state=[10.0 * i for i in range(n)])
 models["state"] = m

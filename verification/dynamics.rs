@@ -434,3 +434,41 @@ fn with_the_rate_part_off_the_model_is_todays_bit_for_bit() {
         assert_eq!((x.saturated, x.fault), (y.saturated, y.fault));
     }
 }
+
+/// A finite target that `G⁻¹` cannot reach in `f32` (it overflows) is a
+/// fault, held: no infinity enters `G`'s state, and the identity resumes.
+#[test]
+fn an_unreachable_huge_target_is_a_fault_and_poisons_nothing() {
+    let file = dynamic_nominal();
+    let mut c =
+        Compensator::<f32, Inline<12, 60>>::from_file(&file, CompensatorSettings::unlimited())
+            .unwrap();
+    let mut m = Model::<f32, Inline<12, 60>>::from_file(&file).unwrap();
+    let y: Vec<f64> = HysteresisCreepModel::from_file(&file)
+        .unwrap()
+        .run(&drive(100.0, 600.0))
+        .into_iter()
+        .take(3000)
+        .collect();
+    let mut worst_after = 0.0f64;
+    for k in 0..y.len() {
+        let t = if k == 1000 {
+            3e38
+        } else {
+            preview(&y, 1, k) as f32
+        };
+        let out = c.compensate(t);
+        if k == 1000 {
+            assert!(out.fault && out.u.is_finite(), "{out:?}");
+        }
+        let w = m.step(out.u);
+        assert!(w.is_finite());
+        if k > 1002 {
+            worst_after = worst_after.max((w as f64 - y[k]).abs());
+        }
+    }
+    // the held sample is what the plant got, and G's copy followed it: the
+    // identity resumes with the next target (within f32's 3e-3 of before)
+    eprintln!("worst after the fault: {worst_after:e}");
+    assert!(worst_after < 1e-2, "{worst_after}");
+}

@@ -428,7 +428,15 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         };
         let t = target - self.offset;
         let v = match &self.dynamics {
-            Some(g) => g.input_for(t),
+            Some(g) => {
+                let v = g.input_for(t);
+                // a finite target G⁻¹ cannot reach in T (it overflows): a
+                // fault, held, so that no infinity enters G's state
+                if !v.is_finite() {
+                    return self.hold();
+                }
+                v
+            }
             None => t,
         };
         let y = match &self.inverse_superposition {
