@@ -346,6 +346,18 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
             g.parameters.lag()
         );
     }
+    // are the measured minor loops congruent (what a PI model can follow)?
+    let from = id.report.fitted.start;
+    if let Some(span) = mfcbeam::identification::thresholds::median_branch(&u[from..]) {
+        let c =
+            |y: &[f64]| mfcbeam::identification::thresholds::branch_congruence(u, y, from, span);
+        if let (Some(measured), Some(model)) = (c(y), c(&id.model.clone().run(u))) {
+            eprintln!(
+                "minor loops          {} branches of at least {span:.4e}: y(u_a ± s) − y(u_a) spreads about its median by {:.4} % of the range measured, {:.4} % in the model (H alone has one curve, Masing; S, creep and G spread it)",
+                measured.branches, measured.spread_percent, model.spread_percent
+            );
+        }
+    }
     if several || !rows.is_empty() {
         // the fitted records first, then one row per validation record
         let mut table = Vec::new();
@@ -364,18 +376,6 @@ fn identify(a: &IdentifyArgs) -> Result<()> {
         }
         table.extend(rows);
         eprint!("{}", ValidationTable(table));
-    }
-    // are the measured minor loops congruent (what a PI model can follow)?
-    let from = id.report.fitted.start;
-    if let Some(span) = mfcbeam::identification::thresholds::median_branch(&u[from..]) {
-        let c =
-            |y: &[f64]| mfcbeam::identification::thresholds::branch_congruence(u, y, from, span);
-        if let (Some(measured), Some(model)) = (c(y), c(&id.model.clone().run(u))) {
-            eprintln!(
-                "minor loops          {} branches of at least {span:.4e}: y(u_a ± s) − y(u_a) spreads about its median by {:.4} % of the range measured, {:.4} % in the model (H alone has one curve, Masing; S, creep and G spread it)",
-                measured.branches, measured.spread_percent, model.spread_percent
-            );
-        }
     }
     if several && settings.offset_per_record && settings.fit_offset {
         let first = id
