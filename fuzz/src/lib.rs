@@ -79,7 +79,12 @@ fn check_model_file(file: &ModelFile, inputs: &[f64]) {
             .as_ref()
             .and_then(|c| c.state.as_ref())
             .is_none_or(|rows| rows.iter().all(|r| finite(r)))
-        && saved.delay_state.as_deref().is_none_or(finite);
+        && saved.delay_state.as_deref().is_none_or(finite)
+        && saved
+            .dynamics
+            .as_ref()
+            .and_then(|g| g.state.as_deref())
+            .is_none_or(finite);
     if state_finite {
         if let Err(e) = HysteresisCreepModel::from_file(&saved) {
             panic!("the saved state is refused: {e}");
