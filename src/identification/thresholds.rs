@@ -16,6 +16,7 @@
 //! how far the data's branches are from one curve: if they differ by more
 //! than the noise, no choice of thresholds makes a PI model follow them.
 
+use super::report::range;
 use super::settings::{thresholds_23, IdentificationError};
 
 /// The turning points of `u` (indices), ignoring wiggles below `dead_band`.
@@ -60,12 +61,8 @@ pub fn reversals(u: &[f64], dead_band: f64) -> Vec<usize> {
 /// reversals for the quantiles is an error.
 pub fn reversal_thresholds(u: &[f64], count: usize) -> Result<Vec<f64>, IdentificationError> {
     let r_max = u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let (lo, hi) = u
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    let turns = reversals(u, 1e-3 * (hi - lo));
+    let range_u = range(u);
+    let turns = reversals(u, 1e-3 * range_u);
     let mut half: Vec<f64> = turns
         .windows(2)
         .map(|w| 0.5 * (u[w[1]] - u[w[0]]).abs())
@@ -124,12 +121,8 @@ pub struct Congruence {
 /// The median length `|u_b − u_a|` of the branches between turning points
 /// (dead band 0.1 % of the range), or `None` without two branches.
 pub fn median_branch(u: &[f64]) -> Option<f64> {
-    let (lo, hi) = u
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    let turns = reversals(u, 1e-3 * (hi - lo));
+    let range_u = range(u);
+    let turns = reversals(u, 1e-3 * range_u);
     let mut lengths: Vec<f64> = turns
         .windows(2)
         .map(|w| (u[w[1]] - u[w[0]]).abs())
@@ -147,17 +140,9 @@ pub fn median_branch(u: &[f64]) -> Option<f64> {
 pub fn branch_congruence(u: &[f64], y: &[f64], from: usize, span: f64) -> Option<Congruence> {
     let u = &u[from.min(u.len())..];
     let y = &y[from.min(y.len())..];
-    let (lo, hi) = u
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    let (ylo, yhi) = y
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    let turns = reversals(u, 1e-3 * (hi - lo));
+    let range_u = range(u);
+    let range_y = range(y);
+    let turns = reversals(u, 1e-3 * range_u);
     const POINTS: usize = 8;
     // per direction, each branch's displacement at s = span · j / POINTS
     let mut curves: [Vec<[f64; POINTS]>; 2] = [Vec::new(), Vec::new()];
@@ -200,7 +185,7 @@ pub fn branch_congruence(u: &[f64], y: &[f64], from: usize, span: f64) -> Option
     (n > 0).then(|| Congruence {
         branches: curves[0].len() + curves[1].len(),
         span,
-        spread_percent: 100.0 * (sq / n as f64).sqrt() / (yhi - ylo).max(f64::MIN_POSITIVE),
+        spread_percent: 100.0 * (sq / n as f64).sqrt() / range_y.max(f64::MIN_POSITIVE),
     })
 }
 
