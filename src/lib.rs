@@ -99,6 +99,8 @@ pub mod suite;
 
 #[cfg(feature = "beam")]
 pub mod beam;
+#[cfg(feature = "control")]
+pub mod control;
 #[cfg(feature = "feedforward")]
 pub mod feedforward;
 #[cfg(feature = "fmi")]

@@ -12,6 +12,7 @@
 //! | `compensated` | Fig. 10 | the staircase through `W⁻¹` then `W`: linear |
 //! | `step` | Figs. 12–13 | a step through the beam with and without compensation |
 //! | `feedforward` | Fig. 14 | rest-to-rest move through compensator, `W` and beam |
+//! | `loop-nominal`, `loop-impulse`, `loop-step-load`, `loop-model-error`, `loop-noise` | Sec. 5 | the move open loop and 2-DOF, with disturbances, an error in `W` and noise |
 //!
 //! A scenario is one file with a [`Scenario`] static: its id and paper
 //! figure, its columns with units and golden tolerances ([`Column`]), how it
@@ -52,6 +53,7 @@ use crate::suite::plots::{window, Series, COLORS, GREY};
 #[allow(unused_imports)]
 use plotters::style::RGBColor;
 
+mod closed_loop;
 mod compensated;
 mod feedforward;
 mod identification;
@@ -73,6 +75,11 @@ pub static SCENARIOS: &[&Scenario] = &[
     &compensated::SCENARIO,
     &step::SCENARIO,
     &feedforward::SCENARIO,
+    &closed_loop::NOMINAL,
+    &closed_loop::IMPULSE_SCENARIO,
+    &closed_loop::STEP_LOAD_SCENARIO,
+    &closed_loop::MODEL_ERROR_SCENARIO,
+    &closed_loop::NOISE_SCENARIO,
 ];
 
 /// Look a scenario up by id.
