@@ -1494,3 +1494,122 @@ fn simulate_refuses(
     ]);
     assert_clean_failure(&out, &["bad.json", field], Some(&never));
 }
+
+/// The score table's rows of `controller` (without the name column).
+fn score_rows(table: &str, controller: &str) -> Vec<String> {
+    table
+        .lines()
+        .filter(|l| l.split('|').nth(2).map(str::trim) == Some(controller))
+        .map(|l| {
+            let cells: Vec<&str> = l.split('|').collect();
+            format!("{}|{}", cells[1], cells[3..].join("|"))
+        })
+        .collect()
+}
+
+#[test]
+fn benchmark_control_with_a_zero_program_is_the_open_loop_exactly() {
+    let zero = "sh -c 'while read l; do echo 0; done'";
+    let out = mfcbeam(&["benchmark-control", "--exec", zero]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let table = String::from_utf8(out.stdout).unwrap();
+    let open = score_rows(&table, "open loop");
+    let program = score_rows(&table, "sh -c while read l; do echo 0; done");
+    assert_eq!(open.len(), 5, "{table}");
+    // every score but the compute time (the program's is a pipe round trip)
+    let strip = |rows: Vec<String>| -> Vec<String> {
+        rows.into_iter()
+            .map(|r| {
+                r.rsplit_once('|')
+                    .unwrap()
+                    .0
+                    .rsplit_once('|')
+                    .unwrap()
+                    .0
+                    .to_string()
+            })
+            .collect()
+    };
+    assert_eq!(strip(open), strip(program), "{table}");
+}
+
+#[test]
+fn benchmark_control_writes_traces_plots_and_the_table() {
+    let d = TempDir::new("benchmark-control");
+    let out = mfcbeam(&[
+        "benchmark-control",
+        "--controller",
+        "pid",
+        "--scenario",
+        "step-load",
+        "--output-dir",
+        s(&d.0),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for f in [
+        "step-load-open.csv",
+        "step-load-pid.csv",
+        "step-load.png",
+        "step-load.svg",
+        "scores.md",
+    ] {
+        assert!(d.path(f).exists(), "{f}");
+    }
+    let tr = Trace::read(&d.path("step-load-pid.csv")).unwrap();
+    let (tip, r) = (tr.column("tip").unwrap(), tr.column("reference").unwrap());
+    let k = tip.len() - 1;
+    assert!(
+        (tip[k] - r[k]).abs() < 1e-7,
+        "the PID's integral removes the load"
+    );
+    let table = fs::read_to_string(d.path("scores.md")).unwrap();
+    assert_eq!(table, String::from_utf8(out.stdout).unwrap());
+    assert!(table.contains("| step-load | PID |"), "{table}");
+}
+
+#[test]
+fn benchmark_control_names_a_controller_that_fails() {
+    let cases: [(&[&str], &[&str]); 5] = [
+        (
+            &["--exec", "sh -c 'read l; echo banana'"],
+            &[
+                "scenario nominal",
+                "at sample 0",
+                "'banana' is not a number",
+            ],
+        ),
+        (
+            &["--exec", "sh -c 'read l; echo 1; exit 4'"],
+            &["at sample 1", "exited"],
+        ),
+        (
+            &["--exec", "sh -c 'sleep 20'", "--timeout", "0.5"],
+            &["at sample 0", "no answer within 0.5 s"],
+        ),
+        (&["--exec", "/nonexistent/ctl"], &["could not start"]),
+        (
+            &["--scenario", "earthquake"],
+            &["--scenario", "earthquake", "step-load"],
+        ),
+    ];
+    for (args, needles) in cases {
+        let started = std::time::Instant::now();
+        let mut all = vec!["benchmark-control"];
+        all.extend_from_slice(args);
+        assert_clean_failure(&mfcbeam(&all), needles, None);
+        assert!(started.elapsed().as_secs() < 15, "{args:?} hung");
+    }
+    assert_clean_failure(
+        &mfcbeam(&["benchmark-control", "--controller", "mpc"]),
+        &["--controller 'mpc'"],
+        None,
+    );
+}

@@ -71,6 +71,47 @@ pub enum Command {
     /// rate-dependent thresholds, asymmetric loops, creep, a resonance, a
     /// sensor low-pass, a history before each record, offsets and noise.
     Records(RecordsArgs),
+    /// Run a controller in the closed loop around the compensated Fig. 14
+    /// feedforward (two degrees of freedom) in every scenario (nominal, tip
+    /// impulse, step load, model error, sensor noise) and print the score
+    /// table, the open loop alongside; with --output-dir also traces and
+    /// plots.
+    BenchmarkControl(BenchmarkControlArgs),
+}
+
+/// `benchmark-control`.
+#[derive(Debug, Args)]
+pub struct BenchmarkControlArgs {
+    /// A built-in controller: `pid` (filtered PID), `lq` (LQ with a Kalman
+    /// observer), `open` (zero); repeatable. Default: both designs unless
+    /// --exec or --fmu names another.
+    #[arg(long, value_name = "pid|lq|open")]
+    pub controller: Vec<String>,
+    /// A program as the controller, its command line, e.g. 'python3
+    /// my_controller.py': one line `k,t,reference,measurement` in per
+    /// sample, one line `correction` out (docs/FILES.md, "Controller
+    /// protocol").
+    #[arg(
+        long,
+        value_name = "CMD ARGS…",
+        allow_hyphen_values = true,
+        conflicts_with = "fmu"
+    )]
+    pub exec: Option<String>,
+    /// An FMU (FMI 2.0 or 3.0 Co-Simulation) as the controller: inputs
+    /// `reference` and `measurement`, output `correction`.
+    #[arg(long, value_name = "X.fmu")]
+    pub fmu: Option<PathBuf>,
+    /// Run only these scenarios (repeatable; default: all).
+    #[arg(long, value_name = "ID")]
+    pub scenario: Vec<String>,
+    /// Longest the controller may take to answer one sample (s).
+    #[arg(long, default_value_t = 10.0, allow_hyphen_values = true)]
+    pub timeout: f64,
+    /// Directory for the traces (`<scenario>-<controller>.csv`), the plots
+    /// (`<scenario>.png`) and the table (`scores.md`).
+    #[arg(long)]
+    pub output_dir: Option<PathBuf>,
 }
 
 /// A model applied to one trace, written to another.

@@ -42,6 +42,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Nominal(a) => nominal(&a),
         Command::Signal(a) => signal(&a),
         Command::Records(a) => records(&a),
+        Command::BenchmarkControl(a) => super::control::benchmark_control(&a),
     }
 }
 

@@ -5,6 +5,7 @@
 pub mod args;
 pub mod commands;
 pub mod conform;
+pub mod control;
 pub mod fmu;
 
 pub use args::Cli;

@@ -54,6 +54,9 @@ impl ProcessController {
         for (k, v) in env {
             command.env(k, v);
         }
+        // its own process group, so that killing it reaches what it started
+        #[cfg(unix)]
+        std::os::unix::process::CommandExt::process_group(&mut command, 0);
         let mut child = command
             .spawn()
             .map_err(|e| fail(format!("could not start: {e}")))?;
@@ -83,8 +86,18 @@ impl ProcessController {
         })
     }
 
-    fn fail(&mut self, k: usize, reason: impl std::fmt::Display) -> ControlError {
+    /// Kill the program and everything in its process group.
+    fn kill(&mut self) {
+        #[cfg(unix)]
+        if let Ok(pid) = i32::try_from(self.child.id()) {
+            // SAFETY: kill(2) on the group this program leads
+            unsafe { libc::kill(-pid, libc::SIGKILL) };
+        }
         let _ = self.child.kill();
+    }
+
+    fn fail(&mut self, k: usize, reason: impl std::fmt::Display) -> ControlError {
+        self.kill();
         let status = self
             .child
             .try_wait()
@@ -158,7 +171,7 @@ impl Drop for ProcessController {
         if !matches!(self.child.try_wait(), Ok(Some(_))) {
             std::thread::sleep(Duration::from_millis(20));
             if !matches!(self.child.try_wait(), Ok(Some(_))) {
-                let _ = self.child.kill();
+                self.kill();
             }
         }
         let _ = self.child.wait();

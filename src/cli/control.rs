@@ -1,0 +1,196 @@
+//! `mfcbeam benchmark-control`: a controller in every scenario of the
+//! closed-loop benchmark, the open loop alongside, and the score table.
+
+use std::path::Path;
+use std::time::Duration;
+
+use anyhow::{bail, Context, Result};
+
+use mfcbeam::control::process::ProcessController;
+use mfcbeam::control::{
+    Benchmark, BenchmarkRun, BuiltinController, Controller, BENCHMARK_SCENARIOS,
+};
+use mfcbeam::io::{write_atomic, Trace};
+use mfcbeam::suite::conformance::external::split_command;
+use mfcbeam::suite::plots::{panel, scaled, series, write_figure, Figure, COLORS, GREY};
+
+use super::args::BenchmarkControlArgs;
+
+/// Who runs: a built-in design or the program.
+enum Entrant {
+    Builtin(BuiltinController),
+    Program(Vec<String>),
+}
+
+impl Entrant {
+    fn id(&self) -> String {
+        match self {
+            Self::Builtin(b) => b.id().into(),
+            Self::Program(_) => "program".into(),
+        }
+    }
+}
+
+pub fn benchmark_control(a: &BenchmarkControlArgs) -> Result<()> {
+    if !(a.timeout.is_finite() && a.timeout > 0.0 && a.timeout <= 86_400.0) {
+        bail!("--timeout: must be a number of seconds in (0, 86400]");
+    }
+    let mut entrants = vec![Entrant::Builtin(BuiltinController::Open)];
+    for id in &a.controller {
+        match BuiltinController::from_id(id) {
+            Some(BuiltinController::Open) => {}
+            Some(b) => entrants.push(Entrant::Builtin(b)),
+            None => bail!("--controller '{id}': not one of pid, lq, open"),
+        }
+    }
+    if let Some(exec) = &a.exec {
+        let words = split_command(exec);
+        if words.is_empty() {
+            bail!("--exec: the command line is empty");
+        }
+        entrants.push(Entrant::Program(words));
+    } else if a.controller.is_empty() {
+        entrants.push(Entrant::Builtin(BuiltinController::Pid));
+        entrants.push(Entrant::Builtin(BuiltinController::StateFeedback));
+    }
+    let scenarios: Vec<&str> = if a.scenario.is_empty() {
+        BENCHMARK_SCENARIOS.iter().map(|s| s.id).collect()
+    } else {
+        for id in &a.scenario {
+            Benchmark::scenario(id).map_err(|e| anyhow::anyhow!("--scenario {e}"))?;
+        }
+        a.scenario.iter().map(String::as_str).collect()
+    };
+    if let Some(dir) = &a.output_dir {
+        std::fs::create_dir_all(dir).with_context(|| format!("--output-dir {}", dir.display()))?;
+    }
+    let bench = Benchmark::nominal()?;
+    let mut table = String::from(
+        "| scenario | controller | during rms / max (um) | after rms / max (um) | max error (% stroke) | residual (um) | attenuation | peak patch (V) | saturated (ms) | held | step mean / max (us) |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for id in scenarios {
+        let mut runs: Vec<(String, BenchmarkRun)> = Vec::new();
+        for e in &entrants {
+            let mut controller: Box<dyn Controller> = match e {
+                Entrant::Builtin(b) => bench.controller(*b)?,
+                Entrant::Program(words) => Box::new(ProcessController::spawn(
+                    &words[0],
+                    &words[1..],
+                    &[
+                        ("MFCBEAM_SCENARIO", id.to_string()),
+                        (
+                            "MFCBEAM_SAMPLE_TIME",
+                            format!("{:?}", bench.settings.sample_time),
+                        ),
+                    ],
+                    Duration::from_secs_f64(a.timeout),
+                )?),
+            };
+            let run = bench
+                .run(id, controller.as_mut())
+                .with_context(|| format!("scenario {id}"))?;
+            runs.push((e.id(), run));
+        }
+        let open_after = runs[0].1.scores.after_rms;
+        for (name, run) in &runs {
+            let s = &run.scores;
+            // only where the open loop leaves an error after the transition
+            let attenuation = if open_after.is_nan() || open_after <= 1e-9 {
+                "-".to_string()
+            } else {
+                format!("{:.1}x", open_after / s.after_rms)
+            };
+            table.push_str(&format!(
+                "| {id} | {} | {:.2} / {:.2} | {:.2} / {:.2} | {:.3} | {:.2} | {attenuation} | {:.0} | {:.1} | {} | {:.2} / {:.1} |\n",
+                run.controller,
+                s.during_rms * 1e6,
+                s.during_max * 1e6,
+                s.after_rms * 1e6,
+                s.after_max * 1e6,
+                100.0 * s.max_error / bench.settings.y_final,
+                s.residual * 1e6,
+                s.peak_voltage,
+                s.saturated_time * 1e3,
+                s.held,
+                s.compute_mean * 1e6,
+                s.compute_max * 1e6,
+            ));
+        }
+        if let Some(dir) = &a.output_dir {
+            write_outputs(dir, id, &runs)?;
+        }
+    }
+    if let Some(dir) = &a.output_dir {
+        write_atomic(&dir.join("scores.md"), table.as_bytes())?;
+    }
+    print!("{table}");
+    Ok(())
+}
+
+fn write_outputs(dir: &Path, id: &str, runs: &[(String, BenchmarkRun)]) -> Result<()> {
+    for (name, run) in runs {
+        let tr = &run.trace;
+        let flag = |v: &[bool]| {
+            v.iter()
+                .map(|b| f64::from(u8::from(*b)))
+                .collect::<Vec<f64>>()
+        };
+        let (held, saturated) = (flag(&tr.held), flag(&tr.saturated));
+        let path = dir.join(format!("{id}-{name}.csv"));
+        Trace::from_columns(
+            &path,
+            &[
+                ("t", &tr.t),
+                ("reference", &tr.reference),
+                ("feedforward", &tr.feedforward),
+                ("force", &tr.force),
+                ("noise", &tr.noise),
+                ("measurement", &tr.measurement),
+                ("correction", &tr.correction),
+                ("held", &held),
+                ("u", &tr.u),
+                ("saturated", &saturated),
+                ("u_fs", &tr.u_fs),
+                ("u_bs", &tr.u_bs),
+                ("w", &tr.w),
+                ("tip", &tr.tip),
+            ],
+        )
+        .write(&path)?;
+    }
+    let t = &runs[0].1.trace.t;
+    let from = t.iter().position(|&x| x >= 2.85).unwrap_or(0);
+    let cut = |v: &[f64]| v[from..].to_vec();
+    let mut tips = vec![series(
+        "desired y_d",
+        &cut(t),
+        &scaled(&cut(&runs[0].1.trace.reference), 1e3),
+        GREY,
+    )];
+    let mut corrections = Vec::new();
+    for (i, (_, run)) in runs.iter().enumerate() {
+        let color = COLORS[i % COLORS.len()];
+        tips.push(series(
+            &run.controller,
+            &cut(t),
+            &scaled(&cut(&run.trace.tip), 1e3),
+            color,
+        ));
+        corrections.push(series(
+            &run.controller,
+            &cut(t),
+            &cut(&run.trace.correction),
+            color,
+        ));
+    }
+    let figure = Figure {
+        title: format!("closed-loop benchmark: {id}"),
+        panels: vec![
+            panel("tip deflection", "t (s)", "w(L) (mm)", tips),
+            panel("feedback correction", "t (s)", "V", corrections),
+        ],
+    };
+    write_figure(&figure, &dir.join(id)).map_err(|e| anyhow::anyhow!("{}: {e}", dir.display()))?;
+    Ok(())
+}
