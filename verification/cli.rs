@@ -1613,3 +1613,50 @@ fn benchmark_control_names_a_controller_that_fails() {
         None,
     );
 }
+
+#[test]
+fn the_python_pid_example_is_the_built_in_pid_bit_for_bit() {
+    // its gains are the rule's, to the last bit
+    let text = fs::read_to_string("examples/control/pid_controller.py").unwrap();
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("KP, KI, KD, TF = "))
+        .unwrap();
+    let theirs: Vec<f64> = line["KP, KI, KD, TF = ".len()..]
+        .split(',')
+        .map(|x| x.trim().parse().unwrap())
+        .collect();
+    let b = mfcbeam::control::Benchmark::nominal().unwrap();
+    let g = mfcbeam::control::pid::PidGains::design(&b.beam, &Default::default()).unwrap();
+    assert_eq!(theirs, vec![g.kp, g.ki, g.kd, g.tf]);
+    let d = TempDir::new("python-pid");
+    let out = mfcbeam(&[
+        "benchmark-control",
+        "--controller",
+        "pid",
+        "--exec",
+        "python3 examples/control/pid_controller.py",
+        "--scenario",
+        "impulse",
+        "--scenario",
+        "noise",
+        "--output-dir",
+        s(&d.0),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for id in ["impulse", "noise"] {
+        let ours = Trace::read(&d.path(&format!("{id}-pid.csv"))).unwrap();
+        let theirs = Trace::read(&d.path(&format!("{id}-program.csv"))).unwrap();
+        for c in ["correction", "u", "tip"] {
+            assert_eq!(
+                ours.column(c).unwrap(),
+                theirs.column(c).unwrap(),
+                "{id}: {c}"
+            );
+        }
+    }
+}

@@ -93,7 +93,7 @@ pub fn benchmark_control(a: &BenchmarkControlArgs) -> Result<()> {
             runs.push((e.id(), run));
         }
         let open_after = runs[0].1.scores.after_rms;
-        for (name, run) in &runs {
+        for (_, run) in &runs {
             let s = &run.scores;
             // only where the open loop leaves an error after the transition
             let attenuation = if open_after.is_nan() || open_after <= 1e-9 {

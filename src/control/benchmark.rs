@@ -1,6 +1,6 @@
 //! The closed-loop benchmark: the paper's Fig. 14 move (1 mm in 75 ms from
 //! 2.9 s, σ = 1.1) on the nominal models, in five scenarios every
-//! controller runs (`docs/MATHEMATICS.md` §8.3):
+//! controller runs (`docs/MATHEMATICS.md` §11.3):
 //!
 //! | id | what differs from Fig. 14 |
 //! |---|---|

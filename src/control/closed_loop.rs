@@ -1,4 +1,4 @@
-//! The sampled closed loop (`docs/MATHEMATICS.md` §8.1): the true actuator
+//! The sampled closed loop (`docs/MATHEMATICS.md` §11.1): the true actuator
 //! `W` (its own model), the beam with a tip force and sensor noise, the
 //! supply limits (1), and the controller's compensator `W⁻¹` of *its*
 //! model. Per step `k`, in this order:

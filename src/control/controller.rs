@@ -1,5 +1,5 @@
 //! The controller interface of the loop: what it sees at step `k` and what
-//! it returns (`docs/MATHEMATICS.md` §8.1).
+//! it returns (`docs/MATHEMATICS.md` §11.1).
 
 use super::ControlError;
 

@@ -1,6 +1,6 @@
 //! Two degrees of freedom: feedback around the compensated flatness-based
 //! feedforward, and a closed-loop benchmark that scores any controller
-//! (`docs/MATHEMATICS.md` §8; the paper's Section 5 outlook).
+//! (`docs/MATHEMATICS.md` §11; the paper's Section 5 outlook).
 //!
 //! The loop ([`closed_loop`]), sampled at `T_s`: at step `k` the controller
 //! sees the reference `y_d,k` and the measurement `m_k = y_k + n_k` (the tip

@@ -20,7 +20,7 @@
 //! is heavy (`N = 2` where 5 to 20 is usual) because the tip is not
 //! collocated with the patches: the third mode's residue has the opposite
 //! sign, and less filtering makes the loop unstable (`docs/MATHEMATICS.md`
-//! §8.2 gives the margins).
+//! §11.2 gives the margins).
 
 use super::{ControlError, Controller, LoopSample};
 use crate::beam::modal::ModalModel;

@@ -1,4 +1,4 @@
-//! What a run of the loop is scored by (`docs/MATHEMATICS.md` §8.4): the
+//! What a run of the loop is scored by (`docs/MATHEMATICS.md` §11.4): the
 //! tracking error `e_k = y_k − y_d,k` of the true tip (not the measurement)
 //! during the transition `[t₀, t₀ + T)` and after it, the residual
 //! vibration, the peak patch voltage, the time in saturation, the held
