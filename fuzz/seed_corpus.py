@@ -68,3 +68,16 @@ put("trace_csv", "record-no-time.csv", "\n".join(r.split(",", 1)[1] for r in row
 put("candidate_output", "model.csv", "t,u,y\n" + "".join(f"{k * 2e-4!r},{k}.0,{k * 0.5}\n" for k in range(8)))
 put("candidate_output", "compensator.csv", "t,y_d,u,saturated\n" + "".join(f"{k * 2e-4!r},{k}.0,{2 * k}.0,0\n" for k in range(8)))
 put("candidate_output", "short.csv", "t,u,y\n0,0,0\n")
+
+# controller files (the controller FMU's): the PID's gains as designed, a
+# small state feedback, and inputs with a NaN and huge values
+pid = {"sample_time": 2e-4, "pid": {"kp": 179703.92370092354, "ki": 9830276.72724188,
+                                    "kd": 3971.609828392829, "tf": 0.011050426019085353}}
+sf = {"sample_time": 2e-4, "state_feedback": {
+    "modes": 1, "a": [0.99, 2e-4, 0.0, -0.5, 0.99, 1e-3, 0.0, 0.0, 1.0], "b": [0.0, 1e-3, 0.0],
+    "c": [1.0, 0.0, 0.0], "observer": [0.5, 10.0, 100.0], "feedback": [1e4, 10.0, 1.0],
+    "residuals": [0.0, 0.0], "disturbance_increment": 0.1}}
+inputs = doubles(1e-3, 0.0, 1e-3, 2e-3, float("nan"), 1e-3, 1e-3, 1e300, 1e-3, 1e-3)
+for name, c in [("pid", pid), ("state-feedback", sf)]:
+    put("controller_json", f"{name}.json", json.dumps(c))
+    put("controller_json", f"{name}-inputs", json.dumps(c).encode() + b"\0" + inputs)

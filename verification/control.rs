@@ -279,7 +279,8 @@ fn nothing_nan_and_infinity_are_held_and_flagged() {
             &StateFeedbackSettings::default(),
         )
         .unwrap(),
-    );
+    )
+    .unwrap();
     let before = lq.estimate().to_vec();
     let nan = LoopSample {
         k: 0,
@@ -449,4 +450,79 @@ fn the_protocol_line_carries_the_sample_exactly() {
         measurement: 1.234_567_890_123_456_7e-4,
     };
     assert_eq!(c.step(&s).unwrap(), Some(s.measurement));
+}
+
+#[test]
+fn a_controller_file_round_trips_and_a_bad_one_is_named() {
+    use mfcbeam::control::file::ControllerFile;
+    let b = bench();
+    for kind in [BuiltinController::Pid, BuiltinController::StateFeedback] {
+        let file = b.controller_file(kind).unwrap();
+        let text = serde_json::to_string(&file).unwrap();
+        let back: ControllerFile = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, file, "float_roundtrip keeps every bit");
+    }
+    let pid = r#"{"sample_time": 2e-4, "pid": {"kp": 1, "ki": 1, "kd": 1, "tf": 1e-3}}"#;
+    assert!(serde_json::from_str::<ControllerFile>(pid)
+        .unwrap()
+        .build()
+        .is_ok());
+    let bad = [
+        (
+            r#"{"sample_time": 0, "pid": {"kp": 1, "ki": 1, "kd": 1, "tf": 1e-3}}"#,
+            "sample_time",
+        ),
+        (
+            r#"{"sample_time": 2e-4, "pid": {"kp": -1, "ki": 1, "kd": 1, "tf": 1e-3}}"#,
+            "kp",
+        ),
+        (
+            r#"{"sample_time": 2e-4, "pid": {"kp": 1, "ki": 1, "kd": 1, "tf": 0}}"#,
+            "tf",
+        ),
+        (
+            r#"{"sample_time": 2e-4, "state_feedback": {"modes": 1, "a": [1, 0, 0], "b": [0, 1],
+                "c": [1, 0], "observer": [1, 1], "feedback": [1, 1], "residuals": [0, 0],
+                "disturbance_increment": 0.1}}"#,
+            "a: 3 entries; 2 states need 4",
+        ),
+        (
+            r#"{"sample_time": 2e-4, "state_feedback": {"modes": 0, "a": [], "b": [],
+                "c": [], "observer": [], "feedback": [], "residuals": [0, 0],
+                "disturbance_increment": 0.1}}"#,
+            "b: 0 states",
+        ),
+    ];
+    for (text, needle) in bad {
+        let e = serde_json::from_str::<ControllerFile>(text)
+            .unwrap()
+            .build()
+            .unwrap_err();
+        assert!(e.to_string().contains(needle), "{e}");
+    }
+    // unknown fields and designs are refused by the parser
+    assert!(serde_json::from_str::<ControllerFile>(
+        r#"{"sample_time": 2e-4, "pid": {"kp": 1, "ki": 1, "kd": 1, "tf": 1e-3, "kx": 2}}"#
+    )
+    .is_err());
+    assert!(serde_json::from_str::<ControllerFile>(r#"{"sample_time": 2e-4, "mpc": {}}"#).is_err());
+}
+
+#[test]
+fn an_overflow_is_held_and_never_enters_the_state() {
+    let b = bench();
+    for kind in [BuiltinController::Pid, BuiltinController::StateFeedback] {
+        let mut c = b.controller_file(kind).unwrap().build().unwrap();
+        let at = |k: usize, m: f64| LoopSample {
+            k,
+            t: k as f64 * 2e-4,
+            reference: 0.0,
+            measurement: m,
+        };
+        assert!(c.step(&at(0, 1e-6)).unwrap().is_some());
+        // gains of 1e5..1e7 V/m on 1e304 m overflow: nothing, state kept
+        assert_eq!(c.step(&at(1, 1e304)).unwrap(), None, "{kind:?}");
+        assert!(c.state_is_finite());
+        assert!(c.step(&at(2, 1e-6)).unwrap().unwrap().is_finite());
+    }
 }

@@ -80,6 +80,7 @@ fn package(kind: FmuKind, version: FmiVersion, model: &ModelFile, path: &Path) {
         model: model.clone(),
         beam: None,
         beam_model: Default::default(),
+        controller: None,
         library: library().to_path_buf(),
     }
     .write(path)
@@ -437,4 +438,153 @@ fn a_fixed_program_is_run_without_the_model_argument() {
     assert!(text.contains("split_and_resume"));
     // a process cannot save its state: split and resume is skipped, said why
     assert!(text.contains("cannot save and restore"), "{text}");
+}
+
+#[test]
+fn controller_fmus_are_the_built_in_designs_bit_for_bit() {
+    use mfcbeam::control::{run_loop, Benchmark, BuiltinController, Controller};
+    use mfcbeam::fmi::controller::{ControllerVariables, FmuController};
+    let dir = scratch("controller");
+    let bench = Benchmark::nominal().unwrap();
+    let ts = bench.settings.sample_time;
+    let mut setup = bench.setup("impulse").unwrap();
+    setup.noise = mfcbeam::control::gaussian_noise(setup.reference.len(), 1e-6, 3);
+    for kind in [BuiltinController::Pid, BuiltinController::StateFeedback] {
+        let ours = run_loop(&setup, bench.controller(kind).unwrap().as_mut()).unwrap();
+        for version in [FmiVersion::Fmi2, FmiVersion::Fmi3] {
+            let path = dir.join(format!("{}{}.fmu", kind.id(), version.as_str()));
+            FmuPackage {
+                kind: FmuKind::Controller,
+                version,
+                model: nominal_model_file(),
+                beam: None,
+                beam_model: Default::default(),
+                controller: Some(bench.controller_file(kind).unwrap()),
+                library: library().to_path_buf(),
+            }
+            .write(&path)
+            .unwrap();
+            let fmu = Fmu::load(&path).unwrap();
+            let mut c = FmuController::new(fmu, &ControllerVariables::default(), ts).unwrap();
+            let theirs = run_loop(&setup, &mut c).unwrap();
+            assert_eq!(
+                ours.correction, theirs.correction,
+                "{kind:?} FMI {version:?}"
+            );
+            assert_eq!(ours.tip, theirs.tip);
+            // a measurement that is not finite: held, and flagged by `held`
+            let nan = mfcbeam::control::LoopSample {
+                k: 20_001,
+                t: 4.0002,
+                reference: 0.0,
+                measurement: f64::NAN,
+            };
+            assert_eq!(c.step(&nan).unwrap(), None);
+        }
+    }
+    // an FMU without the controller's variables is refused by name
+    let comp = dir.join("compensator.fmu");
+    package(
+        FmuKind::Compensator,
+        FmiVersion::Fmi3,
+        &nominal_model_file(),
+        &comp,
+    );
+    let e = FmuController::new(
+        Fmu::load(&comp).unwrap(),
+        &ControllerVariables::default(),
+        ts,
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(e.contains("no variable 'reference'"), "{e}");
+    // renamed: the compensator's y_d and u, but it has one input only
+    let names = ControllerVariables {
+        reference: "y_d".into(),
+        measurement: "u".into(),
+        correction: "u".into(),
+    };
+    let e = FmuController::new(Fmu::load(&comp).unwrap(), &names, ts)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("'u' must be a Float64 (Real) input"), "{e}");
+}
+
+#[test]
+fn benchmark_control_runs_a_controller_fmu() {
+    let dir = scratch("benchmark-fmu");
+    let fmu = dir.join("pid.fmu");
+    let out = cli()
+        .args([
+            "fmu",
+            "--kind",
+            "controller",
+            "--controller",
+            "pid",
+            "--fmi",
+            "2",
+            "--output",
+        ])
+        .arg(&fmu)
+        .arg("--library")
+        .arg(library())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = cli()
+        .args([
+            "benchmark-control",
+            "--controller",
+            "pid",
+            "--scenario",
+            "step-load",
+            "--fmu",
+        ])
+        .arg(&fmu)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let table = String::from_utf8(out.stdout).unwrap();
+    let row = |name: &str| -> String {
+        let line = table
+            .lines()
+            .find(|l| l.contains(&format!("| {name} |")))
+            .unwrap();
+        // every score but the step time
+        line.split('|')
+            .skip(3)
+            .take(8)
+            .collect::<Vec<_>>()
+            .join("|")
+    };
+    assert_eq!(row("PID"), row("pid.fmu"), "{table}");
+    // a compensator FMU is no controller: exit 2, one line
+    let comp = dir.join("compensator.fmu");
+    package(
+        FmuKind::Compensator,
+        FmiVersion::Fmi2,
+        &nominal_model_file(),
+        &comp,
+    );
+    let out = cli()
+        .args(["benchmark-control", "--fmu"])
+        .arg(&comp)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("no variable 'reference'") && err.trim().lines().count() == 1,
+        "{err}"
+    );
 }

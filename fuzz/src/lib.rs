@@ -363,3 +363,32 @@ fn check_refusal(refused: bool, err: &[c_char]) {
         );
     }
 }
+
+/// A controller file (the controller FMU's): parsed, built, and stepped on
+/// the numbers as (reference, measurement) pairs; its state stays finite
+/// whatever comes.
+pub fn controller_json(data: &[u8]) {
+    use mfcbeam::control::file::ControllerFile;
+    use mfcbeam::control::{Controller, LoopSample};
+    let (text, inputs) = text_and_numbers(data);
+    let Ok(file) = serde_json::from_slice::<ControllerFile>(text) else {
+        return;
+    };
+    let Ok(mut c) = file.build() else {
+        return;
+    };
+    for (k, pair) in inputs.chunks(2).enumerate() {
+        let sample = LoopSample {
+            k,
+            t: k as f64 * file.sample_time,
+            reference: pair[0],
+            measurement: pair.get(1).copied().unwrap_or(0.0),
+        };
+        match c.step(&sample) {
+            Ok(Some(v)) => assert!(v.is_finite(), "a correction {v} escaped"),
+            Ok(None) => {}
+            Err(e) => panic!("a built-in controller failed: {e}"),
+        }
+        assert!(c.state_is_finite(), "the state was poisoned at sample {k}");
+    }
+}

@@ -89,8 +89,8 @@ pub struct BenchmarkControlArgs {
     pub controller: Vec<String>,
     /// A program as the controller, its command line, e.g. 'python3
     /// my_controller.py': one line `k,t,reference,measurement` in per
-    /// sample, one line `correction` out (docs/FILES.md, "Controller
-    /// protocol").
+    /// sample, one line `correction` out (docs/FILES.md, "The controller
+    /// protocol"); started afresh for every scenario.
     #[arg(
         long,
         value_name = "CMD ARGS…",
@@ -98,10 +98,16 @@ pub struct BenchmarkControlArgs {
         conflicts_with = "fmu"
     )]
     pub exec: Option<String>,
-    /// An FMU (FMI 2.0 or 3.0 Co-Simulation) as the controller: inputs
-    /// `reference` and `measurement`, output `correction`.
+    /// An FMU (FMI 2.0 or 3.0 Co-Simulation) as the controller: Float64
+    /// inputs `reference` and `measurement`, output `correction`; one
+    /// communication step of Ts per sample, the output read after it is the
+    /// sample's correction. A fresh instance for every scenario.
     #[arg(long, value_name = "X.fmu")]
     pub fmu: Option<PathBuf>,
+    /// With --fmu: the FMU's name for one of ours, `OURS=THEIRS` (ours:
+    /// reference, measurement, correction); repeatable.
+    #[arg(long, value_name = "OURS=THEIRS", requires = "fmu")]
+    pub fmu_variable: Vec<String>,
     /// Run only these scenarios (repeatable; default: all).
     #[arg(long, value_name = "ID")]
     pub scenario: Vec<String>,
@@ -426,6 +432,8 @@ pub enum FmuKindArg {
     Model,
     /// The actuator and the beam: u in; tip deflection y, effective voltage v, modal state out (needs --beam).
     Plant,
+    /// A feedback design of the closed loop (needs --controller): reference and measurement in; correction, held out.
+    Controller,
 }
 
 #[derive(Debug, Args)]
@@ -433,10 +441,15 @@ pub struct FmuArgs {
     /// What the FMU contains.
     #[arg(long, value_enum)]
     pub kind: FmuKindArg,
-    /// Model file (JSON); it travels inside the FMU.
-    #[arg(long)]
-    pub model: PathBuf,
-    /// Beam file (JSON) of the plant; it travels inside the FMU.
+    /// Model file (JSON); it travels inside the FMU (not the controller's).
+    #[arg(long, required_if_eq_any([("kind", "compensator"), ("kind", "model"), ("kind", "plant")]))]
+    pub model: Option<PathBuf>,
+    /// The controller's design (--kind controller): `pid` or `lq`, designed
+    /// for the benchmark's nominal models (or the beam given with --beam).
+    #[arg(long, value_name = "pid|lq", required_if_eq("kind", "controller"))]
+    pub controller: Option<String>,
+    /// Beam file (JSON) of the plant; it travels inside the FMU. For the
+    /// controller: the beam its design is for (default: the nominal beam).
     #[arg(long, required_if_eq("kind", "plant"))]
     pub beam: Option<PathBuf>,
     /// Beam discretization (the plant): `modal` (finite elements reduced

@@ -2,6 +2,7 @@
 //! closed-loop benchmark, the open loop alongside, and the score table.
 
 use std::path::Path;
+use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::{bail, Context, Result};
@@ -10,7 +11,10 @@ use mfcbeam::control::process::ProcessController;
 use mfcbeam::control::{
     Benchmark, BenchmarkRun, BuiltinController, Controller, BENCHMARK_SCENARIOS,
 };
+use mfcbeam::fmi::controller::{ControllerVariables, FmuController};
+use mfcbeam::fmi::import::Fmu;
 use mfcbeam::io::{write_atomic, Trace};
+use mfcbeam::operators::nominal::SAMPLE_TIME;
 use mfcbeam::suite::conformance::external::split_command;
 use mfcbeam::suite::plots::{panel, scaled, series, write_figure, Figure, COLORS, GREY};
 
@@ -20,6 +24,7 @@ use super::args::BenchmarkControlArgs;
 enum Entrant {
     Builtin(BuiltinController),
     Program(Vec<String>),
+    Fmu(Arc<Fmu>, ControllerVariables),
 }
 
 impl Entrant {
@@ -27,6 +32,7 @@ impl Entrant {
         match self {
             Self::Builtin(b) => b.id().into(),
             Self::Program(_) => "program".into(),
+            Self::Fmu(..) => "fmu".into(),
         }
     }
 }
@@ -49,6 +55,27 @@ pub fn benchmark_control(a: &BenchmarkControlArgs) -> Result<()> {
             bail!("--exec: the command line is empty");
         }
         entrants.push(Entrant::Program(words));
+    } else if let Some(path) = &a.fmu {
+        let fmu = Fmu::load(path).with_context(|| format!("--fmu {}", path.display()))?;
+        let mut names = ControllerVariables::default();
+        for item in &a.fmu_variable {
+            let Some((ours, theirs)) = item.split_once('=') else {
+                bail!("--fmu-variable '{item}': expected OURS=THEIRS");
+            };
+            let slot = match ours {
+                "reference" => &mut names.reference,
+                "measurement" => &mut names.measurement,
+                "correction" => &mut names.correction,
+                _ => bail!(
+                    "--fmu-variable '{item}': '{ours}' is none of ours (reference, measurement, correction)"
+                ),
+            };
+            *slot = theirs.to_string();
+        }
+        // bind once now, so that a wrong FMU fails before any scenario runs
+        FmuController::new(fmu.clone(), &names, SAMPLE_TIME)
+            .with_context(|| format!("--fmu {}", path.display()))?;
+        entrants.push(Entrant::Fmu(fmu, names));
     } else if a.controller.is_empty() {
         entrants.push(Entrant::Builtin(BuiltinController::Pid));
         entrants.push(Entrant::Builtin(BuiltinController::StateFeedback));
@@ -86,6 +113,10 @@ pub fn benchmark_control(a: &BenchmarkControlArgs) -> Result<()> {
                     ],
                     Duration::from_secs_f64(a.timeout),
                 )?),
+                Entrant::Fmu(fmu, names) => Box::new(
+                    FmuController::new(fmu.clone(), names, bench.settings.sample_time)
+                        .with_context(|| format!("--fmu {}", fmu.path.display()))?,
+                ),
             };
             let run = bench
                 .run(id, controller.as_mut())

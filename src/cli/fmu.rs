@@ -22,11 +22,45 @@ use super::args::{ConformArgs, ConformKind, FmuArgs, FmuKindArg};
 use super::conform::{check_kind, explain_kind, input_column, output_column, properties_count};
 
 pub fn fmu(a: &FmuArgs) -> Result<()> {
-    let model = read_model_file(&a.model)?;
+    let model = match (&a.model, a.kind) {
+        (Some(_), FmuKindArg::Controller) => {
+            bail!("--model: a controller FMU holds no model (its design is for the benchmark's)")
+        }
+        (Some(m), _) => read_model_file(m)?,
+        (None, _) => mfcbeam::operators::nominal::nominal_model_file(),
+    };
     let beam = match (&a.beam, a.kind) {
-        (Some(b), FmuKindArg::Plant) => Some(read_beam(b)?),
-        (Some(_), _) => bail!("--beam: only the plant (--kind plant) has a beam"),
+        (Some(b), FmuKindArg::Plant | FmuKindArg::Controller) => Some(read_beam(b)?),
+        (Some(_), _) => bail!("--beam: only the plant and the controller have a beam"),
         (None, _) => None,
+    };
+    if a.controller.is_some() && a.kind != FmuKindArg::Controller {
+        bail!("--controller: only with --kind controller");
+    }
+    let controller = match a.controller.as_deref() {
+        None => None,
+        Some(id) => {
+            use mfcbeam::control::{Benchmark, BuiltinController};
+            let kind = match BuiltinController::from_id(id) {
+                Some(k) if k != BuiltinController::Open => k,
+                _ => bail!("--controller '{id}': not one of pid, lq"),
+            };
+            let bench = match &beam {
+                None => Benchmark::nominal()?,
+                Some(b) => {
+                    let kind = super::args::BeamModelArgs::kind_of(a.beam_model, a.elements);
+                    let modal =
+                        mfcbeam::beam::step_response_fit::modal_model(b, kind).context("--beam")?;
+                    Benchmark::new(mfcbeam::operators::nominal::nominal_model(), modal)?
+                }
+            };
+            Some(bench.controller_file(kind)?)
+        }
+    };
+    let beam = if a.kind == FmuKindArg::Controller {
+        None
+    } else {
+        beam
     };
     let library = match &a.library {
         Some(l) => l.clone(),
@@ -42,6 +76,7 @@ pub fn fmu(a: &FmuArgs) -> Result<()> {
             FmuKindArg::Compensator => FmuKind::Compensator,
             FmuKindArg::Model => FmuKind::Model,
             FmuKindArg::Plant => FmuKind::Plant,
+            FmuKindArg::Controller => FmuKind::Controller,
         },
         version: if a.fmi == "2" {
             FmiVersion::Fmi2
@@ -51,6 +86,7 @@ pub fn fmu(a: &FmuArgs) -> Result<()> {
         model,
         beam,
         beam_model: super::args::BeamModelArgs::kind_of(a.beam_model, a.elements),
+        controller,
         library,
     };
     package

@@ -13,8 +13,9 @@
 //! The disturbances are sized to the stroke: the impulse makes the first
 //! mode ring at about 0.1 mm, the load deflects the tip by about 0.15 mm.
 
-use super::pid::{Pid, PidGains, PidSettings};
-use super::state_feedback::{StateFeedback, StateFeedbackDesign, StateFeedbackSettings};
+use super::file::{ControllerDesign, ControllerFile};
+use super::pid::{PidGains, PidSettings};
+use super::state_feedback::{StateFeedbackDesign, StateFeedbackSettings};
 use super::{
     run_loop, score, ControlError, Controller, LoopSetup, LoopTrace, Scores, ZeroController,
 };
@@ -207,27 +208,44 @@ impl Benchmark {
     /// A built-in controller designed for the nominal models (it never sees
     /// the scenario).
     pub fn controller(&self, kind: BuiltinController) -> Result<Box<dyn Controller>, ControlError> {
-        let ts = self.settings.sample_time;
         Ok(match kind {
             BuiltinController::Open => Box::new(ZeroController),
-            BuiltinController::Pid => Box::new(Pid::new(
-                PidGains::design(&self.beam, &PidSettings::default())?,
-                ts,
-            )?),
+            _ => Box::new(self.controller_file(kind)?.build()?),
+        })
+    }
+
+    /// A built-in design as a controller file (what its FMU carries); the
+    /// open loop has none.
+    pub fn controller_file(&self, kind: BuiltinController) -> Result<ControllerFile, ControlError> {
+        let ts = self.settings.sample_time;
+        let design = match kind {
+            BuiltinController::Open => {
+                return Err(ControlError::Invalid {
+                    field: "controller",
+                    reason: "the open loop is no design".into(),
+                })
+            }
+            BuiltinController::Pid => {
+                ControllerDesign::Pid(PidGains::design(&self.beam, &PidSettings::default())?)
+            }
             BuiltinController::StateFeedback => {
                 let (_, hi) = self.supply.balanced_limits();
                 let settings = StateFeedbackSettings {
                     voltage_limit: hi,
                     ..StateFeedbackSettings::default()
                 };
-                Box::new(StateFeedback::new(StateFeedbackDesign::design(
+                ControllerDesign::StateFeedback(StateFeedbackDesign::design(
                     &self.beam,
                     ts,
                     &self.feedforward.y_d,
                     &self.feedforward.u_d,
                     &settings,
-                )?))
+                )?)
             }
+        };
+        Ok(ControllerFile {
+            sample_time: ts,
+            design,
         })
     }
 

@@ -18,6 +18,8 @@
 //! * [`state_feedback`]: LQ state feedback with a Kalman observer of the
 //!   modal state and of an input disturbance, on the modes below a tenth of
 //!   the sample rate; its Riccati equations by [`riccati`];
+//! * [`file`]: a built-in design with its gains as a file (the controller
+//!   FMU's);
 //! * [`process`]: any program as a controller, one line per sample over
 //!   stdin/stdout;
 //! * [`scores`]: what a run is scored by;
@@ -27,6 +29,7 @@
 pub mod benchmark;
 pub mod closed_loop;
 pub mod controller;
+pub mod file;
 pub mod pid;
 pub mod process;
 pub mod riccati;

@@ -66,7 +66,8 @@ impl PidSettings {
 }
 
 /// The gains of a filtered PID.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct PidGains {
     pub kp: f64,
     pub ki: f64,
@@ -76,6 +77,25 @@ pub struct PidGains {
 }
 
 impl PidGains {
+    /// Every gain finite and `≥ 0`, `T_f > 0`.
+    pub fn validate(&self) -> Result<(), ControlError> {
+        for (field, v) in [("kp", self.kp), ("ki", self.ki), ("kd", self.kd)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(ControlError::Invalid {
+                    field,
+                    reason: format!("must be a finite number >= 0, found {v}"),
+                });
+            }
+        }
+        if !(self.tf.is_finite() && self.tf > 0.0) {
+            return Err(ControlError::Invalid {
+                field: "tf",
+                reason: format!("must be a finite number > 0, found {}", self.tf),
+            });
+        }
+        Ok(())
+    }
+
     /// The rule applied to the first mode of `modal`.
     pub fn design(modal: &ModalModel, settings: &PidSettings) -> Result<Self, ControlError> {
         settings.validate()?;
@@ -124,6 +144,7 @@ pub struct Pid {
 impl Pid {
     /// At rest.
     pub fn new(gains: PidGains, sample_time: f64) -> Result<Self, ControlError> {
+        gains.validate()?;
         if !(sample_time.is_finite() && sample_time > 0.0) {
             return Err(ControlError::Invalid {
                 field: "sample_time",
@@ -143,6 +164,11 @@ impl Pid {
     pub fn gains(&self) -> PidGains {
         self.gains
     }
+
+    /// Its state: the integral, the filtered derivative and the last error.
+    pub fn state(&self) -> (f64, f64, Option<f64>) {
+        (self.integral, self.derivative, self.last_error)
+    }
 }
 
 impl Controller for Pid {
@@ -158,9 +184,14 @@ impl Controller for Pid {
         let PidGains { kp, ki, kd, tf } = self.gains;
         let ts = self.sample_time;
         let last = self.last_error.unwrap_or(e); // no derivative kick
-        self.integral += ts * e;
-        self.derivative = (tf * self.derivative + kd * (e - last)) / (tf + ts);
-        self.last_error = Some(e);
-        Ok(Some(-(kp * e + ki * self.integral + self.derivative)))
+        let integral = self.integral + ts * e;
+        let derivative = (tf * self.derivative + kd * (e - last)) / (tf + ts);
+        let correction = -(kp * e + ki * integral + derivative);
+        // an overflow is held: it never enters the state
+        if !(correction.is_finite() && integral.is_finite() && derivative.is_finite()) {
+            return Ok(None);
+        }
+        (self.integral, self.derivative, self.last_error) = (integral, derivative, Some(e));
+        Ok(Some(correction))
     }
 }

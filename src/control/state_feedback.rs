@@ -79,7 +79,8 @@ impl StateFeedbackSettings {
 
 /// The designed gains and the observer model (`n = 2·modes + 1` states, the
 /// last the input disturbance), row-major.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct StateFeedbackDesign {
     /// Modes in the design model.
     pub modes: usize,
@@ -195,7 +196,51 @@ impl StateFeedbackDesign {
     pub fn order(&self) -> usize {
         self.b.len()
     }
+
+    /// Consistent sizes (`n ≤` [`MAX_ORDER`]) and finite entries: what a
+    /// design read from a file must be before it runs.
+    pub fn validate(&self) -> Result<(), ControlError> {
+        let n = self.b.len();
+        if n == 0 || n > MAX_ORDER {
+            return Err(ControlError::Invalid {
+                field: "b",
+                reason: format!("{n} states; between 1 and {MAX_ORDER}"),
+            });
+        }
+        for (field, v, len) in [
+            ("a", &self.a, n * n),
+            ("c", &self.c, n),
+            ("observer", &self.observer, n),
+            ("feedback", &self.feedback, n),
+        ] {
+            if v.len() != len {
+                return Err(ControlError::Invalid {
+                    field,
+                    reason: format!("{} entries; {n} states need {len}", v.len()),
+                });
+            }
+        }
+        for (field, v) in [
+            ("a", &self.a),
+            ("b", &self.b),
+            ("c", &self.c),
+            ("observer", &self.observer),
+            ("feedback", &self.feedback),
+        ] {
+            if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+                return Err(ControlError::Invalid {
+                    field,
+                    reason: format!("entry {i} is {}", v[i]),
+                });
+            }
+        }
+        Ok(())
+    }
 }
+
+/// The most observer states a design may have (201: 100 modes and the
+/// disturbance).
+pub const MAX_ORDER: usize = 2 * crate::limits::MAX_BASIS_FUNCTIONS + 1;
 
 /// The observer-based state feedback with its state.
 #[derive(Debug, Clone, PartialEq)]
@@ -203,17 +248,21 @@ pub struct StateFeedback {
     design: StateFeedbackDesign,
     estimate: Vec<f64>,
     corrected: Vec<f64>,
+    next: Vec<f64>,
 }
 
 impl StateFeedback {
-    /// At rest (zero deviation, zero disturbance).
-    pub fn new(design: StateFeedbackDesign) -> Self {
+    /// At rest (zero deviation, zero disturbance); the design is checked
+    /// ([`StateFeedbackDesign::validate`]).
+    pub fn new(design: StateFeedbackDesign) -> Result<Self, ControlError> {
+        design.validate()?;
         let n = design.order();
-        Self {
+        Ok(Self {
             design,
             estimate: vec![0.0; n],
             corrected: vec![0.0; n],
-        }
+            next: vec![0.0; n],
+        })
     }
 
     /// Its design.
@@ -246,8 +295,14 @@ impl Controller for StateFeedback {
         }
         let correction = -dot(&d.feedback, &self.corrected);
         for i in 0..n {
-            self.estimate[i] = dot(&d.a[i * n..(i + 1) * n], &self.corrected) + d.b[i] * correction;
+            self.next[i] = dot(&d.a[i * n..(i + 1) * n], &self.corrected) + d.b[i] * correction;
         }
+        // an overflow (a design or a measurement far out of scale) is held:
+        // it never enters the estimate
+        if !(correction.is_finite() && self.next.iter().all(|x| x.is_finite())) {
+            return Ok(None);
+        }
+        std::mem::swap(&mut self.estimate, &mut self.next);
         Ok(Some(correction))
     }
 }

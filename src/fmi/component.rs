@@ -11,6 +11,8 @@ use thiserror::Error;
 use super::variables::{vr, FmuConfig, FmuKind, CONFIG_FILE};
 use crate::beam::simulation::DiscreteBeam;
 use crate::beam::step_response_fit::modal_model;
+use crate::control::file::{BuiltController, ControllerFile};
+use crate::control::{Controller, LoopSample};
 use crate::operators::compensator::{Compensator, CompensatorSettings};
 use crate::operators::heap::Heap;
 use crate::operators::model::HysteresisCreepModel;
@@ -62,6 +64,7 @@ enum Live {
         model: HysteresisCreepModel,
         beam: DiscreteBeam,
     },
+    Controller(BuiltController),
 }
 
 /// Everything the next outputs depend on: what save and restore copy.
@@ -69,6 +72,8 @@ enum Live {
 pub struct State {
     live: Option<Live>,
     input: f64,
+    /// The controller's second input.
+    measurement: f64,
     output: f64,
     effective_voltage: f64,
     saturated: bool,
@@ -123,6 +128,7 @@ impl Component {
             state: State {
                 live: None,
                 input: 0.0,
+                measurement: 0.0,
                 output: 0.0,
                 effective_voltage: 0.0,
                 saturated: false,
@@ -163,8 +169,26 @@ impl Component {
             .ok_or_else(|| FmuError::Invalid("this FMU has no beam".into()))
     }
 
+    /// Read the controller file and build the controller.
+    fn load_controller(&mut self) -> Result<(), FmuError> {
+        let path = self.resource_or(&self.model_file, Some(&self.config.model))?;
+        let bad = |reason: String| FmuError::Resource {
+            path: path.display().to_string(),
+            reason,
+        };
+        let file: ControllerFile = crate::io::read_json(&path).map_err(|e| bad(e.to_string()))?;
+        let controller = file.build().map_err(|e| bad(e.to_string()))?;
+        self.sample_time = file.sample_time;
+        self.delay = 0;
+        self.state.live = Some(Live::Controller(controller));
+        Ok(())
+    }
+
     /// Read the model (and beam) files and build the operators.
     fn load(&mut self) -> Result<(), FmuError> {
+        if self.config.kind == FmuKind::Controller {
+            return self.load_controller();
+        }
         let model_path = self.resource_or(&self.model_file, Some(&self.config.model))?;
         let file_error = |e: crate::io::FileError| FmuError::Resource {
             path: model_path.display().to_string(),
@@ -181,6 +205,7 @@ impl Component {
                 })?)
             }
             FmuKind::Model => Live::Model(model),
+            FmuKind::Controller => unreachable!("loaded by load_controller"),
             FmuKind::Plant => {
                 let beam_path = self.resource_or(&self.beam_file, self.config.beam.as_deref())?;
                 let beam = crate::io::read_beam(&beam_path).map_err(|e| FmuError::Resource {
@@ -295,7 +320,7 @@ impl Component {
             });
         }
         let s = &mut self.state;
-        let input = s.input;
+        let (input, measurement) = (s.input, s.measurement);
         let live = s.live.as_mut().expect("loaded in step mode");
         s.saturated = false;
         s.fault = false;
@@ -316,6 +341,20 @@ impl Component {
                     beam.step(v);
                     s.effective_voltage = v;
                     s.fault |= !input.is_finite();
+                }
+                Live::Controller(c) => {
+                    let sample = LoopSample {
+                        k: (time / ts).round().max(0.0) as usize,
+                        t: time,
+                        reference: input,
+                        measurement,
+                    };
+                    // the built-in designs never fail; nothing or a
+                    // non-finite answer holds the last correction
+                    match c.step(&sample) {
+                        Ok(Some(v)) if v.is_finite() => s.output = v,
+                        _ => s.fault = true,
+                    }
                 }
             }
         }
@@ -370,6 +409,10 @@ impl Component {
                 self.settable_now("the input", false)?;
                 self.state.input = value;
             }
+            (vr::MEASUREMENT, FmuKind::Controller) => {
+                self.settable_now("measurement", false)?;
+                self.state.measurement = value;
+            }
             (vr::U_MIN | vr::U_MAX, FmuKind::Compensator) => {
                 let name = if vr == vr::U_MIN { "u_min" } else { "u_max" };
                 self.settable_now(name, true)?;
@@ -397,6 +440,7 @@ impl Component {
             (vr::TIME, _) => s.time,
             (vr::INPUT, _) => s.input,
             (vr::OUTPUT, _) => s.output,
+            (vr::MEASUREMENT, FmuKind::Controller) => s.measurement,
             (vr::U_MIN, FmuKind::Compensator) => self.u_min,
             (vr::U_MAX, FmuKind::Compensator) => self.u_max,
             (vr::SAMPLE_TIME, _) => self.sample_time,

@@ -1,6 +1,6 @@
 //! The Functional Mock-up Interface (FMI 2.0 and 3.0, Co-Simulation): the
-//! compensator `W⁻¹`, the actuator model `W` and the plant (`W` and the
-//! beam) as FMUs that Simulink, OpenModelica, Dymola and FMPy import, and
+//! compensator `W⁻¹`, the actuator model `W`, the plant (`W` and the
+//! beam) and a feedback controller of the closed loop as FMUs that Simulink, OpenModelica, Dymola and FMPy import, and
 //! an importer that runs any FMU of a compensator or a model through the
 //! conformance checks.
 //!
@@ -12,7 +12,9 @@
 //! * [`description`] — `modelDescription.xml` for FMI 2.0 and 3.0;
 //! * [`package`] (feature `fmi-tools`) — the `.fmu` archive;
 //! * [`import`] (feature `fmi-tools`) — load an FMU and adapt it to the
-//!   conformance traits.
+//!   conformance traits;
+//! * [`controller`] (feature `fmi-tools`) — an FMU as the controller of the
+//!   closed loop ([`crate::control`]).
 //!
 //! ## Timing
 //!
@@ -35,6 +37,8 @@
 //! `compensate` does from a whole file.
 
 pub mod component;
+#[cfg(feature = "fmi-tools")]
+pub mod controller;
 pub mod description;
 #[cfg(feature = "fmi-tools")]
 pub mod import;

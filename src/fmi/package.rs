@@ -14,6 +14,7 @@ use super::variables::{BeamDiscretization, FmiVersion, FmuConfig, FmuKind, CONFI
 use crate::beam::parameters::BeamParameters;
 use crate::beam::simulation::DiscreteBeam;
 use crate::beam::step_response_fit::{modal_model, BeamModelKind};
+use crate::control::file::ControllerFile;
 use crate::operators::model::{HysteresisCreepModel, ModelFile};
 
 /// Why an FMU could not be built.
@@ -41,6 +42,8 @@ pub struct FmuPackage {
     /// The plant's beam.
     pub beam: Option<BeamParameters>,
     pub beam_model: BeamModelKind,
+    /// The controller's design (the controller; `model` is then unused).
+    pub controller: Option<ControllerFile>,
     /// The `mfcbeam-fmu` shared library (`libmfcbeam_fmu.so`).
     pub library: PathBuf,
 }
@@ -81,6 +84,18 @@ fn token(parts: &[&[u8]]) -> String {
 impl FmuPackage {
     /// The archive's bytes.
     pub fn build(&self) -> Result<Vec<u8>, PackageError> {
+        let controller = match (self.kind, &self.controller) {
+            (FmuKind::Controller, None) => {
+                return Err(PackageError::Model(
+                    "a controller FMU needs its design".into(),
+                ))
+            }
+            (FmuKind::Controller, Some(c)) => {
+                c.build().map_err(|e| PackageError::Model(e.to_string()))?;
+                Some(c)
+            }
+            _ => None,
+        };
         let model = HysteresisCreepModel::from_file(&self.model)
             .map_err(|e| PackageError::Model(e.to_string()))?;
         let library = std::fs::read(&self.library).map_err(|e| PackageError::Library {
@@ -89,8 +104,15 @@ impl FmuPackage {
                 "{e} (build it with `cargo build --release -p mfcbeam-fmu`, or give --library)"
             ),
         })?;
-        let model_json = serde_json::to_vec_pretty(&self.model)
-            .map_err(|e| PackageError::Model(e.to_string()))?;
+        let model_json = match controller {
+            Some(c) => serde_json::to_vec_pretty(c),
+            None => serde_json::to_vec_pretty(&self.model),
+        }
+        .map_err(|e| PackageError::Model(e.to_string()))?;
+        let (model_name, sample_time, delay) = match controller {
+            Some(c) => ("controller.json", c.sample_time, 0),
+            None => ("model.json", model.sample_time(), model.preview()),
+        };
         let (beam_json, modes) = match (self.kind, &self.beam) {
             (FmuKind::Plant, None) => return Err(PackageError::NoBeam),
             (FmuKind::Plant, Some(beam)) => {
@@ -119,18 +141,19 @@ impl FmuPackage {
             kind: self.kind,
             fmi_version: self.version,
             token,
-            model: "model.json".into(),
+            model: model_name.into(),
             beam: beam_json.as_ref().map(|_| "beam.json".into()),
             beam_model: beam_json.as_ref().map(|_| discretization),
             modes,
         };
         let info = DescriptionInfo {
-            sample_time: model.sample_time(),
-            delay: model.preview(),
+            sample_time,
+            delay,
             description: match self.kind {
                 FmuKind::Compensator => "The hysteresis and creep compensator W^-1 of a piezoelectric actuator (Prandtl-Ishlinskii hysteresis and creep, analytic inverse), from mfcbeam.",
                 FmuKind::Model => "The actuator model W = S[H + C] + offset (Prandtl-Ishlinskii hysteresis and creep), from mfcbeam.",
                 FmuKind::Plant => "The MFC-patch-driven cantilever: the actuator model W and the beam's modal model (exact zero-order-hold discretization), from mfcbeam.",
+                FmuKind::Controller => "A feedback controller of the two-degrees-of-freedom loop around the compensated flatness-based feedforward of an MFC-patch-driven cantilever: from the reference and the measured tip deflection to a correction of the effective voltage, from mfcbeam.",
             }
             .into(),
             generation_tool: format!("mfcbeam {}", env!("CARGO_PKG_VERSION")),
@@ -151,7 +174,7 @@ impl FmuPackage {
                 &library,
             ),
             (format!("resources/{CONFIG_FILE}"), &config_json),
-            ("resources/model.json".into(), &model_json),
+            (format!("resources/{model_name}"), &model_json),
         ];
         if let Some(b) = &beam_json {
             entries.push(("resources/beam.json".into(), b));

@@ -17,6 +17,9 @@ pub enum FmuKind {
     /// `W` and the beam: the balanced patch voltage `u` in; the tip
     /// deflection `y`, the effective voltage `v` and the modal state out.
     Plant,
+    /// A built-in feedback design of the closed loop: `reference` and
+    /// `measurement` in; `correction` and `held` out.
+    Controller,
 }
 
 impl FmuKind {
@@ -26,6 +29,7 @@ impl FmuKind {
             FmuKind::Compensator => "compensator",
             FmuKind::Model => "model",
             FmuKind::Plant => "plant",
+            FmuKind::Controller => "controller",
         }
     }
 }
@@ -93,7 +97,8 @@ pub struct FmuConfig {
     pub fmi_version: FmiVersion,
     /// The GUID (FMI 2) or instantiation token (FMI 3) of the description.
     pub token: String,
-    /// The model file under `resources/`.
+    /// The model file under `resources/` (the controller's: its controller
+    /// file).
     pub model: String,
     /// The beam file under `resources/` (the plant).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -171,6 +176,8 @@ pub mod vr {
     pub const BEAM_FILE: u32 = 10;
     /// The plant's effective voltage `v = W[u]`.
     pub const EFFECTIVE_VOLTAGE: u32 = 11;
+    /// The controller's measurement.
+    pub const MEASUREMENT: u32 = 12;
     /// Mode `j` (from 0): real part at `MODAL + 2j`, imaginary at `MODAL + 2j + 1`.
     pub const MODAL: u32 = 100;
 }
@@ -222,14 +229,25 @@ pub fn variables(kind: FmuKind, modes: usize) -> Vec<Variable> {
         None,
         "dead time d of the model (samples)",
     );
-    let model_file = var(
-        "model_file",
-        vr::MODEL_FILE,
-        String,
-        Parameter,
-        Some(""),
-        "model file (JSON) to load instead of the one in resources/ (empty: resources/model.json)",
-    );
+    let model_file = if kind == FmuKind::Controller {
+        var(
+            "controller_file",
+            vr::MODEL_FILE,
+            String,
+            Parameter,
+            Some(""),
+            "controller file (JSON) to load instead of the one in resources/ (empty: resources/controller.json)",
+        )
+    } else {
+        var(
+            "model_file",
+            vr::MODEL_FILE,
+            String,
+            Parameter,
+            Some(""),
+            "model file (JSON) to load instead of the one in resources/ (empty: resources/model.json)",
+        )
+    };
     match kind {
         FmuKind::Compensator => {
             v.push(var("y_d", vr::INPUT, Float64, Input, Some("0"), "target effective voltage y_d (V); with a dead time d, the target wanted d samples later"));
@@ -298,6 +316,40 @@ pub fn variables(kind: FmuKind, modes: usize) -> Vec<Variable> {
                 Output,
                 Some("false"),
                 "u was not a finite number in the last step: the previous u is held",
+            ));
+        }
+        FmuKind::Controller => {
+            v.push(var(
+                "reference",
+                vr::INPUT,
+                Float64,
+                Input,
+                Some("0"),
+                "reference tip deflection y_d (m) at the start of the step",
+            ));
+            v.push(var(
+                "measurement",
+                vr::MEASUREMENT,
+                Float64,
+                Input,
+                Some("0"),
+                "measured tip deflection (m) at the start of the step, before the correction acts",
+            ));
+            v.push(var(
+                "correction",
+                vr::OUTPUT,
+                Float64,
+                Output,
+                Some("0"),
+                "correction of the effective voltage (V), added to the feedforward before the compensator",
+            ));
+            v.push(var(
+                "held",
+                vr::FAULT,
+                Boolean,
+                Output,
+                Some("false"),
+                "an input was not a finite number in the last step: the previous correction is held",
             ));
         }
         FmuKind::Plant => {

@@ -37,4 +37,8 @@ def fmus(cli, tmp_path_factory):
             extra = ["--beam", beam] if kind == "plant" else []
             run(cli, "fmu", "--kind", kind, "--model", model, *extra, "--fmi", version, "--output", out)
             built[(kind, version)] = out
+        for design in ("pid", "lq"):
+            out = d / f"controller-{design}{version}.fmu"
+            run(cli, "fmu", "--kind", "controller", "--controller", design, "--fmi", version, "--output", out)
+            built[(f"controller-{design}", version)] = out
     return built

@@ -54,7 +54,7 @@ def same_bits(a, b):
     assert bad.size == 0, f"{bad.size} samples differ, first {bad[0]}: {a[bad[0]]!r} vs {b[bad[0]]!r}"
 
 
-@pytest.mark.parametrize("kind", ["compensator", "model", "plant"])
+@pytest.mark.parametrize("kind", ["compensator", "model", "plant", "controller-pid", "controller-lq"])
 @pytest.mark.parametrize("version", ["2", "3"])
 def test_validate(fmus, kind, version):
     problems = validate_fmu(str(fmus[(kind, version)]))
@@ -87,6 +87,27 @@ def test_compensator_equals_cli(cli, fmus, tmp_path, version):
     same_bits(res["u"][1:], trace["u"])
     same_bits(res["saturated"][1:].astype(float), trace["saturated"])
     assert not res["fault"].any()
+
+
+@pytest.mark.parametrize("design", ["pid", "lq"])
+@pytest.mark.parametrize("version", ["2", "3"])
+def test_controller_equals_the_loop(cli, fmus, tmp_path, design, version):
+    # the loop's recorded reference and measurement into the controller FMU
+    # under FMPy: its corrections, one communication step later, are the
+    # loop's bit for bit (the measurement carries sensor noise)
+    out = tmp_path / "loop"
+    run(cli, "benchmark-control", "--controller", design, "--scenario", "noise", "--output-dir", out)
+    trace = read_csv(out / f"noise-{design}.csv")
+    n = 16_000  # through the transition at 2.9 s
+    arr = np.zeros(n, dtype=[("time", np.float64), ("reference", np.float64), ("measurement", np.float64)])
+    arr["time"] = np.arange(n) * TS
+    arr["reference"] = trace["reference"][:n]
+    arr["measurement"] = trace["measurement"][:n]
+    res = simulate(fmus[(f"controller-{design}", version)], arr, ["correction", "held"])
+    assert res["correction"][0] == 0.0
+    same_bits(res["correction"][1:], trace["correction"][:n])
+    assert np.abs(trace["correction"][:n]).max() > 1.0
+    assert not res["held"].any()
 
 
 @pytest.mark.parametrize("version", ["2", "3"])
