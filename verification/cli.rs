@@ -1660,3 +1660,68 @@ fn the_python_pid_example_is_the_built_in_pid_bit_for_bit() {
         }
     }
 }
+
+#[test]
+fn benchmark_control_takes_the_models_and_the_beam_from_files() {
+    let d = TempDir::new("benchmark-files");
+    let base = [
+        "benchmark-control",
+        "--controller",
+        "lq",
+        "--scenario",
+        "step-load",
+    ];
+    let default = mfcbeam(&base);
+    assert!(default.status.success());
+    let strip = |o: &Output| -> Vec<String> {
+        // the scores without the step times
+        String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .map(|l| l.split('|').take(11).collect::<Vec<_>>().join("|"))
+            .collect()
+    };
+    let same = mfcbeam(
+        &[
+            &base[..],
+            &[
+                "--model",
+                MODEL,
+                "--plant-model",
+                MODEL,
+                "--beam",
+                "golden/nominal_beam.json",
+            ],
+        ]
+        .concat(),
+    );
+    assert!(
+        same.status.success(),
+        "{}",
+        String::from_utf8_lossy(&same.stderr)
+    );
+    assert_eq!(strip(&default), strip(&same));
+    // a true W 10 % stronger: the loop still settles, the open loop does not
+    let mut strong = nominal_model().to_file();
+    strong.hysteresis.weights.iter_mut().for_each(|w| *w *= 1.1);
+    let strong_path = d.write("strong.json", &serde_json::to_string(&strong).unwrap());
+    let out = mfcbeam(&[&base[..], &["--plant-model", s(&strong_path)]].concat());
+    assert!(out.status.success());
+    assert_ne!(strip(&default), strip(&out));
+    // a compensator model that needs a preview cannot be in a loop
+    let mut delayed = nominal_model().to_file();
+    delayed.delay = Some(3);
+    let delayed_path = d.write("delayed.json", &serde_json::to_string(&delayed).unwrap());
+    assert_clean_failure(
+        &mfcbeam(&[&base[..], &["--model", s(&delayed_path)]].concat()),
+        &["model", "preview of 3 samples"],
+        None,
+    );
+    let mut slow = nominal_model().to_file();
+    slow.sample_time = 1e-3;
+    let slow_path = d.write("slow.json", &serde_json::to_string(&slow).unwrap());
+    assert_clean_failure(
+        &mfcbeam(&[&base[..], &["--plant-model", s(&slow_path)]].concat()),
+        &["--plant-model", "sample time 0.001 s"],
+        None,
+    );
+}

@@ -111,6 +111,25 @@ pub struct BenchmarkControlArgs {
     /// Run only these scenarios (repeatable; default: all).
     #[arg(long, value_name = "ID")]
     pub scenario: Vec<String>,
+    /// The model file of the compensator W⁻¹ in the loop (default: the
+    /// nominal model).
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// The model file of the true actuator W (default: the same as
+    /// --model); `model-error` scales its weights.
+    #[arg(long, value_name = "M.json")]
+    pub plant_model: Option<PathBuf>,
+    /// Beam file (JSON) of the loop, its feedforward and the built-in
+    /// designs (default: the nominal beam).
+    #[arg(long)]
+    pub beam: Option<PathBuf>,
+    /// Beam discretization: `modal` (finite elements reduced to
+    /// `basis_functions` modes) or `ritz` (the paper's).
+    #[arg(long, value_enum, default_value_t = ModelKindArg::Modal)]
+    pub beam_model: ModelKindArg,
+    /// Finite elements of the modal model.
+    #[arg(long, default_value_t = mfcbeam::beam::fe::DEFAULT_ELEMENTS, value_parser = parse_elements)]
+    pub elements: usize,
     /// Longest the controller may take to answer one sample (s).
     #[arg(long, default_value_t = 10.0, allow_hyphen_values = true)]
     pub timeout: f64,

@@ -7,13 +7,15 @@ use std::time::Duration;
 
 use anyhow::{bail, Context, Result};
 
+use mfcbeam::beam::step_response_fit::modal_model;
+use mfcbeam::beam::BeamParameters;
 use mfcbeam::control::process::ProcessController;
 use mfcbeam::control::{
     Benchmark, BenchmarkRun, BuiltinController, Controller, BENCHMARK_SCENARIOS,
 };
 use mfcbeam::fmi::controller::{ControllerVariables, FmuController};
 use mfcbeam::fmi::import::Fmu;
-use mfcbeam::io::{write_atomic, Trace};
+use mfcbeam::io::{read_beam, read_model, write_atomic, Trace};
 use mfcbeam::operators::nominal::SAMPLE_TIME;
 use mfcbeam::suite::conformance::external::split_command;
 use mfcbeam::suite::plots::{panel, scaled, series, write_figure, Figure, COLORS, GREY};
@@ -91,7 +93,7 @@ pub fn benchmark_control(a: &BenchmarkControlArgs) -> Result<()> {
     if let Some(dir) = &a.output_dir {
         std::fs::create_dir_all(dir).with_context(|| format!("--output-dir {}", dir.display()))?;
     }
-    let bench = Benchmark::nominal()?;
+    let bench = benchmark(a)?;
     let mut table = String::from(
         "| scenario | controller | during rms / max (um) | after rms / max (um) | max error (% stroke) | residual (um) | attenuation | peak patch (V) | saturated (ms) | held | step mean / max (us) |\n\
          |---|---|---|---|---|---|---|---|---|---|---|\n",
@@ -157,6 +159,35 @@ pub fn benchmark_control(a: &BenchmarkControlArgs) -> Result<()> {
     }
     print!("{table}");
     Ok(())
+}
+
+/// The benchmark on the nominal models or the files given.
+fn benchmark(a: &BenchmarkControlArgs) -> Result<Benchmark> {
+    let model = match &a.model {
+        Some(p) => read_model(p)?,
+        None => mfcbeam::operators::nominal::nominal_model(),
+    };
+    let beam = match &a.beam {
+        Some(p) => read_beam(p)?,
+        None => BeamParameters::nominal(),
+    };
+    let kind = super::args::BeamModelArgs::kind_of(a.beam_model, a.elements);
+    let modal = modal_model(&beam, kind).context("--beam")?;
+    let bench = Benchmark::new(model, modal).context("the benchmark's feedforward")?;
+    Ok(match &a.plant_model {
+        Some(p) => {
+            let plant = read_model(p)?;
+            let (tp, tm) = (plant.sample_time(), bench.model.sample_time());
+            if (tp - tm).abs() > 1e-12 * tm {
+                bail!(
+                    "--plant-model {}: sample time {tp} s, the model's is {tm} s",
+                    p.display()
+                );
+            }
+            bench.with_plant(plant)
+        }
+        None => bench,
+    })
 }
 
 fn write_outputs(dir: &Path, id: &str, runs: &[(String, BenchmarkRun)]) -> Result<()> {

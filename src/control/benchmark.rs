@@ -8,6 +8,10 @@
 //! | `impulse` | tip impulses of [`IMPULSE`] at 2.93 s (during the move) and 3.1 s (after) |
 //! | `step-load` | a tip force of [`STEP_LOAD`] from 3.2 s |
 //! | `model-error` | the true `W` has its hysteresis weights × 1.1 and its creep weights × 1.3 |
+//!
+//! The controller's model, the true `W` and the beam can be others
+//! ([`Benchmark::new`], [`Benchmark::with_plant`]); the scenarios then apply
+//! to them (the model error scales the true `W`).
 //! | `noise` | Gaussian sensor noise of [`NOISE`] rms (seeded) |
 //!
 //! The disturbances are sized to the stroke: the impulse makes the first
@@ -106,7 +110,10 @@ impl BuiltinController {
 /// The nominal plant, beam and Fig. 14 feedforward the scenarios share.
 #[derive(Debug, Clone)]
 pub struct Benchmark {
+    /// The model whose `W⁻¹` the controller uses.
     pub model: HysteresisCreepModel,
+    /// The true actuator `W` (the same as `model` unless set apart).
+    pub plant: HysteresisCreepModel,
     pub beam: ModalModel,
     pub settings: FeedforwardSettings,
     pub feedforward: Feedforward,
@@ -134,12 +141,20 @@ impl Benchmark {
         let settings = FeedforwardSettings::default();
         let feedforward = design(&FlatParametrization::new(&beam)?, &settings)?;
         Ok(Self {
+            plant: model.clone(),
             model,
             beam,
             settings,
             feedforward,
             supply: Supply::default(),
         })
+    }
+
+    /// The same with another true actuator `W` (its sample time must be
+    /// the benchmark's; checked when a loop runs).
+    pub fn with_plant(mut self, plant: HysteresisCreepModel) -> Self {
+        self.plant = plant;
+        self
     }
 
     /// The transition `[t₀, t₀ + T)` (s).
@@ -170,7 +185,7 @@ impl Benchmark {
         let ts = self.settings.sample_time;
         let n = self.feedforward.t.len();
         let mut setup = LoopSetup {
-            plant: self.model.clone(),
+            plant: self.plant.clone(),
             model: self.model.clone(),
             beam: self.beam.clone(),
             sample_time: ts,
@@ -189,7 +204,7 @@ impl Benchmark {
             }
             "step-load" => setup.force[index(STEP_LOAD_TIME)..].fill(STEP_LOAD),
             "model-error" => {
-                let mut file = self.model.to_file();
+                let mut file = self.plant.to_file();
                 file.hysteresis
                     .weights
                     .iter_mut()
