@@ -1,6 +1,7 @@
 //! The per-sample `step` of every operator, of the compensator and of a
-//! compensator bank, with and without a superposition operator, allocates
-//! nothing: counted with a global allocator that records every allocation.
+//! compensator bank, with and without a superposition operator, and of the
+//! built-in feedback designs allocates nothing: counted with a global
+//! allocator that records every allocation.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -177,6 +178,27 @@ fn steps_and_in_place_runs_allocate_nothing() {
         n, 0,
         "{n} allocations in 2000 steps of a bank on two threads"
     );
+    // the built-in feedback designs: one step per sample of a loop
+    let bench = mfcbeam::control::Benchmark::nominal().unwrap();
+    for kind in [
+        mfcbeam::control::BuiltinController::Pid,
+        mfcbeam::control::BuiltinController::StateFeedback,
+    ] {
+        use mfcbeam::control::Controller;
+        let mut c = bench.controller_file(kind).unwrap().build().unwrap();
+        let n = allocations_during(|| {
+            for k in 0..2000 {
+                let s = mfcbeam::control::LoopSample {
+                    k,
+                    t: k as f64 * 2e-4,
+                    reference: 1e-3,
+                    measurement: 1e-3 * (k as f64 * 1e-2).sin(),
+                };
+                std::hint::black_box(c.step(&s).unwrap());
+            }
+        });
+        assert_eq!(n, 0, "{n} allocations in 2000 steps of {kind:?}");
+    }
     // the counter does see allocations
     assert!(
         allocations_during(|| {
