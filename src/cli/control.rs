@@ -86,7 +86,11 @@ pub fn benchmark_control(a: &BenchmarkControlArgs) -> Result<()> {
         BENCHMARK_SCENARIOS.iter().map(|s| s.id).collect()
     } else {
         for id in &a.scenario {
-            Benchmark::scenario(id).map_err(|e| anyhow::anyhow!("--scenario {e}"))?;
+            if let Err(mfcbeam::control::ControlError::Invalid { reason, .. }) =
+                Benchmark::scenario(id)
+            {
+                bail!("--scenario: {reason}");
+            }
         }
         a.scenario.iter().map(String::as_str).collect()
     };

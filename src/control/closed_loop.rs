@@ -157,7 +157,16 @@ pub fn run_loop(
         feedforward: setup.feedforward.clone(),
         force: setup.force.clone(),
         noise: setup.noise.clone(),
-        ..LoopTrace::default()
+        measurement: Vec::with_capacity(n),
+        correction: Vec::with_capacity(n),
+        held: Vec::with_capacity(n),
+        u: Vec::with_capacity(n),
+        saturated: Vec::with_capacity(n),
+        u_fs: Vec::with_capacity(n),
+        u_bs: Vec::with_capacity(n),
+        w: Vec::with_capacity(n),
+        tip: Vec::with_capacity(n),
+        compute_time: Vec::with_capacity(n),
     };
     let mut last = 0.0;
     let name = controller.name();
