@@ -42,13 +42,7 @@ const fn disturbance(name: &'static str, unit: &'static str) -> Column {
 
 const COLUMNS: &[Column] = &[
     time(),
-    Column {
-        unit: "m",
-        abs_tol: 1e-15,
-        rel_tol: 1e-10,
-        justification: "N(d/dt) z_d from order-30 derivatives accurate to 1e-10 of their scale",
-        ..model_output("y_d")
-    },
+    flat_reference("y_d"),
     disturbance("force", "N"),
     disturbance("noise", "m"),
     tip("tip_open"),

@@ -193,6 +193,17 @@ pub const fn compensator_output(name: &'static str) -> Column {
     }
 }
 
+/// The flat output's tip deflection `y_d = N(d/dt) z_d` (m).
+pub const fn flat_reference(name: &'static str) -> Column {
+    Column {
+        name,
+        unit: "m",
+        abs_tol: 1e-15,
+        rel_tol: 1e-10,
+        justification: "N(d/dt) z_d from order-30 derivatives accurate to 1e-10 of their scale",
+    }
+}
+
 /// A tip deflection from the exact zero-order-hold beam (m).
 pub const fn tip(name: &'static str) -> Column {
     Column {
