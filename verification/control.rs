@@ -201,6 +201,7 @@ fn the_loop_is_an_independent_simulation_of_the_same_loop() {
             .zip(&trace.tip)
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
+        eprintln!("{kind:?}: the two loops differ by {worst:.2e} m (tolerance {tol:.2e})");
         assert!(worst < tol, "{kind:?}: {worst:e} m (tolerance {tol:e})");
     }
 }
