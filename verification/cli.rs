@@ -1620,7 +1620,10 @@ fn the_python_pid_example_is_the_built_in_pid_bit_for_bit() {
     let text = fs::read_to_string("examples/control/pid_controller.py").unwrap();
     let readme = fs::read_to_string("README.md").unwrap();
     let code = &text[text.find("import os").unwrap()..];
-    assert!(readme.contains(&format!("```python\n{code}```")), "README's controller differs from the file");
+    assert!(
+        readme.contains(&format!("```python\n{code}```")),
+        "README's controller differs from the file"
+    );
     // its gains are the rule's, to the last bit
     let line = text
         .lines()
