@@ -18,7 +18,7 @@
 //! * [`state_feedback`]: LQ state feedback with a Kalman observer of the
 //!   modal state and of an input disturbance, on the modes below a tenth of
 //!   the sample rate; its Riccati equations by [`riccati`];
-//! * [`file`]: a built-in design with its gains as a file (the controller
+//! * [`file`](mod@file): a built-in design with its gains as a file (the controller
 //!   FMU's);
 //! * [`process`]: any program as a controller, one line per sample over
 //!   stdin/stdout;
