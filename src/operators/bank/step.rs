@@ -1,0 +1,374 @@
+//! One step of a run of blocks of a [`CompensatorBank`](super::CompensatorBank):
+//! `H⁻¹`, the clip and the re-seat of a clipped sample, then the creep pass,
+//! software-pipelined by one block, each lane in the order of
+//! [`Compensator`](crate::realtime::Compensator) (21).
+
+use crate::operators::heap::Heap;
+use crate::realtime::compensator::Compensated;
+use crate::realtime::play::play;
+use crate::realtime::real::Real;
+use crate::realtime::simd::block::{lanes, run_blocks, Block, BlockWork, Ops, Row};
+use crate::realtime::simd::Kernels;
+use crate::realtime::superposition::Superposition;
+
+use super::Layout;
+
+/// Blocks `first..` whose rows are `state` (their channels' targets and
+/// outputs), on `k`'s kernels.
+pub(super) fn step_blocks<T: Real>(
+    k: Kernels,
+    fixed: &Fixed<'_, T>,
+    first: usize,
+    state: &mut [Row],
+    targets: &[T],
+    out: &mut [Compensated<T>],
+) {
+    run_blocks(
+        k,
+        Step {
+            bank: fixed,
+            state,
+            first_block: first,
+            targets,
+            out,
+        },
+    );
+}
+
+/// What a step reads and does not change.
+pub(super) struct Fixed<'a, T: Real> {
+    pub(super) layout: Layout,
+    pub(super) parameters: &'a [Row],
+    pub(super) parameter_rows: usize,
+    pub(super) shared: bool,
+    pub(super) lower: T,
+    pub(super) upper: T,
+    pub(super) parity: usize,
+    pub(super) inverse_superposition: &'a [Option<Superposition<T, Heap>>],
+    pub(super) superposed: &'a [bool],
+}
+
+/// One step of a run of blocks: their state, targets and outputs.
+struct Step<'a, 'b, T: Real> {
+    bank: &'a Fixed<'b, T>,
+    state: &'a mut [Row],
+    /// The index of the first block in the bank.
+    first_block: usize,
+    targets: &'a [T],
+    out: &'a mut [Compensated<T>],
+}
+
+impl<T: Real> BlockWork<T> for Step<'_, '_, T> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run<V: Block<T>>(self, o: Ops<T, V>) {
+        let f = self.bank;
+        let sr = f.layout.state_rows();
+        let blocks = self.state.len() / sr;
+        if blocks == 0 {
+            return;
+        }
+        // Software-pipelined by one block: H⁻¹ and the clip of block b + 1
+        // (a chain of dependent reductions) are issued before the creep pass
+        // of block b (independent rows), so the core has work while the
+        // chain's latency runs out. (Plain functions, no closures: see
+        // `creep_update`.)
+        let (first, targets, out) = (self.first_block, self.targets, self.out);
+        let p = |b: usize| parameters(f, first + b);
+        first_part(o, f, first, 0, &mut self.state[..sr], p(0), targets, out);
+        for b in 0..blocks {
+            if b + 1 < blocks {
+                let state = &mut self.state[(b + 1) * sr..][..sr];
+                first_part(o, f, first, b + 1, state, p(b + 1), targets, out);
+            }
+            creep_pass(o, f, &mut self.state[b * sr..][..sr], p(b));
+        }
+    }
+}
+
+/// The parameter rows of block `block` of the bank.
+#[inline(always)]
+fn parameters<'a, T: Real>(f: &Fixed<'a, T>, block: usize) -> &'a [Row] {
+    if f.shared {
+        &f.parameters[..f.parameter_rows]
+    } else {
+        &f.parameters[block * f.parameter_rows..][..f.parameter_rows]
+    }
+}
+
+/// [`inverse_and_clip`] of block `b` of a run starting at bank block
+/// `first`, its outputs written to the run's `out`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn first_part<T: Real, V: Block<T>>(
+    o: Ops<T, V>,
+    f: &Fixed<'_, T>,
+    first: usize,
+    b: usize,
+    state: &mut [Row],
+    p: &[Row],
+    targets: &[T],
+    out: &mut [Compensated<T>],
+) {
+    let width = lanes::<T>();
+    let c0 = b * width;
+    let k = width.min(targets.len() - c0);
+    // a whole block (all but perhaps the last) straight from the caller's
+    // slice; the last one through a padded row
+    let target = if k == width {
+        o.load_values(&targets[c0..][..width])
+    } else {
+        let mut row = Row::default();
+        row.lanes_mut()[..k].copy_from_slice(&targets[c0..c0 + k]);
+        o.load(&row)
+    };
+    let (u, saturated, fault) = inverse_and_clip(o, f, first + b, state, p, target);
+    let out = if k == width {
+        &mut out[c0..][..width]
+    } else {
+        &mut out[c0..c0 + k]
+    };
+    for ((l, out), &u) in out.iter_mut().enumerate().zip(u.lanes::<T>()) {
+        *out = Compensated {
+            u,
+            saturated: saturated & (1 << l) != 0,
+            fault: fault & (1 << l) != 0,
+        };
+    }
+}
+
+/// Block `block` of the bank, first part: what `Compensator::compensate`
+/// does up to the applied voltage, lane by lane, in its order of
+/// operations (the creep pass is [`creep_pass`]). Returns the voltages and
+/// the saturated and fault bits.
+#[inline(always)]
+fn inverse_and_clip<T: Real, V: Block<T>>(
+    o: Ops<T, V>,
+    f: &Fixed<'_, T>,
+    block: usize,
+    s: &mut [Row],
+    p: &[Row],
+    t: V,
+) -> (Row, u32, u32) {
+    let a = f.layout;
+    let (cur, next) = (f.parity, f.parity ^ 1);
+    let fault = o.non_finite(t);
+    // S⁻¹[t − offset] − C: y, or the input held where that is not finite
+    let mut y = o.sub(t, o.load(&p[a.offset()]));
+    if f.superposed[block] {
+        y = inverse_superposition(o, f, block, y);
+    }
+    let y = o.sub(y, o.load(&s[a.creep_out()]));
+    let y = o.select(o.non_finite(y), o.load(&s[a.inv_x(cur, 0)]), y);
+    // H⁻¹ (22): the plays into the other copy; a faulted lane keeps its
+    // own. Whole slices of rows, walked in fours: no index arithmetic or
+    // bounds check between the vector operations.
+    let n = a.n;
+    let (first_copy, second_copy) = s[..2 * n].split_at_mut(n);
+    let (old, new_rows) = if cur == 0 {
+        (&*first_copy, second_copy)
+    } else {
+        (&*second_copy, first_copy)
+    };
+    let (inv_r, inv_w) = (&p[a.inv_r(0)..][..n], &p[a.inv_w(0)..][..n]);
+    let zero = o.splat(T::ZERO);
+    let mut sums = [zero; 4];
+    let full = n - n % 4;
+    let fours = old[..full]
+        .chunks_exact(4)
+        .zip(inv_r[..full].chunks_exact(4))
+        .zip(inv_w[..full].chunks_exact(4))
+        .zip(new_rows[..full].chunks_exact_mut(4));
+    for (((x, r), w), next) in fours {
+        for q in 0..4 {
+            sums[q] = o.add(
+                sums[q],
+                inverse_play(o, y, fault, &x[q], &r[q], &w[q], &mut next[q]),
+            );
+        }
+    }
+    for i in full..n {
+        sums[i - full] = o.add(
+            sums[i - full],
+            inverse_play(o, y, fault, &old[i], &inv_r[i], &inv_w[i], &mut new_rows[i]),
+        );
+    }
+    let v = o.add(o.add(sums[0], sums[2]), o.add(sums[1], sums[3]));
+    // clip; a faulted lane holds its last voltage
+    let (lower, upper) = (o.splat(f.lower), o.splat(f.upper));
+    let (below, above) = (o.lt(v, lower), o.gt(v, upper));
+    let clipped = o.select(below, lower, o.select(above, upper, v));
+    let u = o.select(fault, o.load(&s[a.last_u()]), clipped);
+    let saturated = o.and_not(o.or(below, above), fault);
+    o.store(u, &mut s[a.last_u()]);
+    let saturated = o.bits(saturated);
+    if saturated != 0 {
+        reseat(f, s, p, saturated, cur, next);
+    }
+    // the creep input: the voltage applied, or the last one if not finite
+    let uc = o.select(o.non_finite(u), o.load(&s[a.creep_last()]), u);
+    o.store(uc, &mut s[a.creep_last()]);
+    let mut out = Row::default();
+    o.store(u, &mut out);
+    (out, saturated, o.bits(fault))
+}
+
+/// Block `block`'s creep pass (20) with the input stored by
+/// [`inverse_and_clip`], as `creep::advance` sums it: each threshold's rows
+/// summed over the eigenvalues in order, the weighted rows into the partial
+/// sum `i mod 4`. Four thresholds go together, eigenvalue by eigenvalue, so
+/// that four independent update chains stand next to each other in the
+/// instruction stream (one threshold's chain — five updates and their sum —
+/// is long, and the scheduler holds only so many waiting operations). Whole
+/// slices of rows, so that no index arithmetic or bounds check stands
+/// between the vector operations.
+#[inline(always)]
+fn creep_pass<T: Real, V: Block<T>>(o: Ops<T, V>, f: &Fixed<'_, T>, s: &mut [Row], p: &[Row]) {
+    let a = f.layout;
+    let (nc, m) = (a.nc, a.m);
+    let uc = o.load(&s[a.creep_last()]);
+    let zero = o.splat(T::ZERO);
+    let (thresholds, weights) = (&p[a.creep_r(0)..][..nc], &p[a.creep_w(0)..][..nc]);
+    let gains = &p[a.gain(0)..][..m];
+    let chi = &mut s[a.chi(0, 0)..][..nc * m];
+    let mut sums = [zero; 4];
+    let full = nc - nc % 4;
+    if m > 0 {
+        let fours = chi[..full * m]
+            .chunks_exact_mut(4 * m)
+            .zip(thresholds[..full].chunks_exact(4))
+            .zip(weights[..full].chunks_exact(4));
+        for ((rows_of_four, r), w) in fours {
+            let mut lower = [zero; 4];
+            let mut upper = [zero; 4];
+            for q in 0..4 {
+                let r = o.load(&r[q]);
+                (lower[q], upper[q]) = (o.sub(uc, r), o.add(uc, r));
+            }
+            let (r01, r23) = rows_of_four.split_at_mut(2 * m);
+            let (x0, x1) = r01.split_at_mut(m);
+            let (x2, x3) = r23.split_at_mut(m);
+            let mut rows = [zero; 4];
+            for (j, g) in gains.iter().enumerate() {
+                let g = o.load(g);
+                rows[0] = o.add(rows[0], creep_update(o, &mut x0[j], g, lower[0], upper[0]));
+                rows[1] = o.add(rows[1], creep_update(o, &mut x1[j], g, lower[1], upper[1]));
+                rows[2] = o.add(rows[2], creep_update(o, &mut x2[j], g, lower[2], upper[2]));
+                rows[3] = o.add(rows[3], creep_update(o, &mut x3[j], g, lower[3], upper[3]));
+            }
+            for q in 0..4 {
+                sums[q] = o.add(sums[q], o.mul(o.load(&w[q]), rows[q]));
+            }
+        }
+    }
+    for i in full..nc {
+        let r = o.load(&thresholds[i]);
+        let (lower, upper) = (o.sub(uc, r), o.add(uc, r));
+        let mut rows = zero;
+        for (x, g) in chi[i * m..][..m].iter_mut().zip(gains) {
+            rows = o.add(rows, creep_update(o, x, o.load(g), lower, upper));
+        }
+        sums[i - full] = o.add(sums[i - full], o.mul(o.load(&weights[i]), rows));
+    }
+    let creep = o.add(o.add(sums[0], sums[2]), o.add(sums[1], sums[3]));
+    o.store(creep, &mut s[a.creep_out()]);
+}
+
+/// One play of `H⁻¹` (22) on a block: `x` clamped into `[y − r, y + r]`
+/// into `next` (the old `x` where the lane is faulted), its weighted value
+/// returned. A function, not a closure: see [`creep_update`].
+#[inline(always)]
+fn inverse_play<T: Real, V: Block<T>>(
+    o: Ops<T, V>,
+    y: V,
+    fault: V::Mask,
+    x: &Row,
+    r: &Row,
+    w: &Row,
+    next: &mut Row,
+) -> V {
+    let x = o.load(x);
+    let r = o.load(r);
+    let new = o.clamp(x, o.sub(y, r), o.add(y, r));
+    o.store(o.select(fault, x, new), next);
+    o.mul(o.load(w), new)
+}
+
+/// One creep operator's update (20) on a block, `χ ← χ + g (clamp(χ, u −
+/// r, u + r) − χ)`, returning the new `χ`. A function marked
+/// `inline(always)`, not a closure: a closure body left out of line is
+/// compiled without the step's instruction set, and every vector operation
+/// in it becomes a call.
+#[inline(always)]
+fn creep_update<T: Real, V: Block<T>>(o: Ops<T, V>, x: &mut Row, g: V, lower: V, upper: V) -> V {
+    let v = o.load(x);
+    let v = o.add(v, o.mul(g, o.sub(o.clamp(v, lower, upper), v)));
+    o.store(v, x);
+    v
+}
+
+/// `S⁻¹` lane by lane on a block some of whose channels have `S`.
+#[cold]
+#[inline(never)]
+fn inverse_superposition<T: Real, V: Block<T>>(
+    o: Ops<T, V>,
+    f: &Fixed<'_, T>,
+    block: usize,
+    y: V,
+) -> V {
+    let mut row = Row::default();
+    o.store(y, &mut row);
+    let width = lanes::<T>();
+    for (l, x) in row.lanes_mut::<T>().iter_mut().enumerate() {
+        let c = if f.shared { 0 } else { block * width + l };
+        if let Some(Some(s)) = f.inverse_superposition.get(c) {
+            *x = s.apply(*x);
+        }
+    }
+    o.load(&row)
+}
+
+/// The saturated lanes as the single compensator re-seats: the plays of
+/// `H` from the inverse plays before the step (copy `cur`), advanced with
+/// the applied `u`, and the inverse plays from them (22) into copy `next`.
+#[cold]
+#[inline(never)]
+fn reseat<T: Real>(
+    f: &Fixed<'_, T>,
+    s: &mut [Row],
+    p: &[Row],
+    saturated: u32,
+    cur: usize,
+    next: usize,
+) {
+    let a = f.layout;
+    let n = a.n;
+    let u = s[a.last_u()];
+    for l in (0..lanes::<T>()).filter(|l| saturated & (1 << l) != 0) {
+        let u = u.lanes::<T>()[l];
+        let par = |row: usize| p[row].lanes::<T>()[l];
+        let old = |s: &[Row], i: usize| s[a.inv_x(cur, i)].lanes::<T>()[l];
+        // forward_state_in_place, into copy `next`
+        let mut next_inv = old(s, n - 1);
+        s[a.inv_x(next, n - 1)].lanes_mut::<T>()[l] = next_inv / par(a.s(n - 1));
+        for j in (0..n - 1).rev() {
+            let inv = old(s, j);
+            let x = s[a.inv_x(next, j + 1)].lanes::<T>()[l] + (inv - next_inv) / par(a.s(j));
+            s[a.inv_x(next, j)].lanes_mut::<T>()[l] = x;
+            next_inv = inv;
+        }
+        for j in 0..n {
+            let x = &mut s[a.inv_x(next, j)].lanes_mut::<T>()[l];
+            *x = play(u, par(a.r(j)), *x);
+        }
+        // inverse_state_into, in place
+        let mut tail = T::ZERO;
+        for j in (0..n).rev() {
+            let x = &mut s[a.inv_x(next, j)].lanes_mut::<T>()[l];
+            let forward = *x;
+            *x = par(a.s(j)) * forward + tail;
+            tail += par(a.w(j)) * forward;
+        }
+    }
+}
