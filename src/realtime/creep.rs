@@ -1,4 +1,6 @@
-//! PI creep (13)–(18) and its per-sample kernel.
+//! PI creep (13)–(18): the operator with its state and parameters; its
+//! per-sample kernel is `creep_pass` (portable) and
+//! [`simd`] (dispatched).
 //!
 //! Each elementary operator `dχ/dt = a d_r(v − χ)` is solved exactly under
 //! zero-order hold (20): `χ_{k+1} = χ_k + g d_r(v_k − χ_k)` with
@@ -12,10 +14,9 @@
 //! `ε₃₂ |χ| / (2g) ≈ 0.6 %` of `|χ|` short of its f64 value. The conformance
 //! tolerances carry this `1/g` term (see `suite::conformance::tolerance`).
 
+use crate::realtime::creep_pass::output;
 use crate::realtime::error::ParameterError;
-use crate::realtime::hysteresis::reduce;
 use crate::realtime::parameters::{check_finite, check_length, CreepParameters};
-use crate::realtime::play::clamp;
 use crate::realtime::real::Real;
 use crate::realtime::simd::{self, Kernels};
 use crate::realtime::storage::{Buffer, Storage};
@@ -29,105 +30,6 @@ pub fn creep_gain(eigenvalue: f64, sample_time: f64) -> f64 {
     #[cfg(not(feature = "std"))]
     let e = libm::expm1(-eigenvalue * sample_time);
     -e
-}
-
-/// Thresholds per block of the creep pass: the clamp bounds `v ∓ r_i` are
-/// formed once per threshold and reused by every eigenvalue's row, and a
-/// block is one AVX register of `f64` (two SSE2 registers).
-pub(crate) const LANES: usize = 4;
-
-/// Advance every elementary operator with `v` (20) and return the new output
-/// `Σ_i (w_i/m) Σ_j χ_ij`. `chi[j * n + i]` (eigenvalue-major); `thresholds`
-/// and `weights` (`w_i/m`) have `n` entries, `gains` one per eigenvalue. A
-/// non-finite `v` is replaced by the last finite input, which `last_input`
-/// keeps.
-///
-/// The update is `χ ← χ + g (P_r[v, χ] − χ)`: the dead zone of (14) as the
-/// play's output minus its state, `d_r(v − χ) = P_r[v, χ] − χ`, so that
-/// `v ∓ r_i` serve all `m` rows. The sums run in a fixed order (lane `l`
-/// of a block adds the thresholds `i ≡ l mod 4`, then
-/// [`reduce`]), the same for every instruction set: the result does not
-/// depend on the CPU.
-#[inline(always)]
-pub(crate) fn advance<T: Real>(
-    chi: &mut [T],
-    thresholds: &[T],
-    gains: &[T],
-    weights: &[T],
-    v: T,
-    last_input: &mut T,
-) -> T {
-    let v = if v.is_finite() { v } else { *last_input };
-    *last_input = v;
-    let n = thresholds.len();
-    debug_assert!(weights.len() == n && chi.len() == n * gains.len());
-    let mut acc = [T::ZERO; LANES];
-    let full = n - n % LANES;
-    for i0 in (0..full).step_by(LANES) {
-        let r: &[T; LANES] = thresholds[i0..i0 + LANES].try_into().unwrap();
-        let lower = r.map(|r| v - r);
-        let upper = r.map(|r| v + r);
-        let mut rows = [T::ZERO; LANES];
-        for (j, &g) in gains.iter().enumerate() {
-            let block: &mut [T; LANES] = (&mut chi[j * n + i0..j * n + i0 + LANES])
-                .try_into()
-                .unwrap();
-            for l in 0..LANES {
-                let x = block[l];
-                block[l] = x + g * (clamp(x, lower[l], upper[l]) - x);
-            }
-            for l in 0..LANES {
-                rows[l] += block[l];
-            }
-        }
-        let w: &[T; LANES] = weights[i0..i0 + LANES].try_into().unwrap();
-        for l in 0..LANES {
-            acc[l] += w[l] * rows[l];
-        }
-    }
-    advance_tail(chi, thresholds, gains, weights, v, full, &mut acc);
-    reduce(acc)
-}
-
-/// The thresholds `full..n` that do not fill a block, one by one, into the
-/// lanes `i − full` (shared by [`advance`] and its AVX copy).
-#[inline(always)]
-pub(crate) fn advance_tail<T: Real>(
-    chi: &mut [T],
-    thresholds: &[T],
-    gains: &[T],
-    weights: &[T],
-    v: T,
-    full: usize,
-    acc: &mut [T; LANES],
-) {
-    let n = thresholds.len();
-    for i in full..n {
-        let (lower, upper) = (v - thresholds[i], v + thresholds[i]);
-        let mut row = T::ZERO;
-        for (j, &g) in gains.iter().enumerate() {
-            let x = chi[j * n + i];
-            let x = x + g * (clamp(x, lower, upper) - x);
-            chi[j * n + i] = x;
-            row += x;
-        }
-        acc[i - full] += weights[i] * row;
-    }
-}
-
-/// The output `Σ_i (w_i/m) Σ_j χ_ij` of a state, summed in the order
-/// [`advance`] uses (bit for bit what it returns for that state).
-pub(crate) fn output<T: Real>(chi: &[T], weights: &[T]) -> T {
-    let n = weights.len();
-    let mut acc = [T::ZERO; LANES];
-    for (i, &w) in weights.iter().enumerate() {
-        let mut row = T::ZERO;
-        for x in chi.iter().skip(i).step_by(n.max(1)) {
-            row += *x;
-        }
-        acc[i % LANES] += w * row;
-    }
-    reduce(acc)
 }
 
 /// A PI creep operator `C` (16): `n + 1` log(t)-creep operators (15) of `m`

@@ -42,6 +42,7 @@
 
 pub mod compensator;
 pub mod creep;
+pub(crate) mod creep_pass;
 pub mod delay;
 pub mod dynamics;
 pub mod error;

@@ -215,7 +215,7 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
 }
 
 /// Block `block`'s creep pass (20) with the input stored by
-/// [`inverse_and_clip`], as `creep::advance` sums it: each threshold's rows
+/// [`inverse_and_clip`], as `creep_pass::advance` sums it: each threshold's rows
 /// summed over the eigenvalues in order, the weighted rows into the partial
 /// sum `i mod 4`. Four thresholds go together, eigenvalue by eigenvalue, so
 /// that four independent update chains stand next to each other in the

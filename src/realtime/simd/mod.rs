@@ -206,7 +206,7 @@ pub(crate) fn hysteresis_step<T: Real>(
     crate::realtime::hysteresis::step(state, thresholds, weights, v)
 }
 
-/// One step of the creep pass ([`crate::realtime::creep::advance`]) on `k`'s
+/// One step of the creep pass ([`crate::realtime::creep_pass::advance`]) on `k`'s
 /// kernels.
 #[inline(always)]
 pub(crate) fn creep_advance<T: Real>(
@@ -247,7 +247,7 @@ pub(crate) fn creep_advance<T: Real>(
         }
     }
     let _ = k;
-    crate::realtime::creep::advance(chi, thresholds, gains, weights, v, last_input)
+    crate::realtime::creep_pass::advance(chi, thresholds, gains, weights, v, last_input)
 }
 
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
@@ -258,7 +258,7 @@ mod x86 {
     //! `clamp` are written, so the bits are the same.
     use core::arch::x86_64::*;
 
-    use crate::realtime::creep::{advance_tail, LANES};
+    use crate::realtime::creep_pass::{advance_tail, LANES};
     use crate::realtime::hysteresis::reduce;
     use crate::realtime::play::play;
     use crate::realtime::real::Real;
@@ -301,7 +301,7 @@ mod x86 {
         reduce(lanes)
     }
 
-    /// The blocks of `creep::advance` for `f64`; `v` is finite.
+    /// The blocks of `creep_pass::advance` for `f64`; `v` is finite.
     #[target_feature(enable = "avx2")]
     #[inline]
     pub(super) unsafe fn creep_advance(
@@ -584,7 +584,7 @@ mod x86 {
         }
     }
 
-    /// `creep::advance` in 8-lane blocks of thresholds, each block's
+    /// `creep_pass::advance` in 8-lane blocks of thresholds, each block's
     /// weighted rows added as two blocks of four; then a 4-lane block and
     /// the rest as the portable tail.
     #[inline(always)]
