@@ -511,7 +511,7 @@ pub struct NominalArgs {
 
 #[derive(Debug, Subcommand)]
 pub enum BeamCommand {
-    /// Undamped natural frequencies and static gain of the model's n modes, as JSON on stdout.
+    /// Undamped natural frequencies, damping ratios and static gain of the model's n modes, and the modal model itself (omega, modal_damping, modal_input, modal_output), as JSON on stdout.
     Modes(BeamModesArgs),
     /// Tip deflection `y` (m) for column `u` (effective V), exact ZOH, from rest in equilibrium with u_0.
     Simulate(BeamSimulateArgs),

@@ -682,6 +682,13 @@ struct ModesJson {
     damping_ratios: Vec<f64>,
     model: &'static str,
     modes: usize,
+    /// The modal model itself, `η̈ + D η̇ + Ω² η = b w + c F`, `y = cᵀ η`
+    /// (w the effective voltage, F a tip force), for a simulation elsewhere.
+    omega: Vec<f64>,
+    /// `D`, row-major `n × n`.
+    modal_damping: Vec<f64>,
+    modal_input: Vec<f64>,
+    modal_output: Vec<f64>,
 }
 
 fn beam_modes(a: &BeamModesArgs) -> Result<()> {
@@ -697,6 +704,10 @@ fn beam_modes(a: &BeamModesArgs) -> Result<()> {
             ModelKindArg::Modal => "modal",
         },
         modes: modal.len(),
+        omega: modal.omega.clone(),
+        modal_damping: modal.damping.clone(),
+        modal_input: modal.input.clone(),
+        modal_output: modal.output.clone(),
     };
     print_stdout(&serde_json::to_string_pretty(&json)?)
 }
