@@ -82,6 +82,7 @@ impl LoopSetup {
     pub fn validate(&self) -> Result<(), ControlError> {
         let n = self.reference.len();
         for (field, v) in [
+            ("reference", &self.reference),
             ("feedforward", &self.feedforward),
             ("force", &self.force),
             ("noise", &self.noise),
@@ -92,13 +93,6 @@ impl LoopSetup {
                     reason: format!("has {} samples, the reference {n}", v.len()),
                 });
             }
-        }
-        for (field, v) in [
-            ("reference", &self.reference),
-            ("feedforward", &self.feedforward),
-            ("force", &self.force),
-            ("noise", &self.noise),
-        ] {
             if let Some(k) = v.iter().position(|x| !x.is_finite()) {
                 return Err(ControlError::Invalid {
                     field,

@@ -82,14 +82,14 @@ loop_scenario!(
     "impulse",
     "Sec. 5",
     "Fig. 14 with tip impulses of 5e-5 N s at 2.93 s and 3.1 s, open loop and 2-DOF",
-    disturbance_claims
+    impulse_claims
 );
 loop_scenario!(
     STEP_LOAD_SCENARIO,
     "step-load",
     "Sec. 5",
     "Fig. 14 with a 5 mN tip load from 3.2 s, open loop and 2-DOF",
-    disturbance_claims
+    step_load_claims
 );
 loop_scenario!(
     MODEL_ERROR_SCENARIO,
@@ -216,13 +216,16 @@ fn nominal_claims(tr: &ScenarioTrace, _: &Traces) -> Vec<Claim> {
     }]
 }
 
-fn disturbance_claims(tr: &ScenarioTrace, _: &Traces) -> Vec<Claim> {
+fn impulse_claims(tr: &ScenarioTrace, _: &Traces) -> Vec<Claim> {
+    disturbance_claims(tr, &format!("tip impulses of {IMPULSE:e} N s"))
+}
+
+fn step_load_claims(tr: &ScenarioTrace, _: &Traces) -> Vec<Claim> {
+    disturbance_claims(tr, &format!("a {:.0} mN tip load", STEP_LOAD * 1e3))
+}
+
+fn disturbance_claims(tr: &ScenarioTrace, what: &str) -> Vec<Claim> {
     let open = scores(tr, "open");
-    let what = if tr.col("force").iter().filter(|f| **f != 0.0).count() <= 2 {
-        format!("tip impulses of {IMPULSE:e} N s")
-    } else {
-        format!("a {:.0} mN tip load", STEP_LOAD * 1e3)
-    };
     ["pid", "lq"]
         .into_iter()
         .map(|c| {
