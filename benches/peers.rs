@@ -1,17 +1,21 @@
 //! The compensator step against the hand-written C peers, in interleaved
 //! batches in one process, so that all see the same machine: the C of
 //! `benches/peers/compensator.c` built as a library (`-O3 -march=native
-//! -ffast-math -DPEER_LIB -shared`) and loaded from `MFCBEAM_C_PEER`, and
-//! the same built `-DBRANCH_FREE` (the strongest peer: no target test, no
-//! forward plays, no re-seat) from `MFCBEAM_C_PEER_BRANCH_FREE`;
-//! `benches/peers/run.sh` builds and passes both.
+//! -ffast-math -DPEER_LIB -shared`) and loaded from `MFCBEAM_C_PEER`, the
+//! same built `-DBRANCH_FREE` (scalar, no target test, no forward plays, no
+//! re-seat) from `MFCBEAM_C_PEER_BRANCH_FREE`, and the strongest, built
+//! `-DSTRONG` (AVX2 intrinsics with FMA, a running creep sum, the chain cut
+//! to its minimum) from `MFCBEAM_C_PEER_STRONG`; `benches/peers/run.sh`
+//! builds and passes all three.
 //!
 //! Each round times one batch of 100 000 consecutive steps of every
 //! implementation (in a rotating order) on the same 4096 targets (W of the
 //! benches' random walk, cycled as `step/compensator_step` cycles them).
-//! Reported: the median per-step time over the rounds, and the median over
-//! rounds of each implementation's time divided by the C peer's in the same
-//! round.
+//! Reported: the CPU and the kernel set, the median per-step time over the
+//! rounds with the 10th–90th percentile spread, and the median (and spread)
+//! over rounds of each implementation's time divided by the strongest C
+//! peer's in the same round; last a `summary:` line that `run.sh` collects
+//! from three processes.
 
 #[cfg(target_os = "linux")]
 fn main() {
@@ -30,18 +34,23 @@ fn main() {
     const STEPS: usize = 100_000;
     const ROUNDS: usize = 61;
 
-    let (Ok(path), Ok(path_bf)) = (
-        std::env::var("MFCBEAM_C_PEER"),
-        std::env::var("MFCBEAM_C_PEER_BRANCH_FREE"),
-    ) else {
-        eprintln!(
-            "MFCBEAM_C_PEER and MFCBEAM_C_PEER_BRANCH_FREE are not set: run benches/peers/run.sh"
-        );
+    let vars = [
+        "MFCBEAM_C_PEER",
+        "MFCBEAM_C_PEER_BRANCH_FREE",
+        "MFCBEAM_C_PEER_STRONG",
+    ];
+    let Ok(paths) = vars
+        .iter()
+        .map(std::env::var)
+        .collect::<Result<Vec<_>, _>>()
+    else {
+        eprintln!("{} are not set: run benches/peers/run.sh", vars.join(", "));
         return;
     };
     // SAFETY: the libraries are benches/peers/compensator.c built with
-    // -DPEER_LIB (and -DBRANCH_FREE); the symbols have the signatures
-    // declared above. Loaded RTLD_LOCAL, so each keeps its own symbols.
+    // -DPEER_LIB (and -DBRANCH_FREE or -DSTRONG); the symbols have the
+    // signatures declared above. Loaded RTLD_LOCAL, so each keeps its own
+    // symbols.
     let load = |path: &str| unsafe {
         let lib = libc::dlopen(
             CString::new(path).unwrap().as_ptr(),
@@ -59,8 +68,8 @@ fn main() {
             std::mem::transmute::<*mut c_void, Targets>(sym("peer_targets")),
         )
     };
-    let (new, run, peer_targets) = load(&path);
-    let (new_bf, run_bf, _) = load(&path_bf);
+    let peers: Vec<_> = paths.iter().map(|p| load(p)).collect();
+    let peer_targets = peers[0].2;
 
     let targets = nominal_model().run(&common::test_input(LEN));
     let mut c_targets = vec![0.0; LEN];
@@ -72,12 +81,10 @@ fn main() {
         .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
     assert!(worst < 1e-9, "the C peer's targets differ by {worst}");
 
-    // SAFETY: peer_new returns its static, initialised compensator.
-    let peer = unsafe { new() };
-    let mut peer_k = 0u32;
-    // SAFETY: as above, the branch-free library's own static.
-    let peer_bf = unsafe { new_bf() };
-    let mut peer_bf_k = 0u32;
+    // SAFETY: peer_new returns the library's static, initialised
+    // compensator (each library its own).
+    let c_states: Vec<*mut c_void> = peers.iter().map(|p| unsafe { (p.0)() }).collect();
+    let mut c_ks = vec![0u32; peers.len()];
     let model = nominal_model();
     let mut heap = model.compensator(CompensatorSettings::default()).unwrap();
     let mut fixed64 = Compensator::<f64, nominal::Capacity>::new(
@@ -96,6 +103,7 @@ fn main() {
     let names = [
         "C peer (-O3 -march=native -ffast-math)",
         "branch-free C peer (the same, -DBRANCH_FREE)",
+        "strongest C peer (AVX2 + FMA, -DSTRONG)",
         "Compensator (heap, f64)",
         "Compensator<f64, nominal::Capacity>",
         "Compensator<f32, nominal::Capacity>",
@@ -105,16 +113,17 @@ fn main() {
         let t0 = Instant::now();
         match which {
             // SAFETY: the peer's pointer and LEN targets, as peer_run expects.
-            0 => {
-                black_box(unsafe { run(peer, c_targets.as_ptr(), &mut peer_k, STEPS as i64) });
-            }
-            // SAFETY: as above, for the branch-free library.
-            1 => {
+            0..=2 => {
                 black_box(unsafe {
-                    run_bf(peer_bf, c_targets.as_ptr(), &mut peer_bf_k, STEPS as i64)
+                    (peers[which].1)(
+                        c_states[which],
+                        c_targets.as_ptr(),
+                        &mut c_ks[which],
+                        STEPS as i64,
+                    )
                 });
             }
-            2 => {
+            3 => {
                 let mut s = 0.0;
                 for _ in 0..STEPS {
                     ks[0] = (ks[0] + 1) & (LEN - 1);
@@ -122,7 +131,7 @@ fn main() {
                 }
                 black_box(s);
             }
-            3 => {
+            4 => {
                 let mut s = 0.0;
                 for _ in 0..STEPS {
                     ks[1] = (ks[1] + 1) & (LEN - 1);
@@ -151,52 +160,59 @@ fn main() {
             times[which].push(t);
         }
     }
-    let median = |v: &mut Vec<f64>| {
+    // the p-th quantile of the rounds (nearest rank)
+    let quantile = |v: &[f64], p: f64| {
+        let mut v = v.to_vec();
         v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
+        v[((v.len() - 1) as f64 * p).round() as usize]
     };
-    let ratios_to = |peer: usize| -> Vec<Vec<f64>> {
-        times
-            .iter()
-            .map(|t| t.iter().zip(&times[peer]).map(|(a, c)| a / c).collect())
-            .collect()
-    };
-    let (ratios, ratios_bf) = (ratios_to(0), ratios_to(1));
+    let strongest = 2;
+    let ratios: Vec<Vec<f64>> = times
+        .iter()
+        .map(|t| {
+            t.iter()
+                .zip(&times[strongest])
+                .map(|(a, c)| a / c)
+                .collect()
+        })
+        .collect();
+    println!("CPU: {}", common::cpu_description());
     println!(
-        "{ROUNDS} rounds of {STEPS} steps each, interleaved; kernels: {:?}",
+        "kernels: {:?}; {ROUNDS} rounds of {STEPS} steps each, interleaved",
         mfcbeam::realtime::simd::Kernels::detect()
     );
-    println!("CPU: {}", cpu_name());
     println!(
-        "{:<46} {:>10} {:>10} {:>18}",
-        "implementation", "median ns", "time / C", "time / branch-free"
+        "{:<46} {:>9} {:>15} {:>12} {:>15}",
+        "implementation", "median ns", "p10-p90 ns", "/ strongest", "p10-p90"
     );
+    let mut summary = Vec::new();
     for (i, name) in names.iter().enumerate() {
-        let t = median(&mut times[i].clone());
-        let r = median(&mut ratios[i].clone());
-        let r_bf = median(&mut ratios_bf[i].clone());
-        println!("{name:<46} {t:>10.1} {r:>10.3} {r_bf:>18.3}");
+        let (t, r) = (&times[i], &ratios[i]);
+        println!(
+            "{name:<46} {:>9.2} {:>7.2}-{:<7.2} {:>12.3} {:>7.3}-{:<7.3}",
+            quantile(t, 0.5),
+            quantile(t, 0.1),
+            quantile(t, 0.9),
+            quantile(r, 0.5),
+            quantile(r, 0.1),
+            quantile(r, 0.9)
+        );
+        summary.push(format!("{:.4}/{:.4}", quantile(t, 0.5), quantile(r, 0.5)));
     }
     // f32 against f64, the same rounds
-    let f32_vs_f64: Vec<f64> = times[4].iter().zip(&times[3]).map(|(a, b)| a / b).collect();
+    let f32_vs_f64: Vec<f64> = times[5].iter().zip(&times[4]).map(|(a, b)| a / b).collect();
     println!(
-        "Compensator<f32> / Compensator<f64> (nominal::Capacity): {:.3}",
-        median(&mut f32_vs_f64.clone())
+        "Compensator<f32> / Compensator<f64> (nominal::Capacity): {:.3} (p10-p90 {:.3}-{:.3})",
+        quantile(&f32_vs_f64, 0.5),
+        quantile(&f32_vs_f64, 0.1),
+        quantile(&f32_vs_f64, 0.9)
     );
-}
-
-/// The CPU's model name (Linux).
-#[cfg(target_os = "linux")]
-fn cpu_name() -> String {
-    std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|t| {
-            t.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split(':').nth(1))
-                .map(|s| s.trim().to_string())
-        })
-        .unwrap_or_else(|| "?".into())
+    // median ns / median ratio to the strongest peer, per implementation
+    println!(
+        "summary: {} f32/f64={:.4}",
+        summary.join(" "),
+        quantile(&f32_vs_f64, 0.5)
+    );
 }
 
 #[cfg(not(target_os = "linux"))]

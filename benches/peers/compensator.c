@@ -92,7 +92,134 @@ static double creep_advance(double chi[M][NC], const double *rc, const double *w
     return out;
 }
 
-#ifdef BRANCH_FREE
+#if defined(STRONG)
+/* The strongest peer (-DSTRONG): AVX2 intrinsics with FMA, written for one
+ * step's dependency chain, u_{k-1} -> creep -> H^-1 -> clip -> u_k, and for
+ * few operations per step:
+ *  - the creep output is a running sum, C_{k+1} = C_k + dC_k with
+ *    dC_k = sum_ij (w_i g_j / m) (c_ij - chi_ij), c = clamp(chi, u - r,
+ *    u + r), re-summed from chi every RESUM steps;
+ *  - only dC is on the chain: written as sum q c - sum q chi, the second sum
+ *    and (1 - g) chi are formed before u is known, so that both dC's terms
+ *    and the state update chi <- g c + (1 - g) chi are one FMA after the
+ *    clamp; u -+ r are shared by the five rows;
+ *  - the bounds of H^-1's plays are (t -+ r' - C_{k-1}) - dC_{k-1}: one
+ *    subtraction after dC, the rest formed early;
+ *  - every sum is a tree (the creep's 15 products of depth 4) ending in a
+ *    butterfly that leaves it in all four lanes (no scalar round trip);
+ *  - the clip is a predicted branch: the creep runs on v, and only a
+ *    clipped sample (never, on the benches' targets) redoes it with u.
+ * Like BRANCH_FREE it does no target test, no forward plays and no re-seat.
+ * Built without -ffast-math but with -ffp-contract=off: the trees are as
+ * written (-ffast-math turns them into serial FMA chains, 12 % slower). */
+#include <immintrin.h>
+
+#define G 15 /* creep groups of four: 5 rows of 12 thresholds */
+#define RESUM 1024
+
+typedef struct {
+    __m256d ri[3], wi[3], xi[3];        /* H^-1 */
+    __m256d r[3], q[G], chi[G]; /* creep; group b of row j is j * 3 + b */
+    double g[M], wc[NC];
+    double lower, upper, c_prev, dc;
+    int count;
+} strong;
+
+static inline __m256d all_lanes_sum(__m256d s) {
+    s = _mm256_add_pd(s, _mm256_permute2f128_pd(s, s, 1));
+    return _mm256_add_pd(s, _mm256_permute_pd(s, 5));
+}
+
+__attribute__((noinline, cold)) static double creep_sum(const strong *c) {
+    double out = 0.0;
+    for (int j = 0; j < M; j++)
+        for (int b = 0; b < 3; b++)
+            for (int l = 0; l < 4; l++) out += c->wc[4 * b + l] * c->chi[j * 3 + b][l];
+    return out;
+}
+
+static void init_strong(strong *c) {
+    compensator base;
+    init_compensator(&base);
+    memset(c, 0, sizeof *c);
+    for (int b = 0; b < 3; b++) {
+        c->ri[b] = _mm256_loadu_pd(base.ri + 4 * b);
+        c->wi[b] = _mm256_loadu_pd(base.wi + 4 * b);
+        c->r[b] = _mm256_loadu_pd(base.rc + 4 * b);
+    }
+    for (int j = 0; j < M; j++)
+        for (int b = 0; b < 3; b++) {
+            double q[4];
+            for (int l = 0; l < 4; l++) q[l] = base.wc[4 * b + l] * base.g[j];
+            c->q[j * 3 + b] = _mm256_loadu_pd(q);
+        }
+    memcpy(c->g, base.g, sizeof c->g);
+    memcpy(c->wc, base.wc, sizeof c->wc);
+    c->lower = base.lower;
+    c->upper = base.upper;
+}
+
+/* dC for the input u (in all lanes), chi advanced with it. */
+static inline __m256d strong_creep(strong *c, __m256d u) {
+    __m256d p[G], lo[3], hi[3];
+    for (int b = 0; b < 3; b++) {
+        lo[b] = _mm256_sub_pd(u, c->r[b]);
+        hi[b] = _mm256_add_pd(u, c->r[b]);
+    }
+    for (int j = 0; j < M; j++) {
+        __m256d g = _mm256_set1_pd(c->g[j]), h = _mm256_set1_pd(1.0 - c->g[j]);
+        for (int b = 0; b < 3; b++) {
+            int e = j * 3 + b;
+            __m256d x = c->chi[e];
+            __m256d minus_qx = _mm256_mul_pd(c->q[e], _mm256_sub_pd(_mm256_setzero_pd(), x));
+            __m256d hx = _mm256_mul_pd(h, x);
+            __m256d clamped = _mm256_max_pd(_mm256_min_pd(x, hi[b]), lo[b]);
+            p[e] = _mm256_fmadd_pd(c->q[e], clamped, minus_qx);
+            c->chi[e] = _mm256_fmadd_pd(g, clamped, hx);
+        }
+    }
+    __m256d a0 = _mm256_add_pd(p[0], p[8]), a1 = _mm256_add_pd(p[1], p[9]);
+    __m256d a2 = _mm256_add_pd(p[2], p[10]), a3 = _mm256_add_pd(p[3], p[11]);
+    __m256d a4 = _mm256_add_pd(p[4], p[12]), a5 = _mm256_add_pd(p[5], p[13]);
+    __m256d a6 = _mm256_add_pd(p[6], p[14]);
+    a0 = _mm256_add_pd(a0, a4);
+    a1 = _mm256_add_pd(a1, a5);
+    a2 = _mm256_add_pd(a2, a6);
+    a3 = _mm256_add_pd(a3, p[7]);
+    return all_lanes_sum(_mm256_add_pd(_mm256_add_pd(a0, a2), _mm256_add_pd(a1, a3)));
+}
+
+static double compensate_strong(strong *c, double target, int *saturated) {
+    __m256d dc = _mm256_set1_pd(c->dc);
+    __m256d z = _mm256_set1_pd(target - c->c_prev);
+    __m256d s[3];
+    for (int b = 0; b < 3; b++) {
+        __m256d hi = _mm256_sub_pd(_mm256_add_pd(z, c->ri[b]), dc);
+        __m256d lo = _mm256_sub_pd(_mm256_sub_pd(z, c->ri[b]), dc);
+        c->xi[b] = _mm256_max_pd(_mm256_min_pd(c->xi[b], hi), lo);
+        s[b] = _mm256_mul_pd(c->wi[b], c->xi[b]);
+    }
+    __m256d v = all_lanes_sum(_mm256_add_pd(_mm256_add_pd(s[0], s[2]), s[1]));
+    double vs = _mm256_cvtsd_f64(v);
+    *saturated = !(vs >= c->lower && vs <= c->upper);
+    if (__builtin_expect(*saturated, 0)) {
+        vs = fmin(fmax(vs, c->lower), c->upper);
+        v = _mm256_set1_pd(vs);
+    }
+    __m256d d = strong_creep(c, v);
+    c->c_prev += c->dc;
+    c->dc = _mm256_cvtsd_f64(d);
+    if (__builtin_expect(++c->count == RESUM, 0)) {
+        c->count = 0;
+        c->c_prev = creep_sum(c);
+        c->dc = 0.0;
+    }
+    return vs;
+}
+#define compensator strong
+#define init_compensator init_strong
+#define compensate compensate_strong
+#elif defined(BRANCH_FREE)
 /* The strongest peer (-DBRANCH_FREE): only the arithmetic every step needs.
  * No test of the target, no forward plays, no re-seat after a clipped
  * sample: the loops of (20)-(22) and the clip, straight through. It does

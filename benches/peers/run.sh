@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
 # The compensator step against its peers, in one run on this machine: the
-# hand-written C (compensator.c, -O3 -march=native -ffast-math; and built
-# with -DBRANCH_FREE, the strongest peer: no target test, no forward plays,
-# no re-seat), numba
+# hand-written C (compensator.c, -O3 -march=native -ffast-math; built with
+# -DBRANCH_FREE: no target test, no forward plays, no re-seat; and built
+# with -DSTRONG, the strongest: AVX2 intrinsics with FMA, a running creep
+# sum, the dependency chain cut to its minimum), numba
 # (numba_compensator.py, if numba is installed) and this crate's criterion
 # benches (step/compensator_step: the heap compensator, and the fixed f64
 # and f32 cores). Checks first that the peers compute what mfcbeam does.
 #
-#   benches/peers/run.sh            # criterion: --warm-up-time 1 --measurement-time 3
+#   benches/peers/run.sh            # three processes of interleaved rounds,
+#                                   # then criterion (--measurement-time 3)
 #   benches/peers/run.sh --check    # only the agreement checks (CI)
 #
 # The agreement checks run the peers' own traces (4096 steps from the
@@ -22,6 +24,15 @@ cc -O3 -march=native -ffast-math -Wall -Wextra -Werror -o "$out/compensator" \
   benches/peers/compensator.c -lm
 cc -O3 -march=native -ffast-math -Wall -Wextra -Werror -DBRANCH_FREE \
   -o "$out/compensator_branch_free" benches/peers/compensator.c -lm
+# the strongest: its trees as written (no -ffast-math, no contraction)
+strong_flags=(-O3 -march=native -ffp-contract=off -Wall -Wextra -Werror -DSTRONG)
+strong=no
+if grep -qw avx2 /proc/cpuinfo && grep -qw fma /proc/cpuinfo &&
+  cc "${strong_flags[@]}" -o "$out/compensator_strong" benches/peers/compensator.c -lm; then
+  strong=yes
+else
+  echo "this CPU has no AVX2 + FMA: the strongest C peer is skipped"
+fi
 # MFCBEAM_CLI: a built program to check against (CI passes the debug one)
 if [[ -z "${MFCBEAM_CLI:-}" ]]; then
   cargo build --quiet --release --bin mfcbeam
@@ -48,6 +59,12 @@ agree "$out/c_vs_mfcbeam.csv" "C peer"
 "$MFCBEAM_CLI" compensate --model "$out/nominal.json" \
   --input "$out/cbf_trace.csv" --output "$out/cbf_vs_mfcbeam.csv"
 agree "$out/cbf_vs_mfcbeam.csv" "branch-free C peer"
+if [[ $strong == yes ]]; then
+  "$out/compensator_strong" trace >"$out/cs_trace.csv"
+  "$MFCBEAM_CLI" compensate --model "$out/nominal.json" \
+    --input "$out/cs_trace.csv" --output "$out/cs_vs_mfcbeam.csv"
+  agree "$out/cs_vs_mfcbeam.csv" "strongest C peer"
+fi
 numba=no
 if python3 -c "import numba" 2>/dev/null; then
   numba=yes
@@ -60,14 +77,42 @@ else
 fi
 [[ "${1:-}" == "--check" ]] && exit 0
 
-# Interleaved batches of the C library and mfcbeam in one process (the
-# ratios), then numba, then criterion's medians.
+# Interleaved batches of the C libraries and mfcbeam in one process (the
+# ratios), three processes; then numba, then criterion's medians.
+[[ $strong == yes ]] || { echo "the interleaved comparison needs the strongest peer"; exit 1; }
 cc -O3 -march=native -ffast-math -Wall -Wextra -Werror -DPEER_LIB -shared -fPIC \
   -o "$out/libpeer.so" benches/peers/compensator.c -lm
 cc -O3 -march=native -ffast-math -Wall -Wextra -Werror -DPEER_LIB -DBRANCH_FREE -shared -fPIC \
   -o "$out/libpeer_branch_free.so" benches/peers/compensator.c -lm
-MFCBEAM_C_PEER="$PWD/$out/libpeer.so" MFCBEAM_C_PEER_BRANCH_FREE="$PWD/$out/libpeer_branch_free.so" \
-  cargo bench --quiet --bench peers
+cc "${strong_flags[@]}" -DPEER_LIB -shared -fPIC \
+  -o "$out/libpeer_strong.so" benches/peers/compensator.c -lm
+for run in 1 2 3; do
+  echo "== process $run of 3"
+  MFCBEAM_C_PEER="$PWD/$out/libpeer.so" MFCBEAM_C_PEER_BRANCH_FREE="$PWD/$out/libpeer_branch_free.so" \
+    MFCBEAM_C_PEER_STRONG="$PWD/$out/libpeer_strong.so" \
+    cargo bench --quiet --bench peers | tee "$out/peers_$run.txt"
+done
+python3 - "$out"/peers_{1,2,3}.txt <<'EOF'
+import sys
+names = ["C peer", "branch-free C peer", "strongest C peer", "Compensator (heap, f64)",
+         "Compensator<f64, nominal::Capacity>", "Compensator<f32, nominal::Capacity>"]
+runs = []
+for path in sys.argv[1:]:
+    line = next(l for l in open(path) if l.startswith("summary:"))
+    fields = line.split()[1:]
+    runs.append(([tuple(map(float, f.split("/"))) for f in fields[:-1]],
+                 float(fields[-1].split("=")[1])))
+print("over three processes (each process's median; spread = (max - min) / min):")
+print(f"{'implementation':<40} {'ns':>24} {'/ strongest':>24} {'spread':>7}")
+for i, name in enumerate(names):
+    ns = [r[0][i][0] for r in runs]
+    ratio = [r[0][i][1] for r in runs]
+    spread = (max(ratio) - min(ratio)) / min(ratio)
+    print(f"{name:<40} {' '.join(f'{x:7.2f}' for x in ns):>24} "
+          f"{' '.join(f'{x:7.3f}' for x in ratio):>24} {100 * spread:6.1f}%")
+f = [r[1] for r in runs]
+print(f"f32 / f64: {' '.join(f'{x:.3f}' for x in f)}")
+EOF
 c_ns=$("$out/compensator" time)
 nb_ns=$([[ $numba == yes ]] && python3 benches/peers/numba_compensator.py time || echo nan)
 cargo bench --quiet --bench operators -- 'step/compensator_step$' \

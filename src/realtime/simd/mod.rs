@@ -132,6 +132,45 @@ impl Kernels {
     }
 }
 
+/// The CPU as a performance figure must name it: vendor, family, model,
+/// model name (from `/proc/cpuinfo` on Linux) and the vector features the
+/// kernels use.
+#[cfg(feature = "std")]
+pub fn cpu_description() -> std::string::String {
+    use std::string::String;
+    let info = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    let field = |name: &str| -> String {
+        info.lines()
+            .find(|l| l.split(':').next().map(str::trim) == Some(name))
+            .and_then(|l| l.split_once(':'))
+            .map(|(_, v)| v.trim().into())
+            .unwrap_or_else(|| "?".into())
+    };
+    #[allow(unused_mut)]
+    let mut features: std::vec::Vec<&str> = std::vec::Vec::new();
+    #[cfg(target_arch = "x86_64")]
+    {
+        for (name, has) in [
+            ("avx2", std::is_x86_feature_detected!("avx2")),
+            ("fma", std::is_x86_feature_detected!("fma")),
+            ("avx512f", std::is_x86_feature_detected!("avx512f")),
+        ] {
+            if has {
+                features.push(name);
+            }
+        }
+    }
+    std::format!(
+        "{} ({}, family {}, model {}), {} logical CPUs, features [{}]",
+        field("model name"),
+        field("vendor_id"),
+        field("cpu family"),
+        field("model"),
+        std::thread::available_parallelism().map_or(0, |n| n.get()),
+        features.join(", ")
+    )
+}
+
 #[cfg(all(feature = "std", target_arch = "x86_64", debug_assertions))]
 std::thread_local! {
     static SIMD_CALLS: core::cell::Cell<usize> = const { core::cell::Cell::new(0) };
