@@ -41,6 +41,7 @@
 //! ```
 
 pub mod compensator;
+pub(crate) mod compensator_step;
 pub mod creep;
 pub(crate) mod creep_pass;
 pub mod delay;
@@ -58,7 +59,8 @@ pub mod simd;
 pub mod storage;
 pub mod superposition;
 
-pub use compensator::{Compensated, Compensator, CompensatorSettings};
+pub use compensator::{Compensated, Compensator, CompensatorSettings, RunningCreepState};
+pub use compensator_step::RESUM;
 pub use creep::Creep;
 pub use delay::{preview, preview_into, DelayLine};
 pub use dynamics::{Dynamics, DynamicsParameters, Resonance};
