@@ -59,12 +59,12 @@
 /**
  * Words of `MfcbeamCompensatorStorageF32`.
  */
-#define MFCBEAM_COMPENSATOR_F32_WORDS 875
+#define MFCBEAM_COMPENSATOR_F32_WORDS 580
 
 /**
  * Words of `MfcbeamCompensatorStorageF64`.
  */
-#define MFCBEAM_COMPENSATOR_F64_WORDS 1705
+#define MFCBEAM_COMPENSATOR_F64_WORDS 1121
 
 /**
  * Words of `MfcbeamModelStorageF32`.

@@ -10,7 +10,7 @@
 use crate::error::ModelError;
 use crate::operators::model::ModelFile;
 use crate::operators::traits::{ActuatorCompensator, Operator, Snapshot};
-use crate::realtime::{Model, ParameterError, Real, RunningCreepState, Storage};
+use crate::realtime::{Model, ParameterError, Real, Storage};
 
 pub use crate::realtime::{Compensated, Compensator, CompensatorSettings};
 
@@ -59,9 +59,6 @@ pub struct CompensatorState {
     /// outputs then inputs, newest first); `None` before the first sample
     /// or without dynamics.
     pub dynamics: Option<Vec<f64>>,
-    /// The running creep output (with creep); `None`: summed from the
-    /// creep state, as a model file starts it.
-    pub creep_running: Option<RunningCreepState>,
 }
 
 impl<T: Real, S: Storage> Operator for Compensator<T, S> {
@@ -114,7 +111,6 @@ impl<T: Real, S: Storage> Snapshot for Compensator<T, S> {
                 g.state_into(&mut y)?;
                 Some(to_f64(&y))
             }),
-            creep_running: self.running_creep_state(),
         }
     }
 
@@ -143,12 +139,6 @@ impl<T: Real, S: Storage> Snapshot for Compensator<T, S> {
                     reason: "a creep state must be given exactly when the model has creep".into(),
                 })
             }
-        }
-        trial.resum_creep();
-        if let Some(running) = state.creep_running {
-            trial
-                .set_running_creep_state(running)
-                .map_err(|e| e.named("compensator.creep_running"))?;
         }
         crate::realtime::parameters::check_length("", n, state.inverse.len())
             .map_err(named("compensator.inverse"))?;

@@ -22,9 +22,6 @@
 //! has a delay `d` ([`Compensator::delay`]) gives it the target `d` samples
 //! ahead ([`preview`]).
 
-use crate::realtime::compensator_step::{
-    creep_increment, folded_bounds, plays, CreepParts, RunningCreep, StepParts,
-};
 use crate::realtime::creep::Creep;
 #[cfg(doc)]
 use crate::realtime::delay::preview;
@@ -54,34 +51,51 @@ pub struct Compensated<T = f64> {
     pub fault: bool,
 }
 
-/// The compensator's running creep output as a snapshot carries it:
-/// `C_k = base + delta` (`delta` the last increment), summed again from the
-/// state after `RESUM − steps` more steps. With it a resumed compensator
-/// continues bit for bit; without it the output is summed from the state.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RunningCreepState {
-    pub base: f64,
-    pub delta: f64,
-    pub steps: u32,
+/// The hysteresis half of (21): `H⁻¹` with its plays, the thresholds, weights
+/// and partial sums `s_j` of `H`, and room for one set of play states.
+pub(crate) struct HysteresisPair<'a, T> {
+    pub inv_thresholds: &'a [T],
+    pub inv_weights: &'a [T],
+    pub inv_state: &'a mut [T],
+    pub thresholds: &'a [T],
+    pub weights: &'a [T],
+    pub sums: &'a [T],
+    pub scratch: &'a mut [T],
 }
 
-/// After a clipped sample: the plays of `H` before it (from the inverse
-/// plays `inv_x`, which the step left unchanged), advanced with the applied
-/// `u`, and `H⁻¹`'s plays from them (22) into `inv_x`.
+/// `u = sat(H⁻¹[y])`, and on saturation the inverse plays re-seated on the
+/// branch of `u` (22). Returns `(u, saturated)`.
+#[inline(always)]
+pub(crate) fn invert_saturating<T: Real>(
+    k: Kernels,
+    p: HysteresisPair<'_, T>,
+    y: T,
+    lower: T,
+    upper: T,
+) -> (T, bool) {
+    p.scratch.copy_from_slice(p.inv_state);
+    let v = simd::hysteresis_step(k, p.inv_state, p.inv_thresholds, p.inv_weights, y);
+    let (u, saturated) = if v < lower {
+        (lower, true)
+    } else if v > upper {
+        (upper, true)
+    } else {
+        (v, false)
+    };
+    if saturated {
+        reseat(p, u);
+    }
+    (u, saturated)
+}
+
+/// After a clipped sample: the plays of `H` before it (from the saved inverse
+/// plays), advanced with the applied `u`, and `H⁻¹`'s plays from them (22).
 #[cold]
 #[inline(never)]
-fn reseat<T: Real>(
-    inv_x: &mut [T],
-    thresholds: &[T],
-    weights: &[T],
-    sums: &[T],
-    scratch: &mut [T],
-    u: T,
-) {
-    scratch.copy_from_slice(inv_x);
-    forward_state_in_place(sums, scratch);
-    hysteresis::advance_plays(scratch, thresholds, u);
-    inverse_state_into(weights, sums, scratch, inv_x);
+fn reseat<T: Real>(p: HysteresisPair<'_, T>, u: T) {
+    forward_state_in_place(p.sums, p.scratch);
+    hysteresis::advance_plays(p.scratch, p.thresholds, u);
+    inverse_state_into(p.weights, p.sums, p.scratch, p.inv_state);
 }
 
 /// Output limits of a compensator (balanced voltage, V): every output lies
@@ -157,9 +171,6 @@ pub struct Compensator<T: Real, S: Storage> {
     /// The voltage of the last sample (held for a non-finite target).
     last_u: T,
     pub(crate) creep: Option<Creep<T, S>>,
-    /// The creep as the step runs it (flat parameters, running output);
-    /// present exactly when `creep` is.
-    running: Option<RunningCreep<T, S>>,
     /// `S⁻¹` by its inverse rules, if the model has `S`.
     inverse_superposition: Option<Superposition<T, S>>,
     /// `S` itself (with dynamics only: the plant's output after a clipped
@@ -205,11 +216,6 @@ impl<T: Real, S: Storage> Compensator<T, S> {
                 .as_ref()
                 .map(|c| Creep::from_parameters(c, ts))
                 .transpose()?,
-            running: parameters
-                .creep
-                .as_ref()
-                .map(|c| RunningCreep::new(c, ts))
-                .transpose()?,
             inverse_superposition: superposition.map(Superposition::inverse_of).transpose()?,
             superposition: match parameters.dynamics {
                 Some(_) => superposition
@@ -250,7 +256,6 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         if let (Some(mine), Some(theirs)) = (&mut c.creep, model.creep()) {
             mine.copy_state_from(theirs)?;
         }
-        c.resum_creep();
         if let (Some(mine), Some(theirs)) = (&mut c.dynamics, model.dynamics()) {
             let mut state =
                 [0.0; crate::realtime::dynamics::MAX_ORDER + crate::realtime::dynamics::INPUTS];
@@ -306,52 +311,6 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         self.last_u = T::from_f64(hysteresis[0]);
         self.last_h = T::from_f64(w.iter().zip(hysteresis).map(|(w, x)| w * x).sum());
         self.creep = creep_trial;
-        self.resum_creep();
-        Ok(())
-    }
-
-    /// The creep output summed from the state (after the state was set).
-    pub(crate) fn resum_creep(&mut self) {
-        if let (Some(c), Some(r)) = (&mut self.creep, &mut self.running) {
-            let (chi, w) = c.chi_and_weights();
-            r.resum(chi, w);
-        }
-    }
-
-    /// The running creep output, as a snapshot saves it (`None` without
-    /// creep).
-    pub fn running_creep_state(&self) -> Option<RunningCreepState> {
-        self.running.as_ref().map(|r| RunningCreepState {
-            base: r.base.to_f64(),
-            delta: r.delta.to_f64(),
-            steps: r.steps,
-        })
-    }
-
-    /// Restore the running creep output a snapshot saved (after the creep
-    /// state), so that the compensator continues bit for bit.
-    pub fn set_running_creep_state(
-        &mut self,
-        state: RunningCreepState,
-    ) -> Result<(), ParameterError> {
-        let Some(r) = &mut self.running else {
-            return Err(ParameterError::LengthMismatch {
-                field: "creep.running",
-                expected: 0,
-                found: 1,
-            });
-        };
-        check_finite("creep.running", &[state.base, state.delta])?;
-        if state.steps >= crate::realtime::compensator_step::RESUM {
-            return Err(ParameterError::LengthMismatch {
-                field: "creep.running.steps",
-                expected: crate::realtime::compensator_step::RESUM as usize - 1,
-                found: state.steps as usize,
-            });
-        }
-        r.base = T::from_f64(state.base);
-        r.delta = T::from_f64(state.delta);
-        r.steps = state.steps;
         Ok(())
     }
 
@@ -410,7 +369,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     /// The voltage for the target `target`; allocation-free, O(n + n_C m).
     #[inline]
     pub fn compensate(&mut self, target: T) -> Compensated<T> {
-        self.compensate_using(Kernels::detect(), target)
+        Kernels::detect().run(|k| self.compensate_with(k, target))
     }
 
     /// [`Compensator::compensate`] on the portable kernels (the same bits;
@@ -425,35 +384,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     #[doc(hidden)]
     #[inline]
     pub fn compensate_using(&mut self, k: Kernels, target: T) -> Compensated<T> {
-        // one function per instruction set, the whole step inlined into it
-        // (a closure through `Kernels::run` may stay out of line, compiled
-        // without the features, and the step is small enough for the call
-        // to show)
-        #[cfg(all(feature = "std", target_arch = "x86_64"))]
-        {
-            if k.is_avx512() {
-                // SAFETY: only `Kernels::detect` and `Kernels::all` make an
-                // AVX-512 value, where the CPU has AVX-512F and AVX2.
-                return unsafe { self.compensate_avx512(k, target) };
-            }
-            if k.is_avx2() {
-                // SAFETY: as above, for AVX2.
-                return unsafe { self.compensate_avx2(k, target) };
-            }
-        }
-        self.compensate_with(k, target)
-    }
-
-    #[cfg(all(feature = "std", target_arch = "x86_64"))]
-    #[target_feature(enable = "avx2")]
-    unsafe fn compensate_avx2(&mut self, k: Kernels, target: T) -> Compensated<T> {
-        self.compensate_with(k, target)
-    }
-
-    #[cfg(all(feature = "std", target_arch = "x86_64"))]
-    #[target_feature(enable = "avx2,avx512f")]
-    unsafe fn compensate_avx512(&mut self, k: Kernels, target: T) -> Compensated<T> {
-        self.compensate_with(k, target)
+        k.run(|k| self.compensate_with(k, target))
     }
 
     /// A whole signal into caller buffers, every flag kept; one
@@ -491,6 +422,10 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         if !target.is_finite() {
             return self.hold();
         }
+        let c = match &self.creep {
+            Some(op) => op.output(),
+            None => T::ZERO,
+        };
         let t = target - self.offset;
         let v = match &self.dynamics {
             Some(g) => {
@@ -508,127 +443,38 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             Some(s) => s.apply(v),
             None => v,
         };
-        let (base, delta) = self
-            .running
-            .as_ref()
-            .map_or((T::ZERO, T::ZERO), |r| (r.base, r.delta));
-        // y − C_k as the plays see it: (y − B) − Δ, the last part on the chain
-        let z = y - base;
-        let fast = if z.is_finite() {
-            let (inv_r, inv_w, inv_x) = self.inverse.parts_mut();
-            let creep = match (&mut self.creep, &self.running) {
-                (Some(c), Some(r)) => Some(CreepParts {
-                    r: &r.r,
-                    minus_r: &r.minus_r,
-                    gain: &r.gain,
-                    q: &r.q,
-                    chi: c.chi_and_weights().0,
-                }),
-                _ => None,
-            };
-            let parts = StepParts {
-                inv_r,
-                inv_w,
-                inv_x,
-                creep,
-            };
-            simd::compensator_step(
-                k,
-                parts,
-                &mut self.scratch,
-                z,
-                delta,
-                self.lower,
-                self.upper,
-            )
-            .ok()
-        } else {
-            None
-        };
-        let (u, saturated) = match fast {
-            Some((v, increment)) => {
-                if let (Some(c), Some(r)) = (&mut self.creep, &mut self.running) {
-                    c.set_last_input(v);
-                    let (chi, w) = c.chi_and_weights();
-                    r.advance(increment, chi, w);
-                }
-                (v, false)
-            }
-            None => self.slow_step(z, delta),
-        };
+        let (inv_r, inv_w, inv_x) = self.inverse.parts_mut();
+        let (u, saturated) = invert_saturating(
+            k,
+            HysteresisPair {
+                inv_thresholds: inv_r,
+                inv_weights: inv_w,
+                inv_state: inv_x,
+                thresholds: &self.thresholds,
+                weights: &self.weights,
+                sums: &self.sums,
+                scratch: &mut self.scratch,
+            },
+            y - c,
+            self.lower,
+            self.upper,
+        );
         if self.dynamics.is_some() {
             let h = if saturated {
                 self.clipped_output()
             } else {
-                z - delta
+                y - c
             };
-            self.advance_dynamics(t, v, h, base + delta, saturated);
+            self.advance_dynamics(t, v, h, c, saturated);
         }
         self.last_u = u;
+        if let Some(op) = &mut self.creep {
+            op.advance_with(k, u);
+        }
         Compensated {
             u,
             saturated,
             fault: false,
-        }
-    }
-
-    /// A step the fast one left: the output clipped (or not a number), or
-    /// `y − B` not finite (the plays then see the last input, `x'_0`, and
-    /// do not move). The plays and the creep as the fast step would have
-    /// advanced them, with the voltage applied.
-    #[cold]
-    #[inline(never)]
-    fn slow_step(&mut self, z: T, delta: T) -> (T, bool) {
-        let (inv_r, inv_w, inv_x) = self.inverse.parts_mut();
-        let v = if z.is_finite() {
-            plays(inv_r, inv_w, inv_x, &mut self.scratch, |r| {
-                folded_bounds(z, delta, r)
-            })
-        } else {
-            let y = inv_x[0];
-            plays(inv_r, inv_w, inv_x, &mut self.scratch, |r| (y - r, y + r))
-        };
-        let (u, saturated) = if v < self.lower {
-            (self.lower, true)
-        } else if v > self.upper {
-            (self.upper, true)
-        } else {
-            (v, false)
-        };
-        if saturated {
-            reseat(
-                inv_x,
-                &self.thresholds,
-                &self.weights,
-                &self.sums,
-                &mut self.scratch,
-                u,
-            );
-        } else {
-            inv_x.copy_from_slice(&self.scratch);
-        }
-        self.advance_creep(u);
-        (u, saturated)
-    }
-
-    /// The creep advanced with the applied voltage `u` (the last finite
-    /// input if `u` is not finite), its running output with it.
-    fn advance_creep(&mut self, u: T) {
-        if let (Some(c), Some(r)) = (&mut self.creep, &mut self.running) {
-            let u = if u.is_finite() { u } else { c.last_input() };
-            c.set_last_input(u);
-            let increment = creep_increment(
-                &mut CreepParts {
-                    r: &r.r,
-                    minus_r: &r.minus_r,
-                    gain: &r.gain,
-                    q: &r.q,
-                    chi: c.chi_and_weights().0,
-                },
-                u,
-            );
-            let (chi, w) = c.chi_and_weights();
-            r.advance(increment, chi, w);
         }
     }
 
@@ -639,10 +485,12 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     fn hold(&mut self) -> Compensated<T> {
         let u = self.last_u;
         if self.dynamics.is_some() {
-            let c = self.running.as_ref().map_or(T::ZERO, |r| r.output());
+            let c = self.creep.as_ref().map_or(T::ZERO, |op| op.output());
             self.advance_dynamics(T::ZERO, T::ZERO, self.last_h, c, true);
         }
-        self.advance_creep(u);
+        if let Some(op) = &mut self.creep {
+            op.advance(u);
+        }
         Compensated {
             u,
             saturated: false,
@@ -692,7 +540,6 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         if let Some(c) = &mut self.creep {
             c.reset();
         }
-        self.resum_creep();
     }
 }
 

@@ -233,27 +233,6 @@ impl<T: Real, S: Storage> Creep<T, S> {
         out
     }
 
-    /// `χ` (eigenvalue-major) and the weights `w_i / m`, for the
-    /// compensator's step.
-    #[inline(always)]
-    pub(crate) fn chi_and_weights(&mut self) -> (&mut [T], &[T]) {
-        (&mut self.chi, &self.scaled_weights)
-    }
-
-    /// Record `v` as the last finite input, after the compensator's step
-    /// advanced `χ` with it (the operator's own output is not kept: the
-    /// compensator keeps a running one).
-    #[inline(always)]
-    pub(crate) fn set_last_input(&mut self, v: T) {
-        self.last_input = v;
-    }
-
-    /// The last finite input.
-    #[inline(always)]
-    pub(crate) fn last_input(&self) -> T {
-        self.last_input
-    }
-
     fn refresh_output(&mut self) {
         self.output = output(&self.chi, &self.scaled_weights);
     }

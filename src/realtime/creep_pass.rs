@@ -7,9 +7,9 @@ use crate::realtime::hysteresis::reduce;
 use crate::realtime::play::clamp;
 use crate::realtime::real::Real;
 
-/// Thresholds per block of the creep pass: the bounds `∓r_i` of the dead
-/// zone serve every eigenvalue's row, and a block is one AVX register of
-/// `f64` (two SSE2 registers).
+/// Thresholds per block of the creep pass: the clamp bounds `v ∓ r_i` are
+/// formed once per threshold and reused by every eigenvalue's row, and a
+/// block is one AVX register of `f64` (two SSE2 registers).
 pub(crate) const LANES: usize = 4;
 
 /// Advance every elementary operator with `v` (20) and return the new output
@@ -18,13 +18,12 @@ pub(crate) const LANES: usize = 4;
 /// non-finite `v` is replaced by the last finite input, which `last_input`
 /// keeps.
 ///
-/// The update is `χ ← χ + g d` with the dead zone of (14) written about
-/// the state, [`dead_zone`]: `z = χ − v`, `d = clamp(z, −r, r) − z`
-/// (`= P_r[v, χ] − χ`). No bound depends on `v`, so the clamp's bounds are
-/// the constants `∓r`, and an operator inside its dead zone gets `d = +0`
-/// exactly. The sums run in a fixed order (lane `l` of a block adds the
-/// thresholds `i ≡ l mod 4`, then [`reduce`]), the same for every
-/// instruction set: the result does not depend on the CPU.
+/// The update is `χ ← χ + g (P_r[v, χ] − χ)`: the dead zone of (14) as the
+/// play's output minus its state, `d_r(v − χ) = P_r[v, χ] − χ`, so that
+/// `v ∓ r_i` serve all `m` rows. The sums run in a fixed order (lane `l`
+/// of a block adds the thresholds `i ≡ l mod 4`, then
+/// [`reduce`]), the same for every instruction set: the result does not
+/// depend on the CPU.
 #[inline(always)]
 pub(crate) fn advance<T: Real>(
     chi: &mut [T],
@@ -42,13 +41,16 @@ pub(crate) fn advance<T: Real>(
     let full = n - n % LANES;
     for i0 in (0..full).step_by(LANES) {
         let r: &[T; LANES] = thresholds[i0..i0 + LANES].try_into().unwrap();
+        let lower = r.map(|r| v - r);
+        let upper = r.map(|r| v + r);
         let mut rows = [T::ZERO; LANES];
         for (j, &g) in gains.iter().enumerate() {
             let block: &mut [T; LANES] = (&mut chi[j * n + i0..j * n + i0 + LANES])
                 .try_into()
                 .unwrap();
             for l in 0..LANES {
-                block[l] = update(block[l], v, r[l], g);
+                let x = block[l];
+                block[l] = x + g * (clamp(x, lower[l], upper[l]) - x);
             }
             for l in 0..LANES {
                 rows[l] += block[l];
@@ -77,30 +79,16 @@ pub(crate) fn advance_tail<T: Real>(
 ) {
     let n = thresholds.len();
     for i in full..n {
+        let (lower, upper) = (v - thresholds[i], v + thresholds[i]);
         let mut row = T::ZERO;
         for (j, &g) in gains.iter().enumerate() {
-            let x = update(chi[j * n + i], v, thresholds[i], g);
+            let x = chi[j * n + i];
+            let x = x + g * (clamp(x, lower, upper) - x);
             chi[j * n + i] = x;
             row += x;
         }
         acc[i - full] += weights[i] * row;
     }
-}
-
-/// The dead zone of (14) about the state: `z = χ − v`, and
-/// `d = clamp(z, −r, r) − z`, which is `d_r(v − χ)`. The clamp takes the
-/// lower bound `−r` as negation gives it (`−0.0` for `r = 0`), in every
-/// kernel.
-#[inline(always)]
-pub(crate) fn dead_zone<T: Real>(x: T, v: T, r: T) -> T {
-    let z = x - v;
-    clamp(z, -r, r) - z
-}
-
-/// One elementary creep operator's update (20): `χ + g d_r(v − χ)`.
-#[inline(always)]
-pub(crate) fn update<T: Real>(x: T, v: T, r: T, g: T) -> T {
-    x + g * dead_zone(x, v, r)
 }
 
 /// The output `Σ_i (w_i/m) Σ_j χ_ij` of a state, summed in the order

@@ -41,7 +41,6 @@
 //! ```
 
 pub mod compensator;
-pub(crate) mod compensator_step;
 pub mod creep;
 pub(crate) mod creep_pass;
 pub mod delay;
@@ -59,8 +58,7 @@ pub mod simd;
 pub mod storage;
 pub mod superposition;
 
-pub use compensator::{Compensated, Compensator, CompensatorSettings, RunningCreepState};
-pub use compensator_step::RESUM;
+pub use compensator::{Compensated, Compensator, CompensatorSettings};
 pub use creep::Creep;
 pub use delay::{preview, preview_into, DelayLine};
 pub use dynamics::{Dynamics, DynamicsParameters, Resonance};

@@ -33,7 +33,6 @@
 //!
 //! Every bound is linear in `ε`: for another precision, pass its `ε`.
 
-use crate::realtime::compensator_step::RESUM;
 use crate::realtime::creep::creep_gain;
 use crate::realtime::dynamics::l1_gains;
 use crate::realtime::parameters::{zero_index, ModelParameters};
@@ -101,30 +100,6 @@ impl RoundingBounds<'_> {
                     .sum::<f64>()
                     / m;
                 self.eps * abs_sum(c.weights) * self.state_bound(v_max) * (8.0 * n + drift)
-            }
-        }
-    }
-
-    /// How far the compensator's running creep output (`C_{k+1} = C_k +
-    /// Σ q_e d_e`, summed from the state every [`RESUM`] steps) can lie from
-    /// the output its state gives as the model sums it: one step adds at
-    /// most `(ε/2)[(N + 4) Σ|q_e d_e| + Σ (w_i/m)|χ_e| + |C|]` (`N`
-    /// elementary operators, `q_e = (w_i/m) g_j`, `|d_e| ≤ 2X`, `|χ| ≤ X`),
-    /// and at most `RESUM` steps add up before the sum starts again from
-    /// the model's own.
-    pub fn running_creep(&self, v_max: f64) -> f64 {
-        match &self.parameters.creep {
-            None => 0.0,
-            Some(c) => {
-                let n = (c.weights.len() * c.eigenvalues.len()) as f64;
-                let m = c.eigenvalues.len() as f64;
-                let ts = self.parameters.sample_time;
-                let sum_g: f64 = c.eigenvalues.iter().map(|&a| creep_gain(a, ts)).sum();
-                let sum_q = abs_sum(c.weights) / m * sum_g;
-                let x = self.state_bound(v_max);
-                let per_step =
-                    self.eps / 2.0 * x * (2.0 * (n + 4.0) * sum_q + 2.0 * abs_sum(c.weights));
-                f64::from(RESUM) * per_step
             }
         }
     }
@@ -315,8 +290,7 @@ impl RoundingBounds<'_> {
 
     /// `W[W⁻¹[y]] − y` when the plant's creep runs the compensator's own
     /// arithmetic (this crate's `Model` after its `Compensator`, in
-    /// one precision): both creep states agree bit for bit and the outputs
-    /// within [`RoundingBounds::running_creep`], which leaves
+    /// one precision): both creep outputs agree bit for bit, which leaves
     /// `H[H⁻¹[z]] − z` for `z = y − offset − C` and the roundings of forming
     /// `z` and `H + C + offset` (an error in `z` comes back through `H∘H⁻¹`
     /// with slope 1).
@@ -334,8 +308,7 @@ impl RoundingBounds<'_> {
         let w_reach = s_max * self.inner_max(v_max) + self.superposition_offset();
         let (target, target_error) = self.inner_target_reachable(y_max, w_reach);
         let z = target + creep_out;
-        let inner =
-            self.inverse(v_max, z) + 4.0 * self.eps * z + target_error + self.running_creep(v_max);
+        let inner = self.inverse(v_max, z) + 4.0 * self.eps * z + target_error;
         let z_max = self.inner_max(v_max).max(z);
         let g1 = self.dynamics().0;
         let w_max = s_max * z_max + self.superposition_offset();
@@ -372,7 +345,7 @@ impl RoundingBounds<'_> {
             .map_or(0.0, |c| abs_sum(c.weights) * self.state_bound(v_max));
         let off = self.offset();
         let (target, target_error) = self.inner_target(y_max);
-        let errors = creep + self.running_creep(v_max) + off + target_error;
+        let errors = creep + off + target_error;
         let inner = 2.0
             * (self.inverse(v_max, target + creep_out) + 2.0 * errors / self.min_slope() + errors);
         let (_, s_max) = self.superposition_slopes();

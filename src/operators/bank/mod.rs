@@ -30,7 +30,6 @@ use std::vec::Vec;
 
 use crate::operators::heap::Heap;
 use crate::realtime::compensator::Compensated;
-use crate::realtime::compensator_step::RESUM;
 use crate::realtime::creep::creep_gain;
 use crate::realtime::error::ParameterError;
 use crate::realtime::inverse::inverse_parameters_into;
@@ -73,17 +72,11 @@ impl Layout {
     fn creep_last(self) -> usize {
         self.last_u() + 2
     }
-    /// The last increment of the running creep output (`creep_out` is the
-    /// output before it, as the single compensator keeps them).
-    fn creep_delta(self) -> usize {
+    fn state_rows(self) -> usize {
         self.last_u() + 3
     }
-    fn state_rows(self) -> usize {
-        self.last_u() + 4
-    }
     // parameter rows: H⁻¹'s r', w', H's r, w and partial sums s, the creep
-    // thresholds and weights / m, the gains, the offset, and q = (w/m) g of
-    // each elementary creep operator
+    // thresholds and weights / m, the gains, the offset
     fn inv_r(self, i: usize) -> usize {
         i
     }
@@ -111,11 +104,8 @@ impl Layout {
     fn offset(self) -> usize {
         5 * self.n + 2 * self.nc + self.m
     }
-    fn creep_q(self, i: usize, j: usize) -> usize {
-        self.offset() + 1 + i * self.m + j
-    }
     fn parameter_rows(self) -> usize {
-        self.offset() + 1 + self.nc * self.m
+        self.offset() + 1
     }
 }
 
@@ -134,9 +124,6 @@ pub struct CompensatorBank<T: Real> {
     upper: T,
     /// Which copy of the inverse plays is current (0 or 1).
     parity: usize,
-    /// Steps since the creep outputs were summed from their states (all
-    /// channels step together, as single compensators started together).
-    creep_steps: u32,
     /// `S⁻¹` of each channel's model (of the one, shared), if it has `S`.
     inverse_superposition: Vec<Option<Superposition<T, Heap>>>,
     /// Whether a lane of the block has `S` (the block then applies `S⁻¹`
@@ -249,11 +236,7 @@ impl<T: Real> CompensatorBank<T> {
                         put(layout.creep_w(i), cp.weights[i] / m as f64);
                     }
                     for (j, &a) in cp.eigenvalues.iter().enumerate() {
-                        let g = creep_gain(a, model.sample_time);
-                        put(layout.gain(j), g);
-                        for i in 0..nc {
-                            put(layout.creep_q(i, j), cp.weights[i] / m as f64 * g);
-                        }
+                        put(layout.gain(j), creep_gain(a, model.sample_time));
                     }
                 }
                 put(layout.offset(), model.offset);
@@ -290,7 +273,6 @@ impl<T: Real> CompensatorBank<T> {
             lower: T::from_f64_up(lower),
             upper: T::from_f64_down(upper),
             parity: 0,
-            creep_steps: 0,
             inverse_superposition,
             superposed,
             delays,
@@ -345,25 +327,9 @@ impl<T: Real> CompensatorBank<T> {
         check_length("bank.out", self.channels, out.len())?;
         let (fixed, state) = self.split();
         step_blocks(k, &fixed, 0, state, targets, out);
-        self.after_step();
+        self.parity ^= 1;
         self.dynamic_channels(targets, out);
         Ok(())
-    }
-
-    /// The copy of the plays flipped and the creep steps counted, as
-    /// `RunningCreep::advance` counts them.
-    fn after_step(&mut self) {
-        self.parity ^= 1;
-        self.creep_steps = if self.resum_now() {
-            0
-        } else {
-            self.creep_steps + 1
-        };
-    }
-
-    /// Whether this step sums the creep outputs from their states.
-    fn resum_now(&self) -> bool {
-        self.creep_steps + 1 >= RESUM
     }
 
     /// The channels with dynamics, on their own compensators.
@@ -409,7 +375,7 @@ impl<T: Real> CompensatorBank<T> {
             };
             step_blocks(k, &fixed, blocks.start, state, &targets[channels], out);
         });
-        self.after_step();
+        self.parity ^= 1;
         self.dynamic_channels(targets, out);
         Ok(())
     }
@@ -425,7 +391,6 @@ impl<T: Real> CompensatorBank<T> {
                 lower: self.lower,
                 upper: self.upper,
                 parity: self.parity,
-                resum: self.resum_now(),
                 inverse_superposition: &self.inverse_superposition,
                 superposed: &self.superposed,
             },
@@ -437,7 +402,6 @@ impl<T: Real> CompensatorBank<T> {
     pub fn reset(&mut self) {
         self.state.fill(Row::default());
         self.parity = 0;
-        self.creep_steps = 0;
         for (_, comp) in &mut self.dynamic {
             comp.reset();
         }

@@ -5,7 +5,6 @@
 
 use crate::operators::heap::Heap;
 use crate::realtime::compensator::Compensated;
-use crate::realtime::compensator_step::{padded_groups, CREEP_ACCUMULATORS, PLAY_ACCUMULATORS};
 use crate::realtime::play::play;
 use crate::realtime::real::Real;
 use crate::realtime::simd::block::{lanes, run_blocks, Block, BlockWork, Ops, Row};
@@ -45,8 +44,6 @@ pub(super) struct Fixed<'a, T: Real> {
     pub(super) lower: T,
     pub(super) upper: T,
     pub(super) parity: usize,
-    /// Whether this step sums the creep outputs from their states.
-    pub(super) resum: bool,
     pub(super) inverse_superposition: &'a [Option<Superposition<T, Heap>>],
     pub(super) superposed: &'a [bool],
 }
@@ -157,19 +154,16 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
     let a = f.layout;
     let (cur, next) = (f.parity, f.parity ^ 1);
     let fault = o.non_finite(t);
-    // S⁻¹[t − offset], less the creep output before its last increment: Z;
-    // the play bounds are (Z ∓ r') − Δ, or x'_0 ∓ r' where Z is not finite
-    // (the plays then hold), as the single compensator forms them
+    // S⁻¹[t − offset] − C: y, or the input held where that is not finite
     let mut y = o.sub(t, o.load(&p[a.offset()]));
     if f.superposed[block] {
         y = inverse_superposition(o, f, block, y);
     }
-    let z = o.sub(y, o.load(&s[a.creep_out()]));
-    let delta = o.load(&s[a.creep_delta()]);
-    let held = o.non_finite(z);
-    let x0 = o.load(&s[a.inv_x(cur, 0)]);
+    let y = o.sub(y, o.load(&s[a.creep_out()]));
+    let y = o.select(o.non_finite(y), o.load(&s[a.inv_x(cur, 0)]), y);
     // H⁻¹ (22): the plays into the other copy; a faulted lane keeps its
-    // own. The weighted plays summed as `compensator_step::canonical_sum`.
+    // own. Whole slices of rows, walked in fours: no index arithmetic or
+    // bounds check between the vector operations.
     let n = a.n;
     let (first_copy, second_copy) = s[..2 * n].split_at_mut(n);
     let (old, new_rows) = if cur == 0 {
@@ -179,22 +173,28 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
     };
     let (inv_r, inv_w) = (&p[a.inv_r(0)..][..n], &p[a.inv_w(0)..][..n]);
     let zero = o.splat(T::ZERO);
-    let mut acc = [[zero; 4]; PLAY_ACCUMULATORS];
-    for g in 0..padded_groups(n) {
-        let mut products = [zero; 4];
-        for (l, product) in products.iter_mut().enumerate() {
-            let i = 4 * g + l;
-            if i < n {
-                let r = o.load(&inv_r[i]);
-                let lower = o.select(held, o.sub(x0, r), o.sub(o.sub(z, r), delta));
-                let upper = o.select(held, o.add(x0, r), o.sub(o.add(z, r), delta));
-                *product =
-                    inverse_play(o, fault, lower, upper, &old[i], &inv_w[i], &mut new_rows[i]);
-            }
+    let mut sums = [zero; 4];
+    let full = n - n % 4;
+    let fours = old[..full]
+        .chunks_exact(4)
+        .zip(inv_r[..full].chunks_exact(4))
+        .zip(inv_w[..full].chunks_exact(4))
+        .zip(new_rows[..full].chunks_exact_mut(4));
+    for (((x, r), w), next) in fours {
+        for q in 0..4 {
+            sums[q] = o.add(
+                sums[q],
+                inverse_play(o, y, fault, &x[q], &r[q], &w[q], &mut next[q]),
+            );
         }
-        accumulate(o, &mut acc, g, products);
     }
-    let v = finish(o, acc);
+    for i in full..n {
+        sums[i - full] = o.add(
+            sums[i - full],
+            inverse_play(o, y, fault, &old[i], &inv_r[i], &inv_w[i], &mut new_rows[i]),
+        );
+    }
+    let v = o.add(o.add(sums[0], sums[2]), o.add(sums[1], sums[3]));
     // clip; a faulted lane holds its last voltage
     let (lower, upper) = (o.splat(f.lower), o.splat(f.upper));
     let (below, above) = (o.lt(v, lower), o.gt(v, upper));
@@ -215,159 +215,97 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
 }
 
 /// Block `block`'s creep pass (20) with the input stored by
-/// [`inverse_and_clip`], as the single compensator's step runs it: each
-/// elementary operator advanced (`χ ← χ + g d`), the increment `Δ = Σ q d`
-/// summed in the order of `compensator_step::creep_increment` (elements
-/// `e = j n + i`, eigenvalue-major), and the running output advanced with
-/// it: `creep_out ← creep_out + Δ_{k−1}`, `Δ_{k−1} ← Δ`, or summed from the
-/// state on a re-sum step. Whole slices of rows, so that no index
-/// arithmetic or bounds check stands between the vector operations.
+/// [`inverse_and_clip`], as `creep_pass::advance` sums it: each threshold's rows
+/// summed over the eigenvalues in order, the weighted rows into the partial
+/// sum `i mod 4`. Four thresholds go together, eigenvalue by eigenvalue, so
+/// that four independent update chains stand next to each other in the
+/// instruction stream (one threshold's chain — five updates and their sum —
+/// is long, and the scheduler holds only so many waiting operations). Whole
+/// slices of rows, so that no index arithmetic or bounds check stands
+/// between the vector operations.
 #[inline(always)]
 fn creep_pass<T: Real, V: Block<T>>(o: Ops<T, V>, f: &Fixed<'_, T>, s: &mut [Row], p: &[Row]) {
     let a = f.layout;
     let (nc, m) = (a.nc, a.m);
     let uc = o.load(&s[a.creep_last()]);
     let zero = o.splat(T::ZERO);
-    let minus_zero = o.splat(-T::ZERO);
-    let thresholds = &p[a.creep_r(0)..][..nc];
+    let (thresholds, weights) = (&p[a.creep_r(0)..][..nc], &p[a.creep_w(0)..][..nc]);
     let gains = &p[a.gain(0)..][..m];
-    let q = &p[a.creep_q(0, 0)..][..nc * m];
-    let mut acc = [[zero; 4]; CREEP_ACCUMULATORS];
-    let (mut products, mut lane, mut group) = ([zero; 4], 0, 0);
-    {
-        let chi = &mut s[a.chi(0, 0)..][..nc * m];
-        for (j, g) in gains.iter().enumerate() {
-            let g = o.load(g);
-            for (i, r) in thresholds.iter().enumerate() {
-                let r = o.load(r);
-                let (d, x) = creep_update(o, &mut chi[i * m + j], g, uc, o.sub(minus_zero, r), r);
-                let _ = x;
-                products[lane] = o.mul(o.load(&q[i * m + j]), d);
-                lane += 1;
-                if lane == 4 {
-                    accumulate(o, &mut acc, group, products);
-                    (products, lane, group) = ([zero; 4], 0, group + 1);
-                }
-            }
-        }
-    }
-    if lane > 0 {
-        accumulate(o, &mut acc, group, products);
-        group += 1;
-    }
-    while group < padded_groups(nc * m) {
-        accumulate(o, &mut acc, group, [zero; 4]);
-        group += 1;
-    }
-    let increment = finish(o, acc);
-    let (out, delta) = if f.resum {
-        (creep_output(o, f, s, p), zero)
-    } else {
-        (
-            o.add(o.load(&s[a.creep_out()]), o.load(&s[a.creep_delta()])),
-            increment,
-        )
-    };
-    o.store(out, &mut s[a.creep_out()]);
-    o.store(delta, &mut s[a.creep_delta()]);
-}
-
-/// The creep output of the state, `Σ_i (w_i/m) Σ_j χ_ij`, summed as
-/// `creep_pass::output` sums it (each threshold's rows in order, the
-/// weighted rows into the partial sum `i mod 4`).
-#[cold]
-#[inline(never)]
-fn creep_output<T: Real, V: Block<T>>(o: Ops<T, V>, f: &Fixed<'_, T>, s: &[Row], p: &[Row]) -> V {
-    let a = f.layout;
-    let zero = o.splat(T::ZERO);
+    let chi = &mut s[a.chi(0, 0)..][..nc * m];
     let mut sums = [zero; 4];
-    for i in 0..a.nc {
-        let mut row = zero;
-        for j in 0..a.m {
-            row = o.add(row, o.load(&s[a.chi(i, j)]));
-        }
-        sums[i % 4] = o.add(sums[i % 4], o.mul(o.load(&p[a.creep_w(i)]), row));
-    }
-    o.add(o.add(sums[0], sums[2]), o.add(sums[1], sums[3]))
-}
-
-/// Group `g` of a canonical sum (`compensator_step::canonical_sum`): into
-/// accumulator `g mod A`, its value if it is the accumulator's first.
-#[inline(always)]
-fn accumulate<T: Real, V: Block<T>, const A: usize>(
-    o: Ops<T, V>,
-    acc: &mut [[V; 4]; A],
-    g: usize,
-    products: [V; 4],
-) {
-    let a = g % A;
-    for l in 0..4 {
-        acc[a][l] = if g < A {
-            products[l]
-        } else {
-            o.add(acc[a][l], products[l])
-        };
-    }
-}
-
-/// The accumulators added by halving and the four lanes as
-/// `(l₀ + l₂) + (l₁ + l₃)`: the canonical sum.
-#[inline(always)]
-fn finish<T: Real, V: Block<T>, const A: usize>(o: Ops<T, V>, mut acc: [[V; 4]; A]) -> V {
-    let mut h = A / 2;
-    while h >= 1 {
-        for a in 0..h {
-            let other = acc[a + h];
-            for (x, y) in acc[a].iter_mut().zip(other) {
-                *x = o.add(*x, y);
+    let full = nc - nc % 4;
+    if m > 0 {
+        let fours = chi[..full * m]
+            .chunks_exact_mut(4 * m)
+            .zip(thresholds[..full].chunks_exact(4))
+            .zip(weights[..full].chunks_exact(4));
+        for ((rows_of_four, r), w) in fours {
+            let mut lower = [zero; 4];
+            let mut upper = [zero; 4];
+            for q in 0..4 {
+                let r = o.load(&r[q]);
+                (lower[q], upper[q]) = (o.sub(uc, r), o.add(uc, r));
+            }
+            let (r01, r23) = rows_of_four.split_at_mut(2 * m);
+            let (x0, x1) = r01.split_at_mut(m);
+            let (x2, x3) = r23.split_at_mut(m);
+            let mut rows = [zero; 4];
+            for (j, g) in gains.iter().enumerate() {
+                let g = o.load(g);
+                rows[0] = o.add(rows[0], creep_update(o, &mut x0[j], g, lower[0], upper[0]));
+                rows[1] = o.add(rows[1], creep_update(o, &mut x1[j], g, lower[1], upper[1]));
+                rows[2] = o.add(rows[2], creep_update(o, &mut x2[j], g, lower[2], upper[2]));
+                rows[3] = o.add(rows[3], creep_update(o, &mut x3[j], g, lower[3], upper[3]));
+            }
+            for q in 0..4 {
+                sums[q] = o.add(sums[q], o.mul(o.load(&w[q]), rows[q]));
             }
         }
-        h /= 2;
     }
-    let s = acc[0];
-    o.add(o.add(s[0], s[2]), o.add(s[1], s[3]))
+    for i in full..nc {
+        let r = o.load(&thresholds[i]);
+        let (lower, upper) = (o.sub(uc, r), o.add(uc, r));
+        let mut rows = zero;
+        for (x, g) in chi[i * m..][..m].iter_mut().zip(gains) {
+            rows = o.add(rows, creep_update(o, x, o.load(g), lower, upper));
+        }
+        sums[i - full] = o.add(sums[i - full], o.mul(o.load(&weights[i]), rows));
+    }
+    let creep = o.add(o.add(sums[0], sums[2]), o.add(sums[1], sums[3]));
+    o.store(creep, &mut s[a.creep_out()]);
 }
 
-/// One play of `H⁻¹` (22) on a block: `x` clamped into `[lower, upper]`
+/// One play of `H⁻¹` (22) on a block: `x` clamped into `[y − r, y + r]`
 /// into `next` (the old `x` where the lane is faulted), its weighted value
 /// returned. A function, not a closure: see [`creep_update`].
 #[inline(always)]
 fn inverse_play<T: Real, V: Block<T>>(
     o: Ops<T, V>,
+    y: V,
     fault: V::Mask,
-    lower: V,
-    upper: V,
     x: &Row,
+    r: &Row,
     w: &Row,
     next: &mut Row,
 ) -> V {
     let x = o.load(x);
-    let new = o.clamp(x, lower, upper);
+    let r = o.load(r);
+    let new = o.clamp(x, o.sub(y, r), o.add(y, r));
     o.store(o.select(fault, x, new), next);
     o.mul(o.load(w), new)
 }
 
-/// One creep operator's update (20) on a block, `χ ← χ + g d` with the
-/// dead zone `d = clamp(z, −r, r) − z`, `z = χ − u` (as
-/// `creep_pass::dead_zone`; `lower` is `−r`, `upper` is `r`), returning
-/// `d` and the new `χ`. A function marked `inline(always)`, not a closure: a closure
-/// body left out of line is compiled without the step's instruction set,
-/// and every vector operation in it becomes a call.
+/// One creep operator's update (20) on a block, `χ ← χ + g (clamp(χ, u −
+/// r, u + r) − χ)`, returning the new `χ`. A function marked
+/// `inline(always)`, not a closure: a closure body left out of line is
+/// compiled without the step's instruction set, and every vector operation
+/// in it becomes a call.
 #[inline(always)]
-fn creep_update<T: Real, V: Block<T>>(
-    o: Ops<T, V>,
-    x: &mut Row,
-    g: V,
-    u: V,
-    lower: V,
-    upper: V,
-) -> (V, V) {
+fn creep_update<T: Real, V: Block<T>>(o: Ops<T, V>, x: &mut Row, g: V, lower: V, upper: V) -> V {
     let v = o.load(x);
-    let z = o.sub(v, u);
-    let d = o.sub(o.clamp(z, lower, upper), z);
-    let v = o.add(v, o.mul(g, d));
+    let v = o.add(v, o.mul(g, o.sub(o.clamp(v, lower, upper), v)));
     o.store(v, x);
-    (d, v)
+    v
 }
 
 /// `S⁻¹` lane by lane on a block some of whose channels have `S`.

@@ -4,14 +4,11 @@
 //! The kernels are written once, generic and `#[inline(always)]`. A caller
 //! picks [`Kernels`] once per call (a whole `compensate`, a whole signal, a
 //! bank step) with [`Kernels::detect`]: with `std` on x86-64 the step is then
-//! compiled again with AVX2, or AVX-512F, enabled (`Kernels::run`, or the
-//! compensator's own entry per set, which inlines the whole step). The
-//! single compensator's step (`step`: `H⁻¹`, the clip test and the creep
-//! increment in one kernel, `compensator_step`) runs on 4-lane `f64` or
-//! 8-lane `f32` AVX2 registers, or 8-lane `f64` or 16-lane `f32` AVX-512
-//! ones; the model's creep pass on 4- or 8-lane registers; the bank's
-//! 64-byte blocks (`block`: 8 `f64` or 16 `f32` lanes, one cache line) on
-//! two 256-bit registers or one 512-bit register. No copy
+//! compiled again with AVX2, or AVX-512F, enabled (`Kernels::run`). The
+//! single compensator's `f64` blocks of `H⁻¹`, the plays and the creep pass
+//! run on explicit 256-bit registers, its `f32` ones on 8-lane registers;
+//! the bank's 64-byte blocks (`block`: 8 `f64` or 16 `f32` lanes, one
+//! cache line) on two 256-bit registers or one 512-bit register. No copy
 //! fuses a multiply and an add (Rust never contracts them), `min` and `max`
 //! are written as the hardware defines them and the sums run in a fixed
 //! order, so every copy computes the same bits: `verification/bank.rs`
@@ -23,15 +20,10 @@
 // the bank's blocks: the bank is part of the `std` layer
 #[cfg(feature = "std")]
 pub(crate) mod block;
-#[cfg(all(feature = "std", target_arch = "x86_64"))]
-mod step;
 
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 use core::any::TypeId;
 
-#[cfg(all(feature = "std", target_arch = "x86_64"))]
-use crate::realtime::compensator_step::CreepParts;
-use crate::realtime::compensator_step::{self, StepParts};
 use crate::realtime::real::Real;
 
 /// The kernels a step runs: the portable ones, or (x86-64 with `std`, the
@@ -62,28 +54,11 @@ impl Kernels {
     /// The best kernels this CPU runs (a cached feature test).
     #[inline]
     pub fn detect() -> Self {
-        // one relaxed load on every call after the first (a step calls it)
-        #[cfg(all(feature = "std", target_arch = "x86_64"))]
-        {
-            use core::sync::atomic::{AtomicU8, Ordering};
-            static BEST: AtomicU8 = AtomicU8::new(0);
-            match BEST.load(Ordering::Relaxed) {
-                1 => return Kernels::Portable,
-                2 => return Kernels::Avx2(Avx2(())),
-                3 => return Kernels::Avx512(Avx512(())),
-                _ => {}
-            }
-            let best = Self::all().last().unwrap_or(Kernels::Portable);
-            let code = match best {
-                Kernels::Portable => 1,
-                Kernels::Avx2(_) => 2,
-                Kernels::Avx512(_) => 3,
-            };
-            BEST.store(code, Ordering::Relaxed);
-            best
+        let mut best = Kernels::Portable;
+        for k in Self::all() {
+            best = k;
         }
-        #[cfg(not(all(feature = "std", target_arch = "x86_64")))]
-        Kernels::Portable
+        best
     }
 
     /// Every kernel set this CPU runs, the portable one first and the best
@@ -103,17 +78,6 @@ impl Kernels {
         [Some(Kernels::Portable), avx2, avx512]
             .into_iter()
             .flatten()
-    }
-
-    /// The set's name: `portable`, `avx2` or `avx512`.
-    pub fn name(self) -> &'static str {
-        if self.is_avx512() {
-            "avx512"
-        } else if self.is_avx2() {
-            "avx2"
-        } else {
-            "portable"
-        }
     }
 
     /// Whether these kernels have AVX2 (the AVX2 or the AVX-512 ones).
@@ -245,81 +209,40 @@ fn cast_mut<T: Real, U: Real>(x: &mut [T]) -> Option<&mut [U]> {
     (TypeId::of::<T>() == TypeId::of::<U>()).then(|| unsafe { &mut *(x as *mut [T] as *mut [U]) })
 }
 
-/// `parts` in `U`; `T` must be `U`.
-#[cfg(all(feature = "std", target_arch = "x86_64"))]
+/// One step of `H` ([`crate::realtime::hysteresis::step`]) on `k`'s
+/// kernels; a non-finite `v` is held out as there.
 #[inline(always)]
-fn cast_parts<'a, T: Real, U: Real>(parts: StepParts<'a, T>) -> StepParts<'a, U> {
-    let cast_creep = |c: CreepParts<'a, T>| CreepParts {
-        r: cast(c.r).unwrap(),
-        minus_r: cast(c.minus_r).unwrap(),
-        gain: cast(c.gain).unwrap(),
-        q: cast(c.q).unwrap(),
-        chi: cast_mut(c.chi).unwrap(),
-    };
-    StepParts {
-        inv_r: cast(parts.inv_r).unwrap(),
-        inv_w: cast(parts.inv_w).unwrap(),
-        inv_x: cast_mut(parts.inv_x).unwrap(),
-        creep: parts.creep.map(cast_creep),
-    }
-}
-
-/// One compensator step ([`compensator_step::step`]) on `k`'s kernels: the
-/// same bits on each. `Ok((v, Δ))` with the state advanced, or `Err(v)`
-/// (outside `[lower, upper]` or not a number) with nothing changed.
-#[inline(always)]
-pub(crate) fn compensator_step<T: Real>(
+pub(crate) fn hysteresis_step<T: Real>(
     k: Kernels,
-    parts: StepParts<'_, T>,
-    scratch: &mut [T],
-    z: T,
-    delta: T,
-    lower: T,
-    upper: T,
-) -> Result<(T, T), T> {
+    state: &mut [T],
+    thresholds: &[T],
+    weights: &[T],
+    v: T,
+) -> T {
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
-    let parts = if k.avx2().is_some() {
-        let (zf, df, lf, uf) = (z.to_f64(), delta.to_f64(), lower.to_f64(), upper.to_f64());
-        if TypeId::of::<T>() == TypeId::of::<f64>() {
-            let p = cast_parts::<T, f64>(parts);
+    if k.avx2().is_some() {
+        let v = if v.is_finite() { v } else { state[0] };
+        if let (Some(x), Some(r), Some(w)) = (cast_mut(state), cast(thresholds), cast(weights)) {
             count_simd_call();
-            let s = cast_mut(scratch).unwrap();
-            // SAFETY: `k` proves AVX2, and AVX-512F where it is `Avx512`;
-            // the caller is compiled with them (`Compensator::
-            // compensate_using`), so the kernel inlines into it.
-            let out = unsafe {
+            // SAFETY: `k` proves AVX2, and AVX-512F where it is `Avx512`.
+            let y = unsafe {
                 if k.is_avx512() {
-                    step::step::<step::F64x8>(p, s, zf, df, lf, uf)
+                    x86::hysteresis_step_f64_avx512(x, r, w, v.to_f64())
                 } else {
-                    step::step::<step::F64x4>(p, s, zf, df, lf, uf)
+                    x86::hysteresis_step(x, r, w, v.to_f64())
                 }
             };
-            return out
-                .map(|(v, d)| (T::from_f64(v), T::from_f64(d)))
-                .map_err(T::from_f64);
+            return T::from_f64(y);
         }
-        if TypeId::of::<T>() == TypeId::of::<f32>() {
-            let p = cast_parts::<T, f32>(parts);
+        if let (Some(x), Some(r), Some(w)) = (cast_mut(state), cast(thresholds), cast(weights)) {
             count_simd_call();
-            let s = cast_mut(scratch).unwrap();
-            let (z, d, l, u) = (zf as f32, df as f32, lf as f32, uf as f32);
-            // SAFETY: as above.
-            let out = unsafe {
-                if k.is_avx512() {
-                    step::step::<step::F32x16>(p, s, z, d, l, u)
-                } else {
-                    step::step::<step::F32x8>(p, s, z, d, l, u)
-                }
-            };
-            let back = |x: f32| T::from_f64(f64::from(x));
-            return out.map(|(v, d)| (back(v), back(d))).map_err(back);
+            // SAFETY: `k` proves AVX2.
+            let y = unsafe { x86::hysteresis_step_f32(x, r, w, v.to_f64() as f32) };
+            return T::from_f64(f64::from(y));
         }
-        parts
-    } else {
-        parts
-    };
+    }
     let _ = k;
-    compensator_step::step(parts, scratch, z, delta, lower, upper)
+    crate::realtime::hysteresis::step(state, thresholds, weights, v)
 }
 
 /// One step of the creep pass ([`crate::realtime::creep_pass::advance`]) on `k`'s
@@ -376,7 +299,46 @@ mod x86 {
 
     use crate::realtime::creep_pass::{advance_tail, LANES};
     use crate::realtime::hysteresis::reduce;
+    use crate::realtime::play::play;
     use crate::realtime::real::Real;
+
+    /// The blocks of `hysteresis::step` for `f64`; `v` is finite. Kept
+    /// out of line: inlined into the AVX2 step it made the step 4–9 %
+    /// slower for the same instructions (measured against the C peer).
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    pub(super) unsafe fn hysteresis_step(
+        state: &mut [f64],
+        thresholds: &[f64],
+        weights: &[f64],
+        v: f64,
+    ) -> f64 {
+        let n = state.len();
+        assert!(thresholds.len() == n && weights.len() == n);
+        let full = n - n % 4;
+        let vv = _mm256_set1_pd(v);
+        let mut acc = _mm256_setzero_pd();
+        for i0 in (0..full).step_by(4) {
+            // SAFETY: i0 + 4 ≤ n for all three slices.
+            unsafe {
+                let at = state.as_mut_ptr().add(i0);
+                let r = _mm256_loadu_pd(thresholds.as_ptr().add(i0));
+                let x = _mm256_loadu_pd(at);
+                let x = _mm256_max_pd(_mm256_min_pd(x, _mm256_add_pd(vv, r)), _mm256_sub_pd(vv, r));
+                _mm256_storeu_pd(at, x);
+                let w = _mm256_loadu_pd(weights.as_ptr().add(i0));
+                acc = _mm256_add_pd(acc, _mm256_mul_pd(w, x));
+            }
+        }
+        let mut lanes = [0.0f64; 4];
+        // SAFETY: four lanes into four f64.
+        unsafe { _mm256_storeu_pd(lanes.as_mut_ptr(), acc) };
+        for i in full..n {
+            state[i] = play(v, thresholds[i], state[i]);
+            lanes[i - full] += weights[i] * state[i];
+        }
+        reduce(lanes)
+    }
 
     /// The blocks of `creep_pass::advance` for `f64`; `v` is finite.
     #[target_feature(enable = "avx2")]
@@ -395,21 +357,19 @@ mod x86 {
         let vv = _mm256_set1_pd(v);
         let mut acc = _mm256_setzero_pd();
         let p = chi.as_mut_ptr();
-        let minus_zero = _mm256_set1_pd(-0.0);
         for i0 in (0..full).step_by(LANES) {
             // SAFETY (all pointer accesses): i0 + 4 ≤ n and j < m, so every
             // block lies inside `chi` (n·m) and the parameter slices (n).
             unsafe {
                 let r = _mm256_loadu_pd(thresholds.as_ptr().add(i0));
-                // −r as negation gives it (−0.0 for r = 0), like `dead_zone`
-                let minus_r = _mm256_sub_pd(minus_zero, r);
+                let lower = _mm256_sub_pd(vv, r);
+                let upper = _mm256_add_pd(vv, r);
                 let mut rows = _mm256_setzero_pd();
                 for (j, &g) in gains.iter().enumerate() {
                     let at = p.add(j * n + i0);
                     let x = _mm256_loadu_pd(at);
-                    let z = _mm256_sub_pd(x, vv);
-                    let d = _mm256_sub_pd(_mm256_max_pd(_mm256_min_pd(z, r), minus_r), z);
-                    let x = _mm256_add_pd(x, _mm256_mul_pd(_mm256_set1_pd(g), d));
+                    let c = _mm256_max_pd(_mm256_min_pd(x, upper), lower);
+                    let x = _mm256_add_pd(x, _mm256_mul_pd(_mm256_set1_pd(g), _mm256_sub_pd(c, x)));
                     _mm256_storeu_pd(at, x);
                     rows = _mm256_add_pd(rows, x);
                 }
@@ -436,8 +396,6 @@ mod x86 {
         unsafe fn add(self, b: Self) -> Self;
         unsafe fn sub(self, b: Self) -> Self;
         unsafe fn mul(self, b: Self) -> Self;
-        /// `−a` (the sign flipped: exact, `−0.0` for `0.0`).
-        unsafe fn neg(self) -> Self;
         /// `a < b ? a : b`, and `a > b ? a : b` for `max`.
         unsafe fn min(self, b: Self) -> Self;
         unsafe fn max(self, b: Self) -> Self;
@@ -450,7 +408,6 @@ mod x86 {
         unsafe fn half_add(a: Self::Half, b: Self::Half) -> Self::Half;
         unsafe fn half_sub(a: Self::Half, b: Self::Half) -> Self::Half;
         unsafe fn half_mul(a: Self::Half, b: Self::Half) -> Self::Half;
-        unsafe fn half_neg(a: Self::Half) -> Self::Half;
         unsafe fn half_min(a: Self::Half, b: Self::Half) -> Self::Half;
         unsafe fn half_max(a: Self::Half, b: Self::Half) -> Self::Half;
     }
@@ -495,12 +452,6 @@ mod x86 {
                 #[inline]
                 unsafe fn mul(self, b: Self) -> Self {
                     $name($mul(self.0, b.0))
-                }
-                #[target_feature(enable = $feature)]
-                #[inline]
-                unsafe fn neg(self) -> Self {
-                    // −0.0 − a: exact, and −0.0 for a = +0.0, as `-a` is
-                    $name($sub($set1(-0.0), self.0))
                 }
                 #[target_feature(enable = $feature)]
                 #[inline]
@@ -551,11 +502,6 @@ mod x86 {
                 #[inline]
                 unsafe fn half_mul(a: $h, b: $h) -> $h {
                     $hmul(a, b)
-                }
-                #[target_feature(enable = $feature)]
-                #[inline]
-                unsafe fn half_neg(a: $h) -> $h {
-                    $hsub($hset1(-0.0), a)
                 }
                 #[target_feature(enable = $feature)]
                 #[inline]
@@ -632,6 +578,51 @@ mod x86 {
         _mm256_extractf128_ps::<1>
     );
 
+    /// `hysteresis::step` in 8-lane blocks: the products of lanes 0–3 and
+    /// then of lanes 4–7 added into the four partial sums, as the portable
+    /// blocks of four add them; then a 4-lane block and the rest one by one.
+    #[inline(always)]
+    unsafe fn hysteresis_step_eight<E: Eight>(
+        state: &mut [E::T],
+        thresholds: &[E::T],
+        weights: &[E::T],
+        v: E::T,
+    ) -> E::T {
+        let n = state.len();
+        assert!(thresholds.len() == n && weights.len() == n);
+        let (full8, full4) = (n - n % 8, n - n % 4);
+        // SAFETY (all): the features are the caller's; every block ends at
+        // or before n in all three slices.
+        unsafe {
+            let (v8, v4) = (E::splat(v), E::half_splat(v));
+            let mut acc = E::half_zero();
+            for i0 in (0..full8).step_by(8) {
+                let at = state.as_mut_ptr().add(i0);
+                let r = E::load(thresholds.as_ptr().add(i0));
+                let x = E::load(at).min(v8.add(r)).max(v8.sub(r));
+                x.store(at);
+                let (lo, hi) = E::load(weights.as_ptr().add(i0)).mul(x).halves();
+                acc = E::half_add(E::half_add(acc, lo), hi);
+            }
+            if full4 > full8 {
+                let at = state.as_mut_ptr().add(full8);
+                let r = E::half_load(thresholds.as_ptr().add(full8));
+                let x = E::half_min(E::half_load(at), E::half_add(v4, r));
+                let x = E::half_max(x, E::half_sub(v4, r));
+                E::half_store(x, at);
+                let w = E::half_load(weights.as_ptr().add(full8));
+                acc = E::half_add(acc, E::half_mul(w, x));
+            }
+            let mut lanes = [E::T::ZERO; 4];
+            E::half_store(acc, lanes.as_mut_ptr());
+            for i in full4..n {
+                state[i] = play(v, thresholds[i], state[i]);
+                lanes[i - full4] += weights[i] * state[i];
+            }
+            reduce(lanes)
+        }
+    }
+
     /// `creep_pass::advance` in 8-lane blocks of thresholds, each block's
     /// weighted rows added as two blocks of four; then a 4-lane block and
     /// the rest as the portable tail.
@@ -654,14 +645,13 @@ mod x86 {
             let mut acc = E::half_zero();
             for i0 in (0..full8).step_by(8) {
                 let r = E::load(thresholds.as_ptr().add(i0));
-                let minus_r = r.neg();
+                let (lower, upper) = (v8.sub(r), v8.add(r));
                 let mut rows = E::splat(E::T::ZERO);
                 for (j, &g) in gains.iter().enumerate() {
                     let at = p.add(j * n + i0);
                     let x = E::load(at);
-                    let z = x.sub(v8);
-                    let d = z.min(r).max(minus_r).sub(z);
-                    let x = x.add(E::splat(g).mul(d));
+                    let c = x.min(upper).max(lower);
+                    let x = x.add(E::splat(g).mul(c.sub(x)));
                     x.store(at);
                     rows = rows.add(x);
                 }
@@ -670,14 +660,13 @@ mod x86 {
             }
             if full4 > full8 {
                 let r = E::half_load(thresholds.as_ptr().add(full8));
-                let minus_r = E::half_neg(r);
+                let (lower, upper) = (E::half_sub(v4, r), E::half_add(v4, r));
                 let mut rows = E::half_zero();
                 for (j, &g) in gains.iter().enumerate() {
                     let at = p.add(j * n + full8);
                     let x = E::half_load(at);
-                    let z = E::half_sub(x, v4);
-                    let d = E::half_sub(E::half_max(E::half_min(z, r), minus_r), z);
-                    let x = E::half_add(x, E::half_mul(E::half_splat(g), d));
+                    let c = E::half_max(E::half_min(x, upper), lower);
+                    let x = E::half_add(x, E::half_mul(E::half_splat(g), E::half_sub(c, x)));
                     E::half_store(x, at);
                     rows = E::half_add(rows, x);
                 }
@@ -689,6 +678,32 @@ mod x86 {
             advance_tail(chi, thresholds, gains, weights, v, full4, &mut lanes);
             reduce(lanes)
         }
+    }
+
+    /// [`hysteresis_step_eight`] for `f64` on AVX-512F.
+    #[target_feature(enable = "avx2,avx512f")]
+    #[inline(never)]
+    pub(super) unsafe fn hysteresis_step_f64_avx512(
+        state: &mut [f64],
+        thresholds: &[f64],
+        weights: &[f64],
+        v: f64,
+    ) -> f64 {
+        // SAFETY: the features are enabled here.
+        unsafe { hysteresis_step_eight::<F64x8>(state, thresholds, weights, v) }
+    }
+
+    /// [`hysteresis_step_eight`] for `f32` on AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    pub(super) unsafe fn hysteresis_step_f32(
+        state: &mut [f32],
+        thresholds: &[f32],
+        weights: &[f32],
+        v: f32,
+    ) -> f32 {
+        // SAFETY: the features are enabled here.
+        unsafe { hysteresis_step_eight::<F32x8>(state, thresholds, weights, v) }
     }
 
     /// [`creep_advance_eight`] for `f64` on AVX-512F.
