@@ -10,6 +10,7 @@ mod common;
 use common::test_input;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use mfcbeam::prelude::*;
+use mfcbeam::realtime::simd::Kernels;
 
 fn single_steps(c: &mut Criterion) {
     const LEN: usize = 4096;
@@ -60,14 +61,18 @@ fn single_steps(c: &mut Criterion) {
             comp.compensate(black_box(targets[k]))
         })
     });
-    // the same step without run-time dispatch: what AVX2 gains
-    let mut comp = model.compensator(CompensatorSettings::default()).unwrap();
-    g.bench_function("compensator_step_portable", |b| {
-        b.iter(|| {
-            k = (k + 1) & (LEN - 1);
-            comp.compensate_portable(black_box(targets[k]))
-        })
-    });
+    // the same step on each kernel set this CPU has (portable: without
+    // run-time dispatch), named by the set
+    for kernels in Kernels::all() {
+        let mut comp = model.compensator(CompensatorSettings::default()).unwrap();
+        let name = format!("compensator_step_{}", kernels.name());
+        g.bench_function(name.as_str(), |b| {
+            b.iter(|| {
+                k = (k + 1) & (LEN - 1);
+                comp.compensate_using(kernels, black_box(targets[k]))
+            })
+        });
+    }
     g.finish();
 }
 

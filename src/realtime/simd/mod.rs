@@ -54,11 +54,28 @@ impl Kernels {
     /// The best kernels this CPU runs (a cached feature test).
     #[inline]
     pub fn detect() -> Self {
-        let mut best = Kernels::Portable;
-        for k in Self::all() {
-            best = k;
+        // one relaxed load on every call after the first (a step calls it)
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        {
+            use core::sync::atomic::{AtomicU8, Ordering};
+            static BEST: AtomicU8 = AtomicU8::new(0);
+            match BEST.load(Ordering::Relaxed) {
+                1 => return Kernels::Portable,
+                2 => return Kernels::Avx2(Avx2(())),
+                3 => return Kernels::Avx512(Avx512(())),
+                _ => {}
+            }
+            let best = Self::all().last().unwrap_or(Kernels::Portable);
+            let code = match best {
+                Kernels::Portable => 1,
+                Kernels::Avx2(_) => 2,
+                Kernels::Avx512(_) => 3,
+            };
+            BEST.store(code, Ordering::Relaxed);
+            best
         }
-        best
+        #[cfg(not(all(feature = "std", target_arch = "x86_64")))]
+        Kernels::Portable
     }
 
     /// Every kernel set this CPU runs, the portable one first and the best
@@ -78,6 +95,17 @@ impl Kernels {
         [Some(Kernels::Portable), avx2, avx512]
             .into_iter()
             .flatten()
+    }
+
+    /// The set's name: `portable`, `avx2` or `avx512`.
+    pub fn name(self) -> &'static str {
+        if self.is_avx512() {
+            "avx512"
+        } else if self.is_avx2() {
+            "avx2"
+        } else {
+            "portable"
+        }
     }
 
     /// Whether these kernels have AVX2 (the AVX2 or the AVX-512 ones).

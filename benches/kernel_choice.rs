@@ -1,0 +1,89 @@
+//! The kernel choice, checked on the CPU that runs it: one compensator step
+//! (nominal model, `f64` and `f32`) on every kernel set the CPU has, in
+//! interleaved rounds of 100 000 steps, and the set [`Kernels::detect`]
+//! dispatches to must not be slower than the portable one beyond the
+//! rounds' spread (exit code 1 if it is; `.ci/run` runs it). Prints the CPU
+//! (vendor, family, model, features) with the figures.
+//!
+//! `cargo bench --bench kernel_choice`
+
+use std::hint::black_box;
+use std::time::Instant;
+
+use mfcbeam::operators::traits::Operator;
+use mfcbeam::realtime::simd::{cpu_description, Kernels};
+use mfcbeam::realtime::{nominal, Compensator, CompensatorSettings, Real};
+
+const ROUNDS: usize = 31;
+const STEPS: usize = 100_000;
+
+/// Per-step ns of each kernel set in each round, the sets interleaved.
+fn rounds<T: Real>(targets: &[f64]) -> Vec<(Kernels, Vec<f64>)> {
+    let targets: Vec<T> = targets.iter().map(|&t| T::from_f64(t)).collect();
+    let settings = CompensatorSettings::default();
+    let mut runs: Vec<_> = Kernels::all()
+        .map(|k| {
+            let c =
+                Compensator::<T, nominal::Capacity>::new(&nominal::PARAMETERS, settings).unwrap();
+            (k, c, 0usize, Vec::with_capacity(ROUNDS))
+        })
+        .collect();
+    for _ in 0..ROUNDS {
+        for (k, c, i, times) in &mut runs {
+            let t0 = Instant::now();
+            for _ in 0..STEPS {
+                *i = (*i + 1) % targets.len();
+                black_box(c.compensate_using(*k, black_box(targets[*i])));
+            }
+            times.push(t0.elapsed().as_nanos() as f64 / STEPS as f64);
+        }
+    }
+    runs.into_iter().map(|(k, _, _, t)| (k, t)).collect()
+}
+
+fn quantile(v: &[f64], p: f64) -> f64 {
+    let mut v = v.to_vec();
+    v.sort_by(f64::total_cmp);
+    v[((v.len() - 1) as f64 * p).round() as usize]
+}
+
+fn main() {
+    println!("CPU: {}", cpu_description());
+    let input = common::test_input(4096);
+    let targets = mfcbeam::operators::nominal::nominal_model().run(&input);
+    let chosen = Kernels::detect();
+    let mut ok = true;
+    for (name, runs) in [
+        ("f64", rounds::<f64>(&targets)),
+        ("f32", rounds::<f32>(&targets)),
+    ] {
+        let portable = &runs[0].1;
+        for (k, times) in &runs {
+            println!(
+                "{name} step, {:>8} kernels: median {:.1} ns (p10-p90 {:.1}-{:.1})",
+                k.name(),
+                quantile(times, 0.5),
+                quantile(times, 0.1),
+                quantile(times, 0.9)
+            );
+        }
+        let dispatched = &runs.iter().find(|(k, _)| *k == chosen).unwrap().1;
+        // noise: the wider of the two sets' p10-p90 spreads, at least 2 %
+        let spread = |t: &[f64]| (quantile(t, 0.9) - quantile(t, 0.1)) / quantile(t, 0.5);
+        let noise = spread(portable).max(spread(dispatched)).max(0.02);
+        let ratio = quantile(dispatched, 0.5) / quantile(portable, 0.5);
+        let fine = ratio <= 1.0 + noise;
+        println!(
+            "{name}: {} dispatched, {ratio:.2}x the portable step (noise {:.1} %): {}",
+            chosen.name(),
+            100.0 * noise,
+            if fine { "not slower" } else { "SLOWER" }
+        );
+        ok &= fine;
+    }
+    if !ok {
+        std::process::exit(1);
+    }
+}
+
+mod common;
