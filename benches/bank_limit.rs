@@ -10,8 +10,12 @@
 //! loads, stores or dependencies to wait for: that rate divided by 515 is
 //! the bound in channel-steps per second on one core.
 //!
-//! Then the bank at 1, 8, 64, 1024 and 4096 channels, `f64` and `f32`, on
-//! one thread and on two (`CompensatorBank::compensate_on` with one worker),
+//! First a crossover scan: 2 to 64 blocks on one thread against a forced
+//! split over two (`Workers::with_min_blocks(0)`), and the smallest block
+//! count where the split is faster, next to `Workers::min_blocks`. Then the
+//! bank at 1, 8, 64, 1024 and 4096 channels, `f64` and `f32`, on one thread
+//! and on two (`CompensatorBank::compensate_on` with one worker and the
+//! default crossover),
 //! timed as the median over batches of steps; printed with the CPU, its
 //! bound, the ratio, the cycles per channel-step at the CPU's nominal clock,
 //! and the share of a core a 4000-actuator mirror at 10 kHz needs.
@@ -252,6 +256,26 @@ fn report<T: Real>(ghz: f64) {
         "channels", "threads", "ns per step", "M ch-steps/s", "cycles/ch-step", "bound (per core)"
     );
     let two = Workers::new(1).unwrap();
+    // the crossover: one thread against a forced split, by blocks
+    let split = Workers::new(1).unwrap().with_min_blocks(0);
+    let lanes = 64 / std::mem::size_of::<T>(); // a block: one cache line of lanes
+    let mut crossover = None;
+    for blocks in [2usize, 4, 8, 12, 16, 24, 32, 64] {
+        let one = time_bank::<T>(blocks * lanes, Mode::Kernels(Kernels::detect()));
+        let both = time_bank::<T>(blocks * lanes, Mode::Workers(&split));
+        println!(
+            "crossover scan: {blocks:>3} blocks ({:>4} channels): one thread {one:>9.1} ns, split {both:>9.1} ns",
+            blocks * lanes
+        );
+        if crossover.is_none() && both < one {
+            crossover = Some(blocks);
+        }
+    }
+    println!(
+        "two threads pay from {} blocks here; compensate_on splits from {} (Workers::min_blocks)",
+        crossover.map_or("more than 64".to_string(), |b| b.to_string()),
+        two.min_blocks()
+    );
     let mut at_4096 = f64::NAN;
     for channels in [1usize, 8, 64, 1024, 4096] {
         for (threads, mode) in [

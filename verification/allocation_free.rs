@@ -155,7 +155,11 @@ fn steps_and_in_place_runs_allocate_nothing() {
     assert_eq!(n, 0, "{n} allocations in the per-sample path");
 
     // a bank stepped on two threads: no allocation in either
-    let workers = mfcbeam::operators::bank::Workers::new(1).unwrap();
+    // split whatever its size (below the crossover it would step on the
+    // caller alone)
+    let workers = mfcbeam::operators::bank::Workers::new(1)
+        .unwrap()
+        .with_min_blocks(0);
     let mut big = mfcbeam::operators::bank::CompensatorBank::<f64>::uniform(
         &nominal::PARAMETERS,
         100,

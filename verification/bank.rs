@@ -288,7 +288,11 @@ fn bad_banks_and_slices_are_refused_with_the_field_named() {
 #[test]
 fn a_bank_on_worker_threads_gives_the_bits_of_one_thread() {
     use mfcbeam::operators::bank::Workers;
-    let pools: Vec<Workers> = [0, 1, 3].map(|extra| Workers::new(extra).unwrap()).into();
+    // every bank split, whatever its size (below the crossover a bank would
+    // step on the caller alone)
+    let pools: Vec<Workers> = [0, 1, 3]
+        .map(|extra| Workers::new(extra).unwrap().with_min_blocks(0))
+        .into();
     for (seed, channels) in [(1u64, 5usize), (2, 16), (3, 37), (4, 130)] {
         let mut rng = Rng::new(seed);
         let files = models(&mut rng, channels);
@@ -358,7 +362,7 @@ fn channels_with_dynamics_give_the_bits_of_their_own_compensator() {
     let settings = CompensatorSettings::with_limits(-400.0, 400.0);
     let mut bank = CompensatorBank::<f64>::new(&params, settings).unwrap();
     let mut split = bank.clone();
-    let workers = Workers::new(2).unwrap();
+    let workers = Workers::new(2).unwrap().with_min_blocks(0);
     let mut single: Vec<_> = params
         .iter()
         .map(|p| Compensator::<f64, Inline<12, 72, 9, 4>>::new(p, settings).unwrap())
@@ -381,4 +385,41 @@ fn channels_with_dynamics_give_the_bits_of_their_own_compensator() {
             single.iter_mut().for_each(|c| c.reset());
         }
     }
+}
+
+/// The crossover: a bank of fewer blocks than `Workers::min_blocks` steps on
+/// the calling thread alone (no job handed to the workers), a larger one is
+/// split, and `with_min_blocks(0)` splits every bank; the bits are the same
+/// either way.
+#[test]
+fn small_banks_step_on_the_calling_thread_alone() {
+    use mfcbeam::operators::bank::{Workers, DEFAULT_MIN_BLOCKS};
+    let p = mfcbeam::realtime::nominal::PARAMETERS;
+    let settings = CompensatorSettings::default();
+    let workers = Workers::new(1).unwrap();
+    assert_eq!(workers.min_blocks(), DEFAULT_MIN_BLOCKS);
+    let lanes = 8; // f64 lanes per block
+    for (channels, split) in [
+        (lanes * (DEFAULT_MIN_BLOCKS - 1), false),
+        (lanes * DEFAULT_MIN_BLOCKS, true),
+    ] {
+        let mut bank = CompensatorBank::<f64>::uniform(&p, channels, settings).unwrap();
+        let mut alone = bank.clone();
+        let (mut out, mut out_alone) = (
+            vec![Default::default(); channels],
+            vec![Default::default(); channels],
+        );
+        let targets: Vec<f64> = (0..channels).map(|c| 3.0 * c as f64).collect();
+        let before = workers.jobs_handed();
+        bank.compensate_on(&workers, &targets, &mut out).unwrap();
+        alone.compensate(&targets, &mut out_alone).unwrap();
+        assert_eq!(workers.jobs_handed() > before, split, "{channels} channels");
+        assert_eq!(out, out_alone);
+    }
+    let everything = Workers::new(1).unwrap().with_min_blocks(0);
+    let mut bank = CompensatorBank::<f64>::uniform(&p, 1, settings).unwrap();
+    let mut out = vec![Default::default(); 1];
+    let before = everything.jobs_handed();
+    bank.compensate_on(&everything, &[5.0], &mut out).unwrap();
+    assert!(everything.jobs_handed() > before);
 }

@@ -41,7 +41,7 @@ use crate::realtime::superposition::Superposition;
 use crate::realtime::CompensatorSettings;
 
 use crate::operators::workers::SharedMut;
-pub use crate::operators::workers::Workers;
+pub use crate::operators::workers::{Workers, DEFAULT_MIN_BLOCKS};
 
 mod step;
 use step::{step_blocks, Fixed};
@@ -340,8 +340,10 @@ impl<T: Real> CompensatorBank<T> {
     }
 
     /// [`CompensatorBank::compensate`] with the blocks split over `workers`
-    /// and the calling thread (for banks of hundreds of channels and more:
-    /// each part is at least one block). The same bits as on one thread;
+    /// and the calling thread (each part is at least one block). A bank of
+    /// fewer blocks than [`Workers::min_blocks`] (the measured crossover,
+    /// overridable) steps on the calling thread alone, so that two threads
+    /// are never slower than one. The same bits as on one thread;
     /// allocation-free and without locks.
     pub fn compensate_on(
         &mut self,
@@ -349,6 +351,9 @@ impl<T: Real> CompensatorBank<T> {
         targets: &[T],
         out: &mut [Compensated<T>],
     ) -> Result<(), ParameterError> {
+        if self.blocks < workers.min_blocks() || workers.parts() == 1 {
+            return self.compensate(targets, out);
+        }
         check_length("bank.targets", self.channels, targets.len())?;
         check_length("bank.out", self.channels, out.len())?;
         let k = Kernels::detect();
