@@ -176,7 +176,7 @@ fn main() {
                 .collect()
         })
         .collect();
-    println!("CPU: {}", common::cpu_description());
+    println!("CPU: {}", mfcbeam::realtime::simd::cpu_description());
     println!(
         "kernels: {:?}; {ROUNDS} rounds of {STEPS} steps each, interleaved",
         mfcbeam::realtime::simd::Kernels::detect()

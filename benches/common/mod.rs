@@ -44,9 +44,3 @@ pub fn nominal_bank<T: mfcbeam::realtime::Real>(
     )
     .unwrap()
 }
-
-/// The CPU every figure must name (vendor, family, model, features).
-#[allow(dead_code)] // not every bench uses it
-pub fn cpu_description() -> String {
-    mfcbeam::realtime::simd::cpu_description()
-}
