@@ -3,7 +3,7 @@
  * piezoelectric actuators (Schroeck, Meurer, Kugi 2011), C interface.
  *
  * Link with libmfcbeam.a (or -lmfcbeam for libmfcbeam.so) and, for the
- * static library, -lpthread -ldl -lm. See README, "Deploying the compensator".
+ * static library, -lpthread -ldl -lm. See docs/guide/deploy.md.
  */
 
 #ifndef MFCBEAM_H

@@ -128,7 +128,19 @@ pub mod prelude {
     };
 }
 
-/// The README's Rust examples, compiled and run as doctests.
+/// The Rust examples of the README and the guide (`docs/guide/`), compiled
+/// and run as doctests; `docs/check_guide.py` checks that every page with
+/// one is here.
 #[cfg(doctest)]
-#[doc = include_str!("../README.md")]
-pub struct ReadmeDoctests;
+pub mod guide_doctests {
+    #[doc = include_str!("../README.md")]
+    pub struct Readme;
+    #[doc = include_str!("../docs/guide/checking.md")]
+    pub struct Checking;
+    #[doc = include_str!("../docs/guide/closed-loop.md")]
+    pub struct ClosedLoop;
+    #[doc = include_str!("../docs/guide/deploy.md")]
+    pub struct Deploy;
+    #[doc = include_str!("../docs/guide/library.md")]
+    pub struct Library;
+}

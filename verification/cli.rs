@@ -1616,13 +1616,13 @@ fn benchmark_control_names_a_controller_that_fails() {
 
 #[test]
 fn the_python_pid_example_is_the_built_in_pid_bit_for_bit() {
-    // the README shows this file's code, after its docstring
+    // the guide shows this file's code, after its docstring
     let text = fs::read_to_string("examples/control/pid_controller.py").unwrap();
-    let readme = fs::read_to_string("README.md").unwrap();
+    let guide = fs::read_to_string("docs/guide/closed-loop.md").unwrap();
     let code = &text[text.find("import os").unwrap()..];
     assert!(
-        readme.contains(&format!("```python\n{code}```")),
-        "README's controller differs from the file"
+        guide.contains(&format!("```python\n{code}```")),
+        "the guide's controller differs from the file"
     );
     // its gains are the rule's, to the last bit
     let line = text

@@ -221,7 +221,7 @@ impl Drop for TempDir {
     }
 }
 
-/// The lab workflow of the README from a raw logger file — jittered `t`,
+/// The lab workflow of the guide (docs/guide/lab.md) from a raw logger file — jittered `t`,
 /// an offset, a history before the record, noise — with no hand editing:
 /// identify (with a plot, a hold-out and a validation record), then
 /// compensate.
@@ -319,7 +319,7 @@ fn the_cli_goes_from_a_raw_logger_file_to_a_compensator_and_a_plot() {
 /// each with a plot of the measured and the model loop. The symmetric model
 /// leaves the asymmetry as a structural error far above the noise; the
 /// modified one comes down to the noise. `MFCBEAM_LAB_OUT=DIR` keeps the
-/// files (the README's figures).
+/// files.
 #[test]
 fn an_asymmetric_logger_file_is_fitted_with_and_without_a_superposition_operator() {
     let keep = std::env::var_os("MFCBEAM_LAB_OUT").map(PathBuf::from);
@@ -505,7 +505,7 @@ fn a_ringing_start_is_reported_and_skipped_and_records_at_several_rates_are_tabl
 /// error grows with the rate — it looks like rate-dependent hysteresis;
 /// `--delay auto` fits 0..=10 samples, the 40 and 100 Hz records choose 2,
 /// and every record is then fitted to the noise. `MFCBEAM_LAB_OUT=DIR`
-/// keeps the files (README's table).
+/// keeps the files (the guide's table).
 #[test]
 fn a_dead_time_is_found_by_faster_records_and_every_record_is_tabled() {
     let keep = std::env::var_os("MFCBEAM_LAB_OUT").map(PathBuf::from);

@@ -1,4 +1,5 @@
-"""The Python examples of README.md and python/README.md run as written."""
+"""The Python examples of the guide's Python chapter and python/README.md
+run as written."""
 
 import re
 from pathlib import Path
@@ -18,7 +19,7 @@ def python_blocks(path):
     return [b for b in blocks if "from fmpy" not in b and "sys.stdin" not in b]
 
 
-@pytest.mark.parametrize("readme", ["README.md", "python/README.md"])
+@pytest.mark.parametrize("readme", ["docs/guide/python.md", "python/README.md"])
 def test_readme_examples_run(readme, capsys):
     blocks = python_blocks(REPO / readme)
     assert blocks, f"{readme} has no python example"

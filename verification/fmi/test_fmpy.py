@@ -158,18 +158,18 @@ def test_delay_is_a_calculated_parameter(cli, tmp_path):
 
 
 def test_the_readme_fmpy_example_runs(fmus, tmp_path, monkeypatch):
-    """The README's FMPy lines, as written, on the FMU its command builds."""
+    """The guide's FMPy lines, as written, on the FMU its command builds."""
     import shutil
     import textwrap
 
-    text = (ROOT / "README.md").read_text()
+    text = (ROOT / "docs" / "guide" / "deploy.md").read_text()
     start = text.index("* **FMPy**")
     block = text[text.index("```python", start) + len("```python"):]
     block = textwrap.dedent(block[:block.index("```")])
     shutil.copy(fmus[("compensator", "3")], tmp_path / "compensator.fmu")
     monkeypatch.chdir(tmp_path)
     scope = {}
-    exec(compile(block, "README.md", "exec"), scope)
+    exec(compile(block, "deploy.md", "exec"), scope)
     res = scope["res"]
     assert len(res) == 5001 and np.isfinite(res["u"]).all()
     assert not res["saturated"].any()
