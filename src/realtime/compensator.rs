@@ -73,8 +73,14 @@ pub(crate) fn invert_saturating<T: Real>(
     lower: T,
     upper: T,
 ) -> (T, bool) {
-    p.scratch.copy_from_slice(p.inv_state);
-    let v = simd::hysteresis_step(k, p.inv_state, p.inv_thresholds, p.inv_weights, y);
+    let v = simd::hysteresis_step_saving(
+        k,
+        p.inv_state,
+        p.scratch,
+        p.inv_thresholds,
+        p.inv_weights,
+        y,
+    );
     let (u, saturated) = if v < lower {
         (lower, true)
     } else if v > upper {

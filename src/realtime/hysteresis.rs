@@ -19,13 +19,32 @@ use crate::realtime::storage::{Buffer, Storage};
 /// state.
 #[inline(always)]
 pub(crate) fn step<T: Real>(state: &mut [T], thresholds: &[T], weights: &[T], v: T) -> T {
+    step_saving::<T, false>(state, &mut [], thresholds, weights, v)
+}
+
+/// [`step`], and with `SAVE` the states before it written to `saved` as it
+/// goes (the compensator's copy for a re-seat: block by block, where a
+/// separate copy of a run-time length is a call to `memmove` per sample).
+#[inline(always)]
+pub(crate) fn step_saving<T: Real, const SAVE: bool>(
+    state: &mut [T],
+    saved: &mut [T],
+    thresholds: &[T],
+    weights: &[T],
+    v: T,
+) -> T {
     let v = if v.is_finite() { v } else { state[0] };
     let n = state.len();
     debug_assert!(thresholds.len() == n && weights.len() == n);
+    debug_assert!(!SAVE || saved.len() == n);
     let full = n - n % 4;
     let mut acc = [T::ZERO; 4];
     for i0 in (0..full).step_by(4) {
         let x: &mut [T; 4] = (&mut state[i0..i0 + 4]).try_into().unwrap();
+        if SAVE {
+            let before: &mut [T; 4] = (&mut saved[i0..i0 + 4]).try_into().unwrap();
+            *before = *x;
+        }
         let r: &[T; 4] = thresholds[i0..i0 + 4].try_into().unwrap();
         let w: &[T; 4] = weights[i0..i0 + 4].try_into().unwrap();
         for l in 0..4 {
@@ -36,6 +55,9 @@ pub(crate) fn step<T: Real>(state: &mut [T], thresholds: &[T], weights: &[T], v:
         }
     }
     for i in full..n {
+        if SAVE {
+            saved[i] = state[i];
+        }
         state[i] = play(v, thresholds[i], state[i]);
         acc[i - full] += weights[i] * state[i];
     }

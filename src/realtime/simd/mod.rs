@@ -238,39 +238,53 @@ fn cast_mut<T: Real, U: Real>(x: &mut [T]) -> Option<&mut [U]> {
 }
 
 /// One step of `H` ([`crate::realtime::hysteresis::step`]) on `k`'s
-/// kernels; a non-finite `v` is held out as there.
+/// kernels, the states before it written to `saved` as it goes (the
+/// compensator's copy for a re-seat; one store per block, in the shape of
+/// the kernel's own); a non-finite `v` is held out as there.
 #[inline(always)]
-pub(crate) fn hysteresis_step<T: Real>(
+pub(crate) fn hysteresis_step_saving<T: Real>(
     k: Kernels,
     state: &mut [T],
+    saved: &mut [T],
     thresholds: &[T],
     weights: &[T],
     v: T,
 ) -> T {
+    assert!(saved.len() == state.len());
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
     if k.avx2().is_some() {
         let v = if v.is_finite() { v } else { state[0] };
-        if let (Some(x), Some(r), Some(w)) = (cast_mut(state), cast(thresholds), cast(weights)) {
+        if let (Some(x), Some(s), Some(r), Some(w)) = (
+            cast_mut(state),
+            cast_mut(saved),
+            cast(thresholds),
+            cast(weights),
+        ) {
             count_simd_call();
             // SAFETY: `k` proves AVX2, and AVX-512F where it is `Avx512`.
             let y = unsafe {
                 if k.is_avx512() {
-                    x86::hysteresis_step_f64_avx512(x, r, w, v.to_f64())
+                    x86::hysteresis_step_f64_avx512(x, s, r, w, v.to_f64())
                 } else {
-                    x86::hysteresis_step(x, r, w, v.to_f64())
+                    x86::hysteresis_step(x, s, r, w, v.to_f64())
                 }
             };
             return T::from_f64(y);
         }
-        if let (Some(x), Some(r), Some(w)) = (cast_mut(state), cast(thresholds), cast(weights)) {
+        if let (Some(x), Some(s), Some(r), Some(w)) = (
+            cast_mut(state),
+            cast_mut(saved),
+            cast(thresholds),
+            cast(weights),
+        ) {
             count_simd_call();
             // SAFETY: `k` proves AVX2.
-            let y = unsafe { x86::hysteresis_step_f32(x, r, w, v.to_f64() as f32) };
+            let y = unsafe { x86::hysteresis_step_f32(x, s, r, w, v.to_f64() as f32) };
             return T::from_f64(f64::from(y));
         }
     }
     let _ = k;
-    crate::realtime::hysteresis::step(state, thresholds, weights, v)
+    crate::realtime::hysteresis::step_saving::<T, true>(state, saved, thresholds, weights, v)
 }
 
 /// One step of the creep pass ([`crate::realtime::creep_pass::advance`]) on `k`'s
@@ -337,12 +351,13 @@ mod x86 {
     #[inline(never)]
     pub(super) unsafe fn hysteresis_step(
         state: &mut [f64],
+        saved: &mut [f64],
         thresholds: &[f64],
         weights: &[f64],
         v: f64,
     ) -> f64 {
         let n = state.len();
-        assert!(thresholds.len() == n && weights.len() == n);
+        assert!(thresholds.len() == n && weights.len() == n && saved.len() == n);
         let full = n - n % 4;
         let vv = _mm256_set1_pd(v);
         let mut acc = _mm256_setzero_pd();
@@ -352,6 +367,7 @@ mod x86 {
                 let at = state.as_mut_ptr().add(i0);
                 let r = _mm256_loadu_pd(thresholds.as_ptr().add(i0));
                 let x = _mm256_loadu_pd(at);
+                _mm256_storeu_pd(saved.as_mut_ptr().add(i0), x);
                 let x = _mm256_max_pd(_mm256_min_pd(x, _mm256_add_pd(vv, r)), _mm256_sub_pd(vv, r));
                 _mm256_storeu_pd(at, x);
                 let w = _mm256_loadu_pd(weights.as_ptr().add(i0));
@@ -362,6 +378,7 @@ mod x86 {
         // SAFETY: four lanes into four f64.
         unsafe { _mm256_storeu_pd(lanes.as_mut_ptr(), acc) };
         for i in full..n {
+            saved[i] = state[i];
             state[i] = play(v, thresholds[i], state[i]);
             lanes[i - full] += weights[i] * state[i];
         }
@@ -612,12 +629,13 @@ mod x86 {
     #[inline(always)]
     unsafe fn hysteresis_step_eight<E: Eight>(
         state: &mut [E::T],
+        saved: &mut [E::T],
         thresholds: &[E::T],
         weights: &[E::T],
         v: E::T,
     ) -> E::T {
         let n = state.len();
-        assert!(thresholds.len() == n && weights.len() == n);
+        assert!(thresholds.len() == n && weights.len() == n && saved.len() == n);
         let (full8, full4) = (n - n % 8, n - n % 4);
         // SAFETY (all): the features are the caller's; every block ends at
         // or before n in all three slices.
@@ -627,7 +645,9 @@ mod x86 {
             for i0 in (0..full8).step_by(8) {
                 let at = state.as_mut_ptr().add(i0);
                 let r = E::load(thresholds.as_ptr().add(i0));
-                let x = E::load(at).min(v8.add(r)).max(v8.sub(r));
+                let x = E::load(at);
+                x.store(saved.as_mut_ptr().add(i0));
+                let x = x.min(v8.add(r)).max(v8.sub(r));
                 x.store(at);
                 let (lo, hi) = E::load(weights.as_ptr().add(i0)).mul(x).halves();
                 acc = E::half_add(E::half_add(acc, lo), hi);
@@ -635,7 +655,9 @@ mod x86 {
             if full4 > full8 {
                 let at = state.as_mut_ptr().add(full8);
                 let r = E::half_load(thresholds.as_ptr().add(full8));
-                let x = E::half_min(E::half_load(at), E::half_add(v4, r));
+                let x = E::half_load(at);
+                E::half_store(x, saved.as_mut_ptr().add(full8));
+                let x = E::half_min(x, E::half_add(v4, r));
                 let x = E::half_max(x, E::half_sub(v4, r));
                 E::half_store(x, at);
                 let w = E::half_load(weights.as_ptr().add(full8));
@@ -644,6 +666,7 @@ mod x86 {
             let mut lanes = [E::T::ZERO; 4];
             E::half_store(acc, lanes.as_mut_ptr());
             for i in full4..n {
+                saved[i] = state[i];
                 state[i] = play(v, thresholds[i], state[i]);
                 lanes[i - full4] += weights[i] * state[i];
             }
@@ -713,12 +736,13 @@ mod x86 {
     #[inline(never)]
     pub(super) unsafe fn hysteresis_step_f64_avx512(
         state: &mut [f64],
+        saved: &mut [f64],
         thresholds: &[f64],
         weights: &[f64],
         v: f64,
     ) -> f64 {
         // SAFETY: the features are enabled here.
-        unsafe { hysteresis_step_eight::<F64x8>(state, thresholds, weights, v) }
+        unsafe { hysteresis_step_eight::<F64x8>(state, saved, thresholds, weights, v) }
     }
 
     /// [`hysteresis_step_eight`] for `f32` on AVX2.
@@ -726,12 +750,13 @@ mod x86 {
     #[inline(never)]
     pub(super) unsafe fn hysteresis_step_f32(
         state: &mut [f32],
+        saved: &mut [f32],
         thresholds: &[f32],
         weights: &[f32],
         v: f32,
     ) -> f32 {
         // SAFETY: the features are enabled here.
-        unsafe { hysteresis_step_eight::<F32x8>(state, thresholds, weights, v) }
+        unsafe { hysteresis_step_eight::<F32x8>(state, saved, thresholds, weights, v) }
     }
 
     /// [`creep_advance_eight`] for `f64` on AVX-512F.
