@@ -6,7 +6,8 @@
 //! bank step) with [`Kernels::detect`]: with `std` on x86-64 the step is then
 //! compiled again with AVX2, or AVX-512F, enabled (`Kernels::run`). The
 //! single compensator's `f64` blocks of `H⁻¹`, the plays and the creep pass
-//! run on explicit 256-bit registers, its `f32` ones on 8-lane registers;
+//! run on explicit 256-bit registers (8-lane 512-bit ones with AVX-512F),
+//! its `f32` ones on 8-lane registers;
 //! the bank's 64-byte blocks (`block`: 8 `f64` or 16 `f32` lanes, one
 //! cache line) on two 256-bit registers or one 512-bit register. No copy
 //! fuses a multiply and an add (Rust never contracts them), `min` and `max`
