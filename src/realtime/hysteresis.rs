@@ -54,14 +54,30 @@ pub(crate) fn step_saving<T: Real, const SAVE: bool>(
             acc[l] += w[l] * x[l];
         }
     }
-    for i in full..n {
+    step_tail::<T, SAVE>(state, saved, thresholds, weights, v, full, &mut acc);
+    reduce(acc)
+}
+
+/// The plays `full..n` that do not fill a block, one by one, into the lanes
+/// `i − full` (shared by [`step_saving`] and its vector copies, which save
+/// every state as they go).
+#[inline(always)]
+pub(crate) fn step_tail<T: Real, const SAVE: bool>(
+    state: &mut [T],
+    saved: &mut [T],
+    thresholds: &[T],
+    weights: &[T],
+    v: T,
+    full: usize,
+    acc: &mut [T; 4],
+) {
+    for i in full..state.len() {
         if SAVE {
             saved[i] = state[i];
         }
         state[i] = play(v, thresholds[i], state[i]);
         acc[i - full] += weights[i] * state[i];
     }
-    reduce(acc)
 }
 
 /// Advance the plays with `v` (20), without the output (the compensator's

@@ -299,3 +299,47 @@ pub fn write_loops_plot(
     };
     write_figure_file(&fig, path)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::on_distinct_pixels;
+
+    /// Whole pixels of a point on a grid of 0.5 units, as a backend maps it.
+    fn pixel(p: &(f64, f64)) -> (i32, i32) {
+        ((p.0 * 2.0).floor() as i32, (p.1 * 2.0).floor() as i32)
+    }
+
+    #[test]
+    fn thinning_keeps_the_curve_pixel_for_pixel() {
+        // dense samples of a loop: out and back, with repeats and reversals
+        let points: Vec<(f64, f64)> = (0..2000)
+            .map(|k| {
+                let t = k as f64 * 0.01;
+                (5.0 * t.sin(), 3.0 * (1.3 * t).cos())
+            })
+            .collect();
+        let kept = on_distinct_pixels(&points, pixel);
+        assert!(
+            kept.len() < points.len() / 2,
+            "{} of {}",
+            kept.len(),
+            points.len()
+        );
+        // the pixel path with repeats collapsed is the same before and after
+        let path = |ps: &[(f64, f64)]| {
+            let mut out: Vec<(i32, i32)> = ps.iter().map(pixel).collect();
+            out.dedup();
+            out
+        };
+        assert_eq!(path(&kept), path(&points));
+        // no two kept neighbours share a pixel, and the first point stays
+        assert!(kept.windows(2).all(|w| pixel(&w[0]) != pixel(&w[1])));
+        assert_eq!(kept[0], points[0]);
+    }
+
+    #[test]
+    fn an_empty_or_single_point_curve_is_kept() {
+        assert!(on_distinct_pixels(&[], pixel).is_empty());
+        assert_eq!(on_distinct_pixels(&[(1.0, 2.0)], pixel), vec![(1.0, 2.0)]);
+    }
+}

@@ -341,8 +341,7 @@ mod x86 {
     use core::arch::x86_64::*;
 
     use crate::realtime::creep_pass::{advance_tail, LANES};
-    use crate::realtime::hysteresis::reduce;
-    use crate::realtime::play::play;
+    use crate::realtime::hysteresis::{reduce, step_tail};
     use crate::realtime::real::Real;
 
     /// The blocks of `hysteresis::step` for `f64`; `v` is finite. Kept
@@ -378,11 +377,7 @@ mod x86 {
         let mut lanes = [0.0f64; 4];
         // SAFETY: four lanes into four f64.
         unsafe { _mm256_storeu_pd(lanes.as_mut_ptr(), acc) };
-        for i in full..n {
-            saved[i] = state[i];
-            state[i] = play(v, thresholds[i], state[i]);
-            lanes[i - full] += weights[i] * state[i];
-        }
+        step_tail::<f64, true>(state, saved, thresholds, weights, v, full, &mut lanes);
         reduce(lanes)
     }
 
@@ -666,11 +661,7 @@ mod x86 {
             }
             let mut lanes = [E::T::ZERO; 4];
             E::half_store(acc, lanes.as_mut_ptr());
-            for i in full4..n {
-                saved[i] = state[i];
-                state[i] = play(v, thresholds[i], state[i]);
-                lanes[i - full4] += weights[i] * state[i];
-            }
+            step_tail::<E::T, true>(state, saved, thresholds, weights, v, full4, &mut lanes);
             reduce(lanes)
         }
     }
