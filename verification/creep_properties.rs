@@ -1,7 +1,7 @@
 //! Properties of the creep operators (13)–(18), (20): the exact
 //! zero-order-hold step, convergence to the dead-zone equilibrium, the log(t)
-//! linearity of (15) between `1/a_1` and `1/a_m`, odd symmetry and the
-//! semigroup property.
+//! linearity of (15) between `1/a_1` and `1/a_m`, odd symmetry, the
+//! semigroup property and the bits of the output's sum.
 
 mod common;
 
@@ -142,6 +142,56 @@ proptest! {
         second.set_state(&first.state()).unwrap();
         y.extend(second.run(&v[k..]));
         prop_assert_eq!(whole, y);
+    }
+}
+
+/// The output (16) summed as stated, from zero: lane `i mod 4` adds
+/// `(w_i/m) Σ_j χ_ij`, each row sum from `0`, then `(a₀ + a₂) + (a₁ + a₃)`.
+fn output_summed_from_zero(c: &CreepOperator) -> f64 {
+    let (n, m) = c.shape();
+    let mut chi = vec![0.0; n * m];
+    c.state_flat_into(&mut chi).unwrap();
+    let mut acc = [0.0f64; 4];
+    for i in 0..n {
+        let mut row = 0.0;
+        for j in 0..m {
+            row += chi[i * m + j];
+        }
+        acc[i % 4] += (c.weights()[i] / m as f64) * row;
+    }
+    (acc[0] + acc[2]) + (acc[1] + acc[3])
+}
+
+proptest! {
+    #![proptest_config(config(256, "proptest-regressions/creep_properties.txt"))]
+
+    /// The kernels sum each threshold's rows from its first row, one
+    /// addition fewer on the step's chain: the output keeps the bits of the
+    /// sum from zero, since the two row sums differ only in the sign of an
+    /// all-zero row and the weighted sums start at `+0`, which a zero of
+    /// either sign leaves as it is. After every sample on the dispatched and
+    /// the portable kernels, from states holding zeros of both signs.
+    #[test]
+    fn creep_output_has_the_bits_of_its_sum_from_zero(
+        c in creep_operator(12),
+        v in signal(1..40, 4.0),
+        zeros in prop::collection::vec(0u8..3, 60),
+    ) {
+        let (n, m) = c.shape();
+        let mut start = vec![0.0; n * m];
+        c.state_flat_into(&mut start).unwrap();
+        for (x, z) in start.iter_mut().zip(&zeros) {
+            *x = match z { 0 => -0.0, 1 => 0.0, _ => 0.25 };
+        }
+        for portable in [false, true] {
+            let mut op = c.clone();
+            op.set_state_flat(&start).unwrap();
+            prop_assert_eq!(op.output().to_bits(), output_summed_from_zero(&op).to_bits());
+            for &x in &v {
+                if portable { op.advance_portable(x); } else { op.advance(x); }
+                prop_assert_eq!(op.output().to_bits(), output_summed_from_zero(&op).to_bits());
+            }
+        }
     }
 }
 

@@ -375,7 +375,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     /// The voltage for the target `target`; allocation-free, O(n + n_C m).
     #[inline]
     pub fn compensate(&mut self, target: T) -> Compensated<T> {
-        Kernels::detect().run(|k| self.compensate_with(k, target))
+        Kernels::detect().run(move |k| self.compensate_with(k, target))
     }
 
     /// [`Compensator::compensate`] on the portable kernels (the same bits;
@@ -390,7 +390,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     #[doc(hidden)]
     #[inline]
     pub fn compensate_using(&mut self, k: Kernels, target: T) -> Compensated<T> {
-        k.run(|k| self.compensate_with(k, target))
+        k.run(move |k| self.compensate_with(k, target))
     }
 
     /// A whole signal into caller buffers, every flag kept; one

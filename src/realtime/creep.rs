@@ -200,7 +200,10 @@ impl<T: Real, S: Storage> Creep<T, S> {
     /// the state.
     #[inline]
     pub fn advance(&mut self, v: T) -> T {
-        Kernels::detect().run(|k| self.advance_with(k, v))
+        // `move`: `v` travels with the closure, not by reference through
+        // memory (a store and a load on a chain that feeds the output back:
+        // 11 cycles of 87 measured)
+        Kernels::detect().run(move |k| self.advance_with(k, v))
     }
 
     /// [`Creep::advance`] compiled for the caller's instruction set, no

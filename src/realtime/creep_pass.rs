@@ -23,7 +23,11 @@ pub(crate) const LANES: usize = 4;
 /// `v ∓ r_i` serve all `m` rows. The sums run in a fixed order (lane `l`
 /// of a block adds the thresholds `i ≡ l mod 4`, then
 /// [`reduce`]), the same for every instruction set: the result does not
-/// depend on the CPU.
+/// depend on the CPU. A threshold's rows are summed from its first row, not
+/// from zero: the sums differ only where every row is a zero, in the sign
+/// of that zero, and the weighted rows go into partial sums that start at
+/// `+0`, which a zero of either sign leaves unchanged (a sum from `+0` is
+/// never `−0`) — so the output has the same bits as the sum from zero.
 #[inline(always)]
 pub(crate) fn advance<T: Real>(
     chi: &mut [T],
@@ -52,8 +56,14 @@ pub(crate) fn advance<T: Real>(
                 let x = block[l];
                 block[l] = x + g * (clamp(x, lower[l], upper[l]) - x);
             }
-            for l in 0..LANES {
-                rows[l] += block[l];
+            // the rows from the first one, not from zero: one addition
+            // fewer on the chain, the same output (see above)
+            if j == 0 {
+                rows = *block;
+            } else {
+                for l in 0..LANES {
+                    rows[l] += block[l];
+                }
             }
         }
         let w: &[T; LANES] = weights[i0..i0 + LANES].try_into().unwrap();
@@ -85,7 +95,7 @@ pub(crate) fn advance_tail<T: Real>(
             let x = chi[j * n + i];
             let x = x + g * (clamp(x, lower, upper) - x);
             chi[j * n + i] = x;
-            row += x;
+            row = if j == 0 { x } else { row + x };
         }
         acc[i - full] += weights[i] * row;
     }
@@ -98,8 +108,8 @@ pub(crate) fn output<T: Real>(chi: &[T], weights: &[T]) -> T {
     let mut acc = [T::ZERO; LANES];
     for (i, &w) in weights.iter().enumerate() {
         let mut row = T::ZERO;
-        for x in chi.iter().skip(i).step_by(n.max(1)) {
-            row += *x;
+        for (j, x) in chi.iter().skip(i).step_by(n.max(1)).enumerate() {
+            row = if j == 0 { *x } else { row + *x };
         }
         acc[i % LANES] += w * row;
     }

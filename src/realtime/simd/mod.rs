@@ -405,14 +405,22 @@ mod x86 {
                 let r = _mm256_loadu_pd(thresholds.as_ptr().add(i0));
                 let lower = _mm256_sub_pd(vv, r);
                 let upper = _mm256_add_pd(vv, r);
-                let mut rows = _mm256_setzero_pd();
-                for (j, &g) in gains.iter().enumerate() {
-                    let at = p.add(j * n + i0);
-                    let x = _mm256_loadu_pd(at);
-                    let c = _mm256_max_pd(_mm256_min_pd(x, upper), lower);
-                    let x = _mm256_add_pd(x, _mm256_mul_pd(_mm256_set1_pd(g), _mm256_sub_pd(c, x)));
-                    _mm256_storeu_pd(at, x);
-                    rows = _mm256_add_pd(rows, x);
+                macro_rules! update {
+                    ($j:expr, $g:expr) => {{
+                        let (j, g) = ($j, $g);
+                        let at = p.add(j * n + i0);
+                        let x = _mm256_loadu_pd(at);
+                        let c = _mm256_max_pd(_mm256_min_pd(x, upper), lower);
+                        let x =
+                            _mm256_add_pd(x, _mm256_mul_pd(_mm256_set1_pd(g), _mm256_sub_pd(c, x)));
+                        _mm256_storeu_pd(at, x);
+                        x
+                    }};
+                }
+                // from the first row, not from zero (see `creep_pass::advance`)
+                let mut rows = update!(0, gains[0]);
+                for (j, &g) in gains.iter().enumerate().skip(1) {
+                    rows = _mm256_add_pd(rows, update!(j, g));
                 }
                 let w = _mm256_loadu_pd(weights.as_ptr().add(i0));
                 acc = _mm256_add_pd(acc, _mm256_mul_pd(w, rows));
@@ -689,14 +697,20 @@ mod x86 {
             for i0 in (0..full8).step_by(8) {
                 let r = E::load(thresholds.as_ptr().add(i0));
                 let (lower, upper) = (v8.sub(r), v8.add(r));
-                let mut rows = E::splat(E::T::ZERO);
-                for (j, &g) in gains.iter().enumerate() {
-                    let at = p.add(j * n + i0);
-                    let x = E::load(at);
-                    let c = x.min(upper).max(lower);
-                    let x = x.add(E::splat(g).mul(c.sub(x)));
-                    x.store(at);
-                    rows = rows.add(x);
+                macro_rules! update {
+                    ($j:expr, $g:expr) => {{
+                        let (j, g) = ($j, $g);
+                        let at = p.add(j * n + i0);
+                        let x = E::load(at);
+                        let c = x.min(upper).max(lower);
+                        let x = x.add(E::splat(g).mul(c.sub(x)));
+                        x.store(at);
+                        x
+                    }};
+                }
+                let mut rows = update!(0, gains[0]);
+                for (j, &g) in gains.iter().enumerate().skip(1) {
+                    rows = rows.add(update!(j, g));
                 }
                 let (lo, hi) = E::load(weights.as_ptr().add(i0)).mul(rows).halves();
                 acc = E::half_add(E::half_add(acc, lo), hi);
@@ -704,14 +718,20 @@ mod x86 {
             if full4 > full8 {
                 let r = E::half_load(thresholds.as_ptr().add(full8));
                 let (lower, upper) = (E::half_sub(v4, r), E::half_add(v4, r));
-                let mut rows = E::half_zero();
-                for (j, &g) in gains.iter().enumerate() {
-                    let at = p.add(j * n + full8);
-                    let x = E::half_load(at);
-                    let c = E::half_max(E::half_min(x, upper), lower);
-                    let x = E::half_add(x, E::half_mul(E::half_splat(g), E::half_sub(c, x)));
-                    E::half_store(x, at);
-                    rows = E::half_add(rows, x);
+                macro_rules! update {
+                    ($j:expr, $g:expr) => {{
+                        let (j, g) = ($j, $g);
+                        let at = p.add(j * n + full8);
+                        let x = E::half_load(at);
+                        let c = E::half_max(E::half_min(x, upper), lower);
+                        let x = E::half_add(x, E::half_mul(E::half_splat(g), E::half_sub(c, x)));
+                        E::half_store(x, at);
+                        x
+                    }};
+                }
+                let mut rows = update!(0, gains[0]);
+                for (j, &g) in gains.iter().enumerate().skip(1) {
+                    rows = E::half_add(rows, update!(j, g));
                 }
                 let w = E::half_load(weights.as_ptr().add(full8));
                 acc = E::half_add(acc, E::half_mul(w, rows));
