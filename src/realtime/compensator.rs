@@ -38,8 +38,11 @@ use crate::realtime::simd::{self, Kernels};
 use crate::realtime::storage::{Buffer, Storage};
 use crate::realtime::superposition::Superposition;
 
-/// One compensator output sample.
+/// One compensator output sample. `#[repr(C)]`: the value, then the two
+/// flags as bytes, padded to twice the value's size — the records the
+/// bank writes whole from vector registers.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[repr(C)]
 pub struct Compensated<T = f64> {
     /// The (clipped) balanced voltage `u_k`.
     pub u: T,

@@ -129,7 +129,17 @@ fn first_part<T: Real, V: Block<T>>(
     } else {
         &mut out[c0..c0 + k]
     };
-    for ((l, out), &u) in out.iter_mut().enumerate().zip(u.lanes::<T>()) {
+    let flags = (
+        core::mem::offset_of!(Compensated<T>, saturated),
+        core::mem::offset_of!(Compensated<T>, fault),
+    );
+    if o.store_flagged(u, saturated, fault, out, flags) {
+        return;
+    }
+    let mut row = Row::default();
+    o.store(u, &mut row);
+    let (saturated, fault) = (o.bits(saturated), o.bits(fault));
+    for ((l, out), &u) in out.iter_mut().enumerate().zip(row.lanes::<T>()) {
         *out = Compensated {
             u,
             saturated: saturated & (1 << l) != 0,
@@ -141,7 +151,7 @@ fn first_part<T: Real, V: Block<T>>(
 /// Block `block` of the bank, first part: what `Compensator::compensate`
 /// does up to the applied voltage, lane by lane, in its order of
 /// operations (the creep pass is [`creep_pass`]). Returns the voltages and
-/// the saturated and fault bits.
+/// the saturated and faulted lanes.
 #[inline(always)]
 fn inverse_and_clip<T: Real, V: Block<T>>(
     o: Ops<T, V>,
@@ -150,7 +160,7 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
     s: &mut [Row],
     p: &[Row],
     t: V,
-) -> (Row, u32, u32) {
+) -> (V, V::Mask, V::Mask) {
     let a = f.layout;
     let (cur, next) = (f.parity, f.parity ^ 1);
     let fault = o.non_finite(t);
@@ -200,18 +210,16 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
     let (below, above) = (o.lt(v, lower), o.gt(v, upper));
     let clipped = o.select(below, lower, o.select(above, upper, v));
     let u = o.select(fault, o.load(&s[a.last_u()]), clipped);
-    let saturated = o.and_not(o.or(below, above), fault);
+    let saturated_lanes = o.and_not(o.or(below, above), fault);
     o.store(u, &mut s[a.last_u()]);
-    let saturated = o.bits(saturated);
+    let saturated = o.bits(saturated_lanes);
     if saturated != 0 {
         reseat(f, s, p, saturated, cur, next);
     }
     // the creep input: the voltage applied, or the last one if not finite
     let uc = o.select(o.non_finite(u), o.load(&s[a.creep_last()]), u);
     o.store(uc, &mut s[a.creep_last()]);
-    let mut out = Row::default();
-    o.store(u, &mut out);
-    (out, saturated, o.bits(fault))
+    (u, saturated_lanes, fault)
 }
 
 /// Block `block`'s creep pass (20) with the input stored by
