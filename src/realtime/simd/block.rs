@@ -446,6 +446,50 @@ mod x86 {
                 (_mm256_movemask_ps(m.1[0]) | _mm256_movemask_ps(m.1[1]) << 8) as u32
             }
         }
+
+        /// Each register's values and flag words (`a`'s all-ones lanes
+        /// masked to 1, `b`'s to 256) interleaved by unpacks within the
+        /// 128-bit halves and two half swaps, four 32-byte stores per
+        /// register.
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        unsafe fn store_flagged(self, a: Self, b: Self, out: *mut T) -> bool {
+            // SAFETY: the caller's: 128 writable bytes at `out`.
+            unsafe {
+                if is_f64::<T>() {
+                    let (one, two56) = (_mm256_set1_epi64x(1), _mm256_set1_epi64x(1 << 8));
+                    let p = out as *mut f64;
+                    for h in 0..2 {
+                        let flags = _mm256_or_si256(
+                            _mm256_and_si256(_mm256_castpd_si256(a.0[h]), one),
+                            _mm256_and_si256(_mm256_castpd_si256(b.0[h]), two56),
+                        );
+                        let flags = _mm256_castsi256_pd(flags);
+                        // [u0 f0 u2 f2], [u1 f1 u3 f3]
+                        let lo = _mm256_unpacklo_pd(self.0[h], flags);
+                        let hi = _mm256_unpackhi_pd(self.0[h], flags);
+                        _mm256_storeu_pd(p.add(8 * h), _mm256_permute2f128_pd::<0x20>(lo, hi));
+                        _mm256_storeu_pd(p.add(8 * h + 4), _mm256_permute2f128_pd::<0x31>(lo, hi));
+                    }
+                } else {
+                    let (one, two56) = (_mm256_set1_epi32(1), _mm256_set1_epi32(1 << 8));
+                    let p = out as *mut f32;
+                    for h in 0..2 {
+                        let flags = _mm256_or_si256(
+                            _mm256_and_si256(_mm256_castps_si256(a.1[h]), one),
+                            _mm256_and_si256(_mm256_castps_si256(b.1[h]), two56),
+                        );
+                        let flags = _mm256_castsi256_ps(flags);
+                        // [u0 f0 u1 f1 | u4 f4 u5 f5], [u2 f2 u3 f3 | u6 f6 u7 f7]
+                        let lo = _mm256_unpacklo_ps(self.1[h], flags);
+                        let hi = _mm256_unpackhi_ps(self.1[h], flags);
+                        _mm256_storeu_ps(p.add(16 * h), _mm256_permute2f128_ps::<0x20>(lo, hi));
+                        _mm256_storeu_ps(p.add(16 * h + 8), _mm256_permute2f128_ps::<0x31>(lo, hi));
+                    }
+                }
+            }
+            true
+        }
     }
 
     /// A block in one 512-bit register (AVX-512F); masks in mask registers.
