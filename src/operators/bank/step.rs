@@ -227,8 +227,9 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
 /// summed over the eigenvalues in order, the weighted rows into the partial
 /// sum `i mod 4`. The rows are summed from zero here and from the first row
 /// there, with the same output bits (see `creep_pass::advance`); from the
-/// first row the bank was 5 % slower in `f32`, for one addition fewer. Four thresholds go together, eigenvalue by eigenvalue, so
-/// that four independent update chains stand next to each other in the
+/// first row the bank was 5 % slower in `f32`, for one addition fewer.
+/// Four thresholds go together, eigenvalue by eigenvalue, so that four
+/// independent update chains stand next to each other in the
 /// instruction stream (one threshold's chain — five updates and their sum —
 /// is long, and the scheduler holds only so many waiting operations). Whole
 /// slices of rows, so that no index arithmetic or bounds check stands
