@@ -107,11 +107,13 @@ pub(crate) fn output<T: Real>(chi: &[T], weights: &[T]) -> T {
     let n = weights.len();
     let mut acc = [T::ZERO; LANES];
     for (i, &w) in weights.iter().enumerate() {
-        let mut row = T::ZERO;
-        for (j, x) in chi.iter().skip(i).step_by(n.max(1)).enumerate() {
-            row = if j == 0 { *x } else { row + *x };
-        }
-        acc[i % LANES] += w * row;
+        let row = chi
+            .iter()
+            .skip(i)
+            .step_by(n.max(1))
+            .copied()
+            .reduce(|a, b| a + b);
+        acc[i % LANES] += w * row.unwrap_or(T::ZERO);
     }
     reduce(acc)
 }
