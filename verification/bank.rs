@@ -1,8 +1,9 @@
 //! `CompensatorBank`: every channel gives the bits of a single
 //! inline `Compensator` of its model (one shared model or one per channel,
 //! `f32` and `f64`, through saturation, recovery and non-finite targets),
-//! the run-time AVX2 path gives the bits of the portable one, and bad
-//! parameters and slices are refused with the field named.
+//! every kernel set gives the bits of the portable one (at every order
+//! and wherever the state lies in memory), and bad parameters and slices
+//! are refused with the field named.
 
 use mfcbeam::operators::bank::CompensatorBank;
 use mfcbeam::operators::model::ModelFile;
@@ -191,7 +192,7 @@ fn every_kernel_set_gives_the_portable_bits_at_every_order() {
                     c32.compensate_using(*k, t as f32),
                 );
                 assert_eq!(
-                    (u.u.to_bits(), u.saturated, u.fault),
+                    (u.u.to_f64().to_bits(), u.saturated, u.fault),
                     (expected.u.to_bits(), expected.saturated, expected.fault),
                     "seed {seed}, {k:?}, target {t}"
                 );
@@ -207,6 +208,60 @@ fn every_kernel_set_gives_the_portable_bits_at_every_order() {
             }
         }
     }
+}
+
+/// The same wherever the compensator lies: an inline one placed at every
+/// offset of a page (in a page-aligned buffer, so that each of its arrays
+/// straddles the page boundary at every place it can), where the kernels
+/// move a register's worth that would straddle the page one value at a
+/// time.
+#[test]
+fn every_kernel_set_gives_the_portable_bits_wherever_the_state_lies() {
+    fn sweep<T: Real>() {
+        type Placed<T> = Compensator<T, mfcbeam::realtime::nominal::Capacity>;
+        let settings = CompensatorSettings::with_limits(-700.0, 700.0);
+        let proto = Placed::<T>::new(&mfcbeam::realtime::nominal::PARAMETERS, settings).unwrap();
+        let signal: Vec<T> = targets(&mut Rng::new(3), 1, 48, 900.0)
+            .into_iter()
+            .map(|row| T::from_f64(row[0]))
+            .collect();
+        let mut reference = proto.clone();
+        let expected: Vec<_> = signal
+            .iter()
+            .map(|&t| reference.compensate_portable(t))
+            .collect();
+        let size = std::mem::size_of::<Placed<T>>();
+        let layout = std::alloc::Layout::from_size_align(size + 4096, 4096).unwrap();
+        // SAFETY: a non-zero size; freed below with the same layout.
+        let buffer = unsafe { std::alloc::alloc(layout) };
+        assert!(!buffer.is_null());
+        let mut placed = 0;
+        for k in simd::Kernels::all() {
+            for offset in (0..4096).step_by(std::mem::align_of::<Placed<T>>()) {
+                // SAFETY: offset + size ≤ the buffer's size, aligned for the
+                // type; the value is written before use and dropped after.
+                unsafe {
+                    let at = buffer.add(offset).cast::<Placed<T>>();
+                    at.write(proto.clone());
+                    for (&t, e) in signal.iter().zip(&expected) {
+                        let u = (*at).compensate_using(k, t);
+                        assert_eq!(
+                            (u.u.to_f64().to_bits(), u.saturated, u.fault),
+                            (e.u.to_f64().to_bits(), e.saturated, e.fault),
+                            "{k:?}, offset {offset}"
+                        );
+                    }
+                    std::ptr::drop_in_place(at);
+                }
+                placed += 1;
+            }
+        }
+        // SAFETY: allocated above with this layout.
+        unsafe { std::alloc::dealloc(buffer, layout) };
+        assert!(placed >= 512);
+    }
+    sweep::<f64>();
+    sweep::<f32>();
 }
 
 /// The choice bites: where the CPU has AVX2 (or AVX-512) the explicit
