@@ -343,7 +343,7 @@ mod x86 {
     //! their saved copy) go through `*_unsplit`: a register's worth that
     //! would straddle a 4 KiB page is moved one value at a time. A step
     //! whose array straddled a page there, at an offset that matched stack
-    //! slots the step had just written, took 13–22 % longer on a Zen 5
+    //! slots the step had just written, took 13–21 % longer on a Zen 5
     //! (a compensator on the stack, in 6 of 256 stack offsets).
     use core::arch::x86_64::*;
 
