@@ -158,9 +158,9 @@ fn every_kernel_set_gives_the_portable_bits() {
 }
 
 /// The same at every order the kernels treat differently: 1 to 40 plays
-/// and creep thresholds (whole 4-, 8- and 16-lane blocks, a partial block
-/// under a mask, a scalar tail), limited and unlimited, with targets far
-/// beyond the plays (up to `10³⁸`, where `f32` overflows).
+/// and creep thresholds (whole 8- and 4-lane blocks, the scalar tail),
+/// limited and unlimited, with targets far beyond the plays (up to `10³⁸`,
+/// where `f32` overflows).
 #[test]
 fn every_kernel_set_gives_the_portable_bits_at_every_order() {
     type Free<T> = Compensator<T, mfcbeam::operators::heap::Heap>;
