@@ -5,8 +5,12 @@
 //! same built `-DBRANCH_FREE` (scalar, no target test, no forward plays, no
 //! re-seat) from `MFCBEAM_C_PEER_BRANCH_FREE`, and the strongest, built
 //! `-DSTRONG` (AVX2 intrinsics with FMA, a running creep sum, the chain cut
-//! to its minimum) from `MFCBEAM_C_PEER_STRONG`; `benches/peers/run.sh`
-//! builds and passes all three.
+//! to its minimum) from `MFCBEAM_C_PEER_STRONG`, the strongest built with
+//! `-DNO_FMA` (each FMA a multiply and an add, as mfcbeam computes) from
+//! `MFCBEAM_C_PEER_STRONG_NO_FMA`, and mfcbeam's own order of operations in
+//! intrinsics (`-DSAME_ORDER`, the same bits) from
+//! `MFCBEAM_C_PEER_SAME_ORDER`; `benches/peers/run.sh` builds and passes
+//! all five.
 //!
 //! Each round times one batch of 100 000 consecutive steps of every
 //! implementation (in a rotating order) on the same 4096 targets (W of the
@@ -38,6 +42,8 @@ fn main() {
         "MFCBEAM_C_PEER",
         "MFCBEAM_C_PEER_BRANCH_FREE",
         "MFCBEAM_C_PEER_STRONG",
+        "MFCBEAM_C_PEER_STRONG_NO_FMA",
+        "MFCBEAM_C_PEER_SAME_ORDER",
     ];
     let Ok(paths) = vars
         .iter()
@@ -48,7 +54,7 @@ fn main() {
         return;
     };
     // SAFETY: the libraries are benches/peers/compensator.c built with
-    // -DPEER_LIB (and -DBRANCH_FREE or -DSTRONG); the symbols have the
+    // -DPEER_LIB (and one of the variants); the symbols have the
     // signatures declared above. Loaded RTLD_LOCAL, so each keeps its own
     // symbols.
     let load = |path: &str| unsafe {
@@ -104,6 +110,8 @@ fn main() {
         "C peer (-O3 -march=native -ffast-math)",
         "branch-free C peer (the same, -DBRANCH_FREE)",
         "strongest C peer (AVX2 + FMA, -DSTRONG)",
+        "strongest C peer without FMA (-DNO_FMA)",
+        "mfcbeam's order in C (-DSAME_ORDER)",
         "Compensator (heap, f64)",
         "Compensator<f64, nominal::Capacity>",
         "Compensator<f32, nominal::Capacity>",
@@ -113,7 +121,7 @@ fn main() {
         let t0 = Instant::now();
         match which {
             // SAFETY: the peer's pointer and LEN targets, as peer_run expects.
-            0..=2 => {
+            0..=4 => {
                 black_box(unsafe {
                     (peers[which].1)(
                         c_states[which],
@@ -123,7 +131,7 @@ fn main() {
                     )
                 });
             }
-            3 => {
+            5 => {
                 let mut s = 0.0;
                 for _ in 0..STEPS {
                     ks[0] = (ks[0] + 1) & (LEN - 1);
@@ -131,7 +139,7 @@ fn main() {
                 }
                 black_box(s);
             }
-            4 => {
+            6 => {
                 let mut s = 0.0;
                 for _ in 0..STEPS {
                     ks[1] = (ks[1] + 1) & (LEN - 1);
@@ -200,7 +208,7 @@ fn main() {
         summary.push(format!("{:.4}/{:.4}", quantile(t, 0.5), quantile(r, 0.5)));
     }
     // f32 against f64, the same rounds
-    let f32_vs_f64: Vec<f64> = times[5].iter().zip(&times[4]).map(|(a, b)| a / b).collect();
+    let f32_vs_f64: Vec<f64> = times[7].iter().zip(&times[6]).map(|(a, b)| a / b).collect();
     println!(
         "Compensator<f32> / Compensator<f64> (nominal::Capacity): {:.3} (p10-p90 {:.3}-{:.3})",
         quantile(&f32_vs_f64, 0.5),

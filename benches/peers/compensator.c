@@ -11,8 +11,11 @@
  *
  * Built with -DPEER_LIB -shared -fPIC it is a library instead (peer_new,
  * peer_targets, peer_run) for the interleaved comparison in benches/peers.rs.
- * With -DBRANCH_FREE the compensator step is the strongest peer: the same
- * loops without the target test, the forward plays and the re-seat.
+ * With -DBRANCH_FREE the step is the same loops without the target test,
+ * the forward plays and the re-seat; with -DSTRONG (optionally -DNO_FMA) it
+ * is the strongest peer, AVX2 intrinsics written for the dependency chain;
+ * with -DSAME_ORDER it is mfcbeam's step, its order of operations in
+ * intrinsics (each described where it is defined).
  *
  * The input is the random walk of benches/common (same generator and
  * constants); the targets are W of it, computed here by the forward model.
@@ -92,7 +95,130 @@ static double creep_advance(double chi[M][NC], const double *rc, const double *w
     return out;
 }
 
-#if defined(STRONG)
+#if defined(SAME_ORDER)
+/* mfcbeam's step in C (-DSAME_ORDER): its operations in its order, with
+ * intrinsics — the 8-lane block and the 4-lane block of its AVX-512 kernels
+ * (three 4-lane blocks on AVX2, the same sums lane by lane), no FMA, the
+ * plays saved before each step for a re-seat, a non-finite target held —
+ * so its voltages have mfcbeam's bits (run.sh checks that they are equal,
+ * not close). Against the strongest peer it shows what the order of the
+ * arithmetic costs; against mfcbeam, what the Rust around it costs.
+ * Built like the strongest (-ffp-contract=off, no -ffast-math). */
+#include <immintrin.h>
+
+typedef struct {
+    double ri[NP], wi[NP], xi[NP], saved[NP];
+    double rc[NC], wc[NC], g[M];
+    double chi[M][NC];
+    double creep_out, creep_last, last_u, lower, upper;
+} same;
+
+static void init_same(same *c) {
+    compensator base;
+    init_compensator(&base);
+    memset(c, 0, sizeof *c);
+    memcpy(c->ri, base.ri, sizeof c->ri);
+    memcpy(c->wi, base.wi, sizeof c->wi);
+    memcpy(c->rc, base.rc, sizeof c->rc);
+    memcpy(c->wc, base.wc, sizeof c->wc);
+    memcpy(c->g, base.g, sizeof c->g);
+    c->lower = base.lower;
+    c->upper = base.upper;
+}
+
+/* (a0 + a2) + (a1 + a3), as mfcbeam's reduce */
+static inline double reduce4(__m256d a) {
+    __m128d s = _mm_add_pd(_mm256_castpd256_pd128(a), _mm256_extractf128_pd(a, 1));
+    return _mm_cvtsd_f64(_mm_add_sd(s, _mm_unpackhi_pd(s, s)));
+}
+
+/* play i0..i0+3 of H^-1 at y into acc (lane l: the thresholds l mod 4) */
+static inline __m256d play4(same *c, int i0, __m256d y, __m256d acc) {
+    __m256d r = _mm256_loadu_pd(c->ri + i0), x = _mm256_loadu_pd(c->xi + i0);
+    _mm256_storeu_pd(c->saved + i0, x);
+    x = _mm256_max_pd(_mm256_min_pd(x, _mm256_add_pd(y, r)), _mm256_sub_pd(y, r));
+    _mm256_storeu_pd(c->xi + i0, x);
+    return _mm256_add_pd(acc, _mm256_mul_pd(_mm256_loadu_pd(c->wi + i0), x));
+}
+
+/* creep thresholds i0..i0+3, every eigenvalue, into acc */
+static inline __m256d creep4(same *c, int i0, __m256d u, __m256d acc) {
+    __m256d r = _mm256_loadu_pd(c->rc + i0);
+    __m256d lo = _mm256_sub_pd(u, r), hi = _mm256_add_pd(u, r), rows = lo;
+    for (int j = 0; j < M; j++) {
+        __m256d x = _mm256_loadu_pd(c->chi[j] + i0);
+        __m256d d = _mm256_sub_pd(_mm256_max_pd(_mm256_min_pd(x, hi), lo), x);
+        x = _mm256_add_pd(x, _mm256_mul_pd(_mm256_set1_pd(c->g[j]), d));
+        _mm256_storeu_pd(c->chi[j] + i0, x);
+        rows = j == 0 ? x : _mm256_add_pd(rows, x);
+    }
+    return _mm256_add_pd(acc, _mm256_mul_pd(_mm256_loadu_pd(c->wc + i0), rows));
+}
+
+#ifdef __AVX512F__
+/* lanes 0..7 as two blocks of four added into zero: ((0 + lo) + hi) */
+static inline __m256d halves(__m512d p) {
+    __m256d acc = _mm256_add_pd(_mm256_setzero_pd(), _mm512_castpd512_pd256(p));
+    return _mm256_add_pd(acc, _mm512_extractf64x4_pd(p, 1));
+}
+#endif
+
+static double compensate_same(same *c, double target, int *saturated) {
+    *saturated = 0;
+    if (__builtin_expect(!isfinite(target), 0)) { /* hold; creep sees it */
+        c->creep_out = creep_advance(c->chi, c->rc, c->wc, c->g, c->last_u);
+        return c->last_u;
+    }
+    double y = target - c->creep_out;
+    if (__builtin_expect(!isfinite(y), 0)) y = c->xi[0];
+    __m256d y4 = _mm256_set1_pd(y), acc;
+#ifdef __AVX512F__
+    {
+        __m512d y8 = _mm512_set1_pd(y);
+        __m512d r = _mm512_loadu_pd(c->ri), x = _mm512_loadu_pd(c->xi);
+        _mm512_storeu_pd(c->saved, x);
+        x = _mm512_max_pd(_mm512_min_pd(x, _mm512_add_pd(y8, r)), _mm512_sub_pd(y8, r));
+        _mm512_storeu_pd(c->xi, x);
+        acc = halves(_mm512_mul_pd(_mm512_loadu_pd(c->wi), x));
+    }
+#else
+    acc = play4(c, 4, y4, play4(c, 0, y4, _mm256_setzero_pd()));
+#endif
+    double u = reduce4(play4(c, 8, y4, acc));
+    if (u < c->lower) {
+        u = c->lower;
+        *saturated = 1;
+    } else if (u > c->upper) {
+        u = c->upper;
+        *saturated = 1;
+    }
+    c->last_u = u;
+    if (__builtin_expect(!isfinite(u), 0)) u = c->creep_last;
+    c->creep_last = u;
+    __m256d u4 = _mm256_set1_pd(u);
+#ifdef __AVX512F__
+    {
+        __m512d u8 = _mm512_set1_pd(u), r = _mm512_loadu_pd(c->rc);
+        __m512d lo = _mm512_sub_pd(u8, r), hi = _mm512_add_pd(u8, r), rows = lo;
+        for (int j = 0; j < M; j++) {
+            __m512d x = _mm512_loadu_pd(c->chi[j]);
+            __m512d d = _mm512_sub_pd(_mm512_max_pd(_mm512_min_pd(x, hi), lo), x);
+            x = _mm512_add_pd(x, _mm512_mul_pd(_mm512_set1_pd(c->g[j]), d));
+            _mm512_storeu_pd(c->chi[j], x);
+            rows = j == 0 ? x : _mm512_add_pd(rows, x);
+        }
+        acc = halves(_mm512_mul_pd(_mm512_loadu_pd(c->wc), rows));
+    }
+#else
+    acc = creep4(c, 4, u4, creep4(c, 0, u4, _mm256_setzero_pd()));
+#endif
+    c->creep_out = reduce4(creep4(c, 8, u4, acc));
+    return c->last_u;
+}
+#define compensator same
+#define init_compensator init_same
+#define compensate compensate_same
+#elif defined(STRONG)
 /* The strongest peer (-DSTRONG): AVX2 intrinsics with FMA, written for one
  * step's dependency chain, u_{k-1} -> creep -> H^-1 -> clip -> u_k, and for
  * few operations per step:
@@ -113,6 +239,12 @@ static double creep_advance(double chi[M][NC], const double *rc, const double *w
  * Built without -ffast-math but with -ffp-contract=off: the trees are as
  * written (-ffast-math turns them into serial FMA chains, 12 % slower). */
 #include <immintrin.h>
+
+#ifdef NO_FMA
+/* -DNO_FMA: each fused multiply-add as a multiply and an add (two
+ * roundings), as mfcbeam computes: what the FMA is worth to this peer */
+#define _mm256_fmadd_pd(a, b, c) _mm256_add_pd(_mm256_mul_pd(a, b), c)
+#endif
 
 #define G 15 /* creep groups of four: 5 rows of 12 thresholds */
 #define RESUM 1024

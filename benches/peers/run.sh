@@ -3,7 +3,8 @@
 # hand-written C (compensator.c, -O3 -march=native -ffast-math; built with
 # -DBRANCH_FREE: no target test, no forward plays, no re-seat; and built
 # with -DSTRONG, the strongest: AVX2 intrinsics with FMA, a running creep
-# sum, the dependency chain cut to its minimum), numba
+# sum, the dependency chain cut to its minimum; the same with -DNO_FMA; and
+# with -DSAME_ORDER, mfcbeam's own order of operations in intrinsics), numba
 # (numba_compensator.py, if numba is installed) and this crate's criterion
 # benches (step/compensator_step: the heap compensator, and the fixed f64
 # and f32 cores). Checks first that the peers compute what mfcbeam does.
@@ -14,7 +15,8 @@
 #
 # The agreement checks run the peers' own traces (4096 steps from the
 # virgin state) through `mfcbeam compensate`: the voltages must agree to
-# 1e-9 V (measured: about 6e-13 V; -ffast-math only reassociates sums).
+# 1e-9 V (measured: about 6e-13 V; -ffast-math only reassociates sums),
+# and mfcbeam's order in C exactly.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=target/peers
@@ -26,9 +28,14 @@ cc -O3 -march=native -ffast-math -Wall -Wextra -Werror -DBRANCH_FREE \
   -o "$out/compensator_branch_free" benches/peers/compensator.c -lm
 # the strongest: its trees as written (no -ffast-math, no contraction)
 strong_flags=(-O3 -march=native -ffp-contract=off -Wall -Wextra -Werror -DSTRONG)
+# and the same without FMA, and mfcbeam's order of operations in intrinsics
+no_fma_flags=("${strong_flags[@]}" -DNO_FMA)
+same_flags=(-O3 -march=native -ffp-contract=off -Wall -Wextra -Werror -DSAME_ORDER)
 strong=no
 if grep -qw avx2 /proc/cpuinfo && grep -qw fma /proc/cpuinfo &&
   cc "${strong_flags[@]}" -o "$out/compensator_strong" benches/peers/compensator.c -lm; then
+  cc "${no_fma_flags[@]}" -o "$out/compensator_strong_no_fma" benches/peers/compensator.c -lm
+  cc "${same_flags[@]}" -o "$out/compensator_same_order" benches/peers/compensator.c -lm
   strong=yes
 else
   echo "this CPU has no AVX2 + FMA: the strongest C peer is skipped"
@@ -45,13 +52,14 @@ fi
 "$out/compensator" trace >"$out/c_trace.csv"
 "$MFCBEAM_CLI" compensate --model "$out/nominal.json" \
   --input "$out/c_trace.csv" --output "$out/c_vs_mfcbeam.csv"
+# agree FILE NAME [exact]: within 1e-9 V, or (exact) the same numbers
 agree() {
-  python3 - "$1" "$2" <<'EOF'
+  python3 - "$1" "$2" "${3:-close}" <<'EOF'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 worst = max(abs(float(r["u_peer"]) - float(r["u"])) for r in rows)
 print(f"{sys.argv[2]}: max |u_peer - u_mfcbeam| = {worst:.2e} V over {len(rows)} samples")
-sys.exit(0 if worst < 1e-9 else 1)
+sys.exit(0 if (worst == 0.0 if sys.argv[3] == "exact" else worst < 1e-9) else 1)
 EOF
 }
 agree "$out/c_vs_mfcbeam.csv" "C peer"
@@ -64,6 +72,15 @@ if [[ $strong == yes ]]; then
   "$MFCBEAM_CLI" compensate --model "$out/nominal.json" \
     --input "$out/cs_trace.csv" --output "$out/cs_vs_mfcbeam.csv"
   agree "$out/cs_vs_mfcbeam.csv" "strongest C peer"
+  "$out/compensator_strong_no_fma" trace >"$out/csn_trace.csv"
+  "$MFCBEAM_CLI" compensate --model "$out/nominal.json" \
+    --input "$out/csn_trace.csv" --output "$out/csn_vs_mfcbeam.csv"
+  agree "$out/csn_vs_mfcbeam.csv" "strongest C peer without FMA"
+  # mfcbeam's order in C: not close but equal, every sample
+  "$out/compensator_same_order" trace >"$out/cso_trace.csv"
+  "$MFCBEAM_CLI" compensate --model "$out/nominal.json" \
+    --input "$out/cso_trace.csv" --output "$out/cso_vs_mfcbeam.csv"
+  agree "$out/cso_vs_mfcbeam.csv" "mfcbeam's order in C" exact
 fi
 numba=no
 if python3 -c "import numba" 2>/dev/null; then
@@ -86,15 +103,22 @@ cc -O3 -march=native -ffast-math -Wall -Wextra -Werror -DPEER_LIB -DBRANCH_FREE 
   -o "$out/libpeer_branch_free.so" benches/peers/compensator.c -lm
 cc "${strong_flags[@]}" -DPEER_LIB -shared -fPIC \
   -o "$out/libpeer_strong.so" benches/peers/compensator.c -lm
+cc "${no_fma_flags[@]}" -DPEER_LIB -shared -fPIC \
+  -o "$out/libpeer_strong_no_fma.so" benches/peers/compensator.c -lm
+cc "${same_flags[@]}" -DPEER_LIB -shared -fPIC \
+  -o "$out/libpeer_same_order.so" benches/peers/compensator.c -lm
 for run in 1 2 3; do
   echo "== process $run of 3"
   MFCBEAM_C_PEER="$PWD/$out/libpeer.so" MFCBEAM_C_PEER_BRANCH_FREE="$PWD/$out/libpeer_branch_free.so" \
     MFCBEAM_C_PEER_STRONG="$PWD/$out/libpeer_strong.so" \
+    MFCBEAM_C_PEER_STRONG_NO_FMA="$PWD/$out/libpeer_strong_no_fma.so" \
+    MFCBEAM_C_PEER_SAME_ORDER="$PWD/$out/libpeer_same_order.so" \
     cargo bench --quiet --bench peers | tee "$out/peers_$run.txt"
 done
 python3 - "$out"/peers_{1,2,3}.txt <<'EOF'
 import sys
-names = ["C peer", "branch-free C peer", "strongest C peer", "Compensator (heap, f64)",
+names = ["C peer", "branch-free C peer", "strongest C peer", "strongest C peer without FMA",
+         "mfcbeam's order in C", "Compensator (heap, f64)",
          "Compensator<f64, nominal::Capacity>", "Compensator<f32, nominal::Capacity>"]
 runs = []
 for path in sys.argv[1:]:
