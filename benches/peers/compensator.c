@@ -144,7 +144,8 @@ static inline __m256d play4(same *c, int i0, __m256d y, __m256d acc) {
 /* creep thresholds i0..i0+3, every eigenvalue, into acc */
 static inline __m256d creep4(same *c, int i0, __m256d u, __m256d acc) {
     __m256d r = _mm256_loadu_pd(c->rc + i0);
-    __m256d lo = _mm256_sub_pd(u, r), hi = _mm256_add_pd(u, r), rows = lo;
+    __m256d lo = _mm256_sub_pd(u, r), hi = _mm256_add_pd(u, r);
+    __m256d rows = _mm256_setzero_pd(); /* replaced by the first row */
     for (int j = 0; j < M; j++) {
         __m256d x = _mm256_loadu_pd(c->chi[j] + i0);
         __m256d d = _mm256_sub_pd(_mm256_max_pd(_mm256_min_pd(x, hi), lo), x);
@@ -199,7 +200,8 @@ static double compensate_same(same *c, double target, int *saturated) {
 #ifdef __AVX512F__
     {
         __m512d u8 = _mm512_set1_pd(u), r = _mm512_loadu_pd(c->rc);
-        __m512d lo = _mm512_sub_pd(u8, r), hi = _mm512_add_pd(u8, r), rows = lo;
+        __m512d lo = _mm512_sub_pd(u8, r), hi = _mm512_add_pd(u8, r);
+        __m512d rows = _mm512_setzero_pd(); /* replaced by the first row */
         for (int j = 0; j < M; j++) {
             __m512d x = _mm512_loadu_pd(c->chi[j]);
             __m512d d = _mm512_sub_pd(_mm512_max_pd(_mm512_min_pd(x, hi), lo), x);

@@ -288,7 +288,7 @@ fn creep_pass<T: Real, V: Block<T>>(o: Ops<T, V>, f: &Fixed<'_, T>, s: &mut [Row
         let (lower, upper) = (o.sub(uc, r), o.add(uc, r));
         let mut rows = zero;
         for (x, g) in chi[i * m..][..m].iter_mut().zip(gains) {
-            rows = o.add(rows, creep_update(o, x, o.load(g), lower, upper, one));
+            rows = o.add_on_multiplier(rows, creep_update(o, x, o.load(g), lower, upper, one), one);
         }
         sums[i - full] = o.add(sums[i - full], o.mul(o.load(&weights[i]), rows));
     }
