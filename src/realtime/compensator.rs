@@ -54,57 +54,23 @@ pub struct Compensated<T = f64> {
     pub fault: bool,
 }
 
-/// The hysteresis half of (21): `H⁻¹` with its plays, the thresholds, weights
-/// and partial sums `s_j` of `H`, and room for one set of play states.
-pub(crate) struct HysteresisPair<'a, T> {
-    pub inv_thresholds: &'a [T],
-    pub inv_weights: &'a [T],
-    pub inv_state: &'a mut [T],
-    pub thresholds: &'a [T],
-    pub weights: &'a [T],
-    pub sums: &'a [T],
-    pub scratch: &'a mut [T],
-}
-
-/// `u = sat(H⁻¹[y])`, and on saturation the inverse plays re-seated on the
-/// branch of `u` (22). Returns `(u, saturated)`.
-#[inline(always)]
-pub(crate) fn invert_saturating<T: Real>(
-    k: Kernels,
-    p: HysteresisPair<'_, T>,
-    y: T,
-    lower: T,
-    upper: T,
-) -> (T, bool) {
-    let v = simd::hysteresis_step_saving(
-        k,
-        p.inv_state,
-        p.scratch,
-        p.inv_thresholds,
-        p.inv_weights,
-        y,
-    );
-    let (u, saturated) = if v < lower {
-        (lower, true)
-    } else if v > upper {
-        (upper, true)
-    } else {
-        (v, false)
-    };
-    if saturated {
-        reseat(p, u);
-    }
-    (u, saturated)
-}
-
-/// After a clipped sample: the plays of `H` before it (from the saved inverse
-/// plays), advanced with the applied `u`, and `H⁻¹`'s plays from them (22).
+/// After a clipped sample: the plays of `H` before it (from the inverse
+/// plays the step saved in `scratch`), advanced with the applied `u`, and
+/// `H⁻¹`'s plays from them (22), so that the compensator leaves saturation
+/// on the branch the actuator is on.
 #[cold]
 #[inline(never)]
-fn reseat<T: Real>(p: HysteresisPair<'_, T>, u: T) {
-    forward_state_in_place(p.sums, p.scratch);
-    hysteresis::advance_plays(p.scratch, p.thresholds, u);
-    inverse_state_into(p.weights, p.sums, p.scratch, p.inv_state);
+fn reseat<T: Real>(
+    inv_state: &mut [T],
+    scratch: &mut [T],
+    thresholds: &[T],
+    weights: &[T],
+    sums: &[T],
+    u: T,
+) {
+    forward_state_in_place(sums, scratch);
+    hysteresis::advance_plays(scratch, thresholds, u);
+    inverse_state_into(weights, sums, scratch, inv_state);
 }
 
 /// Output limits of a compensator (balanced voltage, V): every output lies
@@ -378,7 +344,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     /// The voltage for the target `target`; allocation-free, O(n + n_C m).
     #[inline]
     pub fn compensate(&mut self, target: T) -> Compensated<T> {
-        Kernels::detect().run(move |k| self.compensate_with(k, target))
+        self.compensate_using(Kernels::detect().for_single_step::<T>(), target)
     }
 
     /// [`Compensator::compensate`] on the portable kernels (the same bits;
@@ -393,7 +359,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     #[doc(hidden)]
     #[inline]
     pub fn compensate_using(&mut self, k: Kernels, target: T) -> Compensated<T> {
-        k.run(move |k| self.compensate_with(k, target))
+        self.compensate_with(k, target)
     }
 
     /// A whole signal into caller buffers, every flag kept; one
@@ -412,20 +378,23 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         check_length("u", targets.len(), u.len())?;
         check_length("saturated", targets.len(), saturated.len())?;
         check_length("fault", targets.len(), fault.len())?;
-        Ok(Kernels::detect().run(|k| {
-            let (mut clipped, mut faults) = (0, 0);
-            for (i, &t) in targets.iter().enumerate() {
-                let out = self.compensate_with(k, t);
-                u[i] = out.u;
-                saturated[i] = out.saturated;
-                fault[i] = out.fault;
-                clipped += usize::from(out.saturated);
-                faults += usize::from(out.fault);
-            }
-            (clipped, faults)
-        }))
+        let k = Kernels::detect().for_single_step::<T>();
+        let (mut clipped, mut faults) = (0, 0);
+        for (i, &t) in targets.iter().enumerate() {
+            let out = self.compensate_with(k, t);
+            u[i] = out.u;
+            saturated[i] = out.saturated;
+            fault[i] = out.fault;
+            clipped += usize::from(out.saturated);
+            faults += usize::from(out.fault);
+        }
+        Ok((clipped, faults))
     }
 
+    /// One step on the kernels `k`: `G⁻¹` and `S⁻¹` of the target, then
+    /// `H⁻¹`, the clip and the creep pass in one kernel call
+    /// ([`simd::compensator_step`]), the re-seat after a clipped sample and
+    /// `G`'s state.
     #[inline(always)]
     fn compensate_with(&mut self, k: Kernels, target: T) -> Compensated<T> {
         if !target.is_finite() {
@@ -452,22 +421,18 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             Some(s) => s.apply(v),
             None => v,
         };
-        let (inv_r, inv_w, inv_x) = self.inverse.parts_mut();
-        let (u, saturated) = invert_saturating(
-            k,
-            HysteresisPair {
-                inv_thresholds: inv_r,
-                inv_weights: inv_w,
-                inv_state: inv_x,
-                thresholds: &self.thresholds,
-                weights: &self.weights,
-                sums: &self.sums,
-                scratch: &mut self.scratch,
-            },
-            y - c,
-            self.lower,
-            self.upper,
-        );
+        let (u, saturated) = simd::compensator_step(k, self, y - c, self.lower, self.upper);
+        if saturated {
+            let (_, _, inv_state) = self.inverse.parts_mut();
+            reseat(
+                inv_state,
+                &mut self.scratch,
+                &self.thresholds,
+                &self.weights,
+                &self.sums,
+                u,
+            );
+        }
         if self.dynamics.is_some() {
             let h = if saturated {
                 self.clipped_output()
@@ -477,9 +442,6 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             self.advance_dynamics(t, v, h, c, saturated);
         }
         self.last_u = u;
-        if let Some(op) = &mut self.creep {
-            op.advance_with(k, u);
-        }
         Compensated {
             u,
             saturated,
@@ -558,4 +520,18 @@ fn c_set_ahead<T: Real>(g: &mut Dynamics<T>, values: Option<&[f64]>) -> Result<(
     g.set_state(values)?;
     *g = g.ahead();
     Ok(())
+}
+
+impl<T: Real, S: Storage> simd::StepSource<T> for Compensator<T, S> {
+    #[inline(always)]
+    fn step_parts(&mut self) -> simd::StepParts<'_, T> {
+        let (inv_thresholds, inv_weights, inv_state) = self.inverse.parts_mut();
+        simd::StepParts {
+            inv_state,
+            saved: &mut self.scratch,
+            inv_thresholds,
+            inv_weights,
+            creep: self.creep.as_mut().map(Creep::step_parts),
+        }
+    }
 }

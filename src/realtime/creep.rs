@@ -228,6 +228,20 @@ impl<T: Real, S: Storage> Creep<T, S> {
         self.output
     }
 
+    /// The state, parameters, last input and output a compensator step's
+    /// kernel works on.
+    #[inline(always)]
+    pub(crate) fn step_parts(&mut self) -> simd::CreepParts<'_, T> {
+        simd::CreepParts {
+            chi: &mut self.chi,
+            thresholds: &self.thresholds,
+            gains: &self.gains,
+            weights: &self.scaled_weights,
+            last_input: &mut self.last_input,
+            output: &mut self.output,
+        }
+    }
+
     /// `C_k`, then advance with `v_k`.
     #[inline]
     pub fn step(&mut self, v: T) -> T {

@@ -4,10 +4,13 @@
 //! The kernels are written once, generic and `#[inline(always)]`. A caller
 //! picks [`Kernels`] once per call (a whole `compensate`, a whole signal, a
 //! bank step) with [`Kernels::detect`]: with `std` on x86-64 the step is then
-//! compiled again with AVX2, or AVX-512F, enabled (`Kernels::run`). The
-//! single compensator's `f64` blocks of `H⁻¹`, the plays and the creep pass
-//! run on explicit 256-bit registers (8-lane 512-bit ones with AVX-512F),
-//! its `f32` ones on 8-lane registers;
+//! compiled again with AVX2, or AVX-512F, enabled (`Kernels::run`). One
+//! compensator step's vector work — `H⁻¹`, the clip and the creep pass — is
+//! one such function ([`compensator_step`]), its borrows of the
+//! compensator's arrays in registers. Its `f64` blocks run on explicit
+//! 256-bit registers (8-lane 512-bit ones with AVX-512F where the CPU runs
+//! them at full width: [`Kernels::for_single_step`]), its `f32` ones on
+//! 8-lane registers; the plays and creep pass of the forward model likewise;
 //! the bank's 64-byte blocks (`block`: 8 `f64` or 16 `f32` lanes, one
 //! cache line) on two 256-bit registers or one 512-bit register. No copy
 //! fuses a multiply and an add (Rust never contracts them), `min` and `max`
@@ -149,6 +152,19 @@ impl Kernels {
         }
     }
 
+    /// The set one compensator step in `T` runs fastest on, of these:
+    /// `self`, except `f64` on AVX-512 where the CPU splits 512-bit
+    /// operations ([`full_width_512`]): there the AVX2 set's blocks of
+    /// four. The same bits either way.
+    #[inline]
+    pub fn for_single_step<T: Real>(self) -> Self {
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        if self.is_avx512() && TypeId::of::<T>() == TypeId::of::<f64>() && !full_width_512() {
+            return Kernels::Avx2(Avx2(()));
+        }
+        self
+    }
+
     /// The AVX2 proof, for the AVX2 and the AVX-512 kernels.
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
     #[inline(always)]
@@ -159,6 +175,43 @@ impl Kernels {
             Kernels::Portable => None,
         }
     }
+}
+
+/// Whether this CPU executes a 512-bit operation at full width. AMD's
+/// Zen 4 (family 25 with AVX-512F) splits each into two 256-bit halves:
+/// there one compensator step's `f64` blocks of four (the AVX2 kernels)
+/// are faster than blocks of eight (the same bits either way; measured in
+/// the guide's performance chapter), while the bank's 8-lane blocks still
+/// pay. Every other CPU with AVX-512F is taken to run it at full width.
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+#[inline]
+pub fn full_width_512() -> bool {
+    use core::sync::atomic::{AtomicU8, Ordering};
+    static FULL: AtomicU8 = AtomicU8::new(0);
+    match FULL.load(Ordering::Relaxed) {
+        1 => return false,
+        2 => return true,
+        _ => {}
+    }
+    // SAFETY: CPUID exists on every x86-64 CPU (a safe function in newer
+    // Rust, unsafe in the MSRV's)
+    #[allow(unused_unsafe)]
+    let (vendor, signature) = unsafe {
+        let v = core::arch::x86_64::__cpuid(0);
+        ([v.ebx, v.edx, v.ecx], core::arch::x86_64::__cpuid(1).eax)
+    };
+    // "AuthenticAMD" as CPUID returns it, four bytes a register
+    let amd = vendor == [0x6874_7541, 0x6974_6e65, 0x444d_4163];
+    // the family as CPUID gives it: base plus extended where the base is 15
+    let base = (signature >> 8) & 0xf;
+    let family = if base == 0xf {
+        base + ((signature >> 20) & 0xff)
+    } else {
+        base
+    };
+    let full = !(amd && family == 25);
+    FULL.store(if full { 2 } else { 1 }, Ordering::Relaxed);
+    full
 }
 
 /// The CPU as a performance figure must name it: vendor, family, model,
@@ -238,56 +291,6 @@ fn cast_mut<T: Real, U: Real>(x: &mut [T]) -> Option<&mut [U]> {
     (TypeId::of::<T>() == TypeId::of::<U>()).then(|| unsafe { &mut *(x as *mut [T] as *mut [U]) })
 }
 
-/// One step of `H` ([`crate::realtime::hysteresis::step`]) on `k`'s
-/// kernels, the states before it written to `saved` as it goes (the
-/// compensator's copy for a re-seat; one store per block, in the shape of
-/// the kernel's own); a non-finite `v` is held out as there.
-#[inline(always)]
-pub(crate) fn hysteresis_step_saving<T: Real>(
-    k: Kernels,
-    state: &mut [T],
-    saved: &mut [T],
-    thresholds: &[T],
-    weights: &[T],
-    v: T,
-) -> T {
-    assert!(saved.len() == state.len());
-    #[cfg(all(feature = "std", target_arch = "x86_64"))]
-    if k.avx2().is_some() {
-        let v = if v.is_finite() { v } else { state[0] };
-        if let (Some(x), Some(s), Some(r), Some(w)) = (
-            cast_mut(state),
-            cast_mut(saved),
-            cast(thresholds),
-            cast(weights),
-        ) {
-            count_simd_call();
-            // SAFETY: `k` proves AVX2, and AVX-512F where it is `Avx512`.
-            let y = unsafe {
-                if k.is_avx512() {
-                    x86::hysteresis_step_f64_avx512(x, s, r, w, v.to_f64())
-                } else {
-                    x86::hysteresis_step(x, s, r, w, v.to_f64())
-                }
-            };
-            return T::from_f64(y);
-        }
-        if let (Some(x), Some(s), Some(r), Some(w)) = (
-            cast_mut(state),
-            cast_mut(saved),
-            cast(thresholds),
-            cast(weights),
-        ) {
-            count_simd_call();
-            // SAFETY: `k` proves AVX2.
-            let y = unsafe { x86::hysteresis_step_f32(x, s, r, w, v.to_f64() as f32) };
-            return T::from_f64(f64::from(y));
-        }
-    }
-    let _ = k;
-    crate::realtime::hysteresis::step_saving::<T, true>(state, saved, thresholds, weights, v)
-}
-
 /// One step of the creep pass ([`crate::realtime::creep_pass::advance`]) on `k`'s
 /// kernels.
 #[inline(always)]
@@ -332,6 +335,131 @@ pub(crate) fn creep_advance<T: Real>(
     crate::realtime::creep_pass::advance(chi, thresholds, gains, weights, v, last_input)
 }
 
+/// What one compensator step reads and writes: the plays of `H⁻¹` with
+/// room for their copy, and the creep pass's parts if the model has creep.
+pub(crate) struct StepParts<'a, T> {
+    pub inv_state: &'a mut [T],
+    pub saved: &'a mut [T],
+    pub inv_thresholds: &'a [T],
+    pub inv_weights: &'a [T],
+    pub creep: Option<CreepParts<'a, T>>,
+}
+
+/// The creep operator's part of a step: its state, parameters, the last
+/// finite input and the output the step writes.
+pub(crate) struct CreepParts<'a, T> {
+    pub chi: &'a mut [T],
+    pub thresholds: &'a [T],
+    pub gains: &'a [T],
+    pub weights: &'a [T],
+    pub last_input: &'a mut T,
+    pub output: &'a mut T,
+}
+
+/// Where a step's parts come from: the compensator lends them inside the
+/// kernel's function, so that the borrows are registers, not a record of
+/// slices written to the stack for a call.
+pub(crate) trait StepSource<T: Real> {
+    fn step_parts(&mut self) -> StepParts<'_, T>;
+}
+
+/// The two kernels of a compensator step on one instruction set; `v` is
+/// finite.
+trait StepKernels<T: Real> {
+    /// The plays' step (`hysteresis::step_saving`), the states before it
+    /// saved.
+    unsafe fn inverse_plays(state: &mut [T], saved: &mut [T], r: &[T], w: &[T], v: T) -> T;
+    /// The creep pass ([`creep_advance`]'s blocks).
+    unsafe fn creep(chi: &mut [T], r: &[T], g: &[T], w: &[T], v: T) -> T;
+}
+
+/// The portable kernels.
+struct PortableStep;
+
+impl<T: Real> StepKernels<T> for PortableStep {
+    #[inline(always)]
+    unsafe fn inverse_plays(state: &mut [T], saved: &mut [T], r: &[T], w: &[T], v: T) -> T {
+        crate::realtime::hysteresis::step_saving::<T, true>(state, saved, r, w, v)
+    }
+    #[inline(always)]
+    unsafe fn creep(chi: &mut [T], r: &[T], g: &[T], w: &[T], v: T) -> T {
+        let mut held = v;
+        crate::realtime::creep_pass::advance(chi, r, g, w, v, &mut held)
+    }
+}
+
+/// `H⁻¹[y]` clipped to `[lower, upper]` (a non-finite `y` replaced by the
+/// zero-threshold play's state, so that it never enters the plays; their
+/// states before the step saved), then the creep pass with the voltage
+/// applied (a non-finite one replaced by the last finite input): one
+/// compensator step once its input `y` is known. Returns the voltage and
+/// whether it was clipped.
+#[inline(always)]
+unsafe fn step_body<T: Real, K: StepKernels<T>, C: StepSource<T>>(
+    c: &mut C,
+    y: T,
+    lower: T,
+    upper: T,
+) -> (T, bool) {
+    let p = c.step_parts();
+    assert!(p.saved.len() == p.inv_state.len());
+    let y = if y.is_finite() { y } else { p.inv_state[0] };
+    // SAFETY: the caller's: `K`'s features are present.
+    let v = unsafe { K::inverse_plays(p.inv_state, p.saved, p.inv_thresholds, p.inv_weights, y) };
+    // within the limits: a predicted branch, off the chain (selects put
+    // the clip's `min`, compare and blend on it)
+    let (u, saturated) = if v >= lower && v <= upper {
+        (v, false)
+    } else {
+        clip(v, lower, upper)
+    };
+    if let Some(cp) = p.creep {
+        let held = if u.is_finite() { u } else { *cp.last_input };
+        *cp.last_input = held;
+        // SAFETY: as above.
+        *cp.output = unsafe { K::creep(cp.chi, cp.thresholds, cp.gains, cp.weights, held) };
+    }
+    (u, saturated)
+}
+
+/// `v` clipped to `[lower, upper]` and whether it was (a NaN passes
+/// unclipped, as the comparisons say).
+#[cold]
+#[inline(never)]
+fn clip<T: Real>(v: T, lower: T, upper: T) -> (T, bool) {
+    if v < lower {
+        (lower, true)
+    } else if v > upper {
+        (upper, true)
+    } else {
+        (v, false)
+    }
+}
+
+/// [`step_body`] on `k`'s kernels, compiled as one function with their
+/// features: one call per step, the parts in registers (split into a call
+/// per kernel, the step wrote some 40 values to the stack per sample).
+#[inline(always)]
+pub(crate) fn compensator_step<T: Real, C: StepSource<T>>(
+    k: Kernels,
+    c: &mut C,
+    y: T,
+    lower: T,
+    upper: T,
+) -> (T, bool) {
+    match k {
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        // SAFETY: an `Avx512` value exists only where the CPU has AVX-512F
+        // and AVX2.
+        Kernels::Avx512(_) => unsafe { x86::step_avx512(c, y, lower, upper) },
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        // SAFETY: an `Avx2` value exists only where the CPU has AVX2.
+        Kernels::Avx2(_) => unsafe { x86::step_avx2(c, y, lower, upper) },
+        // SAFETY: the portable kernels need no feature.
+        Kernels::Portable => unsafe { step_body::<T, PortableStep, C>(c, y, lower, upper) },
+    }
+}
+
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 mod x86 {
     //! The AVX2 kernels. Each does the operations of its portable kernel in
@@ -344,19 +472,19 @@ mod x86 {
     //! would straddle a 4 KiB page is moved one value at a time. A step
     //! whose array straddled a page there, at an offset that matched stack
     //! slots the step had just written, took 13–21 % longer on a Zen 5
-    //! (a compensator on the stack, in 6 of 256 stack offsets).
+    //! (a compensator on the stack, in 6 of 256 stack offsets). Whether an
+    //! array can straddle at all is asked once per array and step
+    //! (`SPLIT`): most never do, and their accesses carry no test.
     use core::arch::x86_64::*;
 
     use crate::realtime::creep_pass::{advance_tail, LANES};
     use crate::realtime::hysteresis::{reduce, step_tail};
     use crate::realtime::real::Real;
 
-    /// The blocks of `hysteresis::step` for `f64`; `v` is finite. Kept
-    /// out of line: inlined into the AVX2 step it made the step 4–9 %
-    /// slower for the same instructions (measured against the C peer).
-    #[target_feature(enable = "avx2")]
-    #[inline(never)]
-    pub(super) unsafe fn hysteresis_step(
+    /// The blocks of `hysteresis::step_saving` for `f64` on 4-lane
+    /// registers (callers compiled with AVX2); `v` is finite.
+    #[inline(always)]
+    unsafe fn hysteresis_step_four<const SPLIT: bool>(
         state: &mut [f64],
         saved: &mut [f64],
         thresholds: &[f64],
@@ -366,17 +494,17 @@ mod x86 {
         let n = state.len();
         assert!(thresholds.len() == n && weights.len() == n && saved.len() == n);
         let full = n - n % 4;
-        let vv = _mm256_set1_pd(v);
-        let mut acc = _mm256_setzero_pd();
+        // SAFETY: the caller's AVX2.
+        let (vv, mut acc) = unsafe { (_mm256_set1_pd(v), _mm256_setzero_pd()) };
         for i0 in (0..full).step_by(4) {
             // SAFETY: i0 + 4 ≤ n for all three slices.
             unsafe {
                 let at = state.as_mut_ptr().add(i0);
                 let r = _mm256_loadu_pd(thresholds.as_ptr().add(i0));
-                let x = load4_unsplit(at);
-                store4_unsplit(saved.as_mut_ptr().add(i0), x);
+                let x = load4_unsplit::<SPLIT>(at);
+                store4_unsplit::<SPLIT>(saved.as_mut_ptr().add(i0), x);
                 let x = _mm256_max_pd(_mm256_min_pd(x, _mm256_add_pd(vv, r)), _mm256_sub_pd(vv, r));
-                store4_unsplit(at, x);
+                store4_unsplit::<SPLIT>(at, x);
                 let w = _mm256_loadu_pd(weights.as_ptr().add(i0));
                 acc = _mm256_add_pd(acc, _mm256_mul_pd(w, x));
             }
@@ -398,12 +526,25 @@ mod x86 {
         weights: &[f64],
         v: f64,
     ) -> f64 {
+        // SAFETY: the features are enabled here.
+        unsafe { creep_four(chi, thresholds, gains, weights, v) }
+    }
+
+    /// [`creep_advance`]'s body, for callers compiled with AVX2.
+    #[inline(always)]
+    unsafe fn creep_advance_four<const SPLIT: bool>(
+        chi: &mut [f64],
+        thresholds: &[f64],
+        gains: &[f64],
+        weights: &[f64],
+        v: f64,
+    ) -> f64 {
         let n = thresholds.len();
         let m = gains.len();
         assert!(weights.len() == n && chi.len() == n * m);
         let full = n - n % LANES;
-        let vv = _mm256_set1_pd(v);
-        let mut acc = _mm256_setzero_pd();
+        // SAFETY: the caller's AVX2.
+        let (vv, mut acc) = unsafe { (_mm256_set1_pd(v), _mm256_setzero_pd()) };
         let p = chi.as_mut_ptr();
         for i0 in (0..full).step_by(LANES) {
             // SAFETY (all pointer accesses): i0 + 4 ≤ n and j < m, so every
@@ -416,11 +557,11 @@ mod x86 {
                     ($j:expr, $g:expr) => {{
                         let (j, g) = ($j, $g);
                         let at = p.add(j * n + i0);
-                        let x = load4_unsplit(at);
+                        let x = load4_unsplit::<SPLIT>(at);
                         let c = _mm256_max_pd(_mm256_min_pd(x, upper), lower);
                         let x =
                             _mm256_add_pd(x, _mm256_mul_pd(_mm256_set1_pd(g), _mm256_sub_pd(c, x)));
-                        store4_unsplit(at, x);
+                        store4_unsplit::<SPLIT>(at, x);
                         x
                     }};
                 }
@@ -446,6 +587,83 @@ mod x86 {
         (p as usize & 4095) > 4096 - bytes
     }
 
+    /// Whether the array `x` straddles a 4 KiB page. Only then can a
+    /// register's worth of it, so the kernels check each one (`SPLIT`)
+    /// only then: once per array and step instead of once per access.
+    #[inline(always)]
+    fn array_straddles<T>(x: &[T]) -> bool {
+        (x.as_ptr() as usize & 4095) + size_of_val(x) > 4096
+    }
+
+    /// [`hysteresis_step_four`], its states checked for straddles only if
+    /// an array can straddle.
+    #[inline(always)]
+    unsafe fn hysteresis_four(
+        state: &mut [f64],
+        saved: &mut [f64],
+        thresholds: &[f64],
+        weights: &[f64],
+        v: f64,
+    ) -> f64 {
+        // SAFETY (both): the caller's.
+        if array_straddles(state) || array_straddles(saved) {
+            unsafe { hysteresis_step_four::<true>(state, saved, thresholds, weights, v) }
+        } else {
+            unsafe { hysteresis_step_four::<false>(state, saved, thresholds, weights, v) }
+        }
+    }
+
+    /// [`creep_advance_four`], as [`hysteresis_four`] for its state.
+    #[inline(always)]
+    unsafe fn creep_four(
+        chi: &mut [f64],
+        thresholds: &[f64],
+        gains: &[f64],
+        weights: &[f64],
+        v: f64,
+    ) -> f64 {
+        // SAFETY (both): the caller's.
+        if array_straddles(chi) {
+            unsafe { creep_advance_four::<true>(chi, thresholds, gains, weights, v) }
+        } else {
+            unsafe { creep_advance_four::<false>(chi, thresholds, gains, weights, v) }
+        }
+    }
+
+    /// [`hysteresis_step_eight`], as [`hysteresis_four`].
+    #[inline(always)]
+    unsafe fn hysteresis_eight<E: Eight>(
+        state: &mut [E::T],
+        saved: &mut [E::T],
+        thresholds: &[E::T],
+        weights: &[E::T],
+        v: E::T,
+    ) -> E::T {
+        // SAFETY (both): the caller's.
+        if array_straddles(state) || array_straddles(saved) {
+            unsafe { hysteresis_step_eight::<E, true>(state, saved, thresholds, weights, v) }
+        } else {
+            unsafe { hysteresis_step_eight::<E, false>(state, saved, thresholds, weights, v) }
+        }
+    }
+
+    /// [`creep_advance_eight`], as [`creep_four`].
+    #[inline(always)]
+    unsafe fn creep_eight<E: Eight>(
+        chi: &mut [E::T],
+        thresholds: &[E::T],
+        gains: &[E::T],
+        weights: &[E::T],
+        v: E::T,
+    ) -> E::T {
+        // SAFETY (both): the caller's.
+        if array_straddles(chi) {
+            unsafe { creep_advance_eight::<E, true>(chi, thresholds, gains, weights, v) }
+        } else {
+            unsafe { creep_advance_eight::<E, false>(chi, thresholds, gains, weights, v) }
+        }
+    }
+
     /// `N` values at `p` read one by one (volatile, so that they are not
     /// merged into the one wide access this avoids) into an array.
     #[inline(always)]
@@ -467,10 +685,10 @@ mod x86 {
     /// page (see the module's note).
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn load4_unsplit(p: *const f64) -> __m256d {
+    unsafe fn load4_unsplit<const SPLIT: bool>(p: *const f64) -> __m256d {
         // SAFETY: the caller's `p..p + 4` is readable.
         unsafe {
-            if straddles_page(p, 32) {
+            if SPLIT && straddles_page(p, 32) {
                 _mm256_loadu_pd(read_each::<f64, 4>(p).as_ptr())
             } else {
                 _mm256_loadu_pd(p)
@@ -482,10 +700,10 @@ mod x86 {
     /// page.
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn store4_unsplit(p: *mut f64, x: __m256d) {
+    unsafe fn store4_unsplit<const SPLIT: bool>(p: *mut f64, x: __m256d) {
         // SAFETY: the caller's `p..p + 4` is writable.
         unsafe {
-            if straddles_page(p, 32) {
+            if SPLIT && straddles_page(p, 32) {
                 let mut a = [0.0f64; 4];
                 _mm256_storeu_pd(a.as_mut_ptr(), x);
                 write_each(p, &a);
@@ -525,10 +743,10 @@ mod x86 {
         /// [`Eight::load`], one value at a time where the eight straddle a
         /// page (see the module's note).
         #[inline(always)]
-        unsafe fn load_unsplit(p: *const Self::T) -> Self {
+        unsafe fn load_unsplit<const SPLIT: bool>(p: *const Self::T) -> Self {
             // SAFETY: the caller's `p..p + 8` is readable.
             unsafe {
-                if straddles_page(p, 8 * size_of::<Self::T>()) {
+                if SPLIT && straddles_page(p, 8 * size_of::<Self::T>()) {
                     Self::load(read_each::<Self::T, 8>(p).as_ptr())
                 } else {
                     Self::load(p)
@@ -538,10 +756,10 @@ mod x86 {
         /// [`Eight::store`], one value at a time where the eight straddle
         /// a page.
         #[inline(always)]
-        unsafe fn store_unsplit(self, p: *mut Self::T) {
+        unsafe fn store_unsplit<const SPLIT: bool>(self, p: *mut Self::T) {
             // SAFETY: the caller's `p..p + 8` is writable.
             unsafe {
-                if straddles_page(p, 8 * size_of::<Self::T>()) {
+                if SPLIT && straddles_page(p, 8 * size_of::<Self::T>()) {
                     let mut a = [Self::T::ZERO; 8];
                     self.store(a.as_mut_ptr());
                     write_each(p, &a);
@@ -553,10 +771,10 @@ mod x86 {
         /// [`Eight::half_load`], one value at a time where the four
         /// straddle a page.
         #[inline(always)]
-        unsafe fn half_load_unsplit(p: *const Self::T) -> Self::Half {
+        unsafe fn half_load_unsplit<const SPLIT: bool>(p: *const Self::T) -> Self::Half {
             // SAFETY: the caller's `p..p + 4` is readable.
             unsafe {
-                if straddles_page(p, 4 * size_of::<Self::T>()) {
+                if SPLIT && straddles_page(p, 4 * size_of::<Self::T>()) {
                     Self::half_load(read_each::<Self::T, 4>(p).as_ptr())
                 } else {
                     Self::half_load(p)
@@ -566,10 +784,10 @@ mod x86 {
         /// [`Eight::half_store`], one value at a time where the four
         /// straddle a page.
         #[inline(always)]
-        unsafe fn half_store_unsplit(h: Self::Half, p: *mut Self::T) {
+        unsafe fn half_store_unsplit<const SPLIT: bool>(h: Self::Half, p: *mut Self::T) {
             // SAFETY: the caller's `p..p + 4` is writable.
             unsafe {
-                if straddles_page(p, 4 * size_of::<Self::T>()) {
+                if SPLIT && straddles_page(p, 4 * size_of::<Self::T>()) {
                     let mut a = [Self::T::ZERO; 4];
                     Self::half_store(h, a.as_mut_ptr());
                     write_each(p, &a);
@@ -750,7 +968,7 @@ mod x86 {
     /// then of lanes 4–7 added into the four partial sums, as the portable
     /// blocks of four add them; then a 4-lane block and the rest one by one.
     #[inline(always)]
-    unsafe fn hysteresis_step_eight<E: Eight>(
+    unsafe fn hysteresis_step_eight<E: Eight, const SPLIT: bool>(
         state: &mut [E::T],
         saved: &mut [E::T],
         thresholds: &[E::T],
@@ -768,21 +986,21 @@ mod x86 {
             for i0 in (0..full8).step_by(8) {
                 let at = state.as_mut_ptr().add(i0);
                 let r = E::load(thresholds.as_ptr().add(i0));
-                let x = E::load_unsplit(at);
-                x.store_unsplit(saved.as_mut_ptr().add(i0));
+                let x = E::load_unsplit::<SPLIT>(at);
+                x.store_unsplit::<SPLIT>(saved.as_mut_ptr().add(i0));
                 let x = x.min(v8.add(r)).max(v8.sub(r));
-                x.store_unsplit(at);
+                x.store_unsplit::<SPLIT>(at);
                 let (lo, hi) = E::load(weights.as_ptr().add(i0)).mul(x).halves();
                 acc = E::half_add(E::half_add(acc, lo), hi);
             }
             if full4 > full8 {
                 let at = state.as_mut_ptr().add(full8);
                 let r = E::half_load(thresholds.as_ptr().add(full8));
-                let x = E::half_load_unsplit(at);
-                E::half_store_unsplit(x, saved.as_mut_ptr().add(full8));
+                let x = E::half_load_unsplit::<SPLIT>(at);
+                E::half_store_unsplit::<SPLIT>(x, saved.as_mut_ptr().add(full8));
                 let x = E::half_min(x, E::half_add(v4, r));
                 let x = E::half_max(x, E::half_sub(v4, r));
-                E::half_store_unsplit(x, at);
+                E::half_store_unsplit::<SPLIT>(x, at);
                 let w = E::half_load(weights.as_ptr().add(full8));
                 acc = E::half_add(acc, E::half_mul(w, x));
             }
@@ -797,7 +1015,7 @@ mod x86 {
     /// weighted rows added as two blocks of four; then a 4-lane block and
     /// the rest as the portable tail.
     #[inline(always)]
-    unsafe fn creep_advance_eight<E: Eight>(
+    unsafe fn creep_advance_eight<E: Eight, const SPLIT: bool>(
         chi: &mut [E::T],
         thresholds: &[E::T],
         gains: &[E::T],
@@ -820,10 +1038,10 @@ mod x86 {
                     ($j:expr, $g:expr) => {{
                         let (j, g) = ($j, $g);
                         let at = p.add(j * n + i0);
-                        let x = E::load_unsplit(at);
+                        let x = E::load_unsplit::<SPLIT>(at);
                         let c = x.min(upper).max(lower);
                         let x = x.add(E::splat(g).mul(c.sub(x)));
-                        x.store_unsplit(at);
+                        x.store_unsplit::<SPLIT>(at);
                         x
                     }};
                 }
@@ -841,10 +1059,10 @@ mod x86 {
                     ($j:expr, $g:expr) => {{
                         let (j, g) = ($j, $g);
                         let at = p.add(j * n + full8);
-                        let x = E::half_load_unsplit(at);
+                        let x = E::half_load_unsplit::<SPLIT>(at);
                         let c = E::half_max(E::half_min(x, upper), lower);
                         let x = E::half_add(x, E::half_mul(E::half_splat(g), E::half_sub(c, x)));
-                        E::half_store_unsplit(x, at);
+                        E::half_store_unsplit::<SPLIT>(x, at);
                         x
                     }};
                 }
@@ -862,34 +1080,6 @@ mod x86 {
         }
     }
 
-    /// [`hysteresis_step_eight`] for `f64` on AVX-512F.
-    #[target_feature(enable = "avx2,avx512f")]
-    #[inline(never)]
-    pub(super) unsafe fn hysteresis_step_f64_avx512(
-        state: &mut [f64],
-        saved: &mut [f64],
-        thresholds: &[f64],
-        weights: &[f64],
-        v: f64,
-    ) -> f64 {
-        // SAFETY: the features are enabled here.
-        unsafe { hysteresis_step_eight::<F64x8>(state, saved, thresholds, weights, v) }
-    }
-
-    /// [`hysteresis_step_eight`] for `f32` on AVX2.
-    #[target_feature(enable = "avx2")]
-    #[inline(never)]
-    pub(super) unsafe fn hysteresis_step_f32(
-        state: &mut [f32],
-        saved: &mut [f32],
-        thresholds: &[f32],
-        weights: &[f32],
-        v: f32,
-    ) -> f32 {
-        // SAFETY: the features are enabled here.
-        unsafe { hysteresis_step_eight::<F32x8>(state, saved, thresholds, weights, v) }
-    }
-
     /// [`creep_advance_eight`] for `f64` on AVX-512F.
     #[target_feature(enable = "avx2,avx512f")]
     #[inline(never)]
@@ -901,7 +1091,7 @@ mod x86 {
         v: f64,
     ) -> f64 {
         // SAFETY: the features are enabled here.
-        unsafe { creep_advance_eight::<F64x8>(chi, thresholds, gains, weights, v) }
+        unsafe { creep_eight::<F64x8>(chi, thresholds, gains, weights, v) }
     }
 
     /// [`creep_advance_eight`] for `f32` on AVX2.
@@ -915,6 +1105,111 @@ mod x86 {
         v: f32,
     ) -> f32 {
         // SAFETY: the features are enabled here.
-        unsafe { creep_advance_eight::<F32x8>(chi, thresholds, gains, weights, v) }
+        unsafe { creep_eight::<F32x8>(chi, thresholds, gains, weights, v) }
+    }
+
+    /// The step's kernels of the AVX2 set: `f64` on 4-lane registers,
+    /// `f32` on 8-lane ones.
+    struct Avx2Step;
+    /// The step's kernels of the AVX-512 set: `f64` on 8-lane registers,
+    /// `f32` on the AVX2 8-lane ones.
+    struct Avx512Step;
+
+    macro_rules! step_kernels {
+        ($set:ident, $hysteresis_f64:expr, $creep_f64:expr) => {
+            impl<T: Real> super::StepKernels<T> for $set {
+                #[inline(always)]
+                unsafe fn inverse_plays(
+                    state: &mut [T],
+                    saved: &mut [T],
+                    r: &[T],
+                    w: &[T],
+                    v: T,
+                ) -> T {
+                    use super::{cast, cast_mut, count_simd_call};
+                    count_simd_call();
+                    // SAFETY (both): the caller's features.
+                    if let (Some(x), Some(s), Some(r), Some(w)) =
+                        (cast_mut(state), cast_mut(saved), cast(r), cast(w))
+                    {
+                        return T::from_f64(unsafe { $hysteresis_f64(x, s, r, w, v.to_f64()) });
+                    }
+                    if let (Some(x), Some(s), Some(r), Some(w)) =
+                        (cast_mut(state), cast_mut(saved), cast(r), cast(w))
+                    {
+                        let y = unsafe { hysteresis_eight::<F32x8>(x, s, r, w, v.to_f64() as f32) };
+                        return T::from_f64(f64::from(y));
+                    }
+                    unreachable!("Real is f32 or f64")
+                }
+
+                #[inline(always)]
+                unsafe fn creep(chi: &mut [T], r: &[T], g: &[T], w: &[T], v: T) -> T {
+                    use super::{cast, cast_mut, count_simd_call};
+                    count_simd_call();
+                    // SAFETY (both): the caller's features.
+                    if let (Some(chi), Some(r), Some(g), Some(w)) =
+                        (cast_mut(chi), cast(r), cast(g), cast(w))
+                    {
+                        return T::from_f64(unsafe { $creep_f64(chi, r, g, w, v.to_f64()) });
+                    }
+                    if let (Some(chi), Some(r), Some(g), Some(w)) =
+                        (cast_mut(chi), cast(r), cast(g), cast(w))
+                    {
+                        let y = unsafe { creep_eight::<F32x8>(chi, r, g, w, v.to_f64() as f32) };
+                        return T::from_f64(f64::from(y));
+                    }
+                    unreachable!("Real is f32 or f64")
+                }
+            }
+        };
+    }
+    step_kernels!(Avx2Step, hysteresis_four, creep_four);
+    step_kernels!(Avx512Step, hysteresis_eight::<F64x8>, creep_eight::<F64x8>);
+
+    /// [`super::step_body`] on the AVX2 kernels, one function.
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    pub(super) unsafe fn step_avx2<T: Real, C: super::StepSource<T>>(
+        c: &mut C,
+        y: T,
+        lower: T,
+        upper: T,
+    ) -> (T, bool) {
+        // SAFETY: the features are enabled here.
+        unsafe { super::step_body::<T, Avx2Step, C>(c, y, lower, upper) }
+    }
+
+    /// [`super::step_body`] on the AVX-512 kernels, one function.
+    #[target_feature(enable = "avx2,avx512f")]
+    #[inline(never)]
+    pub(super) unsafe fn step_avx512<T: Real, C: super::StepSource<T>>(
+        c: &mut C,
+        y: T,
+        lower: T,
+        upper: T,
+    ) -> (T, bool) {
+        // SAFETY: the features are enabled here.
+        unsafe { super::step_body::<T, Avx512Step, C>(c, y, lower, upper) }
+    }
+}
+
+#[cfg(all(test, feature = "std", target_arch = "x86_64", target_os = "linux"))]
+mod tests {
+    /// The vendor and family read by CPUID are the ones Linux reports: the
+    /// rule of [`super::full_width_512`] (AMD family 25 splits 512-bit
+    /// operations) asks the CPU it runs on.
+    #[test]
+    fn full_width_512_reads_the_vendor_and_family_linux_reports() {
+        let info = std::fs::read_to_string("/proc/cpuinfo").unwrap();
+        let field = |name: &str| {
+            info.lines()
+                .find(|l| l.split(':').next().map(str::trim) == Some(name))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+                .unwrap()
+        };
+        let split = field("vendor_id") == "AuthenticAMD" && field("cpu family") == "25";
+        assert_eq!(super::full_width_512(), !split);
     }
 }
