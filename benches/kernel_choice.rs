@@ -1,9 +1,11 @@
 //! The kernel choice, checked on the CPU that runs it: one compensator step
 //! (nominal model, `f64` and `f32`) on every kernel set the CPU has, in
-//! interleaved rounds of 100 000 steps, and the set [`Kernels::detect`]
-//! dispatches to must not be slower than the portable one beyond the
-//! rounds' spread (exit code 1 if it is; `.ci/run` runs it). Prints the CPU
-//! (vendor, family, model, features) with the figures.
+//! interleaved rounds of 100 000 steps, and the set the step dispatches to
+//! ([`Kernels::detect`], then [`Kernels::for_single_step`]) must not be
+//! slower than the portable one beyond the rounds' spread, nor slower than
+//! the fastest set by more than that spread or 5 % (exit code 1 if it is;
+//! `.ci/run` runs it). Prints the CPU (vendor, family, model, features)
+//! with the figures.
 //!
 //! `cargo bench --bench kernel_choice`
 
@@ -51,11 +53,18 @@ fn main() {
     println!("CPU: {}", cpu_description());
     let input = common::test_input(4096);
     let targets = mfcbeam::operators::nominal::nominal_model().run(&input);
-    let chosen = Kernels::detect();
     let mut ok = true;
-    for (name, runs) in [
-        ("f64", rounds::<f64>(&targets)),
-        ("f32", rounds::<f32>(&targets)),
+    for (name, runs, chosen) in [
+        (
+            "f64",
+            rounds::<f64>(&targets),
+            Kernels::detect().for_single_step::<f64>(),
+        ),
+        (
+            "f32",
+            rounds::<f32>(&targets),
+            Kernels::detect().for_single_step::<f32>(),
+        ),
     ] {
         let portable = &runs[0].1;
         for (k, times) in &runs {
@@ -80,6 +89,23 @@ fn main() {
             if fine { "not slower" } else { "SLOWER" }
         );
         ok &= fine;
+        // and the fastest set, beyond the spread (at least 5 %)
+        let (fastest, best) = runs
+            .iter()
+            .map(|(k, t)| (*k, quantile(t, 0.5)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap();
+        let slack = noise.max(0.05);
+        let to_best = quantile(dispatched, 0.5) / best;
+        let near = to_best <= 1.0 + slack;
+        println!(
+            "{name}: {:.2}x the fastest set ({}; allowed {:.1} %): {}",
+            to_best,
+            fastest.name(),
+            100.0 * slack,
+            if near { "fine" } else { "SLOWER" }
+        );
+        ok &= near;
     }
     if !ok {
         std::process::exit(1);
