@@ -554,9 +554,8 @@ mod x86 {
                 let lower = _mm256_sub_pd(vv, r);
                 let upper = _mm256_add_pd(vv, r);
                 macro_rules! update {
-                    ($j:expr, $g:expr) => {{
-                        let (j, g) = ($j, $g);
-                        let at = p.add(j * n + i0);
+                    ($at:expr, $g:expr) => {{
+                        let (at, g) = ($at, $g);
                         let x = load4_unsplit::<SPLIT>(at);
                         let c = _mm256_max_pd(_mm256_min_pd(x, upper), lower);
                         let x =
@@ -565,10 +564,13 @@ mod x86 {
                         x
                     }};
                 }
-                // from the first row, not from zero (see `creep_pass::advance`)
-                let mut rows = update!(0, gains[0]);
-                for (j, &g) in gains.iter().enumerate().skip(1) {
-                    rows = _mm256_add_pd(rows, update!(j, g));
+                // from the first row, not from zero (see `creep_pass::advance`);
+                // row `j` of the block lies `n` values after row `j − 1`
+                let mut at = p.add(i0);
+                let mut rows = update!(at, gains[0]);
+                for &g in &gains[1..] {
+                    at = at.add(n);
+                    rows = _mm256_add_pd(rows, update!(at, g));
                 }
                 let w = _mm256_loadu_pd(weights.as_ptr().add(i0));
                 acc = _mm256_add_pd(acc, _mm256_mul_pd(w, rows));
@@ -1035,9 +1037,8 @@ mod x86 {
                 let r = E::load(thresholds.as_ptr().add(i0));
                 let (lower, upper) = (v8.sub(r), v8.add(r));
                 macro_rules! update {
-                    ($j:expr, $g:expr) => {{
-                        let (j, g) = ($j, $g);
-                        let at = p.add(j * n + i0);
+                    ($at:expr, $g:expr) => {{
+                        let (at, g) = ($at, $g);
                         let x = E::load_unsplit::<SPLIT>(at);
                         let c = x.min(upper).max(lower);
                         let x = x.add(E::splat(g).mul(c.sub(x)));
@@ -1045,9 +1046,11 @@ mod x86 {
                         x
                     }};
                 }
-                let mut rows = update!(0, gains[0]);
-                for (j, &g) in gains.iter().enumerate().skip(1) {
-                    rows = rows.add(update!(j, g));
+                let mut at = p.add(i0);
+                let mut rows = update!(at, gains[0]);
+                for &g in &gains[1..] {
+                    at = at.add(n);
+                    rows = rows.add(update!(at, g));
                 }
                 let (lo, hi) = E::load(weights.as_ptr().add(i0)).mul(rows).halves();
                 acc = E::half_add(E::half_add(acc, lo), hi);
@@ -1056,9 +1059,8 @@ mod x86 {
                 let r = E::half_load(thresholds.as_ptr().add(full8));
                 let (lower, upper) = (E::half_sub(v4, r), E::half_add(v4, r));
                 macro_rules! update {
-                    ($j:expr, $g:expr) => {{
-                        let (j, g) = ($j, $g);
-                        let at = p.add(j * n + full8);
+                    ($at:expr, $g:expr) => {{
+                        let (at, g) = ($at, $g);
                         let x = E::half_load_unsplit::<SPLIT>(at);
                         let c = E::half_max(E::half_min(x, upper), lower);
                         let x = E::half_add(x, E::half_mul(E::half_splat(g), E::half_sub(c, x)));
@@ -1066,9 +1068,11 @@ mod x86 {
                         x
                     }};
                 }
-                let mut rows = update!(0, gains[0]);
-                for (j, &g) in gains.iter().enumerate().skip(1) {
-                    rows = E::half_add(rows, update!(j, g));
+                let mut at = p.add(full8);
+                let mut rows = update!(at, gains[0]);
+                for &g in &gains[1..] {
+                    at = at.add(n);
+                    rows = E::half_add(rows, update!(at, g));
                 }
                 let w = E::half_load(weights.as_ptr().add(full8));
                 acc = E::half_add(acc, E::half_mul(w, rows));
