@@ -185,9 +185,12 @@ fn main() {
         })
         .collect();
     println!("CPU: {}", mfcbeam::realtime::simd::cpu_description());
+    let k = mfcbeam::realtime::simd::Kernels::detect();
     println!(
-        "kernels: {:?}; {ROUNDS} rounds of {STEPS} steps each, interleaved",
-        mfcbeam::realtime::simd::Kernels::detect()
+        "kernels: {} (the f64 step on {}, the f32 step on {}); {ROUNDS} rounds of {STEPS} steps each, interleaved",
+        k.name(),
+        k.for_single_step::<f64>().name(),
+        k.for_single_step::<f32>().name()
     );
     println!(
         "{:<46} {:>9} {:>15} {:>12} {:>15}",
