@@ -6,7 +6,7 @@
 //! bank step) with [`Kernels::detect`]: with `std` on x86-64 the step is then
 //! compiled again with AVX2, or AVX-512F, enabled (`Kernels::run`). One
 //! compensator step's vector work — `H⁻¹`, the clip and the creep pass — is
-//! one such function ([`compensator_step`]), its borrows of the
+//! one such function (`compensator_step`), its borrows of the
 //! compensator's arrays in registers. Its `f64` blocks run on explicit
 //! 256-bit registers (8-lane 512-bit ones with AVX-512F where the CPU runs
 //! them at full width: [`Kernels::for_single_step`]), its `f32` ones on
