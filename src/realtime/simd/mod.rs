@@ -292,7 +292,7 @@ fn cast_mut<T: Real, U: Real>(x: &mut [T]) -> Option<&mut [U]> {
 }
 
 /// One step of the creep pass ([`crate::realtime::creep_pass::advance`]) on `k`'s
-/// kernels.
+/// kernels (those of a compensator step: [`StepKernels::creep`]).
 #[inline(always)]
 pub(crate) fn creep_advance<T: Real>(
     k: Kernels,
@@ -306,30 +306,15 @@ pub(crate) fn creep_advance<T: Real>(
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
     if k.avx2().is_some() {
         let held = if v.is_finite() { v } else { *last_input };
-        if let (Some(chi), Some(r), Some(g), Some(w)) =
-            (cast_mut(chi), cast(thresholds), cast(gains), cast(weights))
-        {
-            *last_input = held;
-            count_simd_call();
-            // SAFETY: `k` proves AVX2, and AVX-512F where it is `Avx512`.
-            let y = unsafe {
-                if k.is_avx512() {
-                    x86::creep_advance_f64_avx512(chi, r, g, w, held.to_f64())
-                } else {
-                    x86::creep_advance(chi, r, g, w, held.to_f64())
-                }
-            };
-            return T::from_f64(y);
-        }
-        if let (Some(chi), Some(r), Some(g), Some(w)) =
-            (cast_mut(chi), cast(thresholds), cast(gains), cast(weights))
-        {
-            *last_input = held;
-            count_simd_call();
-            // SAFETY: `k` proves AVX2.
-            let y = unsafe { x86::creep_advance_f32(chi, r, g, w, held.to_f64() as f32) };
-            return T::from_f64(f64::from(y));
-        }
+        *last_input = held;
+        // SAFETY: `k` proves AVX2, and AVX-512F where it is `Avx512`.
+        return unsafe {
+            if k.is_avx512() {
+                x86::creep_avx512(chi, thresholds, gains, weights, held)
+            } else {
+                x86::creep_avx2(chi, thresholds, gains, weights, held)
+            }
+        };
     }
     let _ = k;
     crate::realtime::creep_pass::advance(chi, thresholds, gains, weights, v, last_input)
@@ -516,21 +501,8 @@ mod x86 {
         reduce(lanes)
     }
 
-    /// The blocks of `creep_pass::advance` for `f64`; `v` is finite.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    pub(super) unsafe fn creep_advance(
-        chi: &mut [f64],
-        thresholds: &[f64],
-        gains: &[f64],
-        weights: &[f64],
-        v: f64,
-    ) -> f64 {
-        // SAFETY: the features are enabled here.
-        unsafe { creep_four(chi, thresholds, gains, weights, v) }
-    }
-
-    /// [`creep_advance`]'s body, for callers compiled with AVX2.
+    /// The blocks of `creep_pass::advance` for `f64` on 4-lane registers
+    /// (callers compiled with AVX2); `v` is finite.
     #[inline(always)]
     unsafe fn creep_advance_four<const SPLIT: bool>(
         chi: &mut [f64],
@@ -1084,34 +1056,6 @@ mod x86 {
         }
     }
 
-    /// [`creep_advance_eight`] for `f64` on AVX-512F.
-    #[target_feature(enable = "avx2,avx512f")]
-    #[inline(never)]
-    pub(super) unsafe fn creep_advance_f64_avx512(
-        chi: &mut [f64],
-        thresholds: &[f64],
-        gains: &[f64],
-        weights: &[f64],
-        v: f64,
-    ) -> f64 {
-        // SAFETY: the features are enabled here.
-        unsafe { creep_eight::<F64x8>(chi, thresholds, gains, weights, v) }
-    }
-
-    /// [`creep_advance_eight`] for `f32` on AVX2.
-    #[target_feature(enable = "avx2")]
-    #[inline(never)]
-    pub(super) unsafe fn creep_advance_f32(
-        chi: &mut [f32],
-        thresholds: &[f32],
-        gains: &[f32],
-        weights: &[f32],
-        v: f32,
-    ) -> f32 {
-        // SAFETY: the features are enabled here.
-        unsafe { creep_eight::<F32x8>(chi, thresholds, gains, weights, v) }
-    }
-
     /// The step's kernels of the AVX2 set: `f64` on 4-lane registers,
     /// `f32` on 8-lane ones.
     struct Avx2Step;
@@ -1170,6 +1114,29 @@ mod x86 {
     }
     step_kernels!(Avx2Step, hysteresis_four, creep_four);
     step_kernels!(Avx512Step, hysteresis_eight::<F64x8>, creep_eight::<F64x8>);
+
+    /// The creep pass alone on the AVX2 kernels (the forward model's, a
+    /// held compensator sample's).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) unsafe fn creep_avx2<T: Real>(chi: &mut [T], r: &[T], g: &[T], w: &[T], v: T) -> T {
+        // SAFETY: the features are enabled here.
+        unsafe { <Avx2Step as super::StepKernels<T>>::creep(chi, r, g, w, v) }
+    }
+
+    /// The creep pass alone on the AVX-512 kernels.
+    #[target_feature(enable = "avx2,avx512f")]
+    #[inline]
+    pub(super) unsafe fn creep_avx512<T: Real>(
+        chi: &mut [T],
+        r: &[T],
+        g: &[T],
+        w: &[T],
+        v: T,
+    ) -> T {
+        // SAFETY: the features are enabled here.
+        unsafe { <Avx512Step as super::StepKernels<T>>::creep(chi, r, g, w, v) }
+    }
 
     /// [`super::step_body`] on the AVX2 kernels, one function.
     #[target_feature(enable = "avx2")]
