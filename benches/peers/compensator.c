@@ -98,8 +98,8 @@ static double creep_advance(double chi[M][NC], const double *rc, const double *w
 #if defined(SAME_ORDER)
 /* mfcbeam's step in C (-DSAME_ORDER): its operations in its order, with
  * intrinsics — the 8-lane block and the 4-lane block of its AVX-512 kernels
- * (three 4-lane blocks on AVX2, the same sums lane by lane), no FMA, the
- * plays saved before each step for a re-seat, a non-finite target held —
+ * (three 4-lane blocks on AVX2, the same sums lane by lane), FMA only in
+ * the creep update as mfcbeam fuses it (g c + (x - g x)), the plays saved before each step for a re-seat, a non-finite target held —
  * so its voltages have mfcbeam's bits (run.sh checks that they are equal,
  * not close). Against the strongest peer it shows what the order of the
  * arithmetic costs; against mfcbeam, what the Rust around it costs.
@@ -147,9 +147,9 @@ static inline __m256d creep4(same *c, int i0, __m256d u, __m256d acc) {
     __m256d lo = _mm256_sub_pd(u, r), hi = _mm256_add_pd(u, r);
     __m256d rows = _mm256_setzero_pd(); /* replaced by the first row */
     for (int j = 0; j < M; j++) {
-        __m256d x = _mm256_loadu_pd(c->chi[j] + i0);
-        __m256d d = _mm256_sub_pd(_mm256_max_pd(_mm256_min_pd(x, hi), lo), x);
-        x = _mm256_add_pd(x, _mm256_mul_pd(_mm256_set1_pd(c->g[j]), d));
+        __m256d x = _mm256_loadu_pd(c->chi[j] + i0), g = _mm256_set1_pd(c->g[j]);
+        __m256d cl = _mm256_max_pd(_mm256_min_pd(x, hi), lo);
+        x = _mm256_fmadd_pd(g, cl, _mm256_fnmadd_pd(g, x, x)); /* g c + (x - g x) */
         _mm256_storeu_pd(c->chi[j] + i0, x);
         rows = j == 0 ? x : _mm256_add_pd(rows, x);
     }
@@ -203,9 +203,9 @@ static double compensate_same(same *c, double target, int *saturated) {
         __m512d lo = _mm512_sub_pd(u8, r), hi = _mm512_add_pd(u8, r);
         __m512d rows = _mm512_setzero_pd(); /* replaced by the first row */
         for (int j = 0; j < M; j++) {
-            __m512d x = _mm512_loadu_pd(c->chi[j]);
-            __m512d d = _mm512_sub_pd(_mm512_max_pd(_mm512_min_pd(x, hi), lo), x);
-            x = _mm512_add_pd(x, _mm512_mul_pd(_mm512_set1_pd(c->g[j]), d));
+            __m512d x = _mm512_loadu_pd(c->chi[j]), g = _mm512_set1_pd(c->g[j]);
+            __m512d cl = _mm512_max_pd(_mm512_min_pd(x, hi), lo);
+            x = _mm512_fmadd_pd(g, cl, _mm512_fnmadd_pd(g, x, x));
             _mm512_storeu_pd(c->chi[j], x);
             rows = j == 0 ? x : _mm512_add_pd(rows, x);
         }

@@ -51,6 +51,13 @@ pub trait Real:
     fn next_up(self) -> Self;
     /// The greatest `Self` less than `self`.
     fn next_down(self) -> Self;
+    /// `self · a + b` rounded once, on every CPU: an FMA instruction where
+    /// the code is compiled for one, else the C library's `fma`. Only with
+    /// `std`: stable Rust reaches no fused operation without it (the
+    /// Cortex-M4's `vfma.f32` included). The creep update (20) is written
+    /// with it; see `creep_pass::update`.
+    #[cfg(feature = "std")]
+    fn fused_mul_add(self, a: Self, b: Self) -> Self;
 
     /// `x` rounded to a `Self` not below it (a lower limit stays a bound).
     fn from_f64_up(x: f64) -> Self {
@@ -104,6 +111,12 @@ macro_rules! real {
 
             fn next_down(self) -> Self {
                 $t::next_down(self)
+            }
+
+            #[cfg(feature = "std")]
+            #[inline(always)]
+            fn fused_mul_add(self, a: Self, b: Self) -> Self {
+                $t::mul_add(self, a, b)
             }
         }
     };

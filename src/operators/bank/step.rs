@@ -228,10 +228,10 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
 /// sum `i mod 4`. The rows are summed from zero here and from the first row
 /// there, with the same output bits (see `creep_pass::advance`); from the
 /// first row the bank was 5 % slower in `f32`, for one addition fewer.
-/// The rows' additions and each update's last one go through
-/// `add_on_multiplier` (the same bits; on AVX-512 fused on the multiplier's
-/// pipes, so that `min`, `max` and the subtraction have the adder's to
-/// themselves: 4–8 % more channel-steps on a Zen 5).
+/// The rows' additions go through `add_on_multiplier` (the same bits; on
+/// AVX-512 fused on the multiplier's pipes, so that `min` and `max` have
+/// the adder's to themselves), and each update is two fused operations on
+/// the multiplier's pipes ([`creep_update`]).
 /// Four thresholds go together, eigenvalue by eigenvalue, so that four
 /// independent update chains stand next to each other in the
 /// instruction stream (one threshold's chain — five updates and their sum —
@@ -269,10 +269,10 @@ fn creep_pass<T: Real, V: Block<T>>(o: Ops<T, V>, f: &Fixed<'_, T>, s: &mut [Row
             for (j, g) in gains.iter().enumerate() {
                 let g = o.load(g);
                 let x = [
-                    creep_update(o, &mut x0[j], g, lower[0], upper[0], one),
-                    creep_update(o, &mut x1[j], g, lower[1], upper[1], one),
-                    creep_update(o, &mut x2[j], g, lower[2], upper[2], one),
-                    creep_update(o, &mut x3[j], g, lower[3], upper[3], one),
+                    creep_update(o, &mut x0[j], g, lower[0], upper[0]),
+                    creep_update(o, &mut x1[j], g, lower[1], upper[1]),
+                    creep_update(o, &mut x2[j], g, lower[2], upper[2]),
+                    creep_update(o, &mut x3[j], g, lower[3], upper[3]),
                 ];
                 for q in 0..4 {
                     rows[q] = o.add_on_multiplier(rows[q], x[q], one);
@@ -288,7 +288,7 @@ fn creep_pass<T: Real, V: Block<T>>(o: Ops<T, V>, f: &Fixed<'_, T>, s: &mut [Row
         let (lower, upper) = (o.sub(uc, r), o.add(uc, r));
         let mut rows = zero;
         for (x, g) in chi[i * m..][..m].iter_mut().zip(gains) {
-            rows = o.add_on_multiplier(rows, creep_update(o, x, o.load(g), lower, upper, one), one);
+            rows = o.add_on_multiplier(rows, creep_update(o, x, o.load(g), lower, upper), one);
         }
         sums[i - full] = o.add(sums[i - full], o.mul(o.load(&weights[i]), rows));
     }
@@ -317,21 +317,15 @@ fn inverse_play<T: Real, V: Block<T>>(
 }
 
 /// One creep operator's update (20) on a block, `χ ← χ + g (clamp(χ, u −
-/// r, u + r) − χ)`, returning the new `χ`. A function marked
+/// r, u + r) − χ)` as `creep_pass::update` computes it (`g c + (χ − g χ)`,
+/// fused), returning the new `χ`. A function marked
 /// `inline(always)`, not a closure: a closure body left out of line is
 /// compiled without the step's instruction set, and every vector operation
 /// in it becomes a call.
 #[inline(always)]
-fn creep_update<T: Real, V: Block<T>>(
-    o: Ops<T, V>,
-    x: &mut Row,
-    g: V,
-    lower: V,
-    upper: V,
-    one: V,
-) -> V {
+fn creep_update<T: Real, V: Block<T>>(o: Ops<T, V>, x: &mut Row, g: V, lower: V, upper: V) -> V {
     let v = o.load(x);
-    let v = o.add_on_multiplier(v, o.mul(g, o.sub(o.clamp(v, lower, upper), v)), one);
+    let v = o.mul_add(g, o.clamp(v, lower, upper), o.neg_mul_add(g, v, v));
     o.store(v, x);
     v
 }

@@ -64,6 +64,10 @@ pub(crate) trait Block<T: Real>: Copy {
     unsafe fn min(self, b: Self) -> Self;
     /// `a > b ? a : b` per lane.
     unsafe fn max(self, b: Self) -> Self;
+    /// `self · a + b` per lane, rounded as [`Real::fused_mul_add`] rounds.
+    unsafe fn mul_add(self, a: Self, b: Self) -> Self;
+    /// `b − self · a` per lane, rounded as `(−self).fused_mul_add(a, b)`.
+    unsafe fn neg_mul_add(self, a: Self, b: Self) -> Self;
     /// `a < b` per lane (false on NaN).
     unsafe fn lt(self, b: Self) -> Self::Mask;
     /// `a > b` per lane (false on NaN).
@@ -131,6 +135,15 @@ impl<T: Real> Portable<T> {
     }
 
     #[inline(always)]
+    fn map3(self, a: Self, b: Self, f: impl Fn(T, T, T) -> T) -> Self {
+        let mut out = self.0;
+        for l in 0..lanes::<T>() {
+            out[l] = f(self.0[l], a.0[l], b.0[l]);
+        }
+        Portable(out)
+    }
+
+    #[inline(always)]
     fn test2(self, b: Self, f: impl Fn(T, T) -> bool) -> [bool; 16] {
         let mut out = [false; 16];
         for l in 0..lanes::<T>() {
@@ -190,6 +203,16 @@ impl<T: Real> Block<T> for Portable<T> {
     #[inline(always)]
     unsafe fn max(self, b: Self) -> Self {
         self.map2(b, |x, y| if x > y { x } else { y })
+    }
+
+    #[inline(always)]
+    unsafe fn mul_add(self, a: Self, b: Self) -> Self {
+        self.map3(a, b, |x, a, b| x.fused_mul_add(a, b))
+    }
+
+    #[inline(always)]
+    unsafe fn neg_mul_add(self, a: Self, b: Self) -> Self {
+        self.map3(a, b, |x, a, b| (-x).fused_mul_add(a, b))
     }
 
     #[inline(always)]
@@ -253,7 +276,7 @@ mod x86 {
 
     macro_rules! avx2_op {
         ($name:ident, $pd:ident, $ps:ident) => {
-            #[target_feature(enable = "avx2")]
+            #[target_feature(enable = "avx2,fma")]
             #[inline]
             unsafe fn $name(self, b: Self) -> Self {
                 if is_f64::<T>() {
@@ -265,9 +288,35 @@ mod x86 {
         };
     }
 
+    macro_rules! avx2_op3 {
+        ($name:ident, $pd:ident, $ps:ident) => {
+            #[target_feature(enable = "avx2,fma")]
+            #[inline]
+            unsafe fn $name(self, a: Self, b: Self) -> Self {
+                if is_f64::<T>() {
+                    Avx2(
+                        [
+                            $pd(self.0[0], a.0[0], b.0[0]),
+                            $pd(self.0[1], a.0[1], b.0[1]),
+                        ],
+                        self.1,
+                    )
+                } else {
+                    Avx2(
+                        self.0,
+                        [
+                            $ps(self.1[0], a.1[0], b.1[0]),
+                            $ps(self.1[1], a.1[1], b.1[1]),
+                        ],
+                    )
+                }
+            }
+        };
+    }
+
     macro_rules! avx2_cmp {
         ($name:ident, $imm:ident) => {
-            #[target_feature(enable = "avx2")]
+            #[target_feature(enable = "avx2,fma")]
             #[inline]
             unsafe fn $name(self, b: Self) -> Self {
                 if is_f64::<T>() {
@@ -295,7 +344,7 @@ mod x86 {
         /// All ones in a lane for true.
         type Mask = Avx2;
 
-        #[target_feature(enable = "avx2")]
+        #[target_feature(enable = "avx2,fma")]
         #[inline]
         unsafe fn load(row: &Row) -> Self {
             let p = row.0.as_ptr();
@@ -317,7 +366,7 @@ mod x86 {
             }
         }
 
-        #[target_feature(enable = "avx2")]
+        #[target_feature(enable = "avx2,fma")]
         #[inline]
         unsafe fn load_values(values: &[T]) -> Self {
             assert!(values.len() >= super::lanes::<T>());
@@ -340,7 +389,7 @@ mod x86 {
             }
         }
 
-        #[target_feature(enable = "avx2")]
+        #[target_feature(enable = "avx2,fma")]
         #[inline]
         unsafe fn store(self, row: &mut Row) {
             let p = row.0.as_mut_ptr();
@@ -358,7 +407,7 @@ mod x86 {
             }
         }
 
-        #[target_feature(enable = "avx2")]
+        #[target_feature(enable = "avx2,fma")]
         #[inline]
         unsafe fn splat(x: T) -> Self {
             Avx2(
@@ -372,10 +421,12 @@ mod x86 {
         avx2_op!(mul, _mm256_mul_pd, _mm256_mul_ps);
         avx2_op!(min, _mm256_min_pd, _mm256_min_ps);
         avx2_op!(max, _mm256_max_pd, _mm256_max_ps);
+        avx2_op3!(mul_add, _mm256_fmadd_pd, _mm256_fmadd_ps);
+        avx2_op3!(neg_mul_add, _mm256_fnmadd_pd, _mm256_fnmadd_ps);
         avx2_cmp!(lt, _CMP_LT_OQ);
         avx2_cmp!(gt, _CMP_GT_OQ);
 
-        #[target_feature(enable = "avx2")]
+        #[target_feature(enable = "avx2,fma")]
         #[inline]
         unsafe fn non_finite(self) -> Self {
             // x − x is 0 for a finite x and NaN otherwise
@@ -403,7 +454,7 @@ mod x86 {
             }
         }
 
-        #[target_feature(enable = "avx2")]
+        #[target_feature(enable = "avx2,fma")]
         #[inline]
         unsafe fn select(m: Self, a: Self, b: Self) -> Self {
             if is_f64::<T>() {
@@ -425,7 +476,7 @@ mod x86 {
             }
         }
 
-        #[target_feature(enable = "avx2")]
+        #[target_feature(enable = "avx2,fma")]
         #[inline]
         unsafe fn or(a: Self, b: Self) -> Self {
             Avx2(
@@ -434,7 +485,7 @@ mod x86 {
             )
         }
 
-        #[target_feature(enable = "avx2")]
+        #[target_feature(enable = "avx2,fma")]
         #[inline]
         unsafe fn and_not(a: Self, b: Self) -> Self {
             // andnot(x, y) is !x & y
@@ -450,7 +501,7 @@ mod x86 {
             )
         }
 
-        #[target_feature(enable = "avx2")]
+        #[target_feature(enable = "avx2,fma")]
         #[inline]
         unsafe fn bits(m: Self) -> u32 {
             if is_f64::<T>() {
@@ -464,7 +515,7 @@ mod x86 {
         /// masked to 1, `b`'s to 256) interleaved by unpacks within the
         /// 128-bit halves and two half swaps, four 32-byte stores per
         /// register.
-        #[target_feature(enable = "avx2")]
+        #[target_feature(enable = "avx2,fma")]
         #[inline]
         unsafe fn store_flagged(self, a: Self, b: Self, out: *mut T) -> bool {
             // SAFETY: the caller's: 128 writable bytes at `out`.
@@ -511,7 +562,7 @@ mod x86 {
 
     macro_rules! avx512_op {
         ($name:ident, $pd:ident, $ps:ident) => {
-            #[target_feature(enable = "avx512f")]
+            #[target_feature(enable = "avx2,fma,avx512f")]
             #[inline]
             unsafe fn $name(self, b: Self) -> Self {
                 if is_f64::<T>() {
@@ -523,9 +574,23 @@ mod x86 {
         };
     }
 
+    macro_rules! avx512_op3 {
+        ($name:ident, $pd:ident, $ps:ident) => {
+            #[target_feature(enable = "avx2,fma,avx512f")]
+            #[inline]
+            unsafe fn $name(self, a: Self, b: Self) -> Self {
+                if is_f64::<T>() {
+                    Avx512($pd(self.0, a.0, b.0), self.1)
+                } else {
+                    Avx512(self.0, $ps(self.1, a.1, b.1))
+                }
+            }
+        };
+    }
+
     macro_rules! avx512_cmp {
         ($name:ident, $imm:ident) => {
-            #[target_feature(enable = "avx512f")]
+            #[target_feature(enable = "avx2,fma,avx512f")]
             #[inline]
             unsafe fn $name(self, b: Self) -> u16 {
                 if is_f64::<T>() {
@@ -541,7 +606,7 @@ mod x86 {
         /// Bit `l` for lane `l`.
         type Mask = u16;
 
-        #[target_feature(enable = "avx512f")]
+        #[target_feature(enable = "avx2,fma,avx512f")]
         #[inline]
         unsafe fn load(row: &Row) -> Self {
             let p = row.0.as_ptr();
@@ -555,7 +620,7 @@ mod x86 {
             }
         }
 
-        #[target_feature(enable = "avx512f")]
+        #[target_feature(enable = "avx2,fma,avx512f")]
         #[inline]
         unsafe fn load_values(values: &[T]) -> Self {
             assert!(values.len() >= super::lanes::<T>());
@@ -570,7 +635,7 @@ mod x86 {
             }
         }
 
-        #[target_feature(enable = "avx512f")]
+        #[target_feature(enable = "avx2,fma,avx512f")]
         #[inline]
         unsafe fn store(self, row: &mut Row) {
             let p = row.0.as_mut_ptr();
@@ -584,7 +649,7 @@ mod x86 {
             }
         }
 
-        #[target_feature(enable = "avx512f")]
+        #[target_feature(enable = "avx2,fma,avx512f")]
         #[inline]
         unsafe fn splat(x: T) -> Self {
             Avx512(
@@ -595,7 +660,7 @@ mod x86 {
 
         avx512_op!(add, _mm512_add_pd, _mm512_add_ps);
 
-        #[target_feature(enable = "avx512f")]
+        #[target_feature(enable = "avx2,fma,avx512f")]
         #[inline]
         unsafe fn add_on_multiplier(self, b: Self, one: Self) -> Self {
             if is_f64::<T>() {
@@ -609,10 +674,12 @@ mod x86 {
         avx512_op!(mul, _mm512_mul_pd, _mm512_mul_ps);
         avx512_op!(min, _mm512_min_pd, _mm512_min_ps);
         avx512_op!(max, _mm512_max_pd, _mm512_max_ps);
+        avx512_op3!(mul_add, _mm512_fmadd_pd, _mm512_fmadd_ps);
+        avx512_op3!(neg_mul_add, _mm512_fnmadd_pd, _mm512_fnmadd_ps);
         avx512_cmp!(lt, _CMP_LT_OQ);
         avx512_cmp!(gt, _CMP_GT_OQ);
 
-        #[target_feature(enable = "avx512f")]
+        #[target_feature(enable = "avx2,fma,avx512f")]
         #[inline]
         unsafe fn non_finite(self) -> u16 {
             // x − x is 0 for a finite x and NaN otherwise
@@ -625,7 +692,7 @@ mod x86 {
             }
         }
 
-        #[target_feature(enable = "avx512f")]
+        #[target_feature(enable = "avx2,fma,avx512f")]
         #[inline]
         unsafe fn select(m: u16, a: Self, b: Self) -> Self {
             // mask_blend takes the second vector where the mask is set
@@ -655,7 +722,7 @@ mod x86 {
         /// in its second) interleaved by two two-source permutes, two
         /// 64-byte stores (lane by lane it was 6 % of the bank's `f64`
         /// time and 11 % of its `f32` time).
-        #[target_feature(enable = "avx512f")]
+        #[target_feature(enable = "avx2,fma,avx512f")]
         #[inline]
         unsafe fn store_flagged(self, a: u16, b: u16, out: *mut T) -> bool {
             // SAFETY: the caller's: 128 writable bytes at `out`.
@@ -735,6 +802,8 @@ impl<T: Real, V: Block<T>> Ops<T, V> {
         and_not(a: V::Mask, b: V::Mask) -> V::Mask;
         bits(m: V::Mask) -> u32;
         clamp(x: V, lower: V, upper: V) -> V;
+        mul_add(x: V, a: V, b: V) -> V;
+        neg_mul_add(x: V, a: V, b: V) -> V;
         add_on_multiplier(a: V, b: V, one: V) -> V;
     }
 
@@ -775,7 +844,7 @@ pub(crate) fn run_blocks<T: Real, W: BlockWork<T>>(k: super::Kernels, work: W) -
         super::Kernels::Portable => work.run(Ops::<T, Portable<T>>(core::marker::PhantomData)),
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         super::Kernels::Avx2(_) => {
-            #[target_feature(enable = "avx2")]
+            #[target_feature(enable = "avx2,fma")]
             unsafe fn avx2<T: Real, W: BlockWork<T>>(work: W) -> W::Output {
                 super::count_simd_call();
                 work.run(Ops::<T, Avx2>(core::marker::PhantomData))
@@ -785,7 +854,7 @@ pub(crate) fn run_blocks<T: Real, W: BlockWork<T>>(k: super::Kernels, work: W) -
         }
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         super::Kernels::Avx512(_) => {
-            #[target_feature(enable = "avx2,avx512f")]
+            #[target_feature(enable = "avx2,fma,avx512f")]
             unsafe fn avx512<T: Real, W: BlockWork<T>>(work: W) -> W::Output {
                 super::count_simd_call();
                 work.run(Ops::<T, Avx512>(core::marker::PhantomData))

@@ -87,7 +87,10 @@ impl Kernels {
     pub fn all() -> impl Iterator<Item = Kernels> {
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         let (avx2, avx512) = {
-            let avx2 = std::is_x86_feature_detected!("avx2");
+            // the creep update is fused (`Real::fused_mul_add`): no AVX2
+            // set without FMA (every AVX2 CPU so far has both)
+            let avx2 =
+                std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma");
             (
                 avx2.then_some(Kernels::Avx2(Avx2(()))),
                 (avx2 && std::is_x86_feature_detected!("avx512f"))
@@ -131,7 +134,7 @@ impl Kernels {
         match self {
             #[cfg(all(feature = "std", target_arch = "x86_64"))]
             Kernels::Avx2(_) => {
-                #[target_feature(enable = "avx2")]
+                #[target_feature(enable = "avx2,fma")]
                 unsafe fn with_avx2<R>(k: Kernels, f: impl FnOnce(Kernels) -> R) -> R {
                     f(k)
                 }
@@ -140,7 +143,7 @@ impl Kernels {
             }
             #[cfg(all(feature = "std", target_arch = "x86_64"))]
             Kernels::Avx512(_) => {
-                #[target_feature(enable = "avx2,avx512f")]
+                #[target_feature(enable = "avx2,fma,avx512f")]
                 unsafe fn with_avx512<R>(k: Kernels, f: impl FnOnce(Kernels) -> R) -> R {
                     f(k)
                 }
@@ -530,8 +533,9 @@ mod x86 {
                         let (at, g) = ($at, $g);
                         let x = load4_unsplit::<SPLIT>(at);
                         let c = _mm256_max_pd(_mm256_min_pd(x, upper), lower);
-                        let x =
-                            _mm256_add_pd(x, _mm256_mul_pd(_mm256_set1_pd(g), _mm256_sub_pd(c, x)));
+                        // `creep_pass::update`: g c + (x − g x)
+                        let g = _mm256_set1_pd(g);
+                        let x = _mm256_fmadd_pd(g, c, _mm256_fnmadd_pd(g, x, x));
                         store4_unsplit::<SPLIT>(at, x);
                         x
                     }};
@@ -657,7 +661,7 @@ mod x86 {
 
     /// `_mm256_loadu_pd`, one value at a time where the four straddle a
     /// page (see the module's note).
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,fma")]
     #[inline]
     unsafe fn load4_unsplit<const SPLIT: bool>(p: *const f64) -> __m256d {
         // SAFETY: the caller's `p..p + 4` is readable.
@@ -672,7 +676,7 @@ mod x86 {
 
     /// `_mm256_storeu_pd`, one value at a time where the four straddle a
     /// page.
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,fma")]
     #[inline]
     unsafe fn store4_unsplit<const SPLIT: bool>(p: *mut f64, x: __m256d) {
         // SAFETY: the caller's `p..p + 4` is writable.
@@ -702,6 +706,9 @@ mod x86 {
         /// `a < b ? a : b`, and `a > b ? a : b` for `max`.
         unsafe fn min(self, b: Self) -> Self;
         unsafe fn max(self, b: Self) -> Self;
+        /// `self · a + b` and `b − self · a`, rounded once.
+        unsafe fn mul_add(self, a: Self, b: Self) -> Self;
+        unsafe fn neg_mul_add(self, a: Self, b: Self) -> Self;
         /// Lanes 0–3 and 4–7.
         unsafe fn halves(self) -> (Self::Half, Self::Half);
         unsafe fn half_splat(x: Self::T) -> Self::Half;
@@ -713,6 +720,8 @@ mod x86 {
         unsafe fn half_mul(a: Self::Half, b: Self::Half) -> Self::Half;
         unsafe fn half_min(a: Self::Half, b: Self::Half) -> Self::Half;
         unsafe fn half_max(a: Self::Half, b: Self::Half) -> Self::Half;
+        unsafe fn half_mul_add(a: Self::Half, b: Self::Half, c: Self::Half) -> Self::Half;
+        unsafe fn half_neg_mul_add(a: Self::Half, b: Self::Half, c: Self::Half) -> Self::Half;
 
         /// [`Eight::load`], one value at a time where the eight straddle a
         /// page (see the module's note).
@@ -774,8 +783,8 @@ mod x86 {
 
     macro_rules! eight {
         ($name:ident, $feature:literal, $t:ty, $v:ty, $h:ty,
-         [$set1:ident, $loadu:ident, $storeu:ident, $add:ident, $sub:ident, $mul:ident, $min:ident, $max:ident],
-         [$hset1:ident, $hzero:ident, $hloadu:ident, $hstoreu:ident, $hadd:ident, $hsub:ident, $hmul:ident, $hmin:ident, $hmax:ident],
+         [$set1:ident, $loadu:ident, $storeu:ident, $add:ident, $sub:ident, $mul:ident, $min:ident, $max:ident, $fma:ident, $fnma:ident],
+         [$hset1:ident, $hzero:ident, $hloadu:ident, $hstoreu:ident, $hadd:ident, $hsub:ident, $hmul:ident, $hmin:ident, $hmax:ident, $hfma:ident, $hfnma:ident],
          $lo:expr, $hi:expr) => {
             #[derive(Clone, Copy)]
             struct $name($v);
@@ -822,6 +831,16 @@ mod x86 {
                 #[inline]
                 unsafe fn max(self, b: Self) -> Self {
                     $name($max(self.0, b.0))
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn mul_add(self, a: Self, b: Self) -> Self {
+                    $name($fma(self.0, a.0, b.0))
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn neg_mul_add(self, a: Self, b: Self) -> Self {
+                    $name($fnma(self.0, a.0, b.0))
                 }
                 #[target_feature(enable = $feature)]
                 #[inline]
@@ -873,13 +892,23 @@ mod x86 {
                 unsafe fn half_max(a: $h, b: $h) -> $h {
                     $hmax(a, b)
                 }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn half_mul_add(a: $h, b: $h, c: $h) -> $h {
+                    $hfma(a, b, c)
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn half_neg_mul_add(a: $h, b: $h, c: $h) -> $h {
+                    $hfnma(a, b, c)
+                }
             }
         };
     }
 
     eight!(
         F64x8,
-        "avx2,avx512f",
+        "avx2,fma,avx512f",
         f64,
         __m512d,
         __m256d,
@@ -891,7 +920,9 @@ mod x86 {
             _mm512_sub_pd,
             _mm512_mul_pd,
             _mm512_min_pd,
-            _mm512_max_pd
+            _mm512_max_pd,
+            _mm512_fmadd_pd,
+            _mm512_fnmadd_pd
         ],
         [
             _mm256_set1_pd,
@@ -902,14 +933,16 @@ mod x86 {
             _mm256_sub_pd,
             _mm256_mul_pd,
             _mm256_min_pd,
-            _mm256_max_pd
+            _mm256_max_pd,
+            _mm256_fmadd_pd,
+            _mm256_fnmadd_pd
         ],
         _mm512_castpd512_pd256,
         _mm512_extractf64x4_pd::<1>
     );
     eight!(
         F32x8,
-        "avx2",
+        "avx2,fma",
         f32,
         __m256,
         __m128,
@@ -921,7 +954,9 @@ mod x86 {
             _mm256_sub_ps,
             _mm256_mul_ps,
             _mm256_min_ps,
-            _mm256_max_ps
+            _mm256_max_ps,
+            _mm256_fmadd_ps,
+            _mm256_fnmadd_ps
         ],
         [
             _mm_set1_ps,
@@ -932,7 +967,9 @@ mod x86 {
             _mm_sub_ps,
             _mm_mul_ps,
             _mm_min_ps,
-            _mm_max_ps
+            _mm_max_ps,
+            _mm_fmadd_ps,
+            _mm_fnmadd_ps
         ],
         _mm256_castps256_ps128,
         _mm256_extractf128_ps::<1>
@@ -1013,7 +1050,8 @@ mod x86 {
                         let (at, g) = ($at, $g);
                         let x = E::load_unsplit::<SPLIT>(at);
                         let c = x.min(upper).max(lower);
-                        let x = x.add(E::splat(g).mul(c.sub(x)));
+                        let g = E::splat(g);
+                        let x = g.mul_add(c, g.neg_mul_add(x, x));
                         x.store_unsplit::<SPLIT>(at);
                         x
                     }};
@@ -1035,7 +1073,8 @@ mod x86 {
                         let (at, g) = ($at, $g);
                         let x = E::half_load_unsplit::<SPLIT>(at);
                         let c = E::half_max(E::half_min(x, upper), lower);
-                        let x = E::half_add(x, E::half_mul(E::half_splat(g), E::half_sub(c, x)));
+                        let g = E::half_splat(g);
+                        let x = E::half_mul_add(g, c, E::half_neg_mul_add(g, x, x));
                         E::half_store_unsplit::<SPLIT>(x, at);
                         x
                     }};
@@ -1117,7 +1156,7 @@ mod x86 {
 
     /// The creep pass alone on the AVX2 kernels (the forward model's, a
     /// held compensator sample's).
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,fma")]
     #[inline]
     pub(super) unsafe fn creep_avx2<T: Real>(chi: &mut [T], r: &[T], g: &[T], w: &[T], v: T) -> T {
         // SAFETY: the features are enabled here.
@@ -1125,7 +1164,7 @@ mod x86 {
     }
 
     /// The creep pass alone on the AVX-512 kernels.
-    #[target_feature(enable = "avx2,avx512f")]
+    #[target_feature(enable = "avx2,fma,avx512f")]
     #[inline]
     pub(super) unsafe fn creep_avx512<T: Real>(
         chi: &mut [T],
@@ -1139,7 +1178,7 @@ mod x86 {
     }
 
     /// [`super::step_body`] on the AVX2 kernels, one function.
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,fma")]
     #[inline(never)]
     pub(super) unsafe fn step_avx2<T: Real, C: super::StepSource<T>>(
         c: &mut C,
@@ -1152,7 +1191,7 @@ mod x86 {
     }
 
     /// [`super::step_body`] on the AVX-512 kernels, one function.
-    #[target_feature(enable = "avx2,avx512f")]
+    #[target_feature(enable = "avx2,fma,avx512f")]
     #[inline(never)]
     pub(super) unsafe fn step_avx512<T: Real, C: super::StepSource<T>>(
         c: &mut C,
