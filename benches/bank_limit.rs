@@ -1,16 +1,17 @@
 //! The compensator bank against the arithmetic the CPU can do.
 //!
 //! Per channel-step the bank's block step does a fixed number of vector-lane
-//! operations (adds, subtractions, multiplies, `min`, `max`, compares and
-//! selects; loads and stores not counted): `23 + 7 n + n_C (4 + 6 m)` —
-//! 515 at the paper's order (12 plays, 12 creep thresholds × 5
-//! eigenvalues). The CPU's rate for that kind of work is measured here, on
-//! the widest registers the bank uses on it, with a loop of independent
-//! creep-element updates (`min`, `max`, sub, mul, add, add) that has no
-//! loads, stores or dependencies to wait for, and where the bank's kernels
-//! have AVX-512 the same loop with both additions fused on the multiplier
-//! (`b · 1 + a`, as those kernels do them): the faster of the two rates
-//! divided by 515 is the bound in channel-steps per second on one core.
+//! operations (adds, subtractions, multiplies, fused multiply-adds, `min`,
+//! `max`, compares and selects; loads and stores not counted): `23 + 7 n +
+//! n_C (4 + 5 m)` — 455 at the paper's order (12 plays, 12 creep thresholds
+//! × 5 eigenvalues). The CPU's rate for that kind of work is measured here,
+//! on the widest registers the bank uses on it, with a loop of independent
+//! creep-element updates (`min`, `max`, the two fused operations of
+//! `g c + (χ − g χ)`, the row's add) that has no loads, stores or
+//! dependencies to wait for, and where the bank's kernels have AVX-512 the
+//! same loop with the row's addition fused on the multiplier (`b · 1 + a`,
+//! as those kernels do it): the faster of the two rates divided by 455 is
+//! the bound in channel-steps per second on one core.
 //!
 //! First a crossover scan: 2 to 64 blocks on one thread against a forced
 //! split over two (`Workers::with_min_blocks(0)`), and the smallest block
@@ -35,7 +36,7 @@ use mfcbeam::realtime::{simd::Kernels, Compensated, Real};
 
 /// Vector-lane operations per channel-step of the bank's block step.
 fn lane_operations(n: usize, nc: usize, m: usize) -> usize {
-    23 + 7 * n + nc * (4 + 6 * m)
+    23 + 7 * n + nc * (4 + 5 * m)
 }
 
 /// The core's clock while it runs this, in GHz: a chain of dependent
@@ -94,7 +95,7 @@ fn peak_lane_operations_per_ns<T: Real>() -> f64 {
                 break;
             };
             let ns = t0.elapsed().as_nanos() as f64;
-            rates.push((ITERATIONS * mix::CHAINS * 6 * lanes) as f64 / ns);
+            rates.push((ITERATIONS * mix::CHAINS * 5 * lanes) as f64 / ns);
         }
         if !rates.is_empty() {
             rates.sort_by(f64::total_cmp);
@@ -103,7 +104,7 @@ fn peak_lane_operations_per_ns<T: Real>() -> f64 {
                 "{}: the creep mix {}: {rate:.1} lane-operations/ns",
                 T::NAME,
                 if fused {
-                    "with its additions fused on the multiplier"
+                    "with its row addition fused on the multiplier"
                 } else {
                     "as adds"
                 }
@@ -164,7 +165,7 @@ mod mix {
                 let c = x[k];
                 let c = if c < hi { c } else { hi };
                 let c = if c > lo { c } else { lo };
-                x[k] = x[k] + g * (c - x[k]);
+                x[k] = g.fused_mul_add(c, (-g).fused_mul_add(x[k], x[k]));
                 r[k] += x[k];
             }
         }
@@ -179,7 +180,7 @@ mod mix {
         use super::CHAINS;
 
         macro_rules! chains {
-            ($name:ident, $feature:literal, $t:ty, $set1:ident, $min:ident, $max:ident, $add:ident, $sub:ident, $mul:ident, $lanes:expr) => {
+            ($name:ident, $feature:literal, $t:ty, $set1:ident, $min:ident, $max:ident, $add:ident, $fma:ident, $fnma:ident, $lanes:expr) => {
                 #[target_feature(enable = $feature)]
                 pub unsafe fn $name(iterations: usize) -> usize {
                     let mut x: [$t; CHAINS] = [$set1(std::hint::black_box(0.5)); CHAINS];
@@ -188,7 +189,7 @@ mod mix {
                     for _ in 0..iterations {
                         for k in 0..CHAINS {
                             let c = $max($min(x[k], hi), lo);
-                            x[k] = $add(x[k], $mul(g, $sub(c, x[k])));
+                            x[k] = $fma(g, c, $fnma(g, x[k], x[k]));
                             r[k] = $add(r[k], x[k]);
                         }
                     }
@@ -197,13 +198,13 @@ mod mix {
                 }
             };
         }
-        // The same updates with both additions as `b · 1 + a` fused (the
-        // same sums, on the multiplier's pipes), as the AVX-512 bank does
-        // them: the rate the CPU reaches when its adders and multipliers
+        // The same updates with the row's addition as `b · 1 + a` fused
+        // (the same sums, on the multiplier's pipes), as the AVX-512 bank
+        // does it: the rate the CPU reaches when its adders and multipliers
         // share the work.
         macro_rules! fused_chains {
-            ($name:ident, $t:ty, $set1:ident, $min:ident, $max:ident, $fma:ident, $sub:ident, $mul:ident, $lanes:expr) => {
-                #[target_feature(enable = "avx512f")]
+            ($name:ident, $t:ty, $set1:ident, $min:ident, $max:ident, $fma:ident, $fnma:ident, $lanes:expr) => {
+                #[target_feature(enable = "avx2,fma,avx512f")]
                 pub unsafe fn $name(iterations: usize) -> usize {
                     let mut x: [$t; CHAINS] = [$set1(std::hint::black_box(0.5)); CHAINS];
                     let mut r: [$t; CHAINS] = [$set1(0.0); CHAINS];
@@ -212,7 +213,7 @@ mod mix {
                     for _ in 0..iterations {
                         for k in 0..CHAINS {
                             let c = $max($min(x[k], hi), lo);
-                            x[k] = $fma($mul(g, $sub(c, x[k])), one, x[k]);
+                            x[k] = $fma(g, c, $fnma(g, x[k], x[k]));
                             r[k] = $fma(x[k], one, r[k]);
                         }
                     }
@@ -228,8 +229,7 @@ mod mix {
             _mm512_min_pd,
             _mm512_max_pd,
             _mm512_fmadd_pd,
-            _mm512_sub_pd,
-            _mm512_mul_pd,
+            _mm512_fnmadd_pd,
             8
         );
         fused_chains!(
@@ -239,56 +239,55 @@ mod mix {
             _mm512_min_ps,
             _mm512_max_ps,
             _mm512_fmadd_ps,
-            _mm512_sub_ps,
-            _mm512_mul_ps,
+            _mm512_fnmadd_ps,
             16
         );
         chains!(
             avx512_f64,
-            "avx512f",
+            "avx2,fma,avx512f",
             __m512d,
             _mm512_set1_pd,
             _mm512_min_pd,
             _mm512_max_pd,
             _mm512_add_pd,
-            _mm512_sub_pd,
-            _mm512_mul_pd,
+            _mm512_fmadd_pd,
+            _mm512_fnmadd_pd,
             8
         );
         chains!(
             avx512_f32,
-            "avx512f",
+            "avx2,fma,avx512f",
             __m512,
             _mm512_set1_ps,
             _mm512_min_ps,
             _mm512_max_ps,
             _mm512_add_ps,
-            _mm512_sub_ps,
-            _mm512_mul_ps,
+            _mm512_fmadd_ps,
+            _mm512_fnmadd_ps,
             16
         );
         chains!(
             avx2_f64,
-            "avx2",
+            "avx2,fma",
             __m256d,
             _mm256_set1_pd,
             _mm256_min_pd,
             _mm256_max_pd,
             _mm256_add_pd,
-            _mm256_sub_pd,
-            _mm256_mul_pd,
+            _mm256_fmadd_pd,
+            _mm256_fnmadd_pd,
             4
         );
         chains!(
             avx2_f32,
-            "avx2",
+            "avx2,fma",
             __m256,
             _mm256_set1_ps,
             _mm256_min_ps,
             _mm256_max_ps,
             _mm256_add_ps,
-            _mm256_sub_ps,
-            _mm256_mul_ps,
+            _mm256_fmadd_ps,
+            _mm256_fnmadd_ps,
             8
         );
     }
