@@ -12,11 +12,17 @@
 //! * An inverse amplifies an error in its argument by its steepest slope
 //!   `1/s_min` (the partial sums `s_j` of (11) are the forward slopes).
 //! * A creep update `χ ← χ + g d_r(v − χ)`, `g = 1 − e^{−aT_s}`, is
-//!   non-expansive and contracts by `1 − g` where it moves: a rounding error
-//!   `δ ≤ ε|χ|/2` per sample accumulates to at most `δ/g`. That is what an
-//!   implementation rounding differently shows, and what `f32` shows when a
-//!   slow operator's increment drops below half an ulp of `χ` and it stalls:
-//!   the bound carries `Σ_j (1/g_j + 2)` per threshold.
+//!   non-expansive and contracts by `1 − g` where it moves, and where it
+//!   does not move (`d_r = 0`) it adds no error (`creep_pass::update`): a
+//!   rounding error `δ` per moving sample accumulates to at most `δ/g`.
+//!   The literal form rounds by `δ ≤ ε|χ|/2` (its last addition; the
+//!   increment's own roundings are `g` times smaller), the fused form
+//!   `g c + (χ − g χ)` of `std` builds by `δ ≤ ε max(|χ|, |c|)` (two
+//!   roundings of values that large). That is what an implementation
+//!   rounding differently shows, and what `f32` shows when a slow
+//!   operator's increment drops below half an ulp of `χ` and it stalls:
+//!   the bound carries `Σ_j (1/g_j + 2)` per threshold, the fused form's
+//!   `δ/g` with `|χ|, |c| ≤ max|v| + r_n`.
 //!
 //! * The superposition operator `S` is a sum of `k` dead zones, rounded as
 //!   the hysteresis sum is; an error in its argument comes out scaled by its
