@@ -849,7 +849,7 @@ pub(crate) fn run_blocks<T: Real, W: BlockWork<T>>(k: super::Kernels, work: W) -
                 super::count_simd_call();
                 work.run(Ops::<T, Avx2>(core::marker::PhantomData))
             }
-            // SAFETY: an `Avx2` proof exists only where the CPU has AVX2.
+            // SAFETY: an `Avx2` proof exists only where the CPU has AVX2 and FMA.
             unsafe { avx2::<T, W>(work) }
         }
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
@@ -860,7 +860,7 @@ pub(crate) fn run_blocks<T: Real, W: BlockWork<T>>(k: super::Kernels, work: W) -
                 work.run(Ops::<T, Avx512>(core::marker::PhantomData))
             }
             // SAFETY: an `Avx512` proof exists only where the CPU has
-            // AVX-512F and AVX2.
+            // AVX-512F, AVX2 and FMA.
             unsafe { avx512::<T, W>(work) }
         }
     }

@@ -12,10 +12,12 @@
 //! them at full width: [`Kernels::for_single_step`]), its `f32` ones on
 //! 8-lane registers; the plays and creep pass of the forward model likewise;
 //! the bank's 64-byte blocks (`block`: 8 `f64` or 16 `f32` lanes, one
-//! cache line) on two 256-bit registers or one 512-bit register. No copy
-//! fuses a multiply and an add (Rust never contracts them), `min` and `max`
-//! are written as the hardware defines them and the sums run in a fixed
-//! order, so every copy computes the same bits: `verification/bank.rs`
+//! cache line) on two 256-bit registers or one 512-bit register. A
+//! multiply and an add are fused only where every copy fuses them (the
+//! creep update's two operations, `creep_pass::update`, with `std`; Rust
+//! never contracts the others), `min` and `max` are written as the hardware
+//! defines them and the sums run in a fixed order, so every copy computes
+//! the same bits: `verification/bank.rs`
 //! checks that for each kernel set the CPU has ([`Kernels::all`]), and that
 //! the explicit kernels did run where it has them ([`simd_kernel_calls`]).
 //! Without `std` (firmware) there is one copy, for the target's own
@@ -31,7 +33,7 @@ use core::any::TypeId;
 use crate::realtime::real::Real;
 
 /// The kernels a step runs: the portable ones, or (x86-64 with `std`, the
-/// CPU having them) the AVX2 or the AVX-512 ones. Only [`Kernels::detect`]
+/// CPU having them) the AVX2 (with FMA) or the AVX-512 ones. Only [`Kernels::detect`]
 /// and [`Kernels::all`] make the vector values, so holding one proves the
 /// CPU has its features.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -39,17 +41,17 @@ pub enum Kernels {
     Portable,
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
     Avx2(Avx2),
-    /// AVX-512F (with AVX2, which every such CPU has).
+    /// AVX-512F (with AVX2 and FMA, which every such CPU has).
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
     Avx512(Avx512),
 }
 
-/// The proof that this CPU has AVX2 (private constructor).
+/// The proof that this CPU has AVX2 and FMA (private constructor).
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Avx2(());
 
-/// The proof that this CPU has AVX-512F and AVX2 (private constructor).
+/// The proof that this CPU has AVX-512F, AVX2 and FMA (private constructor).
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Avx512(());
@@ -138,7 +140,7 @@ impl Kernels {
                 unsafe fn with_avx2<R>(k: Kernels, f: impl FnOnce(Kernels) -> R) -> R {
                     f(k)
                 }
-                // SAFETY: an `Avx2` value exists only where the CPU has AVX2.
+                // SAFETY: an `Avx2` value exists only where the CPU has AVX2 and FMA.
                 unsafe { with_avx2(self, f) }
             }
             #[cfg(all(feature = "std", target_arch = "x86_64"))]
@@ -148,7 +150,7 @@ impl Kernels {
                     f(k)
                 }
                 // SAFETY: an `Avx512` value exists only where the CPU has
-                // AVX-512F and AVX2.
+                // AVX-512F, AVX2 and FMA.
                 unsafe { with_avx512(self, f) }
             }
             Kernels::Portable => f(self),
@@ -437,11 +439,11 @@ pub(crate) fn compensator_step<T: Real, C: StepSource<T>>(
 ) -> (T, bool) {
     match k {
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
-        // SAFETY: an `Avx512` value exists only where the CPU has AVX-512F
-        // and AVX2.
+        // SAFETY: an `Avx512` value exists only where the CPU has AVX-512F,
+        // AVX2 and FMA.
         Kernels::Avx512(_) => unsafe { x86::step_avx512(c, y, lower, upper) },
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
-        // SAFETY: an `Avx2` value exists only where the CPU has AVX2.
+        // SAFETY: an `Avx2` value exists only where the CPU has AVX2 and FMA.
         Kernels::Avx2(_) => unsafe { x86::step_avx2(c, y, lower, upper) },
         // SAFETY: the portable kernels need no feature.
         Kernels::Portable => unsafe { step_body::<T, PortableStep, C>(c, y, lower, upper) },
