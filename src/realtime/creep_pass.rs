@@ -222,6 +222,42 @@ mod tests {
     /// two `f32` are exact there): within `½ ulp(result) + ½ ulp(χ)`, the
     /// rounding of the sum and of `χ − g χ` (plus the `f64` reference's own
     /// rounding, 2⁻⁵² of the terms).
+    /// `a + b` as a sum and its exact rounding error (Knuth's TwoSum).
+    fn two_sum(a: f64, b: f64) -> (f64, f64) {
+        let s = a + b;
+        let bb = s - a;
+        (s, (a - (s - bb)) + (b - bb))
+    }
+
+    /// The same in `f64`, against `g c + χ − g χ` in double-double (the
+    /// products split exactly by a fused multiply-add, the sums by
+    /// TwoSum): the reference's own error is of order `ε²`.
+    #[test]
+    fn an_update_rounds_twice_in_f64() {
+        let xs = states::<f64>(4_000);
+        for (k, &x) in xs.iter().enumerate() {
+            let c = xs[(k * 7 + 3) % xs.len()];
+            for g in gains::<f64>() {
+                let y = update(x, g, c);
+                let (p1, e1) = (g * c, g.mul_add(c, -(g * c)));
+                let (p2, e2) = (g * x, g.mul_add(x, -(g * x)));
+                let (s1, t1) = two_sum(p1, x);
+                let (s2, t2) = two_sum(s1, -p2);
+                let tail = t1 + t2 + e1 - e2;
+                let ulp = |v: f64| v.abs().next_up() - v.abs();
+                // y − exact, computed as (y − s2) − tail: y − s2 is exact
+                // where y and s2 are close (Sterbenz), and both are
+                let error = ((y - s2) - tail).abs();
+                let bound =
+                    0.5 * ulp(y) + 0.5 * ulp(x) + 4.0 * f64::EPSILON * ulp(s2.abs() + x.abs());
+                assert!(
+                    error <= bound,
+                    "χ = {x:e}, g = {g:e}, c = {c:e}: {y:e}, error {error:e} > {bound:e}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn an_update_rounds_twice() {
         let xs = states::<f32>(4_000);
