@@ -146,7 +146,8 @@ proptest! {
 }
 
 /// The output (16) summed as stated, from zero: lane `i mod 4` adds
-/// `(w_i/m) Σ_j χ_ij`, each row sum from `0`, then `(a₀ + a₂) + (a₁ + a₃)`.
+/// `(w_i/m) Σ_j χ_ij` (the product fused with the sum), each row sum from
+/// `0`, then `(a₀ + a₂) + (a₁ + a₃)`.
 fn output_summed_from_zero(c: &CreepOperator) -> f64 {
     let (n, m) = c.shape();
     let mut chi = vec![0.0; n * m];
@@ -157,7 +158,8 @@ fn output_summed_from_zero(c: &CreepOperator) -> f64 {
         for j in 0..m {
             row += chi[i * m + j];
         }
-        acc[i % 4] += (c.weights()[i] / m as f64) * row;
+        // each weighted row fused with its partial sum, as `std` builds add
+        acc[i % 4] = (c.weights()[i] / m as f64).mul_add(row, acc[i % 4]);
     }
     (acc[0] + acc[2]) + (acc[1] + acc[3])
 }

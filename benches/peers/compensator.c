@@ -98,8 +98,9 @@ static double creep_advance(double chi[M][NC], const double *rc, const double *w
 #if defined(SAME_ORDER)
 /* mfcbeam's step in C (-DSAME_ORDER): its operations in its order, with
  * intrinsics — the 8-lane block and the 4-lane block of its AVX-512 kernels
- * (three 4-lane blocks on AVX2, the same sums lane by lane), FMA only in
- * the creep update as mfcbeam fuses it (g c + (x - g x)), the plays saved before each step for a re-seat, a non-finite target held —
+ * (three 4-lane blocks on AVX2, the same sums lane by lane), FMA where
+ * mfcbeam fuses (the creep update g c + (x - g x), each weighted term
+ * with its sum), the plays saved before each step for a re-seat, a non-finite target held —
  * so its voltages have mfcbeam's bits (run.sh checks that they are equal,
  * not close). Against the strongest peer it shows what the order of the
  * arithmetic costs; against mfcbeam, what the Rust around it costs.
@@ -138,7 +139,7 @@ static inline __m256d play4(same *c, int i0, __m256d y, __m256d acc) {
     _mm256_storeu_pd(c->saved + i0, x);
     x = _mm256_max_pd(_mm256_min_pd(x, _mm256_add_pd(y, r)), _mm256_sub_pd(y, r));
     _mm256_storeu_pd(c->xi + i0, x);
-    return _mm256_add_pd(acc, _mm256_mul_pd(_mm256_loadu_pd(c->wi + i0), x));
+    return _mm256_fmadd_pd(_mm256_loadu_pd(c->wi + i0), x, acc);
 }
 
 /* creep thresholds i0..i0+3, every eigenvalue, into acc */
@@ -153,14 +154,16 @@ static inline __m256d creep4(same *c, int i0, __m256d u, __m256d acc) {
         _mm256_storeu_pd(c->chi[j] + i0, x);
         rows = j == 0 ? x : _mm256_add_pd(rows, x);
     }
-    return _mm256_add_pd(acc, _mm256_mul_pd(_mm256_loadu_pd(c->wc + i0), rows));
+    return _mm256_fmadd_pd(_mm256_loadu_pd(c->wc + i0), rows, acc);
 }
 
 #ifdef __AVX512F__
-/* lanes 0..7 as two blocks of four added into zero: ((0 + lo) + hi) */
-static inline __m256d halves(__m512d p) {
-    __m256d acc = _mm256_add_pd(_mm256_setzero_pd(), _mm512_castpd512_pd256(p));
-    return _mm256_add_pd(acc, _mm512_extractf64x4_pd(p, 1));
+/* w x in lanes 0..7 as two blocks of four added into zero, each product
+ * fused with its sum: fma(w_hi, x_hi, fma(w_lo, x_lo, 0)) */
+static inline __m256d halves(__m512d w, __m512d x) {
+    __m256d acc = _mm256_fmadd_pd(_mm512_castpd512_pd256(w), _mm512_castpd512_pd256(x),
+                                  _mm256_setzero_pd());
+    return _mm256_fmadd_pd(_mm512_extractf64x4_pd(w, 1), _mm512_extractf64x4_pd(x, 1), acc);
 }
 #endif
 
@@ -180,7 +183,7 @@ static double compensate_same(same *c, double target, int *saturated) {
         _mm512_storeu_pd(c->saved, x);
         x = _mm512_max_pd(_mm512_min_pd(x, _mm512_add_pd(y8, r)), _mm512_sub_pd(y8, r));
         _mm512_storeu_pd(c->xi, x);
-        acc = halves(_mm512_mul_pd(_mm512_loadu_pd(c->wi), x));
+        acc = halves(_mm512_loadu_pd(c->wi), x);
     }
 #else
     acc = play4(c, 4, y4, play4(c, 0, y4, _mm256_setzero_pd()));
@@ -209,7 +212,7 @@ static double compensate_same(same *c, double target, int *saturated) {
             _mm512_storeu_pd(c->chi[j], x);
             rows = j == 0 ? x : _mm512_add_pd(rows, x);
         }
-        acc = halves(_mm512_mul_pd(_mm512_loadu_pd(c->wc), rows));
+        acc = halves(_mm512_loadu_pd(c->wc), rows);
     }
 #else
     acc = creep4(c, 4, u4, creep4(c, 0, u4, _mm256_setzero_pd()));

@@ -5,7 +5,7 @@
 
 use crate::realtime::hysteresis::reduce;
 use crate::realtime::play::clamp;
-use crate::realtime::real::Real;
+use crate::realtime::real::{add_product, Real};
 
 /// Thresholds per block of the creep pass: the clamp bounds `v ∓ r_i` are
 /// formed once per threshold and reused by every eigenvalue's row, and a
@@ -70,7 +70,7 @@ pub(crate) fn advance<T: Real>(
         }
         let w: &[T; LANES] = weights[i0..i0 + LANES].try_into().unwrap();
         for l in 0..LANES {
-            acc[l] += w[l] * rows[l];
+            acc[l] = add_product(acc[l], w[l], rows[l]);
         }
     }
     advance_tail(chi, thresholds, gains, weights, v, full, &mut acc);
@@ -130,7 +130,7 @@ pub(crate) fn advance_tail<T: Real>(
             chi[j * n + i] = x;
             row = if j == 0 { x } else { row + x };
         }
-        acc[i - full] += weights[i] * row;
+        acc[i - full] = add_product(acc[i - full], weights[i], row);
     }
 }
 
@@ -146,7 +146,7 @@ pub(crate) fn output<T: Real>(chi: &[T], weights: &[T]) -> T {
             .step_by(n.max(1))
             .copied()
             .reduce(|a, b| a + b);
-        acc[i % LANES] += w * row.unwrap_or(T::ZERO);
+        acc[i % LANES] = add_product(acc[i % LANES], w, row.unwrap_or(T::ZERO));
     }
     reduce(acc)
 }

@@ -10,7 +10,7 @@ use crate::realtime::parameters::{
     check_admissible, check_finite, check_length, HysteresisParameters,
 };
 use crate::realtime::play::play;
-use crate::realtime::real::Real;
+use crate::realtime::real::{add_product, Real};
 use crate::realtime::storage::{Buffer, Storage};
 
 /// One sample of `H`: advance every play with `v` and return `Σ w_i x_i`
@@ -51,7 +51,7 @@ pub(crate) fn step_saving<T: Real, const SAVE: bool>(
             x[l] = play(v, r[l], x[l]);
         }
         for l in 0..4 {
-            acc[l] += w[l] * x[l];
+            acc[l] = add_product(acc[l], w[l], x[l]);
         }
     }
     step_tail::<T, SAVE>(state, saved, thresholds, weights, v, full, &mut acc);
@@ -76,7 +76,7 @@ pub(crate) fn step_tail<T: Real, const SAVE: bool>(
             saved[i] = state[i];
         }
         state[i] = play(v, thresholds[i], state[i]);
-        acc[i - full] += weights[i] * state[i];
+        acc[i - full] = add_product(acc[i - full], weights[i], state[i]);
     }
 }
 
@@ -100,11 +100,11 @@ pub(crate) fn weighted_sum<T: Real>(w: &[T], x: &[T]) -> T {
     let (wr, xr) = (wc.remainder(), xc.remainder());
     for (w4, x4) in wc.zip(xc) {
         for l in 0..4 {
-            a[l] += w4[l] * x4[l];
+            a[l] = add_product(a[l], w4[l], x4[l]);
         }
     }
     for l in 0..wr.len() {
-        a[l] += wr[l] * xr[l];
+        a[l] = add_product(a[l], wr[l], xr[l]);
     }
     reduce(a)
 }

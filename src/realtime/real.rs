@@ -80,6 +80,19 @@ pub trait Real:
     }
 }
 
+/// `acc + w · x`: the product fused with the sum with `std`
+/// ([`Real::fused_mul_add`]), rounded first without. Every weighted sum of
+/// a step (the plays' `Σ w_i x_i`, the creep's `Σ (w_i/m) Σ_j χ_ij`) adds
+/// its terms this way, in every copy, so that the copies keep one set of
+/// bits; fused, a term costs one operation instead of two.
+#[inline(always)]
+pub(crate) fn add_product<T: Real>(acc: T, w: T, x: T) -> T {
+    #[cfg(feature = "std")]
+    return w.fused_mul_add(x, acc);
+    #[cfg(not(feature = "std"))]
+    return acc + w * x;
+}
+
 macro_rules! real {
     ($t:ident) => {
         impl Real for $t {

@@ -192,16 +192,20 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
         .zip(new_rows[..full].chunks_exact_mut(4));
     for (((x, r), w), next) in fours {
         for q in 0..4 {
-            sums[q] = o.add(
-                sums[q],
-                inverse_play(o, y, fault, &x[q], &r[q], &w[q], &mut next[q]),
-            );
+            sums[q] = inverse_play(o, sums[q], y, fault, &x[q], &r[q], &w[q], &mut next[q]);
         }
     }
     for i in full..n {
-        sums[i - full] = o.add(
-            sums[i - full],
-            inverse_play(o, y, fault, &old[i], &inv_r[i], &inv_w[i], &mut new_rows[i]),
+        let sum = sums[i - full];
+        sums[i - full] = inverse_play(
+            o,
+            sum,
+            y,
+            fault,
+            &old[i],
+            &inv_r[i],
+            &inv_w[i],
+            &mut new_rows[i],
         );
     }
     let v = o.add(o.add(sums[0], sums[2]), o.add(sums[1], sums[3]));
@@ -279,7 +283,7 @@ fn creep_pass<T: Real, V: Block<T>>(o: Ops<T, V>, f: &Fixed<'_, T>, s: &mut [Row
                 }
             }
             for q in 0..4 {
-                sums[q] = o.add(sums[q], o.mul(o.load(&w[q]), rows[q]));
+                sums[q] = o.mul_add(o.load(&w[q]), rows[q], sums[q]);
             }
         }
     }
@@ -290,7 +294,7 @@ fn creep_pass<T: Real, V: Block<T>>(o: Ops<T, V>, f: &Fixed<'_, T>, s: &mut [Row
         for (x, g) in chi[i * m..][..m].iter_mut().zip(gains) {
             rows = o.add_on_multiplier(rows, creep_update(o, x, o.load(g), lower, upper), one);
         }
-        sums[i - full] = o.add(sums[i - full], o.mul(o.load(&weights[i]), rows));
+        sums[i - full] = o.mul_add(o.load(&weights[i]), rows, sums[i - full]);
     }
     let creep = o.add(o.add(sums[0], sums[2]), o.add(sums[1], sums[3]));
     o.store(creep, &mut s[a.creep_out()]);
@@ -298,10 +302,13 @@ fn creep_pass<T: Real, V: Block<T>>(o: Ops<T, V>, f: &Fixed<'_, T>, s: &mut [Row
 
 /// One play of `H⁻¹` (22) on a block: `x` clamped into `[y − r, y + r]`
 /// into `next` (the old `x` where the lane is faulted), its weighted value
-/// returned. A function, not a closure: see [`creep_update`].
+/// added to `sum` as `realtime::real::add_product` adds it. A function, not
+/// a closure: see [`creep_update`].
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn inverse_play<T: Real, V: Block<T>>(
     o: Ops<T, V>,
+    sum: V,
     y: V,
     fault: V::Mask,
     x: &Row,
@@ -313,7 +320,7 @@ fn inverse_play<T: Real, V: Block<T>>(
     let r = o.load(r);
     let new = o.clamp(x, o.sub(y, r), o.add(y, r));
     o.store(o.select(fault, x, new), next);
-    o.mul(o.load(w), new)
+    o.mul_add(o.load(w), new, sum)
 }
 
 /// One creep operator's update (20) on a block, `χ ← χ + g (clamp(χ, u −

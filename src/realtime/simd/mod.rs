@@ -496,7 +496,7 @@ mod x86 {
                 let x = _mm256_max_pd(_mm256_min_pd(x, _mm256_add_pd(vv, r)), _mm256_sub_pd(vv, r));
                 store4_unsplit::<SPLIT>(at, x);
                 let w = _mm256_loadu_pd(weights.as_ptr().add(i0));
-                acc = _mm256_add_pd(acc, _mm256_mul_pd(w, x));
+                acc = _mm256_fmadd_pd(w, x, acc);
             }
         }
         let mut lanes = [0.0f64; 4];
@@ -551,7 +551,7 @@ mod x86 {
                     rows = _mm256_add_pd(rows, update!(at, g));
                 }
                 let w = _mm256_loadu_pd(weights.as_ptr().add(i0));
-                acc = _mm256_add_pd(acc, _mm256_mul_pd(w, rows));
+                acc = _mm256_fmadd_pd(w, rows, acc);
             }
         }
         let mut lanes = [0.0f64; LANES];
@@ -704,7 +704,6 @@ mod x86 {
         unsafe fn store(self, p: *mut Self::T);
         unsafe fn add(self, b: Self) -> Self;
         unsafe fn sub(self, b: Self) -> Self;
-        unsafe fn mul(self, b: Self) -> Self;
         /// `a < b ? a : b`, and `a > b ? a : b` for `max`.
         unsafe fn min(self, b: Self) -> Self;
         unsafe fn max(self, b: Self) -> Self;
@@ -719,7 +718,6 @@ mod x86 {
         unsafe fn half_store(h: Self::Half, p: *mut Self::T);
         unsafe fn half_add(a: Self::Half, b: Self::Half) -> Self::Half;
         unsafe fn half_sub(a: Self::Half, b: Self::Half) -> Self::Half;
-        unsafe fn half_mul(a: Self::Half, b: Self::Half) -> Self::Half;
         unsafe fn half_min(a: Self::Half, b: Self::Half) -> Self::Half;
         unsafe fn half_max(a: Self::Half, b: Self::Half) -> Self::Half;
         unsafe fn half_mul_add(a: Self::Half, b: Self::Half, c: Self::Half) -> Self::Half;
@@ -785,8 +783,8 @@ mod x86 {
 
     macro_rules! eight {
         ($name:ident, $feature:literal, $t:ty, $v:ty, $h:ty,
-         [$set1:ident, $loadu:ident, $storeu:ident, $add:ident, $sub:ident, $mul:ident, $min:ident, $max:ident, $fma:ident, $fnma:ident],
-         [$hset1:ident, $hzero:ident, $hloadu:ident, $hstoreu:ident, $hadd:ident, $hsub:ident, $hmul:ident, $hmin:ident, $hmax:ident, $hfma:ident, $hfnma:ident],
+         [$set1:ident, $loadu:ident, $storeu:ident, $add:ident, $sub:ident, $min:ident, $max:ident, $fma:ident, $fnma:ident],
+         [$hset1:ident, $hzero:ident, $hloadu:ident, $hstoreu:ident, $hadd:ident, $hsub:ident, $hmin:ident, $hmax:ident, $hfma:ident, $hfnma:ident],
          $lo:expr, $hi:expr) => {
             #[derive(Clone, Copy)]
             struct $name($v);
@@ -818,11 +816,6 @@ mod x86 {
                 #[inline]
                 unsafe fn sub(self, b: Self) -> Self {
                     $name($sub(self.0, b.0))
-                }
-                #[target_feature(enable = $feature)]
-                #[inline]
-                unsafe fn mul(self, b: Self) -> Self {
-                    $name($mul(self.0, b.0))
                 }
                 #[target_feature(enable = $feature)]
                 #[inline]
@@ -881,11 +874,6 @@ mod x86 {
                 }
                 #[target_feature(enable = $feature)]
                 #[inline]
-                unsafe fn half_mul(a: $h, b: $h) -> $h {
-                    $hmul(a, b)
-                }
-                #[target_feature(enable = $feature)]
-                #[inline]
                 unsafe fn half_min(a: $h, b: $h) -> $h {
                     $hmin(a, b)
                 }
@@ -920,7 +908,6 @@ mod x86 {
             _mm512_storeu_pd,
             _mm512_add_pd,
             _mm512_sub_pd,
-            _mm512_mul_pd,
             _mm512_min_pd,
             _mm512_max_pd,
             _mm512_fmadd_pd,
@@ -933,7 +920,6 @@ mod x86 {
             _mm256_storeu_pd,
             _mm256_add_pd,
             _mm256_sub_pd,
-            _mm256_mul_pd,
             _mm256_min_pd,
             _mm256_max_pd,
             _mm256_fmadd_pd,
@@ -954,7 +940,6 @@ mod x86 {
             _mm256_storeu_ps,
             _mm256_add_ps,
             _mm256_sub_ps,
-            _mm256_mul_ps,
             _mm256_min_ps,
             _mm256_max_ps,
             _mm256_fmadd_ps,
@@ -967,7 +952,6 @@ mod x86 {
             _mm_storeu_ps,
             _mm_add_ps,
             _mm_sub_ps,
-            _mm_mul_ps,
             _mm_min_ps,
             _mm_max_ps,
             _mm_fmadd_ps,
@@ -1003,8 +987,10 @@ mod x86 {
                 x.store_unsplit::<SPLIT>(saved.as_mut_ptr().add(i0));
                 let x = x.min(v8.add(r)).max(v8.sub(r));
                 x.store_unsplit::<SPLIT>(at);
-                let (lo, hi) = E::load(weights.as_ptr().add(i0)).mul(x).halves();
-                acc = E::half_add(E::half_add(acc, lo), hi);
+                // lanes 0–3, then 4–7, into the four partial sums
+                let (lo, hi) = x.halves();
+                acc = E::half_mul_add(E::half_load(weights.as_ptr().add(i0)), lo, acc);
+                acc = E::half_mul_add(E::half_load(weights.as_ptr().add(i0 + 4)), hi, acc);
             }
             if full4 > full8 {
                 let at = state.as_mut_ptr().add(full8);
@@ -1015,7 +1001,7 @@ mod x86 {
                 let x = E::half_max(x, E::half_sub(v4, r));
                 E::half_store_unsplit::<SPLIT>(x, at);
                 let w = E::half_load(weights.as_ptr().add(full8));
-                acc = E::half_add(acc, E::half_mul(w, x));
+                acc = E::half_mul_add(w, x, acc);
             }
             let mut lanes = [E::T::ZERO; 4];
             E::half_store(acc, lanes.as_mut_ptr());
@@ -1064,8 +1050,9 @@ mod x86 {
                     at = at.add(n);
                     rows = rows.add(update!(at, g));
                 }
-                let (lo, hi) = E::load(weights.as_ptr().add(i0)).mul(rows).halves();
-                acc = E::half_add(E::half_add(acc, lo), hi);
+                let (lo, hi) = rows.halves();
+                acc = E::half_mul_add(E::half_load(weights.as_ptr().add(i0)), lo, acc);
+                acc = E::half_mul_add(E::half_load(weights.as_ptr().add(i0 + 4)), hi, acc);
             }
             if full4 > full8 {
                 let r = E::half_load(thresholds.as_ptr().add(full8));
@@ -1088,7 +1075,7 @@ mod x86 {
                     rows = E::half_add(rows, update!(at, g));
                 }
                 let w = E::half_load(weights.as_ptr().add(full8));
-                acc = E::half_add(acc, E::half_mul(w, rows));
+                acc = E::half_mul_add(w, rows, acc);
             }
             let mut lanes = [E::T::ZERO; LANES];
             E::half_store(acc, lanes.as_mut_ptr());
