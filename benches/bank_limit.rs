@@ -2,15 +2,18 @@
 //!
 //! Per channel-step the bank's block step does a fixed number of vector-lane
 //! operations (adds, subtractions, multiplies, fused multiply-adds, `min`,
-//! `max`, compares and selects; loads and stores not counted): `23 + 7 n +
-//! n_C (4 + 5 m)` — 455 at the paper's order (12 plays, 12 creep thresholds
-//! × 5 eigenvalues). The CPU's rate for that kind of work is measured here,
+//! `max`, compares and selects; loads and stores not counted): `23 + 6 n +
+//! n_C (3 + 5 m)` — 431 at the paper's order (12 plays, 12 creep thresholds
+//! × 5 eigenvalues): a play's bounds, clamp, fault select and weighted term
+//! (one fused operation with its sum); a creep threshold's bounds and
+//! weighted term, and per eigenvalue the clamp, the update's two fused
+//! operations and the row's add. The CPU's rate for that kind of work is measured here,
 //! on the widest registers the bank uses on it, with a loop of independent
 //! creep-element updates (`min`, `max`, the two fused operations of
 //! `g c + (χ − g χ)`, the row's add) that has no loads, stores or
 //! dependencies to wait for, and where the bank's kernels have AVX-512 the
 //! same loop with the row's addition fused on the multiplier (`b · 1 + a`,
-//! as those kernels do it): the faster of the two rates divided by 455 is
+//! as those kernels do it): the faster of the two rates divided by 431 is
 //! the bound in channel-steps per second on one core.
 //!
 //! First a crossover scan: 2 to 64 blocks on one thread against a forced
@@ -36,7 +39,7 @@ use mfcbeam::realtime::{simd::Kernels, Compensated, Real};
 
 /// Vector-lane operations per channel-step of the bank's block step.
 fn lane_operations(n: usize, nc: usize, m: usize) -> usize {
-    23 + 7 * n + nc * (4 + 5 * m)
+    23 + 6 * n + nc * (3 + 5 * m)
 }
 
 /// The core's clock while it runs this, in GHz: a chain of dependent
