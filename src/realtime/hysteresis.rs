@@ -90,8 +90,9 @@ pub(crate) fn advance_plays<T: Real>(state: &mut [T], thresholds: &[T], v: T) {
 }
 
 /// `Σ w_i x_i` in four partial sums, lane `l` adding the terms `i ≡ l mod
-/// 4` in order (SIMD without `-ffast-math`-style reassociation: the order
-/// is fixed, the same for every instruction set), then [`reduce`]d.
+/// 4` in order, each fused with the sum ([`add_product`]) (SIMD without
+/// `-ffast-math`-style reassociation: the order is fixed, the same for
+/// every instruction set), then [`reduce`]d.
 #[inline(always)]
 pub(crate) fn weighted_sum<T: Real>(w: &[T], x: &[T]) -> T {
     let mut a = [T::ZERO; 4];

@@ -13,9 +13,10 @@
 //! 8-lane registers; the plays and creep pass of the forward model likewise;
 //! the bank's 64-byte blocks (`block`: 8 `f64` or 16 `f32` lanes, one
 //! cache line) on two 256-bit registers or one 512-bit register. A
-//! multiply and an add are fused only where every copy fuses them (the
-//! creep update's two operations, `creep_pass::update`, with `std`; Rust
-//! never contracts the others), `min` and `max` are written as the hardware
+//! multiply and an add are fused only where every copy fuses them (with
+//! `std`: the creep update's two operations, `creep_pass::update`, and each
+//! weighted term with its partial sum, `real::add_product`; Rust never
+//! contracts the others), `min` and `max` are written as the hardware
 //! defines them and the sums run in a fixed order, so every copy computes
 //! the same bits: `verification/bank.rs`
 //! checks that for each kernel set the CPU has ([`Kernels::all`]), and that
