@@ -54,8 +54,9 @@ pub trait Real:
     /// `self · a + b` rounded once, on every CPU: an FMA instruction where
     /// the code is compiled for one, else the C library's `fma`. Only with
     /// `std`: stable Rust reaches no fused operation without it (the
-    /// Cortex-M4's `vfma.f32` included). The creep update (20) is written
-    /// with it; see `creep_pass::update`.
+    /// Cortex-M4's `vfma.f32` included). The creep update (20) and the
+    /// steps' weighted sums are written with it (`creep_pass::update`,
+    /// `add_product`).
     #[cfg(feature = "std")]
     fn fused_mul_add(self, a: Self, b: Self) -> Self;
 
