@@ -218,10 +218,37 @@ mod tests {
         rest_is_kept::<f32>();
     }
 
+    /// Updates away from rest: every state with a partner state as `c`, at
+    /// every gain, and the update's result.
+    fn moving<T: Real>() -> impl Iterator<Item = (T, T, T, T)> {
+        let xs = states::<T>(4_000);
+        let cs: Vec<T> = (0..xs.len()).map(|k| xs[(k * 7 + 3) % xs.len()]).collect();
+        xs.into_iter().zip(cs).flat_map(|(x, c)| {
+            gains::<T>()
+                .into_iter()
+                .map(move |g| (x, g, c, update(x, g, c)))
+        })
+    }
+
     /// Away from rest, in `f32` against the value in `f64` (the products of
     /// two `f32` are exact there): within `½ ulp(result) + ½ ulp(χ)`, the
     /// rounding of the sum and of `χ − g χ` (plus the `f64` reference's own
     /// rounding, 2⁻⁵² of the terms).
+    #[test]
+    fn an_update_rounds_twice() {
+        for (x, g, c, y) in moving::<f32>() {
+            let (xd, gd, cd) = (x as f64, g as f64, c as f64);
+            let exact = gd * cd + (xd - gd * xd);
+            let ulp = |v: f32| (v.abs().next_up() - v.abs()) as f64;
+            let reference = 2f64.powi(-52) * (gd * cd.abs() + 2.0 * xd.abs());
+            let bound = 0.5 * ulp(y) + 0.5 * ulp(x) + reference;
+            assert!(
+                (y as f64 - exact).abs() <= bound,
+                "χ = {x}, g = {g}, c = {c}: {y} against {exact} (bound {bound:e})"
+            );
+        }
+    }
+
     /// `a + b` as a sum and its exact rounding error (Knuth's TwoSum).
     fn two_sum(a: f64, b: f64) -> (f64, f64) {
         let s = a + b;
@@ -234,47 +261,21 @@ mod tests {
     /// TwoSum): the reference's own error is of order `ε²`.
     #[test]
     fn an_update_rounds_twice_in_f64() {
-        let xs = states::<f64>(4_000);
-        for (k, &x) in xs.iter().enumerate() {
-            let c = xs[(k * 7 + 3) % xs.len()];
-            for g in gains::<f64>() {
-                let y = update(x, g, c);
-                let (p1, e1) = (g * c, g.mul_add(c, -(g * c)));
-                let (p2, e2) = (g * x, g.mul_add(x, -(g * x)));
-                let (s1, t1) = two_sum(p1, x);
-                let (s2, t2) = two_sum(s1, -p2);
-                let tail = t1 + t2 + e1 - e2;
-                let ulp = |v: f64| v.abs().next_up() - v.abs();
-                // y − exact, computed as (y − s2) − tail: y − s2 is exact
-                // where y and s2 are close (Sterbenz), and both are
-                let error = ((y - s2) - tail).abs();
-                let bound =
-                    0.5 * ulp(y) + 0.5 * ulp(x) + 4.0 * f64::EPSILON * ulp(s2.abs() + x.abs());
-                assert!(
-                    error <= bound,
-                    "χ = {x:e}, g = {g:e}, c = {c:e}: {y:e}, error {error:e} > {bound:e}"
-                );
-            }
-        }
-    }
-
-    #[test]
-    fn an_update_rounds_twice() {
-        let xs = states::<f32>(4_000);
-        for (k, &x) in xs.iter().enumerate() {
-            let c = xs[(k * 7 + 3) % xs.len()];
-            for g in gains::<f32>() {
-                let y = update(x, g, c);
-                let (xd, gd, cd) = (x as f64, g as f64, c as f64);
-                let exact = gd * cd + (xd - gd * xd);
-                let ulp = |v: f32| (v.abs().next_up() - v.abs()) as f64;
-                let reference = 2f64.powi(-52) * (gd * cd.abs() + 2.0 * xd.abs());
-                let bound = 0.5 * ulp(y) + 0.5 * ulp(x) + reference;
-                assert!(
-                    (y as f64 - exact).abs() <= bound,
-                    "χ = {x}, g = {g}, c = {c}: {y} against {exact} (bound {bound:e})"
-                );
-            }
+        for (x, g, c, y) in moving::<f64>() {
+            let (p1, e1) = (g * c, g.mul_add(c, -(g * c)));
+            let (p2, e2) = (g * x, g.mul_add(x, -(g * x)));
+            let (s1, t1) = two_sum(p1, x);
+            let (s2, t2) = two_sum(s1, -p2);
+            let tail = t1 + t2 + e1 - e2;
+            let ulp = |v: f64| v.abs().next_up() - v.abs();
+            // y − exact as (y − s2) − tail: y − s2 is exact where y and s2
+            // are close (Sterbenz), and both are
+            let error = ((y - s2) - tail).abs();
+            let bound = 0.5 * ulp(y) + 0.5 * ulp(x) + 4.0 * f64::EPSILON * ulp(s2.abs() + x.abs());
+            assert!(
+                error <= bound,
+                "χ = {x:e}, g = {g:e}, c = {c:e}: {y:e}, error {error:e} > {bound:e}"
+            );
         }
     }
 }
