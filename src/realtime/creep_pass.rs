@@ -28,8 +28,11 @@ pub(crate) const LANES: usize = 4;
 /// depend on the CPU. A threshold's rows are summed from its first row, not
 /// from zero: the sums differ only where every row is a zero, in the sign
 /// of that zero, and the weighted rows go into partial sums that start at
-/// `+0`, which a zero of either sign leaves unchanged (a sum from `+0` is
-/// never `−0`) — so the output has the same bits as the sum from zero.
+/// `+0` (each term fused with its sum with `std`,
+/// [`crate::realtime::real::add_product`]), which a zero of either sign
+/// leaves unchanged (a sum from `+0` is never `−0`, fused or not: an exact
+/// zero sum of opposite signs is `+0`) — so the output has the same bits as
+/// the sum from zero.
 #[inline(always)]
 pub(crate) fn advance<T: Real>(
     chi: &mut [T],
