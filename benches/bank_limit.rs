@@ -17,11 +17,11 @@
 //! the bound in channel-steps per second on one core.
 //!
 //! First a crossover scan: 2 to 64 blocks on one thread against a forced
-//! split over two (`Workers::with_min_blocks(0)`), and the smallest block
+//! split over two (`Workers::with_min_blocks(0).with_adaptive(false)`), and the smallest block
 //! count where the split is faster, next to `Workers::min_blocks`. Then the
 //! bank at 1, 8, 64, 1024 and 4096 channels, `f64` and `f32`, on one thread
-//! and on two (`CompensatorBank::compensate_on` with one worker and the
-//! default crossover),
+//! and on two (`CompensatorBank::compensate_on` with one worker, the
+//! default crossover and the adaptive choice between one thread and a split),
 //! timed as the median over batches of steps; printed with the CPU, its
 //! bound, the ratio, the cycles per channel-step at the clock measured here,
 //! and the share of a core a 4000-actuator mirror at 10 kHz needs.
@@ -354,7 +354,10 @@ fn report<T: Real>(ghz: f64) {
     );
     let two = Workers::new(1).unwrap();
     // the crossover: one thread against a forced split, by blocks
-    let split = Workers::new(1).unwrap().with_min_blocks(0);
+    let split = Workers::new(1)
+        .unwrap()
+        .with_min_blocks(0)
+        .with_adaptive(false);
     let lanes = 64 / std::mem::size_of::<T>(); // a block: one cache line of lanes
     let mut crossover = None;
     for blocks in [2usize, 4, 8, 12, 16, 24, 32, 64] {

@@ -154,12 +154,13 @@ fn steps_and_in_place_runs_allocate_nothing() {
     });
     assert_eq!(n, 0, "{n} allocations in the per-sample path");
 
-    // a bank stepped on two threads: no allocation in either
-    // split whatever its size (below the crossover it would step on the
-    // caller alone)
+    // a bank stepped on two threads: no allocation in either, split
+    // whatever its size (below the crossover it would step on the caller
+    // alone), with the adaptive choice timing steps both ways
     let workers = mfcbeam::operators::bank::Workers::new(1)
         .unwrap()
         .with_min_blocks(0);
+    assert!(format!("{workers:?}").contains("adaptive: true"));
     let mut big = mfcbeam::operators::bank::CompensatorBank::<f64>::uniform(
         &nominal::PARAMETERS,
         100,

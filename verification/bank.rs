@@ -399,7 +399,12 @@ fn a_bank_on_worker_threads_gives_the_bits_of_one_thread() {
     // every bank split, whatever its size (below the crossover a bank would
     // step on the caller alone)
     let pools: Vec<Workers> = [0, 1, 3]
-        .map(|extra| Workers::new(extra).unwrap().with_min_blocks(0))
+        .map(|extra| {
+            Workers::new(extra)
+                .unwrap()
+                .with_min_blocks(0)
+                .with_adaptive(false)
+        })
         .into();
     for (seed, channels) in [(1u64, 5usize), (2, 16), (3, 37), (4, 130)] {
         let mut rng = Rng::new(seed);
@@ -470,7 +475,10 @@ fn channels_with_dynamics_give_the_bits_of_their_own_compensator() {
     let settings = CompensatorSettings::with_limits(-400.0, 400.0);
     let mut bank = CompensatorBank::<f64>::new(&params, settings).unwrap();
     let mut split = bank.clone();
-    let workers = Workers::new(2).unwrap().with_min_blocks(0);
+    let workers = Workers::new(2)
+        .unwrap()
+        .with_min_blocks(0)
+        .with_adaptive(false);
     let mut single: Vec<_> = params
         .iter()
         .map(|p| Compensator::<f64, Inline<12, 72, 9, 4>>::new(p, settings).unwrap())

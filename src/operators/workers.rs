@@ -8,10 +8,19 @@
 //! it. The job borrows the caller's stack: `Workers::run` returns only
 //! when every worker has finished it (and a worker's panic is re-raised),
 //! the scoped-thread rule kept by hand.
+//!
+//! Whether a split pays is measured while the bank runs: a split costs a
+//! hand-over (about 0.2 µs between two cores of one CCX, about 1 µs and a
+//! slower worker when a VM's two virtual CPUs share less), so the same bank
+//! can be faster split at one moment and slower the next. With the
+//! adaptive choice (the default) every 32nd step of a bank above the
+//! crossover is timed, alternately the slower way (alone or split) and the
+//! faster, and the other steps run the way that was faster.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::thread::{self, JoinHandle, Thread};
+use std::time::Duration;
 
 /// A job: called with the part index `1..=workers` on each worker.
 type Job = dyn Fn(usize) + Sync;
@@ -63,6 +72,111 @@ const SPINS: usize = 50_000;
 /// at 8, 21–24 % at 24; from 12 on it is faster with a margin.
 pub const DEFAULT_MIN_BLOCKS: usize = 12;
 
+/// Steps between two timings of the way in use, and the first and
+/// shortest interval between two probes of the other way.
+pub(crate) const PROBE_EVERY: u64 = 64;
+
+/// The longest interval between two probes: a probe that confirms the
+/// choice doubles the interval up to this.
+pub(crate) const LONGEST_PROBE_INTERVAL: u64 = 1024;
+
+/// How one step above the crossover runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Plan {
+    /// Split over the workers (else on the calling thread alone).
+    pub split: bool,
+    /// Timed, its time recorded with [`Workers::record`].
+    pub timed: bool,
+    /// The timed step of a probe of the way not in use.
+    pub probe: bool,
+}
+
+/// The plan for step number `step` from the times per block so far of a
+/// step alone and split (0: not timed yet) and the step of the next probe.
+/// Each way is timed first (the split after one step that wakes the
+/// workers); then the faster way runs, timed every `PROBE_EVERY` steps,
+/// and at `next_probe` the other way runs twice, the second time timed (a
+/// parked worker's wake-up is not the split's cost).
+pub(crate) fn plan(step: u64, alone: u64, split: u64, next_probe: u64) -> Plan {
+    if split == 0 {
+        return Plan {
+            split: true,
+            timed: step >= 1,
+            probe: false,
+        };
+    }
+    if alone == 0 {
+        return Plan {
+            split: false,
+            timed: true,
+            probe: false,
+        };
+    }
+    let faster_split = split <= alone;
+    if step == next_probe || step == next_probe + 1 {
+        let timed = step == next_probe + 1;
+        return Plan {
+            split: !faster_split,
+            timed,
+            probe: timed,
+        };
+    }
+    Plan {
+        split: faster_split,
+        timed: step % PROBE_EVERY == PROBE_EVERY / 2,
+        probe: false,
+    }
+}
+
+/// The interval to the next probe after one that changed the choice
+/// (`changed`: back to `PROBE_EVERY`) or confirmed it (doubled, up to
+/// `LONGEST_PROBE_INTERVAL`).
+pub(crate) fn next_interval(interval: u64, changed: bool) -> u64 {
+    if changed {
+        PROBE_EVERY
+    } else {
+        (2 * interval).clamp(PROBE_EVERY, LONGEST_PROBE_INTERVAL)
+    }
+}
+
+/// A time per block folded into its running estimate `old` (0: none yet):
+/// weight ¼, and a sample more than four times the estimate counted as
+/// four times it, so that one step delayed by the operating system does
+/// not turn the choice for long.
+pub(crate) fn fold(old: u64, sample: u64) -> u64 {
+    let sample = sample.max(1);
+    if old == 0 {
+        sample
+    } else {
+        ((3 * old + sample.min(4 * old)) / 4).max(1)
+    }
+}
+
+/// The adaptive choice's counters (atomics: `Workers` is shared by
+/// reference; one caller at a time is the expected use, and a race between
+/// two only blurs an estimate).
+struct Choice {
+    steps: AtomicU64,
+    /// Picoseconds per block of a step on the calling thread alone.
+    alone: AtomicU64,
+    /// Picoseconds per block of a split step.
+    split: AtomicU64,
+    next_probe: AtomicU64,
+    interval: AtomicU64,
+}
+
+impl Default for Choice {
+    fn default() -> Self {
+        Self {
+            steps: AtomicU64::new(0),
+            alone: AtomicU64::new(0),
+            split: AtomicU64::new(0),
+            next_probe: AtomicU64::new(PROBE_EVERY),
+            interval: AtomicU64::new(PROBE_EVERY),
+        }
+    }
+}
+
 /// Threads that step parts of a bank together with the calling thread.
 pub struct Workers {
     shared: Arc<Shared>,
@@ -70,12 +184,18 @@ pub struct Workers {
     handles: Vec<Thread>,
     /// The crossover: fewer blocks run on the caller alone.
     min_blocks: usize,
+    /// Above the crossover, choose between one thread and a split by
+    /// timing both now and then (else always split).
+    adaptive: bool,
+    choice: Choice,
 }
 
 impl std::fmt::Debug for Workers {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Workers")
             .field("threads", &self.threads.len())
+            .field("min_blocks", &self.min_blocks)
+            .field("adaptive", &self.adaptive)
             .finish()
     }
 }
@@ -106,7 +226,62 @@ impl Workers {
             threads,
             handles,
             min_blocks: DEFAULT_MIN_BLOCKS,
+            adaptive: true,
+            choice: Choice::default(),
         })
+    }
+
+    /// Above the crossover, choose by timing (`true`, the default) or split
+    /// every step (`false`: for tests and for timing a split itself).
+    pub fn with_adaptive(mut self, adaptive: bool) -> Self {
+        self.adaptive = adaptive;
+        self
+    }
+
+    /// How the next step of a bank above the crossover runs.
+    pub(crate) fn plan(&self) -> Plan {
+        if !self.adaptive {
+            return Plan {
+                split: true,
+                timed: false,
+                probe: false,
+            };
+        }
+        let c = &self.choice;
+        plan(
+            c.steps.fetch_add(1, Ordering::Relaxed),
+            c.alone.load(Ordering::Relaxed),
+            c.split.load(Ordering::Relaxed),
+            c.next_probe.load(Ordering::Relaxed),
+        )
+    }
+
+    /// Records the time `time` of a step of `blocks` blocks run as `plan`
+    /// asked.
+    pub(crate) fn record(&self, plan: Plan, time: Duration, blocks: usize) {
+        let c = &self.choice;
+        let ps = (time.as_nanos() * 1000 / blocks.max(1) as u128).min(u64::MAX as u128 / 8) as u64;
+        let was_split_faster = c.split.load(Ordering::Relaxed) <= c.alone.load(Ordering::Relaxed);
+        let estimate = if plan.split { &c.split } else { &c.alone };
+        let old = estimate.load(Ordering::Relaxed);
+        // a probe's way has not been timed for a while: its new time
+        // replaces the old one (capped as in `fold`)
+        let new = if plan.probe {
+            ps.clamp(1, 4 * old.max(1))
+        } else {
+            fold(old, ps)
+        };
+        estimate.store(new, Ordering::Relaxed);
+        if plan.probe {
+            let changed = (c.split.load(Ordering::Relaxed) <= c.alone.load(Ordering::Relaxed))
+                != was_split_faster;
+            let interval = next_interval(c.interval.load(Ordering::Relaxed), changed);
+            c.interval.store(interval, Ordering::Relaxed);
+            c.next_probe.store(
+                c.steps.load(Ordering::Relaxed) + interval,
+                Ordering::Relaxed,
+            );
+        }
     }
 
     /// The crossover set to `blocks`: a bank of fewer blocks steps on the
@@ -300,5 +475,104 @@ mod tests {
             after.fetch_add(1, Ordering::Relaxed);
         });
         assert_eq!(after.load(Ordering::Relaxed), 3);
+    }
+
+    #[test]
+    fn the_choice_times_both_ways_and_then_follows_the_faster() {
+        let no = |split, timed| Plan {
+            split,
+            timed,
+            probe: false,
+        };
+        // nothing timed yet: a split that wakes the workers, one timed,
+        // then one alone, timed
+        assert_eq!(plan(0, 0, 0, 64), no(true, false));
+        assert_eq!(plan(1, 0, 0, 64), no(true, true));
+        assert_eq!(plan(2, 0, 500, 64), no(false, true));
+        // split slower: alone, timed every PROBE_EVERY steps; the probe at
+        // 64 runs split twice, the second timed
+        for step in 3..200 {
+            let p = plan(step, 100, 300, 64);
+            match step {
+                64 => assert_eq!(p, no(true, false)),
+                65 => assert_eq!(
+                    p,
+                    Plan {
+                        split: true,
+                        timed: true,
+                        probe: true
+                    }
+                ),
+                s if s % PROBE_EVERY == PROBE_EVERY / 2 => assert_eq!(p, no(false, true)),
+                _ => assert_eq!(p, no(false, false)),
+            }
+        }
+        // split faster: the other way round
+        assert_eq!(plan(70, 300, 100, 70), no(false, false));
+        assert_eq!(
+            plan(71, 300, 100, 70),
+            Plan {
+                split: false,
+                timed: true,
+                probe: true
+            }
+        );
+        assert_eq!(plan(75, 300, 100, 70), no(true, false));
+    }
+
+    #[test]
+    fn a_probe_that_confirms_the_choice_doubles_the_interval() {
+        assert_eq!(next_interval(64, false), 128);
+        assert_eq!(next_interval(4096, false), LONGEST_PROBE_INTERVAL);
+        assert_eq!(next_interval(1024, true), PROBE_EVERY);
+    }
+
+    #[test]
+    fn an_estimate_follows_its_samples_and_one_outlier_moves_it_little() {
+        assert_eq!(fold(0, 800), 800);
+        assert_eq!(fold(800, 400), 700);
+        // a step a thousand times slower counts as four times the estimate
+        assert_eq!(fold(800, 800_000), 1400);
+        // a run of samples converges to them
+        let mut e = 1000;
+        for _ in 0..40 {
+            e = fold(e, 200);
+        }
+        assert!(e <= 201, "{e}");
+        assert_eq!(fold(0, 0), 1);
+    }
+
+    #[test]
+    fn the_adaptive_choice_leaves_a_split_that_is_slower_and_probes_it_less_often() {
+        let w = Workers::new(1).unwrap();
+        let mut split_steps = Vec::new();
+        for step in 0..20_000u64 {
+            let p = w.plan();
+            if p.split {
+                split_steps.push(step);
+            }
+            // a split takes 50 µs for 10 blocks, a step alone 5 µs
+            let time = Duration::from_micros(if p.split { 50 } else { 5 });
+            if p.timed {
+                w.record(p, time, 10);
+            }
+        }
+        // two to start, then two per probe at 64, 194, 452, … doubling to
+        // every 1024 steps
+        let probes: Vec<u64> = split_steps[2..].iter().step_by(2).copied().collect();
+        assert_eq!(&split_steps[..2], &[0, 1]);
+        assert_eq!(&probes[..5], &[64, 194, 452, 966, 1992]);
+        assert!(probes
+            .windows(2)
+            .all(|p| p[1] - p[0] <= LONGEST_PROBE_INTERVAL + 2));
+        // 20 000 steps: 4 probes to 966, then one every 1026 steps
+        assert_eq!(split_steps.len(), 2 + 2 * (4 + (20_000 - 968) / 1026));
+        let fixed = Workers::new(1).unwrap().with_adaptive(false);
+        assert!((0..100).all(|_| fixed.plan()
+            == Plan {
+                split: true,
+                timed: false,
+                probe: false
+            }));
     }
 }

@@ -342,8 +342,11 @@ impl<T: Real> CompensatorBank<T> {
     /// [`CompensatorBank::compensate`] with the blocks split over `workers`
     /// and the calling thread (each part is at least one block). A bank of
     /// fewer blocks than [`Workers::min_blocks`] (the measured crossover,
-    /// overridable) steps on the calling thread alone, so that two threads
-    /// are never slower than one. The same bits as on one thread;
+    /// overridable) steps on the calling thread alone; above it the
+    /// workers' adaptive choice (see [`Workers::with_adaptive`]) times a
+    /// step now and then each way and runs the others the faster way, so
+    /// that two threads are not slower than one even when the split's worth
+    /// changes while the bank runs. The same bits either way;
     /// allocation-free and without locks.
     #[inline]
     pub fn compensate_on(
@@ -355,13 +358,36 @@ impl<T: Real> CompensatorBank<T> {
         if self.blocks < workers.min_blocks() || workers.parts() == 1 {
             return self.compensate(targets, out);
         }
-        self.compensate_split(workers, targets, out)
+        self.compensate_planned(workers, targets, out)
     }
 
-    /// [`CompensatorBank::compensate_on`]'s split, out of line: the
-    /// unsplit path stays the one-thread step's code (inline, it ran 4–9 %
-    /// slower than that at 1–8 channels on a Zen 4).
+    /// A step above the crossover: split or on the calling thread alone, as
+    /// the workers' adaptive choice plans it (timed when it asks).
     #[inline(never)]
+    fn compensate_planned(
+        &mut self,
+        workers: &Workers,
+        targets: &[T],
+        out: &mut [Compensated<T>],
+    ) -> Result<(), ParameterError> {
+        let plan = workers.plan();
+        let start = plan.timed.then(std::time::Instant::now);
+        let stepped = if plan.split {
+            self.compensate_split(workers, targets, out)
+        } else {
+            self.compensate(targets, out)
+        };
+        if let Some(start) = start {
+            workers.record(plan, start.elapsed(), self.blocks);
+        }
+        stepped
+    }
+
+    /// The split step, inside [`CompensatorBank::compensate_planned`], out
+    /// of line: `compensate_on`'s path below the crossover stays the
+    /// one-thread step's code (inline, it ran 4–9 % slower than that at 1–8
+    /// channels on a Zen 4).
+    #[inline(always)]
     fn compensate_split(
         &mut self,
         workers: &Workers,
