@@ -10,12 +10,15 @@
 //! the scoped-thread rule kept by hand.
 //!
 //! Whether a split pays is measured while the bank runs: a split costs a
-//! hand-over (about 0.2 µs between two cores of one CCX, about 1 µs and a
-//! slower worker when a VM's two virtual CPUs share less), so the same bank
-//! can be faster split at one moment and slower the next. With the
-//! adaptive choice (the default) every 32nd step of a bank above the
-//! crossover is timed, alternately the slower way (alone or split) and the
-//! faster, and the other steps run the way that was faster.
+//! hand-over, and on a virtual machine that cost and the worker's speed
+//! depend on where the host puts the virtual CPUs (on a 2-vCPU Zen 4
+//! guest, about 0.25 µs in some minutes and 1 µs with a slower worker in
+//! others), so the same bank can be faster split at one moment and slower
+//! the next. With the
+//! adaptive choice (the default) every 64th step of a bank above the
+//! crossover is timed the way in use, the other way is timed now and then
+//! (less often while it stays the slower), and the steps run the way that
+//! was faster.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
