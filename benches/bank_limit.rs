@@ -13,7 +13,7 @@
 //! `g c + (χ − g χ)`, the row's add) that has no loads, stores or
 //! dependencies to wait for, and where the bank's kernels have AVX-512 the
 //! same loop with the row's addition fused on the multiplier (`b · 1 + a`,
-//! as those kernels do it): the faster of the two rates divided by 431 is
+//! as those kernels do it for half of the rows): the faster of the two rates divided by 431 is
 //! the bound in channel-steps per second on one core.
 //!
 //! First a crossover scan: 2 to 64 blocks on one thread against a forced

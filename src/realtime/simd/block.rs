@@ -115,6 +115,17 @@ pub(crate) trait Block<T: Real>: Copy {
         // SAFETY: the caller's, forwarded.
         unsafe { self.add(b) }
     }
+
+    /// `a − b` as [`Block::add_on_multiplier`] computes `a + b`: the bits
+    /// of [`Block::sub`], computed where a set has it as the fused
+    /// `−(b · one) + a` (exact product, one rounding: the rounded
+    /// difference) on the multiplier's pipes.
+    #[inline(always)]
+    unsafe fn sub_on_multiplier(self, b: Self, one: Self) -> Self {
+        let _ = one;
+        // SAFETY: the caller's, forwarded.
+        unsafe { self.sub(b) }
+    }
 }
 
 /// Lanes in an array, one by one: any CPU.
@@ -663,6 +674,16 @@ mod x86 {
             }
         }
 
+        #[target_feature(enable = "avx2,fma,avx512f")]
+        #[inline]
+        unsafe fn sub_on_multiplier(self, b: Self, one: Self) -> Self {
+            if is_f64::<T>() {
+                Avx512(_mm512_fnmadd_pd(b.0, one.0, self.0), self.1)
+            } else {
+                Avx512(self.0, _mm512_fnmadd_ps(b.1, one.1, self.1))
+            }
+        }
+
         avx512_op!(sub, _mm512_sub_pd, _mm512_sub_ps);
         avx512_op!(min, _mm512_min_pd, _mm512_min_ps);
         avx512_op!(max, _mm512_max_pd, _mm512_max_ps);
@@ -796,6 +817,7 @@ impl<T: Real, V: Block<T>> Ops<T, V> {
         mul_add(x: V, a: V, b: V) -> V;
         neg_mul_add(x: V, a: V, b: V) -> V;
         add_on_multiplier(a: V, b: V, one: V) -> V;
+        sub_on_multiplier(a: V, b: V, one: V) -> V;
     }
 
     /// [`Block::store_flagged`] into `out`, whose records are laid out as
@@ -862,32 +884,40 @@ mod tests {
     use super::*;
     use crate::realtime::simd::Kernels;
 
-    /// `add_on_multiplier` of every pair of `values`, lane by lane.
+    /// `add_on_multiplier`, `add`, `sub_on_multiplier` and `sub` of every
+    /// pair of `values`, lane by lane.
     struct AddBoth<'a, T>(&'a [T], &'a [T]);
 
     impl<T: Real> BlockWork<T> for AddBoth<'_, T> {
-        type Output = (Vec<T>, Vec<T>);
+        type Output = [Vec<T>; 4];
 
         fn run<V: Block<T>>(self, o: Ops<T, V>) -> Self::Output {
             let one = o.splat(core::hint::black_box(T::ONE));
-            let (mut fused, mut added) = (Vec::new(), Vec::new());
+            let mut out: [Vec<T>; 4] = Default::default();
             let width = lanes::<T>();
             for (a, b) in self.0.chunks_exact(width).zip(self.1.chunks_exact(width)) {
                 let (a, b) = (o.load_values(a), o.load_values(b));
                 let mut row = Row::default();
-                o.store(o.add_on_multiplier(a, b, one), &mut row);
-                fused.extend_from_slice(row.lanes::<T>());
-                o.store(o.add(a, b), &mut row);
-                added.extend_from_slice(row.lanes::<T>());
+                let results = [
+                    o.add_on_multiplier(a, b, one),
+                    o.add(a, b),
+                    o.sub_on_multiplier(a, b, one),
+                    o.sub(a, b),
+                ];
+                for (r, v) in results.into_iter().zip(&mut out) {
+                    o.store(r, &mut row);
+                    v.extend_from_slice(row.lanes::<T>());
+                }
             }
-            (fused, added)
+            out
         }
     }
 
     /// Every pair of signed zeros, subnormals, ones, the largest values,
     /// infinities, sums that cancel exactly and seeded random values: the
-    /// fused `b · 1 + a` gives the bits of `a + b` on every kernel set
-    /// (one rounding of an exact product, IEEE 754).
+    /// fused `b · 1 + a` gives the bits of `a + b`, and `−(b · 1) + a` those
+    /// of `a − b`, on every kernel set (one rounding of an exact product,
+    /// IEEE 754).
     fn fused_addition_is_addition<T: Real>() {
         let special = [
             0.0,
@@ -933,30 +963,40 @@ mod tests {
             b.push(T::ZERO);
         }
         for k in Kernels::all() {
-            let (fused, added) = run_blocks(k, AddBoth(&a, &b));
+            let [fused, added, fused_sub, subtracted] = run_blocks(k, AddBoth(&a, &b));
             let bits = |x: T| x.to_f64().to_bits();
             #[allow(clippy::eq_op)] // x != x: NaN
             let nan = |x: T| x != x;
-            for (i, (&f, &s)) in fused.iter().zip(&added).enumerate() {
-                // the scalar sum is the reference; ∞ − ∞ is a NaN on every
-                // path, its payload not compared
-                let exact = a[i] + b[i];
-                let same = if nan(exact) {
+            // the scalar result is the reference; ∞ − ∞ is a NaN on every
+            // path, its payload not compared
+            let same = |f: T, s: T, exact: T| {
+                if nan(exact) {
                     nan(f) && nan(s)
                 } else {
                     bits(f) == bits(exact) && bits(s) == bits(exact)
-                };
+                }
+            };
+            for i in 0..a.len() {
+                let (f, s) = (fused[i], added[i]);
                 assert!(
-                    same,
-                    "{k:?}: {:?} + {:?}: fused {f:?}, added {s:?}, scalar {exact:?}",
-                    a[i], b[i]
+                    same(f, s, a[i] + b[i]),
+                    "{k:?}: {:?} + {:?}: fused {f:?}, added {s:?}",
+                    a[i],
+                    b[i]
+                );
+                let (f, s) = (fused_sub[i], subtracted[i]);
+                assert!(
+                    same(f, s, a[i] - b[i]),
+                    "{k:?}: {:?} − {:?}: fused {f:?}, subtracted {s:?}",
+                    a[i],
+                    b[i]
                 );
             }
         }
     }
 
     #[test]
-    fn fused_addition_gives_the_bits_of_addition_on_every_kernel_set() {
+    fn fused_addition_and_subtraction_give_their_bits_on_every_kernel_set() {
         fused_addition_is_addition::<f64>();
         fused_addition_is_addition::<f32>();
     }
