@@ -14,11 +14,10 @@
 //! depend on where the host puts the virtual CPUs (on a 2-vCPU Zen 4
 //! guest, about 0.25 µs in some minutes and 1 µs with a slower worker in
 //! others), so the same bank can be faster split at one moment and slower
-//! the next. With the
-//! adaptive choice (the default) every 64th step of a bank above the
-//! crossover is timed the way in use, the other way is timed now and then
-//! (less often while it stays the slower), and the steps run the way that
-//! was faster.
+//! the next. With the adaptive choice (the default) every 64th step of a
+//! bank above the crossover is timed the way in use, the other way is
+//! timed now and then (less often while it stays the slower), and the
+//! steps run the way that was faster.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -116,8 +115,10 @@ pub(crate) fn plan(step: u64, alone: u64, split: u64, next_probe: u64) -> Plan {
         };
     }
     let faster_split = split <= alone;
-    if step == next_probe || step == next_probe + 1 {
-        let timed = step == next_probe + 1;
+    // from `next_probe` on until a probe is recorded (a step that panicked
+    // records nothing)
+    if step >= next_probe {
+        let timed = step > next_probe;
         return Plan {
             split: !faster_split,
             timed,
@@ -288,7 +289,8 @@ impl Workers {
     }
 
     /// The crossover set to `blocks`: a bank of fewer blocks steps on the
-    /// calling thread alone (0: every bank is split).
+    /// calling thread alone (0: none; every bank is split, or chosen for
+    /// by the adaptive choice).
     pub fn with_min_blocks(mut self, blocks: usize) -> Self {
         self.min_blocks = blocks;
         self
@@ -494,7 +496,7 @@ mod tests {
         assert_eq!(plan(2, 0, 500, 64), no(false, true));
         // split slower: alone, timed every PROBE_EVERY steps; the probe at
         // 64 runs split twice, the second timed
-        for step in 3..200 {
+        for step in 3..66 {
             let p = plan(step, 100, 300, 64);
             match step {
                 64 => assert_eq!(p, no(true, false)),
@@ -510,6 +512,18 @@ mod tests {
                 _ => assert_eq!(p, no(false, false)),
             }
         }
+        // after the probe (recorded: the next one at 194)
+        assert_eq!(plan(96, 100, 300, 194), no(false, true));
+        assert_eq!(plan(100, 100, 300, 194), no(false, false));
+        // a probe not recorded: every later step probes until one is
+        assert_eq!(
+            plan(90, 100, 300, 64),
+            Plan {
+                split: true,
+                timed: true,
+                probe: true
+            }
+        );
         // split faster: the other way round
         assert_eq!(plan(70, 300, 100, 70), no(false, false));
         assert_eq!(
@@ -520,7 +534,7 @@ mod tests {
                 probe: true
             }
         );
-        assert_eq!(plan(75, 300, 100, 70), no(true, false));
+        assert_eq!(plan(75, 300, 100, 200), no(true, false));
     }
 
     #[test]
