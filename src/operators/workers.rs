@@ -192,6 +192,11 @@ pub struct Workers {
     /// timing both now and then (else always split).
     adaptive: bool,
     choice: Choice,
+    /// A job is running: a second caller at the same time (another thread
+    /// with the same `&Workers`) runs all parts of its job itself. Here,
+    /// not in `Shared`: the workers never read it, so their spinning does
+    /// not share its cache line.
+    busy: AtomicBool,
 }
 
 impl std::fmt::Debug for Workers {
@@ -232,6 +237,7 @@ impl Workers {
             min_blocks: DEFAULT_MIN_BLOCKS,
             adaptive: true,
             choice: Choice::default(),
+            busy: AtomicBool::new(false),
         })
     }
 
@@ -318,11 +324,23 @@ impl Workers {
     /// Allocation-free.
     pub(crate) fn run(&self, job: &(dyn Fn(usize) + Sync + '_)) {
         let workers = self.threads.len();
-        if workers == 0 {
-            job(0);
+        let s = &*self.shared;
+        // the workers serve one job at a time: a caller that finds them
+        // busy (a bank on another thread with the same `&Workers`) runs
+        // every part itself, so that no job's pointer or count is
+        // overwritten while a worker may still use it
+        if workers == 0 || self.busy.swap(true, Ordering::Acquire) {
+            (0..=workers).for_each(job);
             return;
         }
-        let s = &*self.shared;
+        // clears `busy` however this call ends
+        struct Idle<'a>(&'a AtomicBool);
+        impl Drop for Idle<'_> {
+            fn drop(&mut self) {
+                self.0.store(false, Ordering::Release);
+            }
+        }
+        let _idle = Idle(&self.busy);
         s.done.store(0, Ordering::Relaxed);
         // SAFETY: only the lifetime is erased; the job is not used after
         // this call returns (every worker is done with it then).
@@ -591,5 +609,44 @@ mod tests {
                 timed: false,
                 probe: false
             }));
+    }
+
+    #[test]
+    fn callers_on_two_threads_at_once_each_get_every_part_once() {
+        // two banks stepped on two threads with the same `&Workers`: one
+        // job at a time goes to the workers, the other runs on its caller
+        let w = Workers::new(1).unwrap();
+        thread::scope(|scope| {
+            for _ in 0..2 {
+                scope.spawn(|| {
+                    for _ in 0..3000 {
+                        let parts: [AtomicUsize; 2] = Default::default();
+                        w.run(&|p| {
+                            parts[p].fetch_add(1, Ordering::Relaxed);
+                        });
+                        assert!(parts.iter().all(|n| n.load(Ordering::Relaxed) == 1));
+                    }
+                });
+            }
+        });
+        // and a job started while another holds the workers runs on its
+        // own thread
+        let release = AtomicBool::new(false);
+        thread::scope(|scope| {
+            let first = scope.spawn(|| {
+                w.run(&|_| {
+                    while !release.load(Ordering::Acquire) {
+                        thread::yield_now();
+                    }
+                })
+            });
+            while !w.busy.load(Ordering::Acquire) {
+                thread::yield_now();
+            }
+            let me = thread::current().id();
+            w.run(&|_| assert_eq!(thread::current().id(), me));
+            release.store(true, Ordering::Release);
+            first.join().unwrap();
+        });
     }
 }
