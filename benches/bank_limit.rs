@@ -203,8 +203,8 @@ mod mix {
         }
         // The same updates with the row's addition as `b · 1 + a` fused
         // (the same sums, on the multiplier's pipes), as the AVX-512 bank
-        // does it: the rate the CPU reaches when its adders and multipliers
-        // share the work.
+        // does it for half of its rows: the rate the CPU reaches when its
+        // adders and multipliers share the work.
         macro_rules! fused_chains {
             ($name:ident, $t:ty, $set1:ident, $min:ident, $max:ident, $fma:ident, $fnma:ident, $lanes:expr) => {
                 #[target_feature(enable = "avx2,fma,avx512f")]

@@ -148,11 +148,20 @@ pub(crate) fn next_interval(interval: u64, changed: bool) -> u64 {
 /// four times it, so that one step delayed by the operating system does
 /// not turn the choice for long.
 pub(crate) fn fold(old: u64, sample: u64) -> u64 {
-    let sample = sample.max(1);
     if old == 0 {
-        sample
+        sample.max(1)
     } else {
-        ((3 * old + sample.min(4 * old)) / 4).max(1)
+        ((3 * old + capped(old, sample)) / 4).max(1)
+    }
+}
+
+/// `sample` at least 1 and at most four times the estimate `old` (any,
+/// while there is none).
+pub(crate) fn capped(old: u64, sample: u64) -> u64 {
+    if old == 0 {
+        sample.max(1)
+    } else {
+        sample.clamp(1, 4 * old)
     }
 }
 
@@ -275,9 +284,9 @@ impl Workers {
         let estimate = if plan.split { &c.split } else { &c.alone };
         let old = estimate.load(Ordering::Relaxed);
         // a probe's way has not been timed for a while: its new time
-        // replaces the old one (capped as in `fold`)
+        // replaces the old one
         let new = if plan.probe {
-            ps.clamp(1, 4 * old.max(1))
+            capped(old, ps)
         } else {
             fold(old, ps)
         };
@@ -320,8 +329,9 @@ impl Workers {
         self.threads.len() + 1
     }
 
-    /// `job(0)` here and `job(p)` on worker `p`, returning when all are done.
-    /// Allocation-free.
+    /// `job(0)` here and `job(p)` on worker `p`, returning when all are
+    /// done; every part here if the workers are busy with another caller's
+    /// job. Allocation-free.
     pub(crate) fn run(&self, job: &(dyn Fn(usize) + Sync + '_)) {
         let workers = self.threads.len();
         let s = &*self.shared;
@@ -575,6 +585,10 @@ mod tests {
         }
         assert!(e <= 201, "{e}");
         assert_eq!(fold(0, 0), 1);
+        // a probe's sample replaces the estimate, capped the same way
+        assert_eq!(capped(800, 300), 300);
+        assert_eq!(capped(800, 800_000), 3200);
+        assert_eq!(capped(0, 0), 1);
     }
 
     #[test]
