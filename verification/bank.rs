@@ -7,15 +7,21 @@
 
 use mfcbeam::operators::bank::CompensatorBank;
 use mfcbeam::operators::model::ModelFile;
+use mfcbeam::operators::nominal::nominal_model_file;
 use mfcbeam::realtime::{simd, Compensator, CompensatorSettings, Inline, ParameterError, Real};
 use mfcbeam::suite::conformance::{random_model, ModelShape, Rng};
 
 type Single<T> = Compensator<T, Inline<12, 72>>;
 
-/// `count` models of one random shape: the first as drawn, the others with
-/// weights scaled (which keeps (11) and (17)) and their own offsets.
-fn models(rng: &mut Rng, count: usize) -> Vec<ModelFile> {
-    let base = random_model(rng, 12, ModelShape::Virgin);
+/// `count` models of one shape (random, or the paper's model): the first as
+/// drawn, the others with weights scaled (which keeps (11) and (17)) and
+/// their own offsets.
+fn models(rng: &mut Rng, count: usize, paper_order: bool) -> Vec<ModelFile> {
+    let base = if paper_order {
+        nominal_model_file()
+    } else {
+        random_model(rng, 12, ModelShape::Virgin)
+    };
     (0..count)
         .map(|c| {
             let mut m = base.clone();
@@ -54,9 +60,9 @@ fn targets(rng: &mut Rng, channels: usize, len: usize, limit: f64) -> Vec<Vec<f6
         .collect()
 }
 
-fn same_as_singles<T: Real>(seed: u64, channels: usize, shared: bool) {
+fn same_as_singles<T: Real>(seed: u64, channels: usize, shared: bool, paper_order: bool) {
     let mut rng = Rng::new(seed);
-    let files = models(&mut rng, if shared { 1 } else { channels });
+    let files = models(&mut rng, if shared { 1 } else { channels }, paper_order);
     let params: Vec<_> = files.iter().map(ModelFile::parameters).collect();
     let limit = rng.uniform(100.0, 600.0);
     let mut bank = if shared {
@@ -116,8 +122,21 @@ fn same_as_singles<T: Real>(seed: u64, channels: usize, shared: bool) {
 fn each_channel_is_a_single_compensator_bit_for_bit() {
     for seed in 0..24 {
         for channels in [1, 3, 8, 13, 17, 40] {
-            same_as_singles::<f64>(seed, channels, seed % 2 == 0);
-            same_as_singles::<f32>(seed, channels, seed % 2 == 1);
+            same_as_singles::<f64>(seed, channels, seed % 2 == 0, false);
+            same_as_singles::<f32>(seed, channels, seed % 2 == 1, false);
+        }
+    }
+}
+
+/// The same at the paper's order (12 plays, 12 creep thresholds × 5
+/// eigenvalues), for which the step is compiled with its loop counts known
+/// (the random shapes above rarely draw it).
+#[test]
+fn at_the_paper_order_each_channel_is_a_single_compensator_bit_for_bit() {
+    for seed in 0..8 {
+        for channels in [1, 8, 13, 40] {
+            same_as_singles::<f64>(seed, channels, seed % 2 == 0, true);
+            same_as_singles::<f32>(seed, channels, seed % 2 == 1, true);
         }
     }
 }
@@ -318,7 +337,7 @@ fn the_vector_kernels_run_exactly_where_the_cpu_has_them() {
 #[test]
 fn bad_banks_and_slices_are_refused_with_the_field_named() {
     let mut rng = Rng::new(3);
-    let files = models(&mut rng, 2);
+    let files = models(&mut rng, 2, false);
     let p: Vec<_> = files.iter().map(ModelFile::parameters).collect();
     assert_eq!(
         CompensatorBank::<f64>::new(&[], CompensatorSettings::with_limits(-1.0, 1.0)).unwrap_err(),
@@ -408,7 +427,8 @@ fn a_bank_on_worker_threads_gives_the_bits_of_one_thread() {
         .into();
     for (seed, channels) in [(1u64, 5usize), (2, 16), (3, 37), (4, 130)] {
         let mut rng = Rng::new(seed);
-        let files = models(&mut rng, channels);
+        // the paper's order (its own compiled step) in every other
+        let files = models(&mut rng, channels, seed % 2 == 0);
         let params: Vec<_> = files.iter().map(ModelFile::parameters).collect();
         let limit = rng.uniform(100.0, 600.0);
         let settings = CompensatorSettings::with_limits(-limit, limit);
@@ -457,7 +477,7 @@ fn channels_with_dynamics_give_the_bits_of_their_own_compensator() {
     use mfcbeam::operators::bank::Workers;
     use mfcbeam::operators::model::{DynamicsData, ResonanceData};
     let mut rng = Rng::new(11);
-    let mut files = models(&mut rng, 19);
+    let mut files = models(&mut rng, 19, false);
     for (i, f) in files.iter_mut().enumerate() {
         if i % 3 == 1 {
             f.dynamics = Some(DynamicsData {
