@@ -84,7 +84,9 @@ impl<T: Real> BlockWork<T> for Step<'_, '_, T> {
         // path's spill below, the first part alone took 36 instead of 26 ns
         // per block on a Zen 4).
         let one = o.splat(core::hint::black_box(T::ONE));
-        first_part(
+        // the creep input goes from a block's first part to its creep pass
+        // in a register (and to the state, for the next step's hold)
+        let mut uc = first_part(
             o,
             f,
             one,
@@ -96,11 +98,12 @@ impl<T: Real> BlockWork<T> for Step<'_, '_, T> {
             out,
         );
         for b in 0..blocks {
+            let this = uc;
             if b + 1 < blocks {
                 let state = &mut self.state[(b + 1) * sr..][..sr];
-                first_part(o, f, one, first, b + 1, state, p(b + 1), targets, out);
+                uc = first_part(o, f, one, first, b + 1, state, p(b + 1), targets, out);
             }
-            creep_pass(o, f, one, &mut self.state[b * sr..][..sr], p(b));
+            creep_pass(o, f, one, this, &mut self.state[b * sr..][..sr], p(b));
         }
     }
 }
@@ -148,7 +151,7 @@ fn first_part<T: Real, V: Block<T>>(
     p: &[Row],
     targets: &[T],
     out: &mut [Compensated<T>],
-) {
+) -> V {
     let width = lanes::<T>();
     let c0 = b * width;
     let k = width.min(targets.len() - c0);
@@ -166,7 +169,7 @@ fn first_part<T: Real, V: Block<T>>(
         target,
         targets: &targets[c0..c0 + k],
     };
-    let (u, saturated, fault) = if f.layout.n == PAPER_PLAYS {
+    let (u, uc, saturated, fault) = if f.layout.n == PAPER_PLAYS {
         inverse_and_clip::<T, V, PAPER_PLAYS>(o, f, one, block, state, p)
     } else {
         inverse_and_clip::<T, V, 0>(o, f, one, block, state, p)
@@ -181,7 +184,7 @@ fn first_part<T: Real, V: Block<T>>(
         core::mem::offset_of!(Compensated<T>, fault),
     );
     if o.store_flagged(u, saturated, fault, out, flags) {
-        return;
+        return uc;
     }
     let mut row = Row::default();
     o.store(u, &mut row);
@@ -193,6 +196,7 @@ fn first_part<T: Real, V: Block<T>>(
             fault: fault & (1 << l) != 0,
         };
     }
+    uc
 }
 
 /// Block `block` of the bank, first part: what `Compensator::compensate`
@@ -208,7 +212,7 @@ fn inverse_and_clip<T: Real, V: Block<T>, const N: usize>(
     block: Input<'_, T, V>,
     s: &mut [Row],
     p: &[Row],
-) -> (V, V::Mask, V::Mask) {
+) -> (V, V, V::Mask, V::Mask) {
     let a = f.layout;
     let (cur, next) = (f.parity, f.parity ^ 1);
     let fault = o.non_finite(block.target);
@@ -276,7 +280,7 @@ fn inverse_and_clip<T: Real, V: Block<T>, const N: usize>(
     // the creep input: the voltage applied, or the last one if not finite
     let uc = o.select(o.non_finite(u), o.load(&s[a.creep_last()]), u);
     o.store(uc, &mut s[a.creep_last()]);
-    (u, saturated_lanes, fault)
+    (u, uc, saturated_lanes, fault)
 }
 
 /// Block `block`'s creep pass (20) with the input stored by
@@ -303,15 +307,16 @@ fn creep_pass<T: Real, V: Block<T>>(
     o: Ops<T, V>,
     f: &Fixed<'_, T>,
     one: V,
+    uc: V,
     s: &mut [Row],
     p: &[Row],
 ) {
     const NC: usize = PAPER_CREEP.0;
     const M: usize = PAPER_CREEP.1;
     if (f.layout.nc, f.layout.m) == PAPER_CREEP {
-        creep_pass_of::<T, V, NC, M>(o, f, one, s, p);
+        creep_pass_of::<T, V, NC, M>(o, f, one, uc, s, p);
     } else {
-        creep_pass_of::<T, V, 0, 0>(o, f, one, s, p);
+        creep_pass_of::<T, V, 0, 0>(o, f, one, uc, s, p);
     }
 }
 
@@ -322,12 +327,12 @@ fn creep_pass_of<T: Real, V: Block<T>, const NC: usize, const M: usize>(
     o: Ops<T, V>,
     f: &Fixed<'_, T>,
     one: V,
+    uc: V,
     s: &mut [Row],
     p: &[Row],
 ) {
     let a = f.layout;
     let (nc, m) = if M == 0 { (a.nc, a.m) } else { (NC, M) };
-    let uc = o.load(&s[a.creep_last()]);
     let zero = o.splat(T::ZERO);
     let (thresholds, weights) = (&p[a.creep_r(0)..][..nc], &p[a.creep_w(0)..][..nc]);
     let gains = &p[a.gain(0)..][..m];
