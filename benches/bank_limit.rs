@@ -86,7 +86,9 @@ fn clock_ghz() -> (f64, &'static str) {
 }
 
 /// Lane operations per nanosecond of the creep-element update on the
-/// registers the bank's kernels use for `T` (measured, median of runs).
+/// registers the bank's kernels use for `T` (measured: the best of seven
+/// runs — the CPU can do at least that; a slower run is a neighbour's on
+/// a shared machine, and a median once came out 18 % low on a Zen 4).
 fn peak_lane_operations_per_ns<T: Real>() -> f64 {
     const ITERATIONS: usize = 2_000_000;
     let mut peak = 0.0f64;
@@ -101,8 +103,7 @@ fn peak_lane_operations_per_ns<T: Real>() -> f64 {
             rates.push((ITERATIONS * mix::CHAINS * 5 * lanes) as f64 / ns);
         }
         if !rates.is_empty() {
-            rates.sort_by(f64::total_cmp);
-            let rate = rates[rates.len() / 2];
+            let rate = rates.iter().copied().fold(0.0, f64::max);
             println!(
                 "{}: the creep mix {}: {rate:.1} lane-operations/ns",
                 T::NAME,
@@ -338,7 +339,8 @@ fn time_bank<T: Real>(channels: usize, mode: Mode<'_>) -> f64 {
     times[times.len() / 2]
 }
 
-fn report<T: Real>(ghz: f64) {
+/// The table of `T`; returns the bound (M channel-steps/s on one core).
+fn report<T: Real>(ghz: f64) -> f64 {
     let ops = lane_operations(12, 12, 5);
     let peak = peak_lane_operations_per_ns::<T>();
     let bound = peak * 1e3 / ops as f64; // M channel-steps/s on one core
@@ -408,6 +410,122 @@ fn report<T: Real>(ghz: f64) {
         40.0 / at_4096,
         T::NAME
     );
+    bound
+}
+
+/// The bank against the hand-written C bank of `benches/peers/bank.c`
+/// (`f64`, AVX-512F, built by `benches/peers/run.sh` as `libbank.so` and
+/// loaded from `MFCBEAM_C_BANK`), in alternating batches on one thread at 8,
+/// 64 and 1024 channels: the same targets, the same bits (checked after the
+/// warm-up), the median time of each, and the median and 10–90 % spread of
+/// mfcbeam's time over the C's in the same round.
+#[cfg(target_os = "linux")]
+fn against_c_bank(path: &str, ghz: f64, bound: f64) {
+    use std::ffi::{c_void, CString};
+    type New = unsafe extern "C" fn(i64) -> *mut c_void;
+    type Run =
+        unsafe extern "C" fn(*mut c_void, *const f64, i64, *mut i64, i64, *mut c_void) -> f64;
+    // SAFETY: the library is benches/peers/bank.c built with -DPEER_LIB;
+    // its symbols have the signatures above.
+    let (new, run) = unsafe {
+        let lib = libc::dlopen(
+            CString::new(path).unwrap().as_ptr(),
+            libc::RTLD_NOW | libc::RTLD_LOCAL,
+        );
+        assert!(!lib.is_null(), "cannot load {path}");
+        let sym = |name: &str| {
+            let s = libc::dlsym(lib, CString::new(name).unwrap().as_ptr());
+            assert!(!s.is_null(), "{path}: no symbol {name}");
+            s
+        };
+        (
+            std::mem::transmute::<*mut c_void, New>(sym("bank_new")),
+            std::mem::transmute::<*mut c_void, Run>(sym("bank_run")),
+        )
+    };
+    const ROWS: usize = 64;
+    println!("\nagainst the hand-written C bank (benches/peers/bank.c, f64, AVX-512F), one thread, 41 rounds:");
+    println!(
+        "{:>8} {:>12} {:>12} {:>14} {:>14} {:>16}",
+        "channels", "mfcbeam ns", "C ns", "mfcbeam / C", "10-90 %", "C of the bound"
+    );
+    for channels in [8usize, 64, 1024] {
+        let rows = bank_rows::<f64>(channels, ROWS);
+        let flat: Vec<f64> = rows.iter().flatten().copied().collect();
+        let mut bank = nominal_bank::<f64>(channels);
+        let mut out = vec![Compensated::<f64>::default(); channels];
+        let mut c_out = vec![Compensated::<f64>::default(); channels];
+        // SAFETY: bank_new returns a bank of `channels` channels or null.
+        let c_bank = unsafe { new(channels as i64) };
+        assert!(!c_bank.is_null(), "the C bank refused {channels} channels");
+        let steps = (2_000_000 / (channels * 8)).clamp(20, 200_000);
+        let (mut k, mut c_k) = (0usize, 0i64);
+        let mut ours = |bank: &mut CompensatorBank<f64>, out: &mut [Compensated<f64>]| {
+            let t0 = Instant::now();
+            for _ in 0..steps {
+                k = (k + 1) % ROWS;
+                bank.compensate(black_box(&rows[k]), out).unwrap();
+            }
+            t0.elapsed().as_nanos() as f64 / steps as f64
+        };
+        let mut theirs = |out: &mut [Compensated<f64>]| {
+            let t0 = Instant::now();
+            // SAFETY: `flat` holds ROWS rows of `channels` targets, `out`
+            // `channels` entries of the C bank's (and Compensated's) layout.
+            unsafe {
+                run(
+                    c_bank,
+                    flat.as_ptr(),
+                    ROWS as i64,
+                    &mut c_k,
+                    steps as i64,
+                    out.as_mut_ptr().cast(),
+                )
+            };
+            t0.elapsed().as_nanos() as f64 / steps as f64
+        };
+        for _ in 0..5 {
+            ours(&mut bank, &mut out);
+            theirs(&mut c_out);
+        }
+        let same = out.iter().zip(&c_out).all(|(a, b)| {
+            (a.u.to_bits(), a.saturated, a.fault) == (b.u.to_bits(), b.saturated, b.fault)
+        });
+        assert!(
+            same,
+            "the C bank's voltages differ from mfcbeam's at {channels} channels"
+        );
+        let (mut mine, mut c, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
+        for round in 0..41 {
+            let (a, b) = if round % 2 == 0 {
+                let a = ours(&mut bank, &mut out);
+                (a, theirs(&mut c_out))
+            } else {
+                let b = theirs(&mut c_out);
+                (ours(&mut bank, &mut out), b)
+            };
+            mine.push(a);
+            c.push(b);
+            ratio.push(a / b);
+        }
+        for v in [&mut mine, &mut c, &mut ratio] {
+            v.sort_by(f64::total_cmp);
+        }
+        let c_rate = channels as f64 / c[20] * 1e3;
+        println!(
+            "{channels:>8} {:>12.1} {:>12.1} {:>14.3} {:>7.3}-{:<6.3} {:>15.0} %   ({:.1} and {:.1} M channel-steps/s, {:.1} and {:.1} cycles per channel-step)",
+            mine[20],
+            c[20],
+            ratio[20],
+            ratio[4],
+            ratio[36],
+            100.0 * c_rate / bound,
+            channels as f64 / mine[20] * 1e3,
+            c_rate,
+            mine[20] * ghz / channels as f64,
+            c[20] * ghz / channels as f64,
+        );
+    }
 }
 
 fn main() {
@@ -420,6 +538,13 @@ fn main() {
         mfcbeam::realtime::simd::cpu_description(),
         Kernels::detect().name()
     );
-    report::<f64>(ghz);
+    let bound = report::<f64>(ghz);
     report::<f32>(ghz);
+    match std::env::var("MFCBEAM_C_BANK") {
+        #[cfg(target_os = "linux")]
+        Ok(path) => against_c_bank(&path, ghz, bound),
+        _ => println!(
+            "\nMFCBEAM_C_BANK is not set: no C bank to compare (benches/peers/run.sh builds one)"
+        ),
+    }
 }

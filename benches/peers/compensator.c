@@ -437,7 +437,9 @@ static void test_input(double *out) {
     }
 }
 
-#ifdef PEER_LIB
+#ifdef BANK_PEER
+/* included by bank.c, which brings its own entry points */
+#elif defined(PEER_LIB)
 /* For benches/peers.rs, which times this and mfcbeam in interleaved batches:
  * the same loop as main's timed one. */
 void *peer_new(void) {

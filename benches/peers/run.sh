@@ -4,7 +4,9 @@
 # -DBRANCH_FREE: no target test, no forward plays, no re-seat; and built
 # with -DSTRONG, the strongest: AVX2 intrinsics with FMA, a running creep
 # sum, the dependency chain cut to its minimum; the same with -DNO_FMA; and
-# with -DSAME_ORDER, mfcbeam's own order of operations in intrinsics), numba
+# with -DSAME_ORDER, mfcbeam's own order of operations in intrinsics), the
+# hand-written C bank (bank.c, AVX-512F: checked here, timed by bank_limit
+# with MFCBEAM_C_BANK), numba
 # (numba_compensator.py, if numba is installed) and this crate's criterion
 # benches (step/compensator_step: the heap compensator, and the fixed f64
 # and f32 cores). Checks first that the peers compute what mfcbeam does.
@@ -31,6 +33,8 @@ strong_flags=(-O3 -march=native -ffp-contract=off -Wall -Wextra -Werror -DSTRONG
 # and the same without FMA, and mfcbeam's order of operations in intrinsics
 no_fma_flags=("${strong_flags[@]}" -DNO_FMA)
 same_flags=(-O3 -march=native -ffp-contract=off -Wall -Wextra -Werror -DSAME_ORDER)
+# the C bank includes compensator.c for its model and leaves its steps unused
+bank_flags=(-O3 -march=native -ffp-contract=off -Wall -Wextra -Werror -Wno-unused-function)
 strong=no
 if grep -qw avx2 /proc/cpuinfo && grep -qw fma /proc/cpuinfo &&
   cc "${strong_flags[@]}" -o "$out/compensator_strong" benches/peers/compensator.c -lm; then
@@ -82,6 +86,19 @@ if [[ $strong == yes ]]; then
     --input "$out/cso_trace.csv" --output "$out/cso_vs_mfcbeam.csv"
   agree "$out/cso_vs_mfcbeam.csv" "mfcbeam's order in C" exact
 fi
+# The hand-written C bank (bank.c, AVX-512F): lane 3 of a bank of eight
+# channels against mfcbeam, equal every sample.
+bank=no
+if grep -qw avx512f /proc/cpuinfo; then
+  cc "${bank_flags[@]}" -o "$out/bank" benches/peers/bank.c -lm
+  bank=yes
+  "$out/bank" trace >"$out/bank_trace.csv"
+  "$MFCBEAM_CLI" compensate --model "$out/nominal.json" \
+    --input "$out/bank_trace.csv" --output "$out/bank_vs_mfcbeam.csv"
+  agree "$out/bank_vs_mfcbeam.csv" "C bank, lane 3 of 8" exact
+else
+  echo "this CPU has no AVX-512F: the C bank is skipped"
+fi
 numba=no
 if python3 -c "import numba" 2>/dev/null; then
   numba=yes
@@ -107,6 +124,11 @@ cc "${no_fma_flags[@]}" -DPEER_LIB -shared -fPIC \
   -o "$out/libpeer_strong_no_fma.so" benches/peers/compensator.c -lm
 cc "${same_flags[@]}" -DPEER_LIB -shared -fPIC \
   -o "$out/libpeer_same_order.so" benches/peers/compensator.c -lm
+# for bank_limit: MFCBEAM_C_BANK=$PWD/target/peers/libbank.so cargo bench --bench bank_limit
+if [[ $bank == yes ]]; then
+  cc "${bank_flags[@]}" -DPEER_LIB -shared -fPIC \
+    -o "$out/libbank.so" benches/peers/bank.c -lm
+fi
 for run in 1 2 3; do
   echo "== process $run of 3"
   MFCBEAM_C_PEER="$PWD/$out/libpeer.so" MFCBEAM_C_PEER_BRANCH_FREE="$PWD/$out/libpeer_branch_free.so" \
