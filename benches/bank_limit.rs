@@ -13,8 +13,9 @@
 //! `g c + (χ − g χ)`, the row's add) that has no loads, stores or
 //! dependencies to wait for, and where the bank's kernels have AVX-512 the
 //! same loop with the row's addition fused on the multiplier (`b · 1 + a`,
-//! as those kernels do it for half of the rows): the faster of the two rates divided by 431 is
-//! the bound in channel-steps per second on one core.
+//! as those kernels do it for half of the rows): the faster of the two rates
+//! (each the best of seven runs) divided by 431 is the bound in
+//! channel-steps per second on one core.
 //!
 //! First a crossover scan: 2 to 64 blocks on one thread against a forced
 //! split over two (`Workers::with_min_blocks(0).with_adaptive(false)`), and the smallest block
@@ -25,6 +26,9 @@
 //! timed as the median over batches of steps; printed with the CPU, its
 //! bound, the ratio, the cycles per channel-step at the clock measured here,
 //! and the share of a core a 4000-actuator mirror at 10 kHz needs.
+//! Last, with `MFCBEAM_C_BANK` naming the library of the hand-written C bank
+//! (`benches/peers/bank.c`, built by `benches/peers/run.sh`), the bank
+//! against it in alternating batches at 8, 64 and 1024 channels (`f64`).
 //!
 //! `cargo bench --bench bank_limit`
 
