@@ -425,26 +425,17 @@ fn report<T: Real>(ghz: f64) -> f64 {
 /// mfcbeam's time over the C's in the same round.
 #[cfg(target_os = "linux")]
 fn against_c_bank(path: &str, ghz: f64, bound: f64) {
-    use std::ffi::{c_void, CString};
+    use std::ffi::c_void;
     type New = unsafe extern "C" fn(i64) -> *mut c_void;
     type Run =
         unsafe extern "C" fn(*mut c_void, *const f64, i64, *mut i64, i64, *mut c_void) -> f64;
     // SAFETY: the library is benches/peers/bank.c built with -DPEER_LIB;
     // its symbols have the signatures above.
     let (new, run) = unsafe {
-        let lib = libc::dlopen(
-            CString::new(path).unwrap().as_ptr(),
-            libc::RTLD_NOW | libc::RTLD_LOCAL,
-        );
-        assert!(!lib.is_null(), "cannot load {path}");
-        let sym = |name: &str| {
-            let s = libc::dlsym(lib, CString::new(name).unwrap().as_ptr());
-            assert!(!s.is_null(), "{path}: no symbol {name}");
-            s
-        };
+        let [new, run] = common::c_symbols(path, ["bank_new", "bank_run"]);
         (
-            std::mem::transmute::<*mut c_void, New>(sym("bank_new")),
-            std::mem::transmute::<*mut c_void, Run>(sym("bank_run")),
+            std::mem::transmute::<*mut c_void, New>(new),
+            std::mem::transmute::<*mut c_void, Run>(run),
         )
     };
     const ROWS: usize = 64;

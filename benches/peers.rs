@@ -23,7 +23,7 @@
 
 #[cfg(target_os = "linux")]
 fn main() {
-    use std::ffi::{c_void, CString};
+    use std::ffi::c_void;
     use std::hint::black_box;
     use std::time::Instant;
 
@@ -55,23 +55,13 @@ fn main() {
     };
     // SAFETY: the libraries are benches/peers/compensator.c built with
     // -DPEER_LIB (and one of the variants); the symbols have the
-    // signatures declared above. Loaded RTLD_LOCAL, so each keeps its own
-    // symbols.
+    // signatures declared above.
     let load = |path: &str| unsafe {
-        let lib = libc::dlopen(
-            CString::new(path).unwrap().as_ptr(),
-            libc::RTLD_NOW | libc::RTLD_LOCAL,
-        );
-        assert!(!lib.is_null(), "cannot load {path}");
-        let sym = |name: &str| {
-            let s = libc::dlsym(lib, CString::new(name).unwrap().as_ptr());
-            assert!(!s.is_null(), "{path}: no symbol {name}");
-            s
-        };
+        let [new, run, targets] = common::c_symbols(path, ["peer_new", "peer_run", "peer_targets"]);
         (
-            std::mem::transmute::<*mut c_void, New>(sym("peer_new")),
-            std::mem::transmute::<*mut c_void, Run>(sym("peer_run")),
-            std::mem::transmute::<*mut c_void, Targets>(sym("peer_targets")),
+            std::mem::transmute::<*mut c_void, New>(new),
+            std::mem::transmute::<*mut c_void, Run>(run),
+            std::mem::transmute::<*mut c_void, Targets>(targets),
         )
     };
     let peers: Vec<_> = paths.iter().map(|p| load(p)).collect();

@@ -44,3 +44,27 @@ pub fn nominal_bank<T: mfcbeam::realtime::Real>(
     )
     .unwrap()
 }
+
+/// The symbols `names` of the C library at `path` (one of those
+/// `benches/peers/run.sh` builds), loaded `RTLD_LOCAL` so that each library
+/// keeps its own; panics naming the library or the symbol it cannot find.
+/// The caller gives each symbol its type.
+#[cfg(target_os = "linux")]
+#[allow(dead_code)] // not every bench uses it
+pub fn c_symbols<const N: usize>(path: &str, names: [&str; N]) -> [*mut std::ffi::c_void; N] {
+    use std::ffi::CString;
+    // SAFETY: dlopen and dlsym with valid C strings; the handle is kept
+    // open for the rest of the process.
+    unsafe {
+        let lib = libc::dlopen(
+            CString::new(path).unwrap().as_ptr(),
+            libc::RTLD_NOW | libc::RTLD_LOCAL,
+        );
+        assert!(!lib.is_null(), "cannot load {path}");
+        names.map(|name| {
+            let s = libc::dlsym(lib, CString::new(name).unwrap().as_ptr());
+            assert!(!s.is_null(), "{path}: no symbol {name}");
+            s
+        })
+    }
+}
