@@ -78,11 +78,11 @@ impl<T: Real> BlockWork<T> for Step<'_, '_, T> {
         let (first, targets, out) = (self.first_block, self.targets, self.out);
         let p = |b: usize| parameters(f, first + b);
         // 1 in every lane, hidden from the compiler so that it keeps the
-        // fused forms of `add_on_multiplier`; made once per run: made in
-        // every block it was read back from the stack there, a store-to-load
-        // forwarding at the head of the block's chain (with the superposed
-        // path's spill below, the first part alone took 36 instead of 26 ns
-        // per block on a Zen 4).
+        // fused forms of `add_on_multiplier`. Made once per run: made in
+        // every block, it was read back from the stack at the head of each
+        // block's chain (a store-to-load forwarding); with the superposed
+        // path's spill (see `inverse_and_clip`), the first part alone took
+        // 36 instead of 26 ns per block on a Zen 4.
         let one = o.splat(core::hint::black_box(T::ONE));
         // the creep input goes from a block's first part to its creep pass
         // in a register (and to the state, for the next step's hold)
