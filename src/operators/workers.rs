@@ -149,7 +149,7 @@ pub(crate) fn next_interval(interval: u64, changed: bool) -> u64 {
 /// not turn the choice for long.
 pub(crate) fn fold(old: u64, sample: u64) -> u64 {
     if old == 0 {
-        sample.max(1)
+        capped(old, sample)
     } else {
         ((3 * old + capped(old, sample)) / 4).max(1)
     }

@@ -201,9 +201,10 @@ fn first_part<T: Real, V: Block<T>>(
 
 /// Block `block` of the bank, first part: what `Compensator::compensate`
 /// does up to the applied voltage, lane by lane, in its order of
-/// operations (the creep pass is [`creep_pass`]). Returns the voltages and
-/// the saturated and faulted lanes. `N` is the number of plays, or 0 for
-/// the layout's (see [`PAPER_PLAYS`]).
+/// operations (the creep pass is [`creep_pass`]). Returns the voltages, the
+/// creep input (also stored, for the next step's hold) and the saturated
+/// and faulted lanes. `N` is the number of plays, or 0 for the layout's
+/// (see [`PAPER_PLAYS`]).
 #[inline(always)]
 fn inverse_and_clip<T: Real, V: Block<T>, const N: usize>(
     o: Ops<T, V>,
@@ -283,8 +284,8 @@ fn inverse_and_clip<T: Real, V: Block<T>, const N: usize>(
     (u, uc, saturated_lanes, fault)
 }
 
-/// Block `block`'s creep pass (20) with the input stored by
-/// [`inverse_and_clip`], as `creep_pass::advance` sums it: each threshold's rows
+/// Block `block`'s creep pass (20) with the input `uc` that
+/// [`inverse_and_clip`] returned, as `creep_pass::advance` sums it: each threshold's rows
 /// summed over the eigenvalues in order, the weighted rows into the partial
 /// sum `i mod 4`. The rows are summed from zero here and from the first row
 /// there, with the same output bits (see `creep_pass::advance`); from the
