@@ -5,8 +5,8 @@
 # sanitizers) and linked with libFuzzer (the libfuzzer-sys crate builds it
 # from source with the C++ compiler). Each target first replays its seed
 # corpus (fuzz/corpus/TARGET) and its past findings (fuzz/regressions/TARGET),
-# then mutates for SECONDS. A single allocation over 100 MB, a resident set
-# over 300 MB, an input that takes over 10 s, a panic or an abort is a
+# then mutates for SECONDS, as many targets at once as there are cores.
+# A single allocation over 100 MB, a resident set over 300 MB, an input that takes over 10 s, a panic or an abort is a
 # finding: written to target/fuzz/artifacts/ and the run fails.
 #
 #   fuzz/run.sh [SECONDS [TARGET ...]]     (default: 60 s, every target)
@@ -28,20 +28,36 @@ RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
   cargo build --release --locked --target "$host"
 work="$CARGO_TARGET_DIR/fuzz"
 mkdir -p "$work/artifacts"
-for t in "${targets[@]}"; do
-  mkdir -p "$work/corpus/$t" "regressions/$t"
-  echo "fuzz $t: $seconds s"
-  set +e
+# one fuzzer per core at a time (each is single-threaded); the statuses
+# and summaries are read in the targets' order once all have finished
+fuzz_one() {
+  local t=$1 status=0
   "$CARGO_TARGET_DIR/$host/release/$t" \
     -max_total_time="$seconds" -timeout=10 -malloc_limit_mb=100 -rss_limit_mb=300 \
     -max_len=65536 -print_final_stats=1 \
     -artifact_prefix="$work/artifacts/$t-" \
-    "$work/corpus/$t" "corpus/$t" "regressions/$t" >"$work/$t.log" 2>&1
-  status=$?
-  set -e
+    "$work/corpus/$t" "corpus/$t" "regressions/$t" >"$work/$t.log" 2>&1 || status=$?
+  echo "$status" >"$work/$t.status"
+}
+cores=$(nproc 2>/dev/null || echo 1)
+for t in "${targets[@]}"; do
+  mkdir -p "$work/corpus/$t" "regressions/$t"
+  rm -f "$work/$t.status"
+  while [ "$(jobs -rp | wc -l)" -ge "$cores" ]; do
+    wait -n || true
+  done
+  echo "fuzz $t: $seconds s"
+  fuzz_one "$t" &
+done
+wait
+failed=0
+for t in "${targets[@]}"; do
+  echo "fuzz $t:"
   grep -E '^(Done|INFO: seed corpus|stat::number_of_executed_units|stat::peak_rss_mb|==[0-9]+==|SUMMARY)|panicked|out-of-memory|Test unit written' "$work/$t.log" || true
-  if [ "$status" -ne 0 ]; then
-    echo "fuzz $t: finding (exit $status), see $work/artifacts/" >&2
-    exit 1
+  status=$(cat "$work/$t.status" 2>/dev/null || echo "none")
+  if [ "$status" != 0 ]; then
+    echo "fuzz $t: finding (exit $status), see $work/artifacts/ and $work/$t.log" >&2
+    failed=1
   fi
 done
+exit "$failed"
