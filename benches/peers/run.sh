@@ -14,6 +14,9 @@
 #   benches/peers/run.sh            # three processes of interleaved rounds,
 #                                   # then criterion (--measurement-time 3)
 #   benches/peers/run.sh --check    # only the agreement checks (CI)
+#   PEER_MARCH=znver3 benches/peers/run.sh
+#                                   # the C built for another instruction
+#                                   # set than this CPU's (default: native)
 #
 # The agreement checks run the peers' own traces (4096 steps from the
 # virgin state) through `mfcbeam compensate`: the voltages must agree to
@@ -23,18 +26,19 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=target/peers
 mkdir -p "$out"
+march=${PEER_MARCH:-native}
 
-cc -O3 -march=native -ffast-math -Wall -Wextra -Werror -o "$out/compensator" \
+cc -O3 -march="$march" -ffast-math -Wall -Wextra -Werror -o "$out/compensator" \
   benches/peers/compensator.c -lm
-cc -O3 -march=native -ffast-math -Wall -Wextra -Werror -DBRANCH_FREE \
+cc -O3 -march="$march" -ffast-math -Wall -Wextra -Werror -DBRANCH_FREE \
   -o "$out/compensator_branch_free" benches/peers/compensator.c -lm
 # the strongest: its trees as written (no -ffast-math, no contraction)
-strong_flags=(-O3 -march=native -ffp-contract=off -Wall -Wextra -Werror -DSTRONG)
+strong_flags=(-O3 -march="$march" -ffp-contract=off -Wall -Wextra -Werror -DSTRONG)
 # and the same without FMA, and mfcbeam's order of operations in intrinsics
 no_fma_flags=("${strong_flags[@]}" -DNO_FMA)
-same_flags=(-O3 -march=native -ffp-contract=off -Wall -Wextra -Werror -DSAME_ORDER)
+same_flags=(-O3 -march="$march" -ffp-contract=off -Wall -Wextra -Werror -DSAME_ORDER)
 # the C bank includes compensator.c for its model and leaves its steps unused
-bank_flags=(-O3 -march=native -ffp-contract=off -Wall -Wextra -Werror -Wno-unused-function)
+bank_flags=(-O3 -march="$march" -ffp-contract=off -Wall -Wextra -Werror -Wno-unused-function)
 strong=no
 if grep -qw avx2 /proc/cpuinfo && grep -qw fma /proc/cpuinfo &&
   cc "${strong_flags[@]}" -o "$out/compensator_strong" benches/peers/compensator.c -lm; then
@@ -89,7 +93,8 @@ fi
 # The hand-written C bank (bank.c, AVX-512F): lane 3 of a bank of eight
 # channels against mfcbeam, equal every sample.
 bank=no
-if grep -qw avx512f /proc/cpuinfo; then
+if grep -qw avx512f /proc/cpuinfo &&
+  cc -march="$march" -dM -E - </dev/null | grep -q __AVX512F__; then
   cc "${bank_flags[@]}" -o "$out/bank" benches/peers/bank.c -lm
   bank=yes
   "$out/bank" trace >"$out/bank_trace.csv"
@@ -97,7 +102,7 @@ if grep -qw avx512f /proc/cpuinfo; then
     --input "$out/bank_trace.csv" --output "$out/bank_vs_mfcbeam.csv"
   agree "$out/bank_vs_mfcbeam.csv" "C bank, lane 3 of 8" exact
 else
-  echo "this CPU has no AVX-512F: the C bank is skipped"
+  echo "this CPU (or -march=$march) has no AVX-512F: the C bank is skipped"
 fi
 numba=no
 if python3 -c "import numba" 2>/dev/null; then
@@ -114,9 +119,9 @@ fi
 # Interleaved batches of the C libraries and mfcbeam in one process (the
 # ratios), three processes; then numba, then criterion's medians.
 [[ $strong == yes ]] || { echo "the interleaved comparison needs the strongest peer"; exit 1; }
-cc -O3 -march=native -ffast-math -Wall -Wextra -Werror -DPEER_LIB -shared -fPIC \
+cc -O3 -march="$march" -ffast-math -Wall -Wextra -Werror -DPEER_LIB -shared -fPIC \
   -o "$out/libpeer.so" benches/peers/compensator.c -lm
-cc -O3 -march=native -ffast-math -Wall -Wextra -Werror -DPEER_LIB -DBRANCH_FREE -shared -fPIC \
+cc -O3 -march="$march" -ffast-math -Wall -Wextra -Werror -DPEER_LIB -DBRANCH_FREE -shared -fPIC \
   -o "$out/libpeer_branch_free.so" benches/peers/compensator.c -lm
 cc "${strong_flags[@]}" -DPEER_LIB -shared -fPIC \
   -o "$out/libpeer_strong.so" benches/peers/compensator.c -lm
@@ -129,6 +134,7 @@ if [[ $bank == yes ]]; then
   cc "${bank_flags[@]}" -DPEER_LIB -shared -fPIC \
     -o "$out/libbank.so" benches/peers/bank.c -lm
 fi
+echo "the C peers built with -march=$march"
 for run in 1 2 3; do
   echo "== process $run of 3"
   MFCBEAM_C_PEER="$PWD/$out/libpeer.so" MFCBEAM_C_PEER_BRANCH_FREE="$PWD/$out/libpeer_branch_free.so" \
