@@ -6,8 +6,9 @@
 # from source with the C++ compiler). Each target first replays its seed
 # corpus (fuzz/corpus/TARGET) and its past findings (fuzz/regressions/TARGET),
 # then mutates for SECONDS, as many targets at once as there are cores.
-# A single allocation over 100 MB, a resident set over 300 MB, an input that takes over 10 s, a panic or an abort is a
-# finding: written to target/fuzz/artifacts/ and the run fails.
+# A single allocation over 100 MB, a resident set over 300 MB, an input
+# that takes over 10 s, a panic or an abort is a finding: written to
+# target/fuzz/artifacts/ and the run fails.
 #
 #   fuzz/run.sh [SECONDS [TARGET ...]]     (default: 60 s, every target)
 set -euo pipefail
