@@ -431,7 +431,6 @@ impl<T: Real> CompensatorBank<T> {
             Fixed {
                 layout: self.layout,
                 parameters: &self.parameters,
-                parameter_rows: self.layout.parameter_rows(),
                 shared: self.shared,
                 lower: self.lower,
                 upper: self.upper,

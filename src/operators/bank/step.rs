@@ -40,7 +40,6 @@ pub(super) fn step_blocks<T: Real>(
 pub(super) struct Fixed<'a, T: Real> {
     pub(super) layout: Layout,
     pub(super) parameters: &'a [Row],
-    pub(super) parameter_rows: usize,
     pub(super) shared: bool,
     pub(super) lower: T,
     pub(super) upper: T,
@@ -65,18 +64,6 @@ impl<T: Real> BlockWork<T> for Step<'_, '_, T> {
     #[inline(always)]
     fn run<V: Block<T>>(self, o: Ops<T, V>) {
         let f = self.bank;
-        let sr = f.layout.state_rows();
-        let blocks = self.state.len() / sr;
-        if blocks == 0 {
-            return;
-        }
-        // Software-pipelined by one block: H⁻¹ and the clip of block b + 1
-        // (a chain of dependent reductions) are issued before the creep pass
-        // of block b (independent rows), so the core has work while the
-        // chain's latency runs out. (Plain functions, no closures: see
-        // `creep_update`.)
-        let (first, targets, out) = (self.first_block, self.targets, self.out);
-        let p = |b: usize| parameters(f, first + b);
         // 1 in every lane, hidden from the compiler so that it keeps the
         // fused forms of `add_on_multiplier`. Made once per run: made in
         // every block, it was read back from the stack at the head of each
@@ -84,101 +71,126 @@ impl<T: Real> BlockWork<T> for Step<'_, '_, T> {
         // path's spill (see `inverse_and_clip`), the first part alone took
         // 36 instead of 26 ns per block on a Zen 4.
         let one = o.splat(core::hint::black_box(T::ONE));
-        // the creep input goes from a block's first part to its creep pass
-        // in a register (and to the state, for the next step's hold)
-        let mut uc = first_part(
-            o,
-            f,
-            one,
-            first,
-            0,
-            &mut self.state[..sr],
-            p(0),
-            targets,
-            out,
-        );
-        for b in 0..blocks {
-            let this = uc;
-            if b + 1 < blocks {
-                let state = &mut self.state[(b + 1) * sr..][..sr];
-                uc = first_part(o, f, one, first, b + 1, state, p(b + 1), targets, out);
-            }
-            creep_pass(o, f, one, this, &mut self.state[b * sr..][..sr], p(b));
+        let (first, state, targets, out) = (self.first_block, self.state, self.targets, self.out);
+        if f.layout == PAPER {
+            run_blocks_of(o, f, PAPER, one, first, state, targets, out);
+        } else {
+            run_blocks_of(o, f, f.layout, one, first, state, targets, out);
         }
     }
 }
 
-/// The paper's order — 12 plays, 12 creep thresholds × 5 eigenvalues, the
-/// identification's default — is compiled with its loop counts known (the
-/// creep pass and the plays unrolled); any other order reads them at run
-/// time. The same operations in the same order either way. On a Zen 4 the
-/// bank made 5 % more channel-steps in `f32` and 0–2 % in `f64`.
-const PAPER_PLAYS: usize = nominal::PLAYS;
-const PAPER_CREEP: (usize, usize) = (
-    nominal::CREEP_WEIGHTS.len(),
-    nominal::CREEP_EIGENVALUES.len(),
-);
-
-/// The parameter rows of block `block` of the bank.
+/// [`Step::run`] with the layout `a`: [`PAPER`], a constant, or the
+/// bank's. Software-pipelined by one block: `H⁻¹` and the clip of block
+/// `b + 1` (a chain of dependent reductions) are issued before the creep
+/// pass of block `b` (independent rows), so that the core has work while
+/// the chain's latency runs out. (Plain functions, no closures: see
+/// [`creep_update`].)
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn parameters<'a, T: Real>(f: &Fixed<'a, T>, block: usize) -> &'a [Row] {
-    if f.shared {
-        &f.parameters[..f.parameter_rows]
-    } else {
-        &f.parameters[block * f.parameter_rows..][..f.parameter_rows]
+fn run_blocks_of<T: Real, V: Block<T>>(
+    o: Ops<T, V>,
+    f: &Fixed<'_, T>,
+    a: Layout,
+    one: V,
+    first: usize,
+    state: &mut [Row],
+    targets: &[T],
+    out: &mut [Compensated<T>],
+) {
+    let (sr, pr, width) = (a.state_rows(), a.parameter_rows(), lanes::<T>());
+    let (shared, all) = (f.shared, f.parameters);
+    let p = |b: usize| {
+        if shared {
+            &all[..pr]
+        } else {
+            &all[(first + b) * pr..][..pr]
+        }
+    };
+    // one test per run where no block has `S` (the common case)
+    let superposed = &f.superposed[first..];
+    let any_superposed = superposed.iter().any(|&s| s);
+    let input = |b: usize| (first + b, any_superposed && superposed[b]);
+    // whole blocks in chunks of a fixed size (no length arithmetic per
+    // block), then the last, partial one if there is one
+    let whole = targets.len() / width;
+    let (state, last_state) = state.split_at_mut((whole * sr).min(state.len()));
+    let (targets, last_targets) = targets.split_at(whole * width);
+    let (out, last_out) = out.split_at_mut(whole * width);
+    let last = (!last_targets.is_empty()).then_some(((last_state, last_targets), last_out));
+    let mut blocks = state
+        .chunks_exact_mut(sr)
+        .zip(targets.chunks_exact(width))
+        .zip(out.chunks_exact_mut(width))
+        .chain(last)
+        .enumerate();
+    let Some((_, ((mut this, t), out))) = blocks.next() else {
+        return;
+    };
+    // the creep input goes from a block's first part to its creep pass
+    // in a register (and to the state, for the next step's hold)
+    let mut uc = first_part(o, f, a, one, input(0), this, p(0), t, out);
+    let mut b = 0;
+    for (next_b, ((next, t), out)) in blocks {
+        let this_uc = uc;
+        uc = first_part(o, f, a, one, input(next_b), next, p(next_b), t, out);
+        creep_pass(o, a, one, this_uc, this, p(b));
+        (this, b) = (next, next_b);
     }
+    creep_pass(o, a, one, uc, this, p(b));
 }
 
-/// A block's input: its index in the bank, its targets in a vector and in
-/// the caller's slice.
+/// The paper's layout — 12 plays, 12 creep thresholds × 5 eigenvalues, the
+/// identification's default — is compiled with every row offset and loop
+/// count known; any other reads them at run time. The same operations in
+/// the same order either way.
+const PAPER: Layout = Layout {
+    n: nominal::PLAYS,
+    nc: nominal::CREEP_WEIGHTS.len(),
+    m: nominal::CREEP_EIGENVALUES.len(),
+};
+
+/// A block's input: its index in the bank, whether a lane of it has `S`,
+/// its targets in a vector and in the caller's slice.
 struct Input<'a, T: Real, V: Block<T>> {
     index: usize,
+    superposed: bool,
     target: V,
     targets: &'a [T],
 }
 
-/// [`inverse_and_clip`] of block `b` of a run starting at bank block
-/// `first`, its outputs written to the run's `out`.
+/// [`inverse_and_clip`] of the bank's block `index` (with `superposed`
+/// telling whether a lane of it has `S`): its state rows, parameter rows,
+/// targets and outputs (a block's lanes, fewer in a last, partial block).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn first_part<T: Real, V: Block<T>>(
     o: Ops<T, V>,
     f: &Fixed<'_, T>,
+    a: Layout,
     one: V,
-    first: usize,
-    b: usize,
+    (index, superposed): (usize, bool),
     state: &mut [Row],
     p: &[Row],
     targets: &[T],
     out: &mut [Compensated<T>],
 ) -> V {
-    let width = lanes::<T>();
-    let c0 = b * width;
-    let k = width.min(targets.len() - c0);
     // a whole block (all but perhaps the last) straight from the caller's
     // slice; the last one through a padded row
-    let target = if k == width {
-        o.load_values(&targets[c0..][..width])
+    let target = if targets.len() == lanes::<T>() {
+        o.load_values(targets)
     } else {
         let mut row = Row::default();
-        row.lanes_mut()[..k].copy_from_slice(&targets[c0..c0 + k]);
+        row.lanes_mut()[..targets.len()].copy_from_slice(targets);
         o.load(&row)
     };
     let block = Input {
-        index: first + b,
+        index,
+        superposed,
         target,
-        targets: &targets[c0..c0 + k],
+        targets,
     };
-    let (u, uc, saturated, fault) = if f.layout.n == PAPER_PLAYS {
-        inverse_and_clip::<T, V, PAPER_PLAYS>(o, f, one, block, state, p)
-    } else {
-        inverse_and_clip::<T, V, 0>(o, f, one, block, state, p)
-    };
-    let out = if k == width {
-        &mut out[c0..][..width]
-    } else {
-        &mut out[c0..c0 + k]
-    };
+    let (u, uc, saturated, fault) = inverse_and_clip(o, f, a, one, block, state, p);
     let flags = (
         core::mem::offset_of!(Compensated<T>, saturated),
         core::mem::offset_of!(Compensated<T>, fault),
@@ -203,25 +215,24 @@ fn first_part<T: Real, V: Block<T>>(
 /// does up to the applied voltage, lane by lane, in its order of
 /// operations (the creep pass is [`creep_pass`]). Returns the voltages, the
 /// creep input (also stored, for the next step's hold) and the saturated
-/// and faulted lanes. `N` is the number of plays, or 0 for the layout's
-/// (see [`PAPER_PLAYS`]).
+/// and faulted lanes.
 #[inline(always)]
-fn inverse_and_clip<T: Real, V: Block<T>, const N: usize>(
+fn inverse_and_clip<T: Real, V: Block<T>>(
     o: Ops<T, V>,
     f: &Fixed<'_, T>,
+    a: Layout,
     one: V,
     block: Input<'_, T, V>,
     s: &mut [Row],
     p: &[Row],
 ) -> (V, V, V::Mask, V::Mask) {
-    let a = f.layout;
     let (cur, next) = (f.parity, f.parity ^ 1);
     let fault = o.non_finite(block.target);
     // S⁻¹[t − offset] − C: y, or the input held where that is not finite.
     // The superposed path starts from the targets in memory, so that no
     // vector is handed to a function left out of line (the compiler put
     // `t − offset` on the stack in every block for it).
-    let y = if f.superposed[block.index] {
+    let y = if block.superposed {
         inverse_superposition(o, f, block.index, block.targets, p)
     } else {
         o.sub(block.target, o.load(&p[a.offset()]))
@@ -231,7 +242,7 @@ fn inverse_and_clip<T: Real, V: Block<T>, const N: usize>(
     // H⁻¹ (22): the plays into the other copy; a faulted lane keeps its
     // own. Whole slices of rows, walked in fours: no index arithmetic or
     // bounds check between the vector operations.
-    let n = if N == 0 { a.n } else { N };
+    let n = a.n;
     let (first_copy, second_copy) = s[..2 * n].split_at_mut(n);
     let (old, new_rows) = if cur == 0 {
         (&*first_copy, second_copy)
@@ -306,34 +317,13 @@ fn inverse_and_clip<T: Real, V: Block<T>, const N: usize>(
 #[inline(always)]
 fn creep_pass<T: Real, V: Block<T>>(
     o: Ops<T, V>,
-    f: &Fixed<'_, T>,
+    a: Layout,
     one: V,
     uc: V,
     s: &mut [Row],
     p: &[Row],
 ) {
-    const NC: usize = PAPER_CREEP.0;
-    const M: usize = PAPER_CREEP.1;
-    if (f.layout.nc, f.layout.m) == PAPER_CREEP {
-        creep_pass_of::<T, V, NC, M>(o, f, one, uc, s, p);
-    } else {
-        creep_pass_of::<T, V, 0, 0>(o, f, one, uc, s, p);
-    }
-}
-
-/// [`creep_pass`] with `NC` thresholds and `M` eigenvalues, or the
-/// layout's if `M` is 0 (see [`PAPER_PLAYS`]).
-#[inline(always)]
-fn creep_pass_of<T: Real, V: Block<T>, const NC: usize, const M: usize>(
-    o: Ops<T, V>,
-    f: &Fixed<'_, T>,
-    one: V,
-    uc: V,
-    s: &mut [Row],
-    p: &[Row],
-) {
-    let a = f.layout;
-    let (nc, m) = if M == 0 { (a.nc, a.m) } else { (NC, M) };
+    let (nc, m) = (a.nc, a.m);
     let zero = o.splat(T::ZERO);
     let (thresholds, weights) = (&p[a.creep_r(0)..][..nc], &p[a.creep_w(0)..][..nc]);
     let gains = &p[a.gain(0)..][..m];
