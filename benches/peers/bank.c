@@ -20,6 +20,9 @@
  *
  *   bank trace    y_d,u_peer of lane 3 of a bank of 8 channels (lane l sees
  *                 the targets 37 l samples on), 4096 samples, as CSV
+ *   bank steps C  200 steps of a bank of C channels (a multiple of 8), for
+ *                 counting the instructions of one bank_step
+ *                 (count_instructions.py)
  *
  * Built with -DPEER_LIB -shared -fPIC it is a library for bank_limit's
  * interleaved comparison (bank_new, bank_run). Needs AVX-512F.
@@ -220,8 +223,9 @@ double bank_run(void *p, const double *targets, long rows, long *k, long steps, 
 }
 #else
 int main(int argc, char **argv) {
-    if (argc < 2 || strcmp(argv[1], "trace") != 0) {
-        fprintf(stderr, "usage: %s trace\n", argv[0]);
+    long channels = argc == 3 && strcmp(argv[1], "steps") == 0 ? atol(argv[2]) : 0;
+    if (!(argc == 2 && strcmp(argv[1], "trace") == 0) && !(channels > 0 && channels % 8 == 0)) {
+        fprintf(stderr, "usage: %s trace | %s steps CHANNELS (a multiple of 8)\n", argv[0], argv[0]);
         return 2;
     }
     static double input[LEN], targets[LEN], row[8];
@@ -230,6 +234,20 @@ int main(int argc, char **argv) {
     model w;
     init_model(&w);
     for (int k = 0; k < LEN; k++) targets[k] = model_step(&w, input[k]);
+    if (channels > 0) {
+        bank *b = bank_create(channels);
+        double *rows = malloc(sizeof(double) * (size_t)channels);
+        compensated *outs = malloc(sizeof(compensated) * (size_t)channels);
+        if (!b || !rows || !outs) return 1;
+        double sum = 0.0;
+        for (int k = 0; k < 200; k++) {
+            for (long c = 0; c < channels; c++) rows[c] = targets[(16 * k + 37 * c) % LEN];
+            bank_step(b, rows, outs);
+            sum += outs[0].u;
+        }
+        printf("%.17g\n", sum);
+        return 0;
+    }
     bank *b = bank_create(8);
     if (!b) return 1;
     printf("y_d,u_peer\n");
