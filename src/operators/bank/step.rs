@@ -98,7 +98,7 @@ fn run_blocks_of<T: Real, V: Block<T>>(
     targets: &[T],
     out: &mut [Compensated<T>],
 ) {
-    let (sr, pr, width) = (a.state_rows(), a.parameter_rows(), lanes::<T>());
+    let pr = a.parameter_rows();
     let (shared, all) = (f.shared, f.parameters);
     let p = |b: usize| {
         if shared {
@@ -111,6 +111,41 @@ fn run_blocks_of<T: Real, V: Block<T>>(
     let superposed = &f.superposed[first..];
     let any_superposed = superposed.iter().any(|&s| s);
     let input = |b: usize| (first + b, any_superposed && superposed[b]);
+    if shared && !any_superposed {
+        // the common case: one model, no `S` (nothing to test per block)
+        let p0 = &all[..pr];
+        pipeline(
+            o,
+            f,
+            a,
+            one,
+            state,
+            targets,
+            out,
+            |_| p0,
+            |b| (first + b, false),
+        );
+    } else {
+        pipeline(o, f, a, one, state, targets, out, p, input);
+    }
+}
+
+/// The blocks of [`run_blocks_of`], with their parameter rows from `p` and
+/// their [`Input`]'s index and `S` from `input`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn pipeline<'p, T: Real, V: Block<T>>(
+    o: Ops<T, V>,
+    f: &Fixed<'_, T>,
+    a: Layout,
+    one: V,
+    state: &mut [Row],
+    targets: &[T],
+    out: &mut [Compensated<T>],
+    p: impl Fn(usize) -> &'p [Row],
+    input: impl Fn(usize) -> (usize, bool),
+) {
+    let (sr, width) = (a.state_rows(), lanes::<T>());
     // whole blocks in chunks of a fixed size (no length arithmetic per
     // block), then the last, partial one if there is one
     let whole = targets.len() / width;
