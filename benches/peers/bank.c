@@ -12,8 +12,9 @@
  *  - the clip, the saturated lanes re-seated lane by lane as mfcbeam does;
  *  - the creep pass (20): per threshold the five updates
  *    chi <- g c + (chi - g chi) (two FMAs, c = max(min(chi, u + r), u - r)),
- *    their sum from zero (two thresholds of four by add, two by chi . 1 +
- *    rows), fused with its weight into sum i mod 4.
+ *    their sum from zero (thresholds two at a time, the first's rows by
+ *    add, the second's by chi . 1 + rows), fused with its weight into sum
+ *    i mod 4.
  * A step is software-pipelined by one block, as mfcbeam's: H^-1 and the clip
  * of block b + 1 before the creep pass of block b. The output is mfcbeam's
  * Compensated<f64> (u, saturated, fault: 16 bytes a channel).
@@ -158,11 +159,13 @@ static inline __attribute__((always_inline)) void creep_pass(const bank *restric
     __m512d uc = s[CREEP_LAST];
     __m512d sums[4] = {_mm512_setzero_pd(), _mm512_setzero_pd(), _mm512_setzero_pd(),
                        _mm512_setzero_pd()};
+    /* two thresholds at a time: 2-6 % faster here than four at a time (the
+     * same bits: each threshold's weighted rows still go into sum i mod 4) */
     #pragma GCC unroll 16
-    for (int i0 = 0; i0 < NC; i0 += 4) {
-        __m512d lo[4], hi[4], rows[4];
+    for (int i0 = 0; i0 < NC; i0 += 2) {
+        __m512d lo[2], hi[2], rows[2];
         #pragma GCC unroll 16
-        for (int q = 0; q < 4; q++) {
+        for (int q = 0; q < 2; q++) {
             lo[q] = _mm512_sub_pd(uc, b->rc[i0 + q]);
             hi[q] = _mm512_add_pd(uc, b->rc[i0 + q]);
             rows[q] = _mm512_setzero_pd();
@@ -170,17 +173,18 @@ static inline __attribute__((always_inline)) void creep_pass(const bank *restric
         #pragma GCC unroll 16
         for (int j = 0; j < M; j++) {
             #pragma GCC unroll 16
-            for (int q = 0; q < 4; q++) {
+            for (int q = 0; q < 2; q++) {
                 __m512d *chi = &s[CHI + (i0 + q) * M + j];
                 __m512d x = *chi, g = b->g[j];
                 __m512d c = _mm512_max_pd(_mm512_min_pd(x, hi[q]), lo[q]);
                 x = _mm512_fmadd_pd(g, c, _mm512_fnmadd_pd(g, x, x));
                 *chi = x;
-                rows[q] = q < 2 ? _mm512_add_pd(rows[q], x) : _mm512_fmadd_pd(x, b->one, rows[q]);
+                rows[q] = q == 0 ? _mm512_add_pd(rows[q], x) : _mm512_fmadd_pd(x, b->one, rows[q]);
             }
         }
         #pragma GCC unroll 16
-        for (int q = 0; q < 4; q++) sums[q] = _mm512_fmadd_pd(b->wc[i0 + q], rows[q], sums[q]);
+        for (int q = 0; q < 2; q++)
+            sums[(i0 + q) & 3] = _mm512_fmadd_pd(b->wc[i0 + q], rows[q], sums[(i0 + q) & 3]);
     }
     s[CREEP_OUT] = _mm512_add_pd(_mm512_add_pd(sums[0], sums[2]), _mm512_add_pd(sums[1], sums[3]));
 }
