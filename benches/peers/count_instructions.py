@@ -1,16 +1,19 @@
 """Count the instructions one call of a function executes, by single-stepping
-it under gdb: the bank's step (`counted_step` of `benches/bank_steps.rs`)
-or the C bank's (`bank_step` of `bank steps`). Vector instructions (those
-naming an xmm, ymm or zmm register) are counted apart from the rest
-(addresses, bounds checks, loop counts, spills).
+it under gdb: the bank's step (`counted_bank_step` of
+`benches/counted_steps.rs`), one compensator's (`counted_step_f64`,
+`counted_step_f32`) or the C bank's (`bank_step` of `bank steps`).
+Vector instructions (those naming an xmm, ymm or zmm register) are counted
+apart from the rest (addresses, bounds checks, loop counts, spills).
 
   gdb -q -batch -x benches/peers/count_instructions.py \\
-      --args target/release/deps/bank_steps-HASH 64
+      --args target/release/deps/counted_steps-HASH bank 64
+  COUNT_FUNCTION=counted_step_f64 gdb -q -batch -x benches/peers/count_instructions.py \\
+      --args target/release/deps/counted_steps-HASH f64
   COUNT_FUNCTION=bank_step gdb -q -batch -x benches/peers/count_instructions.py \\
       --args target/peers/bank steps 64
 
-COUNT_FUNCTION names the function (default counted_step), COUNT_SKIP how
-many calls run first (default 100: a warm, steady state). Per block of
+COUNT_FUNCTION names the function (default counted_bank_step), COUNT_SKIP
+how many calls run first (default 100: a warm, steady state). Per block of
 eight channels: the difference of the counts at 128 and 8 channels, over 15.
 """
 
@@ -18,7 +21,7 @@ import os
 
 import gdb
 
-function = os.environ.get("COUNT_FUNCTION", "counted_step")
+function = os.environ.get("COUNT_FUNCTION", "counted_bank_step")
 skip = int(os.environ.get("COUNT_SKIP", "100"))
 
 gdb.execute("set pagination off")
