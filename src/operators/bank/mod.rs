@@ -129,6 +129,9 @@ pub struct CompensatorBank<T: Real> {
     /// Whether a lane of the block has `S` (the block then applies `S⁻¹`
     /// lane by lane).
     superposed: Vec<bool>,
+    /// Whether any block has `S`: if none does and the model is shared
+    /// (the common case), a step tests neither per block.
+    any_superposed: bool,
     /// Each channel's preview (dead time and the lag of its dynamics).
     delays: Vec<usize>,
     /// The channels whose model has dynamics, each with its own
@@ -249,7 +252,8 @@ impl<T: Real> CompensatorBank<T> {
                     inverse_superposition.get(c).is_some_and(Option::is_some)
                 })
             })
-            .collect();
+            .collect::<Vec<_>>();
+        let any_superposed = superposed.contains(&true);
         let model_of = |c: usize| &models[if shared { 0 } else { c }];
         let delays = (0..channels)
             .map(|c| {
@@ -275,6 +279,7 @@ impl<T: Real> CompensatorBank<T> {
             parity: 0,
             inverse_superposition,
             superposed,
+            any_superposed,
             delays,
             dynamic,
         })
@@ -437,6 +442,7 @@ impl<T: Real> CompensatorBank<T> {
                 parity: self.parity,
                 inverse_superposition: &self.inverse_superposition,
                 superposed: &self.superposed,
+                any_superposed: self.any_superposed,
             },
             &mut self.state,
         )

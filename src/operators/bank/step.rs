@@ -46,6 +46,7 @@ pub(super) struct Fixed<'a, T: Real> {
     pub(super) parity: usize,
     pub(super) inverse_superposition: &'a [Option<Superposition<T, Heap>>],
     pub(super) superposed: &'a [bool],
+    pub(super) any_superposed: bool,
 }
 
 /// One step of a run of blocks: their state, targets and outputs.
@@ -97,19 +98,8 @@ fn run_blocks_of<T: Real, V: Block<T>>(
     out: &mut [Compensated<T>],
 ) {
     let pr = a.parameter_rows();
-    let (shared, all) = (f.shared, f.parameters);
-    let p = |b: usize| {
-        if shared {
-            &all[..pr]
-        } else {
-            &all[(first + b) * pr..][..pr]
-        }
-    };
-    // one test per run where no block has `S` (the common case)
-    let superposed = &f.superposed[first..];
-    let any_superposed = superposed.iter().any(|&s| s);
-    let input = |b: usize| (first + b, any_superposed && superposed[b]);
-    if shared && !any_superposed {
+    let all = f.parameters;
+    if f.shared && !f.any_superposed {
         // the common case: one model, no `S` (nothing to test per block)
         let p0 = &all[..pr];
         pipeline(
@@ -124,7 +114,25 @@ fn run_blocks_of<T: Real, V: Block<T>>(
             |b| (first + b, false),
         );
     } else {
-        pipeline(o, f, a, one, state, targets, out, p, input);
+        let shared = f.shared;
+        let superposed = &f.superposed[first..];
+        pipeline(
+            o,
+            f,
+            a,
+            one,
+            state,
+            targets,
+            out,
+            |b| {
+                if shared {
+                    &all[..pr]
+                } else {
+                    &all[(first + b) * pr..][..pr]
+                }
+            },
+            |b| (first + b, superposed[b]),
+        );
     }
 }
 
