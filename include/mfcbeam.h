@@ -64,7 +64,7 @@
 /**
  * Words of `MfcbeamCompensatorStorageF64`.
  */
-#define MFCBEAM_COMPENSATOR_F64_WORDS 1121
+#define MFCBEAM_COMPENSATOR_F64_WORDS 1122
 
 /**
  * Words of `MfcbeamModelStorageF32`.

@@ -229,6 +229,90 @@ fn every_kernel_set_gives_the_portable_bits_at_every_order() {
     }
 }
 
+/// The same for the step compiled for the paper's layout (12 plays, 12
+/// creep thresholds × 5 eigenvalues): random models of that layout
+/// (the paper's thresholds and weights scaled, random eigenvalues, with the
+/// offset, `S` and dead time a random model draws), inline and on the heap,
+/// limited and unlimited, with targets far beyond the plays; and a layout
+/// one short of it (11 plays) through the general step.
+#[test]
+fn the_paper_layouts_step_gives_the_portable_bits() {
+    type Free<T> = Compensator<T, mfcbeam::operators::heap::Heap>;
+    type Placed<T> = Compensator<T, Inline<12, 60>>;
+    let mut rng = Rng::new(29);
+    for seed in 0..40u64 {
+        let drawn = random_model(&mut rng, 12, ModelShape::Any);
+        let mut file = nominal_model_file();
+        let (r, w, wc) = (
+            rng.uniform(0.3, 3.0),
+            rng.uniform(0.3, 3.0),
+            rng.uniform(0.0, 3.0),
+        );
+        file.hysteresis.thresholds.iter_mut().for_each(|x| *x *= r);
+        file.hysteresis.weights.iter_mut().for_each(|x| *x *= w);
+        let creep = file.creep.as_mut().unwrap();
+        creep.thresholds.iter_mut().for_each(|x| *x *= r);
+        creep.weights.iter_mut().for_each(|x| *x *= wc);
+        creep
+            .eigenvalues
+            .iter_mut()
+            .for_each(|a| *a = 10f64.powf(rng.uniform(-2.0, 3.0)));
+        (file.offset, file.superposition, file.delay) =
+            (drawn.offset, drawn.superposition, drawn.delay);
+        if seed % 5 == 4 {
+            // one play short: the general step
+            file.hysteresis.thresholds.pop();
+            file.hysteresis.weights.pop();
+        }
+        let p = file.parameters();
+        let settings = if seed % 2 == 0 {
+            CompensatorSettings::unlimited()
+        } else {
+            CompensatorSettings::with_limits(-700.0 * w, 700.0 * w)
+        };
+        let (mut b, mut b32) = (
+            Free::<f64>::new(&p, settings).unwrap(),
+            Free::<f32>::new(&p, settings).unwrap(),
+        );
+        let (inline, inline32) = (
+            Placed::<f64>::new(&p, settings).unwrap(),
+            Placed::<f32>::new(&p, settings).unwrap(),
+        );
+        let mut each: Vec<_> = simd::Kernels::all()
+            .map(|k| (k, b.clone(), b32.clone(), inline.clone(), inline32.clone()))
+            .collect();
+        let mut signal: Vec<f64> = targets(&mut Rng::new(seed), 1, 400, 1500.0 * w)
+            .into_iter()
+            .map(|row| row[0])
+            .collect();
+        signal.extend([1e30, -1e38, 3e38, 0.0, -0.0, f64::NAN, 5.0]);
+        for t in signal {
+            let expected = b.compensate_portable(t);
+            let expected32 = b32.compensate_portable(t as f32);
+            let bits =
+                |u: mfcbeam::realtime::Compensated<f64>| (u.u.to_bits(), u.saturated, u.fault);
+            let bits32 =
+                |u: mfcbeam::realtime::Compensated<f32>| (u.u.to_bits(), u.saturated, u.fault);
+            for (k, c, c32, ci, ci32) in &mut each {
+                let at = format!("seed {seed}, {k:?}, target {t}");
+                assert_eq!(bits(c.compensate_using(*k, t)), bits(expected), "{at}");
+                assert_eq!(bits(ci.compensate_using(*k, t)), bits(expected), "{at}");
+                let t32 = t as f32;
+                assert_eq!(
+                    bits32(c32.compensate_using(*k, t32)),
+                    bits32(expected32),
+                    "{at}"
+                );
+                assert_eq!(
+                    bits32(ci32.compensate_using(*k, t32)),
+                    bits32(expected32),
+                    "{at}"
+                );
+            }
+        }
+    }
+}
+
 /// The same wherever the compensator lies: an inline one placed at every
 /// offset of a page (in a page-aligned buffer, so that each of its arrays
 /// straddles the page boundary at every place it can), where the kernels

@@ -110,7 +110,8 @@ fn paper_sized_storage_and_its_footprint() {
     // model has none) is two lengths, its zero index and its presence; the
     // model's dead time is one count (the compensator has no delay line);
     // the room for linear dynamics G (absent here) and, for them, `S`
-    // itself and the plays' last output.
+    // itself and the plays' last output; whether the layout is the paper's
+    // (a flag, padded to a number's size).
     let extra = |size: usize| {
         if size == 4 {
             std::mem::size_of::<Option<Dynamics<f32>>>()
@@ -124,7 +125,7 @@ fn paper_sized_storage_and_its_footprint() {
     };
     for (bytes, size) in [(f32_bytes, 4), (f64_bytes, 8)] {
         let arrays = (7 * 12 + 6 * 60) * size;
-        let lengths = (13 + 5) * std::mem::size_of::<usize>() + extra(size);
+        let lengths = (13 + 5) * std::mem::size_of::<usize>() + extra(size) + size;
         eprintln!("Compensator<_, nominal::Capacity>: {bytes} bytes with {size}-byte numbers ({arrays} in arrays)");
         assert!(
             bytes >= arrays + lengths && bytes <= arrays + lengths + 8 * 8,

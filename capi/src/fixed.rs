@@ -34,7 +34,7 @@ pub const MFCBEAM_MAX_DELAY: usize = 16;
 /// Words of `MfcbeamCompensatorStorageF32`.
 pub const MFCBEAM_COMPENSATOR_F32_WORDS: usize = 580;
 /// Words of `MfcbeamCompensatorStorageF64`.
-pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 1121;
+pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 1122;
 /// Words of `MfcbeamModelStorageF32`.
 pub const MFCBEAM_MODEL_F32_WORDS: usize = 523;
 /// Words of `MfcbeamModelStorageF64`.

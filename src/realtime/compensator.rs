@@ -161,6 +161,9 @@ pub struct Compensator<T: Real, S: Storage> {
     upper: T,
     /// The model's dead time (samples), which the caller's preview covers.
     delay: usize,
+    /// Whether the model has the paper's layout (12 plays, creep 12 × 5):
+    /// the step then runs code compiled for it.
+    paper: bool,
 }
 
 impl<T: Real, S: Storage> Compensator<T, S> {
@@ -209,6 +212,10 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             lower: T::from_f64_up(settings.lower_limit),
             upper: T::from_f64_down(settings.upper_limit),
             delay: parameters.delay + parameters.dynamics.as_ref().map_or(0, |g| g.lag()),
+            paper: n == simd::PAPER_PLAYS
+                && parameters.creep.as_ref().is_some_and(|c| {
+                    (c.thresholds.len(), c.eigenvalues.len()) == simd::PAPER_CREEP
+                }),
         };
         let mut s = 0.0;
         for i in 0..n {
@@ -397,6 +404,48 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     /// `G`'s state.
     #[inline(always)]
     fn compensate_with(&mut self, k: Kernels, target: T) -> Compensated<T> {
+        if self.dynamics.is_some() || self.inverse_superposition.is_some() || !target.is_finite() {
+            return self.compensate_general(k, target);
+        }
+        // the common case, no `G` and no `S`: the general path's operations
+        // on it, with nothing else in the function (the rest out of line:
+        // fewer instructions and registers per step)
+        let c = match &self.creep {
+            Some(op) => op.output(),
+            None => T::ZERO,
+        };
+        let y = target - self.offset;
+        let (u, saturated) = simd::compensator_step(k, self, y - c, self.lower, self.upper);
+        if saturated {
+            self.reseat_clipped(u);
+        }
+        self.last_u = u;
+        Compensated {
+            u,
+            saturated,
+            fault: false,
+        }
+    }
+
+    /// The plays of `H⁻¹` re-seated after the clipped sample `u`.
+    #[cold]
+    #[inline(never)]
+    fn reseat_clipped(&mut self, u: T) {
+        let (_, _, inv_state) = self.inverse.parts_mut();
+        reseat(
+            inv_state,
+            &mut self.scratch,
+            &self.thresholds,
+            &self.weights,
+            &self.sums,
+            u,
+        );
+    }
+
+    /// [`Compensator::compensate_with`] with `G` or `S`, or a non-finite
+    /// target.
+    #[inline(never)]
+    fn compensate_general(&mut self, k: Kernels, target: T) -> Compensated<T> {
         if !target.is_finite() {
             return self.hold();
         }
@@ -423,15 +472,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         };
         let (u, saturated) = simd::compensator_step(k, self, y - c, self.lower, self.upper);
         if saturated {
-            let (_, _, inv_state) = self.inverse.parts_mut();
-            reseat(
-                inv_state,
-                &mut self.scratch,
-                &self.thresholds,
-                &self.weights,
-                &self.sums,
-                u,
-            );
+            self.reseat_clipped(u);
         }
         if self.dynamics.is_some() {
             let h = if saturated {
@@ -532,6 +573,63 @@ impl<T: Real, S: Storage> simd::StepSource<T> for Compensator<T, S> {
             inv_thresholds,
             inv_weights,
             creep: self.creep.as_mut().map(Creep::step_parts),
+        }
+    }
+
+    #[inline(always)]
+    fn paper_layout(&self) -> bool {
+        self.paper
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::realtime::parameters::{CreepParameters, HysteresisParameters};
+    use crate::realtime::simd::StepSource;
+    use crate::realtime::{nominal, Inline};
+
+    /// The paper's layout is recognised exactly: 12 plays and creep of 12
+    /// thresholds × 5 eigenvalues, not one play, threshold or eigenvalue
+    /// more or less, nor without creep.
+    #[test]
+    fn the_paper_layout_is_recognised_exactly() {
+        type C = Compensator<f64, Inline<13, 78>>;
+        let settings = CompensatorSettings::default();
+        let p = nominal::PARAMETERS;
+        let (h, c) = (p.hysteresis, p.creep.unwrap());
+        // the paper's layout and one more of each
+        let plays_r = [h.thresholds, &[h.thresholds[11] + 10.0]].concat();
+        let plays_w = [h.weights, &[0.01]].concat();
+        let creep_r = [c.thresholds, &[c.thresholds[11] + 10.0]].concat();
+        let creep_w = [c.weights, &[0.0]].concat();
+        let creep_a = [c.eigenvalues, &[0.01]].concat();
+        let is_paper = |plays: usize, creep: Option<(usize, usize)>| {
+            let parameters = ModelParameters {
+                hysteresis: HysteresisParameters {
+                    thresholds: &plays_r[..plays],
+                    weights: &plays_w[..plays],
+                },
+                creep: creep.map(|(n, m)| CreepParameters {
+                    thresholds: &creep_r[..n],
+                    weights: &creep_w[..n],
+                    eigenvalues: &creep_a[..m],
+                }),
+                ..p
+            };
+            C::new(&parameters, settings).unwrap().paper_layout()
+        };
+        assert!(is_paper(12, Some((12, 5))));
+        for (plays, creep) in [
+            (11, Some((12, 5))),
+            (13, Some((12, 5))),
+            (12, Some((11, 5))),
+            (12, Some((13, 5))),
+            (12, Some((12, 4))),
+            (12, Some((12, 6))),
+            (12, None),
+        ] {
+            assert!(!is_paper(plays, creep), "{plays} plays, creep {creep:?}");
         }
     }
 }
