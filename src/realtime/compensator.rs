@@ -398,10 +398,10 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         Ok((clipped, faults))
     }
 
-    /// One step on the kernels `k`: `G⁻¹` and `S⁻¹` of the target, then
-    /// `H⁻¹`, the clip and the creep pass in one kernel call
-    /// ([`simd::compensator_step`]), the re-seat after a clipped sample and
-    /// `G`'s state.
+    /// One step on the kernels `k`. The common case (no `G`, no `S`, a
+    /// finite target) here: `H⁻¹`, the clip and the creep pass in one
+    /// kernel call ([`simd::compensator_step`]) and the re-seat after a
+    /// clipped sample; anything else in [`Compensator::compensate_general`].
     #[inline(always)]
     fn compensate_with(&mut self, k: Kernels, target: T) -> Compensated<T> {
         if self.dynamics.is_some() || self.inverse_superposition.is_some() || !target.is_finite() {
@@ -443,7 +443,8 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     }
 
     /// [`Compensator::compensate_with`] with `G` or `S`, or a non-finite
-    /// target.
+    /// target (held): `G⁻¹` and `S⁻¹` of the target, then the kernel call,
+    /// the re-seat after a clipped sample and `G`'s state.
     #[inline(never)]
     fn compensate_general(&mut self, k: Kernels, target: T) -> Compensated<T> {
         if !target.is_finite() {
