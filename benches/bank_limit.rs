@@ -22,8 +22,11 @@
 //! count where the split is faster, next to `Workers::min_blocks`. Then the
 //! bank at 1, 8, 64, 1024 and 4096 channels, `f64` and `f32`, on one thread
 //! and on two (`CompensatorBank::compensate_on` with one worker, the
-//! default crossover and the adaptive choice between one thread and a split),
-//! timed as the median over batches of steps; printed with the CPU, its
+//! default crossover and the adaptive choice between one thread and a split).
+//! One thread and two (and, in the scan, one and the split) are timed in
+//! alternating batches of steps, so that a busy minute falls on both: the
+//! median time of each and the median and 10–90 % of two's time over one's
+//! in the same round; printed with the CPU, its
 //! bound, the ratio, the cycles per channel-step at the clock measured here,
 //! and the share of a core a 4000-actuator mirror at 10 kHz needs.
 //! Last, with `MFCBEAM_C_BANK` naming the library of the hand-written C bank
@@ -304,41 +307,116 @@ mod mix {
 /// How a timed step runs.
 #[derive(Clone, Copy)]
 enum Mode<'a> {
+    /// On the calling thread: `CompensatorBank::compensate`.
+    Alone,
     /// On the calling thread and these kernels.
     Kernels(Kernels),
     /// Split over the workers and the calling thread.
     Workers(&'a Workers),
 }
 
-/// Median nanoseconds per step of `channels` channels.
-fn time_bank<T: Real>(channels: usize, mode: Mode<'_>) -> f64 {
+/// One bank of `channels` channels stepped in batches of about 2 ms.
+struct Timed<T: Real> {
+    bank: CompensatorBank<T>,
+    out: Vec<Compensated<T>>,
+    k: usize,
+}
+
+impl<T: Real> Timed<T> {
     const ROWS: usize = 64;
-    let rows = bank_rows::<T>(channels, ROWS);
-    let mut bank = nominal_bank::<T>(channels);
-    let mut out = vec![Compensated::<T>::default(); channels];
-    // about 2 ms per batch
-    let steps = (2_000_000 / (channels * 8).max(1)).clamp(20, 200_000);
-    let mut k = 0usize;
-    let mut batch = |bank: &mut CompensatorBank<T>| {
+
+    fn new(channels: usize) -> Self {
+        Timed {
+            bank: nominal_bank::<T>(channels),
+            out: vec![Compensated::<T>::default(); channels],
+            k: 0,
+        }
+    }
+
+    fn steps(channels: usize) -> usize {
+        (2_000_000 / (channels * 8).max(1)).clamp(20, 200_000)
+    }
+
+    fn step(&mut self, rows: &[Vec<T>], mode: Mode<'_>) {
+        self.k = (self.k + 1) % Self::ROWS;
+        let row = black_box(&rows[self.k]);
+        match mode {
+            Mode::Alone => self.bank.compensate(row, &mut self.out),
+            Mode::Kernels(kernels) => self.bank.compensate_using(kernels, row, &mut self.out),
+            Mode::Workers(workers) => self.bank.compensate_on(workers, row, &mut self.out),
+        }
+        .unwrap();
+    }
+
+    /// Nanoseconds per step of one batch. Its first two steps are not
+    /// timed: after the other way's batch a parked worker wakes in them,
+    /// which a bank stepped every sample does not pay.
+    fn batch(&mut self, rows: &[Vec<T>], mode: Mode<'_>) -> f64 {
+        let steps = Self::steps(self.out.len());
+        self.step(rows, mode);
+        self.step(rows, mode);
         let t0 = Instant::now();
         for _ in 0..steps {
-            k = (k + 1) % ROWS;
-            match mode {
-                Mode::Kernels(kernels) => bank
-                    .compensate_using(kernels, black_box(&rows[k]), &mut out)
-                    .unwrap(),
-                Mode::Workers(workers) => bank
-                    .compensate_on(workers, black_box(&rows[k]), &mut out)
-                    .unwrap(),
-            }
+            self.step(rows, mode);
         }
-        black_box(&out);
+        black_box(&self.out);
         t0.elapsed().as_nanos() as f64 / steps as f64
-    };
-    for _ in 0..20 {
-        batch(&mut bank);
     }
-    let mut times: Vec<f64> = (0..61).map(|_| batch(&mut bank)).collect();
+}
+
+/// Banks per way in [`time_pair`]. A bank's speed depends on where its
+/// memory lands: on a Zen 4, one of 24 banks of 8 channels made in turn
+/// took 1.16× the median, with the same code and inputs (not set by the
+/// addresses' low 12 bits, and not removed by one allocation for the
+/// parameters and the state). Rotating a few banks puts the median over
+/// placements, not one placement's luck.
+const PLACEMENTS: usize = 3;
+
+/// Two ways of stepping `channels` channels, timed in alternating batches
+/// (the order swapped every round, 61 rounds after 2 of warm-up per bank),
+/// each way on [`PLACEMENTS`] banks of its own used in turn: the median
+/// nanoseconds per step of each, and the median, 10 % and 90 % of `b`'s
+/// time over `a`'s in the same round. Timed one after the other, a busy
+/// minute would fall on one way only.
+fn time_pair<T: Real>(channels: usize, a: Mode<'_>, b: Mode<'_>) -> (f64, f64, [f64; 3]) {
+    let rows = bank_rows::<T>(channels, Timed::<T>::ROWS);
+    let mut banks: Vec<(Timed<T>, Timed<T>)> = (0..PLACEMENTS)
+        .map(|_| (Timed::new(channels), Timed::new(channels)))
+        .collect();
+    for (first, second) in &mut banks {
+        for _ in 0..2 {
+            first.batch(&rows, a);
+            second.batch(&rows, b);
+        }
+    }
+    let (mut ta, mut tb, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
+    for round in 0..61 {
+        let (first, second) = &mut banks[round % PLACEMENTS];
+        let (x, y) = if round % 2 == 0 {
+            let x = first.batch(&rows, a);
+            (x, second.batch(&rows, b))
+        } else {
+            let y = second.batch(&rows, b);
+            (first.batch(&rows, a), y)
+        };
+        ta.push(x);
+        tb.push(y);
+        ratio.push(y / x);
+    }
+    for v in [&mut ta, &mut tb, &mut ratio] {
+        v.sort_by(f64::total_cmp);
+    }
+    (ta[30], tb[30], [ratio[30], ratio[6], ratio[54]])
+}
+
+/// Median nanoseconds per step of `channels` channels stepped one way.
+fn time_bank<T: Real>(channels: usize, mode: Mode<'_>) -> f64 {
+    let rows = bank_rows::<T>(channels, Timed::<T>::ROWS);
+    let mut timed = Timed::<T>::new(channels);
+    for _ in 0..20 {
+        timed.batch(&rows, mode);
+    }
+    let mut times: Vec<f64> = (0..61).map(|_| timed.batch(&rows, mode)).collect();
     times.sort_by(f64::total_cmp);
     times[times.len() / 2]
 }
@@ -367,13 +445,13 @@ fn report<T: Real>(ghz: f64) -> f64 {
     let lanes = 64 / std::mem::size_of::<T>(); // a block: one cache line of lanes
     let mut crossover = None;
     for blocks in [2usize, 4, 8, 12, 16, 24, 32, 64] {
-        let one = time_bank::<T>(blocks * lanes, Mode::Kernels(Kernels::detect()));
-        let both = time_bank::<T>(blocks * lanes, Mode::Workers(&split));
+        let (one, both, [ratio, low, high]) =
+            time_pair::<T>(blocks * lanes, Mode::Alone, Mode::Workers(&split));
         println!(
-            "crossover scan: {blocks:>3} blocks ({:>4} channels): one thread {one:>9.1} ns, split {both:>9.1} ns",
+            "crossover scan: {blocks:>3} blocks ({:>4} channels): one thread {one:>9.1} ns, split {both:>9.1} ns, split / one {ratio:.3} ({low:.3}-{high:.3})",
             blocks * lanes
         );
-        if crossover.is_none() && both < one {
+        if crossover.is_none() && ratio < 1.0 {
             crossover = Some(blocks);
         }
     }
@@ -384,21 +462,21 @@ fn report<T: Real>(ghz: f64) -> f64 {
     );
     let mut at_4096 = f64::NAN;
     for channels in [1usize, 8, 64, 1024, 4096] {
-        for (threads, mode) in [
-            (1, Mode::Kernels(Kernels::detect())),
-            (2, Mode::Workers(&two)),
-        ] {
-            let ns = time_bank::<T>(channels, mode);
+        let (one, two_ns, [ratio, low, high]) =
+            time_pair::<T>(channels, Mode::Alone, Mode::Workers(&two));
+        for (threads, ns) in [(1, one), (2, two_ns)] {
             let rate = channels as f64 / ns * 1e3;
-            let ratio = rate / (bound * threads as f64);
-            println!(
+            print!(
                 "{channels:>8} {threads:>8} {ns:>14.1} {rate:>12.1} {:>14.1} {:>15.0} %",
                 ns * ghz / channels as f64,
-                100.0 * ratio
+                100.0 * rate / (bound * threads as f64)
             );
-            if channels == 4096 && threads == 1 {
+            if threads == 2 {
+                print!("   two / one {ratio:.3} ({low:.3}-{high:.3})");
+            } else if channels == 4096 {
                 at_4096 = rate;
             }
+            println!();
         }
     }
     // every kernel set at 64 channels (the bound is the widest registers')
