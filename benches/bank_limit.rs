@@ -365,11 +365,12 @@ impl<T: Real> Timed<T> {
 }
 
 /// Banks per way in [`time_pair`]. A bank's speed depends on where its
-/// memory lands: on a Zen 4, one of 24 banks of 8 channels made in turn
-/// took 1.16× the median, with the same code and inputs (not set by the
-/// addresses' low 12 bits, and not removed by one allocation for the
-/// parameters and the state). Rotating a few banks puts the median over
-/// placements, not one placement's luck.
+/// memory lands: on a Zen 4, of 64 banks of 8 channels made in turn and
+/// timed alike, three took 1.13–1.34× the median, with the same code and
+/// inputs; which ones changed from process to process, at the same low 12
+/// address bits, and one allocation for the parameters and the state did
+/// not remove it. Rotating a few banks puts the median over placements,
+/// not one placement's luck.
 const PLACEMENTS: usize = 3;
 
 /// Two ways of stepping `channels` channels, timed in alternating batches
