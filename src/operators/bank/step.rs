@@ -5,11 +5,10 @@
 
 use crate::operators::heap::Heap;
 use crate::realtime::compensator::Compensated;
-use crate::realtime::nominal;
 use crate::realtime::play::play;
 use crate::realtime::real::Real;
 use crate::realtime::simd::block::{lanes, run_blocks, Block, BlockWork, Ops, Row};
-use crate::realtime::simd::Kernels;
+use crate::realtime::simd::{Kernels, PAPER_CREEP, PAPER_PLAYS};
 use crate::realtime::superposition::Superposition;
 
 use super::Layout;
@@ -186,14 +185,14 @@ fn pipeline<'p, T: Real, V: Block<T>>(
     creep_pass(o, a, one, uc, this, p(b));
 }
 
-/// The paper's layout — 12 plays, 12 creep thresholds × 5 eigenvalues, the
-/// identification's default — is compiled with every row offset and loop
-/// count known; any other reads them at run time. The same operations in
-/// the same order either way.
+/// The paper's layout (the compensator step's [`PAPER_PLAYS`] and
+/// [`PAPER_CREEP`]) is compiled with every row offset and loop count known;
+/// any other reads them at run time. The same operations in the same order
+/// either way.
 const PAPER: Layout = Layout {
-    n: nominal::PLAYS,
-    nc: nominal::CREEP_WEIGHTS.len(),
-    m: nominal::CREEP_EIGENVALUES.len(),
+    n: PAPER_PLAYS,
+    nc: PAPER_CREEP.0,
+    m: PAPER_CREEP.1,
 };
 
 /// A block's input: its index in the bank, whether a lane of it has `S`,

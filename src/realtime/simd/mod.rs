@@ -360,8 +360,9 @@ pub(crate) trait StepSource<T: Real> {
 }
 
 /// The paper's layout — 12 plays, 12 creep thresholds × 5 eigenvalues, the
-/// identification's default — for which the step is compiled with every
-/// slice's length a constant (its loops unrolled, every offset known).
+/// identification's default — for which the step (and the bank's block
+/// step) is compiled with every slice's length a constant (its loops
+/// unrolled, every offset known).
 pub(crate) const PAPER_PLAYS: usize = crate::realtime::nominal::PLAYS;
 /// The creep thresholds and eigenvalues of the paper's layout.
 pub(crate) const PAPER_CREEP: (usize, usize) = (
