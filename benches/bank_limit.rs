@@ -20,7 +20,7 @@
 //! First a crossover scan: 2 to 64 blocks on one thread against a forced
 //! split over two (`Workers::with_min_blocks(0).with_adaptive(false)`), and the smallest block
 //! count where the split is faster, next to `Workers::min_blocks`. Then the
-//! bank at 1, 8, 64, 1024 and 4096 channels, `f64` and `f32`, on one thread
+//! bank at 1, 8, 64, 128, 256, 1024 and 4096 channels, `f64` and `f32`, on one thread
 //! and on two (`CompensatorBank::compensate_on` with one worker, the
 //! default crossover and the adaptive choice between one thread and a split).
 //! One thread and two (and, in the scan, one and the split) are timed in
@@ -462,7 +462,7 @@ fn report<T: Real>(ghz: f64) -> f64 {
         two.min_blocks()
     );
     let mut at_4096 = f64::NAN;
-    for channels in [1usize, 8, 64, 1024, 4096] {
+    for channels in [1usize, 8, 64, 128, 256, 1024, 4096] {
         let (one, two_ns, [ratio, low, high]) =
             time_pair::<T>(channels, Mode::Alone, Mode::Workers(&two));
         for (threads, ns) in [(1, one), (2, two_ns)] {

@@ -58,12 +58,12 @@ fn main() {
         (
             "f64",
             rounds::<f64>(&targets),
-            Kernels::detect().for_single_step::<f64>(),
+            Kernels::detect_single_step::<f64>(),
         ),
         (
             "f32",
             rounds::<f32>(&targets),
-            Kernels::detect().for_single_step::<f32>(),
+            Kernels::detect_single_step::<f32>(),
         ),
     ] {
         let portable = &runs[0].1;

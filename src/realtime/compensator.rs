@@ -351,7 +351,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     /// The voltage for the target `target`; allocation-free, O(n + n_C m).
     #[inline]
     pub fn compensate(&mut self, target: T) -> Compensated<T> {
-        self.compensate_using(Kernels::detect().for_single_step::<T>(), target)
+        self.compensate_using(Kernels::detect_single_step::<T>(), target)
     }
 
     /// [`Compensator::compensate`] on the portable kernels (the same bits;
@@ -385,7 +385,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         check_length("u", targets.len(), u.len())?;
         check_length("saturated", targets.len(), saturated.len())?;
         check_length("fault", targets.len(), fault.len())?;
-        let k = Kernels::detect().for_single_step::<T>();
+        let k = Kernels::detect_single_step::<T>();
         let (mut clipped, mut faults) = (0, 0);
         for (i, &t) in targets.iter().enumerate() {
             let out = self.compensate_with(k, t);
@@ -574,6 +574,19 @@ impl<T: Real, S: Storage> simd::StepSource<T> for Compensator<T, S> {
             inv_thresholds,
             inv_weights,
             creep: self.creep.as_mut().map(Creep::step_parts),
+        }
+    }
+
+    #[inline(always)]
+    fn paper_parts(&mut self) -> simd::StepParts<'_, T> {
+        const N: usize = simd::PAPER_PLAYS;
+        let (inv_thresholds, inv_weights, inv_state) = self.inverse.prefix_parts_mut::<N>();
+        simd::StepParts {
+            inv_state,
+            saved: self.scratch.prefix_mut::<N>(),
+            inv_thresholds,
+            inv_weights,
+            creep: self.creep.as_mut().map(Creep::paper_step_parts),
         }
     }
 

@@ -242,6 +242,23 @@ impl<T: Real, S: Storage> Creep<T, S> {
         }
     }
 
+    /// [`Self::step_parts`] for the step compiled for the paper's layout
+    /// ([`simd::PAPER_CREEP`]; [`Buffer::prefix`]: ask only with that
+    /// layout).
+    #[inline(always)]
+    pub(crate) fn paper_step_parts(&mut self) -> simd::CreepParts<'_, T> {
+        const NC: usize = simd::PAPER_CREEP.0;
+        const M: usize = simd::PAPER_CREEP.1;
+        simd::CreepParts {
+            chi: self.chi.prefix_mut::<{ NC * M }>(),
+            thresholds: self.thresholds.prefix::<NC>(),
+            gains: self.gains.prefix::<M>(),
+            weights: self.scaled_weights.prefix::<NC>(),
+            last_input: &mut self.last_input,
+            output: &mut self.output,
+        }
+    }
+
     /// `C_k`, then advance with `v_k`.
     #[inline]
     pub fn step(&mut self, v: T) -> T {

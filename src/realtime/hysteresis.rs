@@ -264,6 +264,17 @@ impl<T: Real, S: Storage> Hysteresis<T, S> {
         (&self.thresholds, &self.weights, &mut self.state)
     }
 
+    /// [`Self::parts_mut`] for a step compiled for `K` plays
+    /// ([`Buffer::prefix`]: ask only with `K` plays).
+    #[inline(always)]
+    pub(crate) fn prefix_parts_mut<const K: usize>(&mut self) -> (&[T], &[T], &mut [T]) {
+        (
+            self.thresholds.prefix::<K>(),
+            self.weights.prefix::<K>(),
+            self.state.prefix_mut::<K>(),
+        )
+    }
+
     /// Set the play states (checked: length, finite, admissible).
     pub fn set_state(&mut self, x: &[f64]) -> Result<(), ParameterError> {
         let n = self.len();

@@ -42,6 +42,31 @@ pub trait Storage: Sized + Copy + Debug + PartialEq + 'static {
 pub trait Buffer<T: Real>: Clone + Debug + PartialEq + Deref<Target = [T]> + DerefMut {
     /// `len` zeros, or [`ParameterError::ExceedsCapacity`] naming `field`.
     fn zeroed(field: &'static str, len: usize) -> Result<Self, ParameterError>;
+
+    /// The first `K` values, for a step compiled for `K` of them: ask only
+    /// when the buffer holds at least `K`. An inline buffer with room for
+    /// `K` takes them from its array without reading its length, so that
+    /// the slice's length is a constant with no check (holding fewer, it
+    /// would give the unused zeros after them); any other buffer holding
+    /// fewer gives all it holds.
+    #[inline(always)]
+    fn prefix<const K: usize>(&self) -> &[T] {
+        if self.len() >= K {
+            &self[..K]
+        } else {
+            self
+        }
+    }
+
+    /// [`Buffer::prefix`], mutable.
+    #[inline(always)]
+    fn prefix_mut<const K: usize>(&mut self) -> &mut [T] {
+        if self.len() >= K {
+            &mut self[..K]
+        } else {
+            self
+        }
+    }
 }
 
 /// Inline storage: at most `PLAYS` plays, `CREEP` elementary creep
@@ -79,6 +104,25 @@ impl<T: Real, const N: usize> Buffer<T> for InlineBuffer<T, N> {
             data: [T::ZERO; N],
         })
     }
+
+    // `N ≥ K` is known when compiled: no length read, no check
+    #[inline(always)]
+    fn prefix<const K: usize>(&self) -> &[T] {
+        if N >= K {
+            &self.data[..K]
+        } else {
+            self
+        }
+    }
+
+    #[inline(always)]
+    fn prefix_mut<const K: usize>(&mut self) -> &mut [T] {
+        if N >= K {
+            &mut self.data[..K]
+        } else {
+            self
+        }
+    }
 }
 
 impl<T, const N: usize> Deref for InlineBuffer<T, N> {
@@ -103,5 +147,48 @@ impl<T, const N: usize> DerefMut for InlineBuffer<T, N> {
 impl<T: PartialEq, const N: usize> PartialEq for InlineBuffer<T, N> {
     fn eq(&self, other: &Self) -> bool {
         self[..] == other[..]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `prefix::<K>` is the first `K` values in use whenever the buffer
+    /// holds at least `K` (an inline one reads them from its array). Holding
+    /// fewer, it starts with all it holds: exactly those, except from an
+    /// inline buffer with room for `K`, which gives `K` values, the unused
+    /// ones zero. For inline buffers with room for `K` and without, heap
+    /// buffers, and lengths below, at and above `K`.
+    #[test]
+    fn a_prefix_is_the_first_values_in_use() {
+        fn check<B: Buffer<f64>>(len: usize, room: Option<usize>) {
+            let mut b = B::zeroed("test", len).unwrap();
+            for (i, x) in b.iter_mut().enumerate() {
+                *x = i as f64 + 1.0;
+            }
+            let held: std::vec::Vec<f64> = b.to_vec();
+            let prefix = b.prefix::<4>().to_vec();
+            if len >= 4 {
+                assert_eq!(prefix, held[..4], "len {len}");
+            } else if room.is_some_and(|n| n >= 4) {
+                assert_eq!(prefix[..len], held[..], "len {len}");
+                assert!(prefix[len..] == [0.0; 4][len..], "len {len}");
+            } else {
+                assert_eq!(prefix, held, "len {len}");
+            }
+            assert_eq!(b.prefix_mut::<4>(), &prefix[..]);
+            if len > 0 {
+                b.prefix_mut::<4>()[0] = -1.0;
+                assert_eq!(b[0], -1.0);
+            }
+        }
+        for len in 0..=6 {
+            check::<InlineBuffer<f64, 6>>(len, Some(6));
+            check::<std::vec::Vec<f64>>(len, None);
+        }
+        for len in 0..=3 {
+            check::<InlineBuffer<f64, 3>>(len, Some(3));
+        }
     }
 }

@@ -66,19 +66,11 @@ impl Kernels {
         {
             use core::sync::atomic::{AtomicU8, Ordering};
             static BEST: AtomicU8 = AtomicU8::new(0);
-            match BEST.load(Ordering::Relaxed) {
-                1 => return Kernels::Portable,
-                2 => return Kernels::Avx2(Avx2(())),
-                3 => return Kernels::Avx512(Avx512(())),
-                _ => {}
+            if let Some(best) = Self::from_code(BEST.load(Ordering::Relaxed)) {
+                return best;
             }
             let best = Self::all().last().unwrap_or(Kernels::Portable);
-            let code = match best {
-                Kernels::Portable => 1,
-                Kernels::Avx2(_) => 2,
-                Kernels::Avx512(_) => 3,
-            };
-            BEST.store(code, Ordering::Relaxed);
+            BEST.store(best.code(), Ordering::Relaxed);
             best
         }
         #[cfg(not(all(feature = "std", target_arch = "x86_64")))]
@@ -155,6 +147,55 @@ impl Kernels {
                 unsafe { with_avx512(self, f) }
             }
             Kernels::Portable => f(self),
+        }
+    }
+
+    /// `detect().for_single_step::<T>()`, kept after the first call: one
+    /// load per step (a compensator step calls it).
+    #[inline]
+    pub fn detect_single_step<T: Real>() -> Self {
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        {
+            use core::sync::atomic::{AtomicU8, Ordering};
+            // the choice depends on `T` only through whether it is `f64`
+            static F64: AtomicU8 = AtomicU8::new(0);
+            static OTHER: AtomicU8 = AtomicU8::new(0);
+            let kept = if TypeId::of::<T>() == TypeId::of::<f64>() {
+                &F64
+            } else {
+                &OTHER
+            };
+            if let Some(k) = Self::from_code(kept.load(Ordering::Relaxed)) {
+                return k;
+            }
+            let k = Self::detect().for_single_step::<T>();
+            kept.store(k.code(), Ordering::Relaxed);
+            k
+        }
+        #[cfg(not(all(feature = "std", target_arch = "x86_64")))]
+        Kernels::Portable
+    }
+
+    /// The set as a nonzero byte, for a cached choice.
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    fn code(self) -> u8 {
+        match self {
+            Kernels::Portable => 1,
+            Kernels::Avx2(_) => 2,
+            Kernels::Avx512(_) => 3,
+        }
+    }
+
+    /// The set [`Kernels::code`] gave (only ever for a set this CPU runs);
+    /// `None` for 0, not chosen yet.
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    #[inline(always)]
+    fn from_code(code: u8) -> Option<Self> {
+        match code {
+            1 => Some(Kernels::Portable),
+            2 => Some(Kernels::Avx2(Avx2(()))),
+            3 => Some(Kernels::Avx512(Avx512(()))),
+            _ => None,
         }
     }
 
@@ -352,6 +393,12 @@ pub(crate) struct CreepParts<'a, T> {
 /// slices written to the stack for a call.
 pub(crate) trait StepSource<T: Real> {
     fn step_parts(&mut self) -> StepParts<'_, T>;
+    /// The parts of a source with the paper's layout, each of its length
+    /// there; where the storage has room for them, without reading the
+    /// lengths ([`Buffer::prefix`](crate::realtime::storage::Buffer::prefix)).
+    /// Asked only when [`StepSource::paper_layout`] says so.
+    #[cfg_attr(not(all(feature = "std", target_arch = "x86_64")), allow(dead_code))]
+    fn paper_parts(&mut self) -> StepParts<'_, T>;
     /// Whether the parts have the paper's layout ([`PAPER_PLAYS`] plays,
     /// [`PAPER_CREEP`] creep thresholds × eigenvalues), fixed when the
     /// source was made. (Only the vector steps have a form for it.)
@@ -433,8 +480,11 @@ unsafe fn step_body<T: Real, K: StepKernels<T>, C: StepSource<T>, const PAPER: b
     lower: T,
     upper: T,
 ) -> (T, bool) {
-    let p = c.step_parts();
-    let p = if PAPER { paper_sized(p) } else { p };
+    let p = if PAPER {
+        paper_sized(c.paper_parts())
+    } else {
+        c.step_parts()
+    };
     assert!(p.saved.len() == p.inv_state.len());
     // a predicted branch (with the length known, a select would put a test
     // and a blend on the chain)
