@@ -24,7 +24,8 @@
 //! and on two (`CompensatorBank::compensate_on` with one worker, the
 //! default crossover and the adaptive choice between one thread and a split).
 //! One thread and two (and, in the scan, one and the split) are timed in
-//! alternating batches of steps, so that a busy minute falls on both: the
+//! alternating batches of steps on the same banks, so that a busy minute
+//! and a bank's placement in memory fall on both: the
 //! median time of each and the median and 10–90 % of two's time over one's
 //! in the same round; printed with the CPU, its
 //! bound, the ratio, the cycles per channel-step at the clock measured here,
@@ -364,41 +365,43 @@ impl<T: Real> Timed<T> {
     }
 }
 
-/// Banks per way in [`time_pair`]. A bank's speed depends on where its
-/// memory lands: on a Zen 4, of 64 banks of 8 channels made in turn and
-/// timed alike, three took 1.13–1.34× the median, with the same code and
-/// inputs; which ones changed from process to process, at the same low 12
-/// address bits, and one allocation for the parameters and the state did
-/// not remove it. Rotating a few banks puts the median over placements,
-/// not one placement's luck.
+/// Banks in [`time_pair`]. A bank's speed depends on where its memory
+/// lands: on a Zen 4, of 64 banks of 8 channels made in turn and timed
+/// alike, three took 1.13–1.34× the median, with the same code and inputs;
+/// which ones changed from process to process, at the same low 12 address
+/// bits, and one allocation for the parameters and the state did not
+/// remove it. Rotating a few banks puts the median over placements, not
+/// one placement's luck.
 const PLACEMENTS: usize = 3;
 
 /// Two ways of stepping `channels` channels, timed in alternating batches
-/// (the order swapped every round, 61 rounds after 2 of warm-up per bank),
-/// each way on [`PLACEMENTS`] banks of its own used in turn: the median
-/// nanoseconds per step of each, and the median, 10 % and 90 % of `b`'s
-/// time over `a`'s in the same round. Timed one after the other, a busy
-/// minute would fall on one way only.
+/// on the same bank (both give the same bits and leave the same state, and
+/// on one bank they share its placement), the order swapped every round,
+/// 61 rounds after 60 ms of warm-up, the round's bank one of
+/// [`PLACEMENTS`] in turn: the median nanoseconds per step of each, and the
+/// median, 10 % and 90 % of `b`'s time over `a`'s in the same round. Timed
+/// one after the other, a busy minute would fall on one way only.
 fn time_pair<T: Real>(channels: usize, a: Mode<'_>, b: Mode<'_>) -> (f64, f64, [f64; 3]) {
     let rows = bank_rows::<T>(channels, Timed::<T>::ROWS);
-    let mut banks: Vec<(Timed<T>, Timed<T>)> = (0..PLACEMENTS)
-        .map(|_| (Timed::new(channels), Timed::new(channels)))
-        .collect();
-    for (first, second) in &mut banks {
-        for _ in 0..2 {
-            first.batch(&rows, a);
-            second.batch(&rows, b);
+    let mut banks: Vec<Timed<T>> = (0..PLACEMENTS).map(|_| Timed::new(channels)).collect();
+    // the adaptive choice's first probes come closer together (64, 194,
+    // 452, … steps) until they are 20 ms apart: timed from then on
+    let warm = Instant::now();
+    while warm.elapsed().as_millis() < 60 {
+        for bank in &mut banks {
+            bank.batch(&rows, a);
+            bank.batch(&rows, b);
         }
     }
     let (mut ta, mut tb, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
     for round in 0..61 {
-        let (first, second) = &mut banks[round % PLACEMENTS];
+        let bank = &mut banks[round % PLACEMENTS];
         let (x, y) = if round % 2 == 0 {
-            let x = first.batch(&rows, a);
-            (x, second.batch(&rows, b))
+            let x = bank.batch(&rows, a);
+            (x, bank.batch(&rows, b))
         } else {
-            let y = second.batch(&rows, b);
-            (first.batch(&rows, a), y)
+            let y = bank.batch(&rows, b);
+            (bank.batch(&rows, a), y)
         };
         ta.push(x);
         tb.push(y);

@@ -16,8 +16,9 @@
 //! others), so the same bank can be faster split at one moment and slower
 //! the next. With the adaptive choice (the default) every 64th step of a
 //! bank above the crossover is timed the way in use, the other way is
-//! timed now and then (less often while it stays the slower), and the
-//! steps run the way that was faster.
+//! timed now and then (less often while it stays the slower, and once
+//! confirmed at most every 20 ms), and the steps run split where that was
+//! faster by more than a sixteenth, alone otherwise.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -78,9 +79,17 @@ pub const DEFAULT_MIN_BLOCKS: usize = 12;
 /// shortest interval between two probes of the other way.
 pub(crate) const PROBE_EVERY: u64 = 64;
 
-/// The longest interval between two probes: a probe that confirms the
-/// choice doubles the interval up to this.
+/// The longest interval between two probes, in steps, for steps shorter
+/// than [`PROBE_SPACING_PS`] / 1024: a probe that confirms the choice
+/// doubles the interval up to this or [`longest_interval`].
 pub(crate) const LONGEST_PROBE_INTERVAL: u64 = 1024;
+
+/// The time that confirmed probes keep between them at least (20 ms, in
+/// picoseconds). A probe of the split wakes a parked worker, which took
+/// tens of microseconds on a 2-vCPU Zen 4 guest; every 1024 steps of about
+/// a microsecond that made `compensate_on` some 3 % slower than one thread
+/// where the split did not pay (16 and 32 blocks of `f64`, `bank_limit`).
+pub(crate) const PROBE_SPACING_PS: u64 = 20_000_000_000;
 
 /// How one step above the crossover runs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -96,7 +105,8 @@ pub(crate) struct Plan {
 /// The plan for step number `step` from the times per block so far of a
 /// step alone and split (0: not timed yet) and the step of the next probe.
 /// Each way is timed first (the split after one step that wakes the
-/// workers); then the faster way runs, timed every `PROBE_EVERY` steps,
+/// workers); then the faster way runs (the split only if [`split_pays`]),
+/// timed every `PROBE_EVERY` steps,
 /// and at `next_probe` the other way runs twice, the second time timed (a
 /// parked worker's wake-up is not the split's cost).
 pub(crate) fn plan(step: u64, alone: u64, split: u64, next_probe: u64) -> Plan {
@@ -114,7 +124,7 @@ pub(crate) fn plan(step: u64, alone: u64, split: u64, next_probe: u64) -> Plan {
             probe: false,
         };
     }
-    let faster_split = split <= alone;
+    let faster_split = split_pays(split, alone);
     // from `next_probe` on until a probe is recorded (a step that panicked
     // records nothing)
     if step >= next_probe {
@@ -132,15 +142,32 @@ pub(crate) fn plan(step: u64, alone: u64, split: u64, next_probe: u64) -> Plan {
     }
 }
 
+/// Whether a split pays, from the times per block of a step split and
+/// alone: faster by more than 1/16. Where the two are about equal, a
+/// choice that followed every difference would change often, and each
+/// change back to the split wakes a parked worker (tens of microseconds
+/// on a 2-vCPU Zen 4 guest); kept alone there, a step gives up at most a
+/// sixteenth.
+pub(crate) fn split_pays(split: u64, alone: u64) -> bool {
+    split.saturating_add(split / 16) < alone
+}
+
 /// The interval to the next probe after one that changed the choice
 /// (`changed`: back to `PROBE_EVERY`) or confirmed it (doubled, up to
-/// `LONGEST_PROBE_INTERVAL`).
-pub(crate) fn next_interval(interval: u64, changed: bool) -> u64 {
+/// `longest`).
+pub(crate) fn next_interval(interval: u64, changed: bool, longest: u64) -> u64 {
     if changed {
         PROBE_EVERY
     } else {
-        (2 * interval).clamp(PROBE_EVERY, LONGEST_PROBE_INTERVAL)
+        (2 * interval).clamp(PROBE_EVERY, longest.max(PROBE_EVERY))
     }
+}
+
+/// The longest interval between probes for steps of `step_ps` picoseconds
+/// the way in use: [`LONGEST_PROBE_INTERVAL`] steps, or as many as keep
+/// [`PROBE_SPACING_PS`] between probes.
+pub(crate) fn longest_interval(step_ps: u64) -> u64 {
+    LONGEST_PROBE_INTERVAL.max(PROBE_SPACING_PS / step_ps.max(1))
 }
 
 /// A time per block folded into its running estimate `old` (0: none yet):
@@ -280,7 +307,10 @@ impl Workers {
     pub(crate) fn record(&self, plan: Plan, time: Duration, blocks: usize) {
         let c = &self.choice;
         let ps = (time.as_nanos() * 1000 / blocks.max(1) as u128).min(u64::MAX as u128 / 8) as u64;
-        let was_split_faster = c.split.load(Ordering::Relaxed) <= c.alone.load(Ordering::Relaxed);
+        let was_split_faster = split_pays(
+            c.split.load(Ordering::Relaxed),
+            c.alone.load(Ordering::Relaxed),
+        );
         let estimate = if plan.split { &c.split } else { &c.alone };
         let old = estimate.load(Ordering::Relaxed);
         // a probe's way has not been timed for a while: its new time
@@ -292,9 +322,21 @@ impl Workers {
         };
         estimate.store(new, Ordering::Relaxed);
         if plan.probe {
-            let changed = (c.split.load(Ordering::Relaxed) <= c.alone.load(Ordering::Relaxed))
-                != was_split_faster;
-            let interval = next_interval(c.interval.load(Ordering::Relaxed), changed);
+            let changed = split_pays(
+                c.split.load(Ordering::Relaxed),
+                c.alone.load(Ordering::Relaxed),
+            ) != was_split_faster;
+            let (split, alone) = (
+                c.split.load(Ordering::Relaxed),
+                c.alone.load(Ordering::Relaxed),
+            );
+            let in_use = if split_pays(split, alone) {
+                split
+            } else {
+                alone
+            };
+            let longest = longest_interval(in_use.saturating_mul(blocks.max(1) as u64));
+            let interval = next_interval(c.interval.load(Ordering::Relaxed), changed, longest);
             c.interval.store(interval, Ordering::Relaxed);
             c.next_probe.store(
                 c.steps.load(Ordering::Relaxed) + interval,
@@ -566,10 +608,29 @@ mod tests {
     }
 
     #[test]
+    fn a_split_pays_when_it_is_faster_by_more_than_a_sixteenth() {
+        assert!(split_pays(900, 1000));
+        assert!(split_pays(1600, 1701));
+        assert!(!split_pays(1600, 1700));
+        assert!(!split_pays(950, 1000));
+        assert!(!split_pays(1000, 1000));
+        assert!(!split_pays(1100, 1000));
+        assert_eq!(plan(500, 1000, 950, 10_000).split, false);
+        assert_eq!(plan(500, 1000, 900, 10_000).split, true);
+    }
+
+    #[test]
     fn a_probe_that_confirms_the_choice_doubles_the_interval() {
-        assert_eq!(next_interval(64, false), 128);
-        assert_eq!(next_interval(4096, false), LONGEST_PROBE_INTERVAL);
-        assert_eq!(next_interval(1024, true), PROBE_EVERY);
+        assert_eq!(next_interval(64, false, 1024), 128);
+        assert_eq!(next_interval(4096, false, 1024), 1024);
+        assert_eq!(next_interval(4096, false, 20_000), 8192);
+        assert_eq!(next_interval(16_384, false, 20_000), 20_000);
+        assert_eq!(next_interval(1024, true, 20_000), PROBE_EVERY);
+        // at least every 1024 steps, and never closer than 20 ms once
+        // confirmed: 1024 steps of 50 µs, 20 000 of 1 µs
+        assert_eq!(longest_interval(50_000_000), LONGEST_PROBE_INTERVAL);
+        assert_eq!(longest_interval(1_000_000), 20_000);
+        assert_eq!(longest_interval(0), PROBE_SPACING_PS);
     }
 
     #[test]
@@ -607,15 +668,15 @@ mod tests {
             }
         }
         // two to start, then two per probe at 64, 194, 452, … doubling to
-        // every 1024 steps
+        // every 4000 steps (20 ms of 5 µs steps)
         let probes: Vec<u64> = split_steps[2..].iter().step_by(2).copied().collect();
         assert_eq!(&split_steps[..2], &[0, 1]);
-        assert_eq!(&probes[..5], &[64, 194, 452, 966, 1992]);
-        assert!(probes
-            .windows(2)
-            .all(|p| p[1] - p[0] <= LONGEST_PROBE_INTERVAL + 2));
-        // 20 000 steps: 4 probes to 966, then one every 1026 steps
-        assert_eq!(split_steps.len(), 2 + 2 * (4 + (20_000 - 968) / 1026));
+        assert_eq!(&probes[..6], &[64, 194, 452, 966, 1992, 4042]);
+        let longest = longest_interval(5_000_000);
+        assert_eq!(longest, 4000);
+        assert!(probes.windows(2).all(|p| p[1] - p[0] <= longest + 2));
+        // 20 000 steps: 6 probes to 4042, then one every 4002 steps
+        assert_eq!(split_steps.len(), 2 + 2 * (6 + (20_000 - 4044) / 4002));
         let fixed = Workers::new(1).unwrap().with_adaptive(false);
         assert!((0..100).all(|_| fixed.plan()
             == Plan {

@@ -349,9 +349,10 @@ impl<T: Real> CompensatorBank<T> {
     /// fewer blocks than [`Workers::min_blocks`] (the measured crossover,
     /// overridable) steps on the calling thread alone; above it the
     /// workers' adaptive choice (see [`Workers::with_adaptive`]) times a
-    /// step now and then each way and runs the others the faster way, so
-    /// that two threads are not slower than one even when the split's worth
-    /// changes while the bank runs. The same bits either way;
+    /// step now and then each way and runs the others split only where that
+    /// was faster by more than a sixteenth, so that two threads are not
+    /// slower than one even when the split's worth changes while the bank
+    /// runs. The same bits either way;
     /// allocation-free and without locks.
     #[inline]
     pub fn compensate_on(
