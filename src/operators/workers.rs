@@ -615,8 +615,8 @@ mod tests {
         assert!(!split_pays(950, 1000));
         assert!(!split_pays(1000, 1000));
         assert!(!split_pays(1100, 1000));
-        assert_eq!(plan(500, 1000, 950, 10_000).split, false);
-        assert_eq!(plan(500, 1000, 900, 10_000).split, true);
+        assert!(!plan(500, 1000, 950, 10_000).split);
+        assert!(plan(500, 1000, 900, 10_000).split);
     }
 
     #[test]
