@@ -367,10 +367,10 @@ impl<T: Real> Timed<T> {
 
 /// Banks in [`time_pair`]. A bank's speed depends on where its memory
 /// lands: on a Zen 4, of 64 banks of 8 channels made in turn and timed
-/// alike, three took 1.13–1.34× the median, with the same code and inputs;
-/// which ones changed from process to process, at the same low 12 address
-/// bits, and one allocation for the parameters and the state did not
-/// remove it. Rotating a few banks puts the median over placements, not
+/// alike, a few took 1.08–1.34× the median (three in one process, six in
+/// another), with the same code and inputs; which ones changed from
+/// process to process, at the same low 12 address bits, and one allocation
+/// for the parameters and the state did not remove it. Rotating a few banks puts the median over placements, not
 /// one placement's luck.
 const PLACEMENTS: usize = 3;
 

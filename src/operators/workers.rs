@@ -322,19 +322,13 @@ impl Workers {
         };
         estimate.store(new, Ordering::Relaxed);
         if plan.probe {
-            let changed = split_pays(
-                c.split.load(Ordering::Relaxed),
-                c.alone.load(Ordering::Relaxed),
-            ) != was_split_faster;
             let (split, alone) = (
                 c.split.load(Ordering::Relaxed),
                 c.alone.load(Ordering::Relaxed),
             );
-            let in_use = if split_pays(split, alone) {
-                split
-            } else {
-                alone
-            };
+            let split_now = split_pays(split, alone);
+            let changed = split_now != was_split_faster;
+            let in_use = if split_now { split } else { alone };
             let longest = longest_interval(in_use.saturating_mul(blocks.max(1) as u64));
             let interval = next_interval(c.interval.load(Ordering::Relaxed), changed, longest);
             c.interval.store(interval, Ordering::Relaxed);
