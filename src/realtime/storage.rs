@@ -43,29 +43,21 @@ pub trait Buffer<T: Real>: Clone + Debug + PartialEq + Deref<Target = [T]> + Der
     /// `len` zeros, or [`ParameterError::ExceedsCapacity`] naming `field`.
     fn zeroed(field: &'static str, len: usize) -> Result<Self, ParameterError>;
 
-    /// The first `K` values, for a step compiled for `K` of them: ask only
-    /// when the buffer holds at least `K`. An inline buffer with room for
-    /// `K` takes them from its array without reading its length, so that
-    /// the slice's length is a constant with no check (holding fewer, it
-    /// would give the unused zeros after them); any other buffer holding
-    /// fewer gives all it holds.
+    /// The first `K` values, for a step compiled for `K` of them: a slice
+    /// of length `K`. Ask only when the buffer holds at least `K`: one
+    /// holding fewer panics, except an inline buffer with room for `K`,
+    /// which takes them from its array without reading its length (so
+    /// that the compiler sees a constant and no check) and would give the
+    /// unused zeros after those in use.
     #[inline(always)]
     fn prefix<const K: usize>(&self) -> &[T] {
-        if self.len() >= K {
-            &self[..K]
-        } else {
-            self
-        }
+        &self[..K]
     }
 
     /// [`Buffer::prefix`], mutable.
     #[inline(always)]
     fn prefix_mut<const K: usize>(&mut self) -> &mut [T] {
-        if self.len() >= K {
-            &mut self[..K]
-        } else {
-            self
-        }
+        &mut self[..K]
     }
 }
 
@@ -105,23 +97,15 @@ impl<T: Real, const N: usize> Buffer<T> for InlineBuffer<T, N> {
         })
     }
 
-    // `N ≥ K` is known when compiled: no length read, no check
+    // with `N ≥ K` known when compiled: no length read, no check
     #[inline(always)]
     fn prefix<const K: usize>(&self) -> &[T] {
-        if N >= K {
-            &self.data[..K]
-        } else {
-            self
-        }
+        &self.data[..K]
     }
 
     #[inline(always)]
     fn prefix_mut<const K: usize>(&mut self) -> &mut [T] {
-        if N >= K {
-            &mut self.data[..K]
-        } else {
-            self
-        }
+        &mut self.data[..K]
     }
 }
 
@@ -155,27 +139,31 @@ mod tests {
     use super::*;
 
     /// `prefix::<K>` is the first `K` values in use whenever the buffer
-    /// holds at least `K` (an inline one reads them from its array). Holding
-    /// fewer, it starts with all it holds: exactly those, except from an
-    /// inline buffer with room for `K`, which gives `K` values, the unused
-    /// ones zero. For inline buffers with room for `K` and without, heap
-    /// buffers, and lengths below, at and above `K`.
+    /// holds at least `K` (an inline one reads them from its array).
+    /// Holding fewer, an inline buffer with room for `K` gives those it
+    /// holds and then its unused zeros; any other panics. For inline
+    /// buffers with room for `K` and without, heap buffers, and lengths
+    /// below, at and above `K`.
     #[test]
     fn a_prefix_is_the_first_values_in_use() {
-        fn check<B: Buffer<f64>>(len: usize, room: Option<usize>) {
+        fn check<B: Buffer<f64> + std::panic::UnwindSafe>(len: usize, room: Option<usize>) {
             let mut b = B::zeroed("test", len).unwrap();
             for (i, x) in b.iter_mut().enumerate() {
                 *x = i as f64 + 1.0;
             }
             let held: std::vec::Vec<f64> = b.to_vec();
+            if len < 4 && room.is_none_or(|n| n < 4) {
+                let taken = std::panic::catch_unwind(move || b.prefix::<4>().len());
+                assert!(taken.is_err(), "len {len}: no panic");
+                return;
+            }
             let prefix = b.prefix::<4>().to_vec();
+            assert_eq!(prefix.len(), 4);
             if len >= 4 {
                 assert_eq!(prefix, held[..4], "len {len}");
-            } else if room.is_some_and(|n| n >= 4) {
+            } else {
                 assert_eq!(prefix[..len], held[..], "len {len}");
                 assert!(prefix[len..] == [0.0; 4][len..], "len {len}");
-            } else {
-                assert_eq!(prefix, held, "len {len}");
             }
             assert_eq!(b.prefix_mut::<4>(), &prefix[..]);
             if len > 0 {

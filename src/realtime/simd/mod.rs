@@ -393,9 +393,10 @@ pub(crate) struct CreepParts<'a, T> {
 /// slices written to the stack for a call.
 pub(crate) trait StepSource<T: Real> {
     fn step_parts(&mut self) -> StepParts<'_, T>;
-    /// The parts of a source with the paper's layout, each of its length
-    /// there; where the storage has room for them, without reading the
-    /// lengths ([`Buffer::prefix`](crate::realtime::storage::Buffer::prefix)).
+    /// The parts of a source with the paper's layout, each sliced to its
+    /// length there, a constant the compiler sees; where the storage has
+    /// room for them, without reading the lengths
+    /// ([`Buffer::prefix`](crate::realtime::storage::Buffer::prefix)).
     /// Asked only when [`StepSource::paper_layout`] says so.
     #[cfg_attr(not(all(feature = "std", target_arch = "x86_64")), allow(dead_code))]
     fn paper_parts(&mut self) -> StepParts<'_, T>;
@@ -416,30 +417,6 @@ pub(crate) const PAPER_CREEP: (usize, usize) = (
     crate::realtime::nominal::CREEP_WEIGHTS.len(),
     crate::realtime::nominal::CREEP_EIGENVALUES.len(),
 );
-
-/// `p` with each slice re-sliced to its length in the paper's layout (the
-/// caller's source has it: [`StepSource::paper_layout`]), so that the
-/// compiler sees constants.
-#[inline(always)]
-fn paper_sized<T>(p: StepParts<'_, T>) -> StepParts<'_, T> {
-    const N: usize = PAPER_PLAYS;
-    const NC: usize = PAPER_CREEP.0;
-    const M: usize = PAPER_CREEP.1;
-    StepParts {
-        inv_state: &mut p.inv_state[..N],
-        saved: &mut p.saved[..N],
-        inv_thresholds: &p.inv_thresholds[..N],
-        inv_weights: &p.inv_weights[..N],
-        creep: p.creep.map(|c| CreepParts {
-            chi: &mut c.chi[..NC * M],
-            thresholds: &c.thresholds[..NC],
-            gains: &c.gains[..M],
-            weights: &c.weights[..NC],
-            last_input: c.last_input,
-            output: c.output,
-        }),
-    }
-}
 
 /// The two kernels of a compensator step on one instruction set; `v` is
 /// finite.
@@ -472,7 +449,7 @@ impl<T: Real> StepKernels<T> for PortableStep {
 /// applied (a non-finite one replaced by the last finite input): one
 /// compensator step once its input `y` is known. Returns the voltage and
 /// whether it was clipped. `PAPER`: the source has the paper's layout
-/// ([`paper_sized`]).
+/// ([`StepSource::paper_parts`]).
 #[inline(always)]
 unsafe fn step_body<T: Real, K: StepKernels<T>, C: StepSource<T>, const PAPER: bool>(
     c: &mut C,
@@ -481,7 +458,7 @@ unsafe fn step_body<T: Real, K: StepKernels<T>, C: StepSource<T>, const PAPER: b
     upper: T,
 ) -> (T, bool) {
     let p = if PAPER {
-        paper_sized(c.paper_parts())
+        c.paper_parts()
     } else {
         c.step_parts()
     };
