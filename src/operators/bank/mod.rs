@@ -44,7 +44,7 @@ use crate::operators::workers::SharedMut;
 pub use crate::operators::workers::{Workers, DEFAULT_MIN_BLOCKS};
 
 mod step;
-use step::{step_blocks, Fixed};
+use step::{step_blocks, Fixed, Walk};
 
 /// Where each row of a block lies: the state rows and the parameter rows.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -331,7 +331,7 @@ impl<T: Real> CompensatorBank<T> {
         check_length("bank.targets", self.channels, targets.len())?;
         check_length("bank.out", self.channels, out.len())?;
         let (fixed, state) = self.split();
-        step_blocks(k, &fixed, 0, state, targets, out);
+        step_blocks(k, &fixed, 0, state, targets, out, Walk::Up);
         self.parity ^= 1;
         self.dynamic_channels(targets, out);
         Ok(())
@@ -424,7 +424,15 @@ impl<T: Real> CompensatorBank<T> {
                     shared_out.slice(channels.clone()),
                 )
             };
-            step_blocks(k, &fixed, blocks.start, state, &targets[channels], out);
+            step_blocks(
+                k,
+                &fixed,
+                blocks.start,
+                state,
+                &targets[channels],
+                out,
+                Walk::of_part(part),
+            );
         });
         self.parity ^= 1;
         self.dynamic_channels(targets, out);
