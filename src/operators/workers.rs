@@ -10,11 +10,11 @@
 //! the scoped-thread rule kept by hand.
 //!
 //! Whether a split pays is measured while the bank runs: a split costs a
-//! hand-over, and on a virtual machine that cost and the worker's speed
-//! depend on where the host puts the virtual CPUs (on a 2-vCPU Zen 4
-//! guest, about 0.25 µs in some minutes and 1 µs with a slower worker in
-//! others), so the same bank can be faster split at one moment and slower
-//! the next. With the adaptive choice (the default) every 64th step of a
+//! hand-over (the job's cache line to a worker and the done count back:
+//! 0.15–0.35 µs on a 2-vCPU Zen 4 guest), and on a virtual machine that
+//! cost and the worker's speed depend on where the host puts the virtual
+//! CPUs and what else runs there, so the same bank can be faster split at
+//! one moment and slower the next. With the adaptive choice (the default) every 64th step of a
 //! bank above the crossover is timed the way in use, the other way is
 //! timed now and then (less often while it stays the slower, and once
 //! confirmed at most every 20 ms), and the steps run split where that was
@@ -28,18 +28,29 @@ use std::time::Duration;
 /// A job: called with the part index `1..=workers` on each worker.
 type Job = dyn Fn(usize) + Sync;
 
-/// What the step and its workers share.
+/// What the step and its workers share: what a worker reads to start on
+/// one cache line (the caller writes it), the count of finished parts on
+/// another (the workers write it).
+#[repr(C, align(128))]
 struct Shared {
-    /// Bumped for each job; a worker runs every generation once.
+    /// Bumped for each job (only by the caller, by a plain store); a worker
+    /// runs every generation once.
     generation: AtomicU64,
-    /// Workers that have finished the current job.
-    done: AtomicUsize,
-    /// A worker's job panicked.
-    panicked: AtomicBool,
     stop: AtomicBool,
     /// The current job, valid while `run` waits (a fat pointer in two words).
     job: AtomicJob,
+    /// Parts the workers have finished since they were made: after
+    /// generation `g`, `g` times the workers. Never reset, so that the
+    /// caller does not write the line the workers write.
+    done: OwnLine<AtomicU64>,
+    /// A worker's job panicked.
+    panicked: AtomicBool,
 }
+
+/// A value on cache lines of its own (128 bytes: the pair of lines the
+/// adjacent-line prefetchers fetch together).
+#[repr(align(128))]
+struct OwnLine<T>(T);
 
 /// `*const Job` in two atomics (a fat pointer; only `run` writes it, before
 /// it bumps the generation, and clears nothing: a worker reads it only
@@ -251,10 +262,10 @@ impl Workers {
     pub fn new(extra: usize) -> std::io::Result<Self> {
         let shared = Arc::new(Shared {
             generation: AtomicU64::new(0),
-            done: AtomicUsize::new(0),
-            panicked: AtomicBool::new(false),
             stop: AtomicBool::new(false),
             job: AtomicJob([AtomicUsize::new(0), AtomicUsize::new(0)]),
+            done: OwnLine(AtomicU64::new(0)),
+            panicked: AtomicBool::new(false),
         });
         let mut threads = Vec::with_capacity(extra);
         for part in 1..=extra {
@@ -387,7 +398,6 @@ impl Workers {
             }
         }
         let _idle = Idle(&self.busy);
-        s.done.store(0, Ordering::Relaxed);
         // SAFETY: only the lifetime is erased; the job is not used after
         // this call returns (every worker is done with it then).
         s.job.set(unsafe {
@@ -395,7 +405,8 @@ impl Workers {
         });
         // Release: the job and the caller's data are visible to a worker
         // that sees the new generation
-        s.generation.fetch_add(1, Ordering::Release);
+        let generation = s.generation.load(Ordering::Relaxed) + 1;
+        s.generation.store(generation, Ordering::Release);
         for h in &self.handles {
             h.unpark();
         }
@@ -403,7 +414,8 @@ impl Workers {
         // panic of this part waits for them before it unwinds
         let mine = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(0)));
         let mut spins = 0;
-        while s.done.load(Ordering::Acquire) < workers {
+        let all_done = generation * workers as u64;
+        while s.done.0.load(Ordering::Acquire) < all_done {
             if spins < SPINS {
                 spins += 1;
                 std::hint::spin_loop();
@@ -460,7 +472,7 @@ fn work(s: &Shared, part: usize) {
         if std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(part))).is_err() {
             s.panicked.store(true, Ordering::Relaxed);
         }
-        s.done.fetch_add(1, Ordering::Release);
+        s.done.0.fetch_add(1, Ordering::Release);
     }
 }
 
