@@ -59,7 +59,7 @@ pub(super) fn step_blocks<T: Real>(
 /// from its cache at every step. On a Zen 4 (split in two, 32 blocks of
 /// `f64`) the second half took 1.3–1.5× the first's time per block,
 /// whichever thread stepped it, where one thread stepping both took the
-/// same for each; with four blocks left out between the halves, or the
+/// same for each; with eight blocks left out between the halves, or the
 /// first half walked down, the second was no longer the slower. So a
 /// split walks its even parts down and its odd parts up: with two parts
 /// both run off the ends of the bank.
