@@ -14,11 +14,11 @@
 //! 0.15–0.35 µs on a 2-vCPU Zen 4 guest), and on a virtual machine that
 //! cost and the worker's speed depend on where the host puts the virtual
 //! CPUs and what else runs there, so the same bank can be faster split at
-//! one moment and slower the next. With the adaptive choice (the default) every 64th step of a
-//! bank above the crossover is timed the way in use, the other way is
-//! timed now and then (less often while it stays the slower, and once
-//! confirmed at most every 20 ms), and the steps run split where that was
-//! faster by more than a sixteenth, alone otherwise.
+//! one moment and slower the next. With the adaptive choice (the default)
+//! every 64th step of a bank above the crossover is timed the way in use,
+//! the other way is timed now and then (less often while it stays the
+//! slower, and once confirmed at most every 20 ms), and the steps run
+//! split where that was faster by more than a sixteenth, alone otherwise.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
