@@ -27,27 +27,28 @@ pub(super) fn step_blocks<T: Real>(
     // the direction is a constant of the compiled step: the one-thread
     // step carries no code of the other
     match walk {
-        Walk::Up => run_blocks(
-            k,
-            Step::<T, false> {
-                bank: fixed,
-                state,
-                first_block: first,
-                targets,
-                out,
-            },
-        ),
-        Walk::Down => run_blocks(
-            k,
-            Step::<T, true> {
-                bank: fixed,
-                state,
-                first_block: first,
-                targets,
-                out,
-            },
-        ),
+        Walk::Up => step_walking::<T, false>(k, fixed, first, state, targets, out),
+        Walk::Down => step_walking::<T, true>(k, fixed, first, state, targets, out),
     }
+}
+
+/// [`step_blocks`] walking down if `DOWN`, up otherwise.
+fn step_walking<T: Real, const DOWN: bool>(
+    k: Kernels,
+    fixed: &Fixed<'_, T>,
+    first: usize,
+    state: &mut [Row],
+    targets: &[T],
+    out: &mut [Compensated<T>],
+) {
+    let step = Step::<T, DOWN> {
+        bank: fixed,
+        state,
+        first_block: first,
+        targets,
+        out,
+    };
+    run_blocks(k, step);
 }
 
 /// The order a run of blocks is stepped in: the same bits either way (each
