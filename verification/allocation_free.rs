@@ -156,11 +156,13 @@ fn steps_and_in_place_runs_allocate_nothing() {
 
     // a bank stepped on two threads: no allocation in either, split
     // whatever its size (below the crossover it would step on the caller
-    // alone), with the adaptive choice timing steps both ways
+    // alone), with the adaptive choice timing steps both ways and the
+    // split's shares set by timing its parts
     let workers = mfcbeam::operators::bank::Workers::new(1)
         .unwrap()
         .with_min_blocks(0);
     assert!(format!("{workers:?}").contains("adaptive: true"));
+    assert!(format!("{workers:?}").contains("balanced: true"));
     let mut big = mfcbeam::operators::bank::CompensatorBank::<f64>::uniform(
         &nominal::PARAMETERS,
         100,

@@ -10,6 +10,7 @@
 //! ones here, the naive references in [`crate::suite::reference`] and your
 //! own — implements, so that one property suite checks them all.
 
+pub(crate) mod balance;
 pub mod bank;
 pub mod compensator;
 pub mod creep;

@@ -19,11 +19,14 @@
 //! the other way is timed now and then (less often while it stays the
 //! slower, and once confirmed at most every 20 ms), and the steps run
 //! split where that was faster by more than a sixteenth, alone otherwise.
+//! How a split shares out the blocks is the `balance` module's.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::thread::{self, JoinHandle, Thread};
 use std::time::Duration;
+
+use super::balance::Balance;
 
 /// A job: called with the part index `1..=workers` on each worker.
 type Job = dyn Fn(usize) + Sync;
@@ -244,6 +247,10 @@ pub struct Workers {
     /// not in `Shared`: the workers never read it, so their spinning does
     /// not share its cache line.
     busy: AtomicBool,
+    /// The calling thread's share of a split, and whether it is set by
+    /// measurement (else even shares).
+    balance: Balance,
+    balanced: bool,
 }
 
 impl std::fmt::Debug for Workers {
@@ -252,6 +259,7 @@ impl std::fmt::Debug for Workers {
             .field("threads", &self.threads.len())
             .field("min_blocks", &self.min_blocks)
             .field("adaptive", &self.adaptive)
+            .field("balanced", &self.balanced)
             .finish()
     }
 }
@@ -285,6 +293,8 @@ impl Workers {
             adaptive: true,
             choice: Choice::default(),
             busy: AtomicBool::new(false),
+            balance: Balance::default(),
+            balanced: true,
         })
     }
 
@@ -371,6 +381,22 @@ impl Workers {
         self.shared.generation.load(Ordering::Relaxed)
     }
 
+    /// The calling thread's share of a split and its measurement, if the
+    /// share is set by measurement.
+    pub(crate) fn balance(&self) -> Option<&Balance> {
+        self.balanced.then_some(&self.balance)
+    }
+
+    /// A split's shares set by measurement (`true`, the default: the
+    /// calling thread takes a block more or less where the parts end more
+    /// than half a block apart) or even (`false`: each core keeps the same
+    /// blocks from step to step, for timing a split itself or for cores
+    /// reserved to the bank).
+    pub fn with_balance(mut self, balanced: bool) -> Self {
+        self.balanced = balanced;
+        self
+    }
+
     /// The number of parts a job is split into (the workers and the caller).
     pub fn parts(&self) -> usize {
         self.threads.len() + 1
@@ -378,8 +404,8 @@ impl Workers {
 
     /// `job(0)` here and `job(p)` on worker `p`, returning when all are
     /// done; every part here if the workers are busy with another caller's
-    /// job. Allocation-free.
-    pub(crate) fn run(&self, job: &(dyn Fn(usize) + Sync + '_)) {
+    /// job (then it returns `false`). Allocation-free.
+    pub(crate) fn run(&self, job: &(dyn Fn(usize) + Sync + '_)) -> bool {
         let workers = self.threads.len();
         let s = &*self.shared;
         // the workers serve one job at a time: a caller that finds them
@@ -388,7 +414,7 @@ impl Workers {
         // overwritten while a worker may still use it
         if workers == 0 || self.busy.swap(true, Ordering::Acquire) {
             (0..=workers).for_each(job);
-            return;
+            return false;
         }
         // clears `busy` however this call ends
         struct Idle<'a>(&'a AtomicBool);
@@ -429,6 +455,7 @@ impl Workers {
         if s.panicked.swap(false, Ordering::Relaxed) {
             panic!("a bank worker panicked");
         }
+        true
     }
 }
 
@@ -725,9 +752,10 @@ mod tests {
                 thread::yield_now();
             }
             let me = thread::current().id();
-            w.run(&|_| assert_eq!(thread::current().id(), me));
+            // it tells its caller that the parts did not go to the workers
+            assert!(!w.run(&|_| assert_eq!(thread::current().id(), me)));
             release.store(true, Ordering::Release);
-            first.join().unwrap();
+            assert!(first.join().unwrap());
         });
     }
 }

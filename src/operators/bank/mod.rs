@@ -25,6 +25,7 @@
 //! bank (its lane's result is not used): the same bits, none of the
 //! bank's speed, until the lanes carry `G`'s state.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::vec;
 use std::vec::Vec;
 
@@ -40,6 +41,7 @@ use crate::realtime::simd::Kernels;
 use crate::realtime::superposition::Superposition;
 use crate::realtime::CompensatorSettings;
 
+use crate::operators::balance::Division;
 use crate::operators::workers::SharedMut;
 pub use crate::operators::workers::{Workers, DEFAULT_MIN_BLOCKS};
 
@@ -345,7 +347,10 @@ impl<T: Real> CompensatorBank<T> {
     }
 
     /// [`CompensatorBank::compensate`] with the blocks split over `workers`
-    /// and the calling thread (each part is at least one block). A bank of
+    /// and the calling thread (each part is at least one block; the
+    /// calling thread's share is set from when the parts end, so that a
+    /// worker's late start or a slower core does not leave one thread
+    /// waiting for the other). A bank of
     /// fewer blocks than [`Workers::min_blocks`] (the measured crossover,
     /// overridable) steps on the calling thread alone; above it the
     /// workers' adaptive choice (see [`Workers::with_adaptive`]) times a
@@ -404,14 +409,18 @@ impl<T: Real> CompensatorBank<T> {
         check_length("bank.out", self.channels, out.len())?;
         let k = Kernels::detect();
         let parts = workers.parts().min(self.blocks);
-        let per = self.blocks.div_ceil(parts);
+        let balance = workers.balance();
+        let (lead, timed) = balance.map_or((0, false), |b| b.next());
+        let division = Division::new(self.blocks, parts, lead);
         let (fixed, state) = self.split();
         let state = SharedMut::new(state);
         let shared_out = SharedMut::new(&mut *out);
         let (sr, width) = (fixed.layout.state_rows(), lanes::<T>());
-        workers.run(&|part: usize| {
-            let blocks = (part * per).min(fixed.superposed.len())
-                ..((part + 1) * per).min(fixed.superposed.len());
+        // when the caller's part and the last worker's end (timed steps)
+        let start = timed.then(std::time::Instant::now);
+        let (caller_end, workers_end) = (AtomicU64::new(0), AtomicU64::new(0));
+        let split = workers.run(&|part: usize| {
+            let blocks = division.part(part);
             if blocks.is_empty() {
                 return;
             }
@@ -433,7 +442,20 @@ impl<T: Real> CompensatorBank<T> {
                 out,
                 Walk::of_part(part),
             );
+            if let Some(start) = start {
+                let ns = u64::try_from(start.elapsed().as_nanos()).unwrap_or(u64::MAX);
+                if part == 0 {
+                    caller_end.store(ns, Ordering::Relaxed);
+                } else {
+                    workers_end.fetch_max(ns, Ordering::Relaxed);
+                }
+            }
         });
+        let (caller_ns, workers_ns) = (caller_end.into_inner(), workers_end.into_inner());
+        if let Some(balance) = balance.filter(|_| split && caller_ns > 0 && workers_ns > 0) {
+            let even = self.blocks.div_ceil(parts);
+            balance.record(caller_ns, workers_ns, division.part(0).len(), even);
+        }
         self.parity ^= 1;
         self.dynamic_channels(targets, out);
         Ok(())
@@ -464,5 +486,60 @@ impl<T: Real> CompensatorBank<T> {
         for (_, comp) in &mut self.dynamic {
             comp.reset();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::realtime::nominal::PARAMETERS;
+
+    /// A split step gives the bits of the one-thread step whatever share of
+    /// the blocks the calling thread takes (past the balance's limits
+    /// too), with one worker and with two, a last partial block included.
+    fn check_every_division<T: Real>() {
+        let settings = CompensatorSettings::with_limits(-150.0, 150.0);
+        let channels = 13 * lanes::<T>() + 3;
+        let rows: Vec<Vec<T>> = (0..30)
+            .map(|k| {
+                (0..channels)
+                    .map(|c| T::from_f64(250.0 * ((k + 5 * c) as f64 * 0.3).sin()))
+                    .collect()
+            })
+            .collect();
+        for extra in [1, 2] {
+            let workers = Workers::new(extra)
+                .unwrap()
+                .with_min_blocks(0)
+                .with_adaptive(false);
+            for lead in -9..=9 {
+                let mut alone =
+                    CompensatorBank::<T>::uniform(&PARAMETERS, channels, settings).unwrap();
+                let mut split = alone.clone();
+                let (mut out_alone, mut out_split) = (
+                    vec![Compensated::default(); channels],
+                    vec![Compensated::default(); channels],
+                );
+                for row in &rows {
+                    workers.balance().unwrap().set_lead(lead);
+                    alone.compensate(row, &mut out_alone).unwrap();
+                    split.compensate_on(&workers, row, &mut out_split).unwrap();
+                    assert_eq!(
+                        out_alone,
+                        out_split,
+                        "lead {lead}, {extra} workers, {}",
+                        T::NAME
+                    );
+                }
+                assert_eq!(alone, split, "lead {lead}, {extra} workers");
+                assert!(out_alone.iter().any(|c| c.saturated));
+            }
+        }
+    }
+
+    #[test]
+    fn every_division_of_a_split_gives_the_bits_of_one_thread() {
+        check_every_division::<f64>();
+        check_every_division::<f32>();
     }
 }
