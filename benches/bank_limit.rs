@@ -15,7 +15,11 @@
 //! same loop with the row's addition fused on the multiplier (`b · 1 + a`,
 //! as those kernels do it for half of the rows): the faster of the two rates
 //! (each the best of seven runs) divided by 431 is the bound in
-//! channel-steps per second on one core.
+//! channel-steps per second on one core. A bank must also load and store
+//! its state at every step (a row per update); the same updates with each
+//! one's row loaded from and stored to L1 (`mix::streamed`, best of seven)
+//! give the rate a bank can reach at best, and each row is printed as a
+//! share of that too ("state in L1").
 //!
 //! First a crossover scan: 2 to 64 blocks on one thread against a forced
 //! split over two (`Workers::with_min_blocks(0).with_adaptive(false)`), and the smallest block
@@ -127,6 +131,25 @@ fn peak_lane_operations_per_ns<T: Real>() -> f64 {
     peak
 }
 
+/// Lane operations per nanosecond of the same updates with each one's
+/// state loaded from and stored to L1 (best of seven runs; `None` where
+/// the bank's kernels have no vector registers here).
+fn streamed_lane_operations_per_ns<T: Real>() -> Option<f64> {
+    const ITERATIONS: usize = 200_000;
+    let mut rows = mix::Rows::new::<T>();
+    let mut best = None::<f64>;
+    for _ in 0..7 {
+        let t0 = Instant::now();
+        let lanes = mix::streamed::<T>(&mut rows, ITERATIONS)?;
+        let ns = t0.elapsed().as_nanos() as f64;
+        let updates = ITERATIONS * mix::STREAMED_ROWS * 64 / (std::mem::size_of::<T>() * lanes);
+        let rate = (updates * 5 * lanes) as f64 / ns;
+        best = Some(best.map_or(rate, |b| b.max(rate)));
+    }
+    black_box(&rows);
+    best
+}
+
 mod mix {
     //! Independent chains of the creep-element update on registers.
     use mfcbeam::realtime::{simd::Kernels, Real};
@@ -166,6 +189,58 @@ mod mix {
         }
         let _ = f64_;
         (!fused).then(|| scalar::<T>(iterations))
+    }
+
+    /// Rows of state for [`streamed`]: 64 cache lines (4 KiB, in L1).
+    #[repr(C, align(64))]
+    pub struct Rows([[u64; 8]; STREAMED_ROWS]);
+
+    pub const STREAMED_ROWS: usize = 64;
+
+    impl Rows {
+        pub fn new<T: Real>() -> Box<Self> {
+            let mut rows = Box::new(Rows([[0; 8]; STREAMED_ROWS]));
+            let half = T::from_f64(0.5);
+            let n = STREAMED_ROWS * 64 / std::mem::size_of::<T>();
+            // SAFETY: the rows are n values of T's size, aligned for it.
+            let values =
+                unsafe { std::slice::from_raw_parts_mut(rows.0.as_mut_ptr().cast::<T>(), n) };
+            values.fill(half);
+            rows
+        }
+    }
+
+    /// [`run`]'s updates with each chain's state in memory: every update
+    /// loads its row of `rows` and stores it back, as the bank does with its
+    /// creep rows; `iterations` passes over the rows. The lanes per
+    /// register, or `None` where the bank's set has no such registers.
+    pub fn streamed<T: Real>(rows: &mut Rows, iterations: usize) -> Option<usize> {
+        let f64_ = T::NAME == "f64";
+        let p = rows.0.as_mut_ptr().cast::<u8>();
+        #[cfg(target_arch = "x86_64")]
+        {
+            let k = Kernels::detect();
+            // SAFETY: the features are checked by `Kernels::detect`; the
+            // rows are STREAMED_ROWS cache lines.
+            unsafe {
+                if k.is_avx512() {
+                    return Some(if f64_ {
+                        x86::avx512_f64_streamed(p.cast(), iterations)
+                    } else {
+                        x86::avx512_f32_streamed(p.cast(), iterations)
+                    });
+                }
+                if k.is_avx2() {
+                    return Some(if f64_ {
+                        x86::avx2_f64_streamed(p.cast(), iterations)
+                    } else {
+                        x86::avx2_f32_streamed(p.cast(), iterations)
+                    });
+                }
+            }
+        }
+        let _ = (f64_, p, iterations);
+        None
     }
 
     fn scalar<T: Real>(iterations: usize) -> usize {
@@ -253,6 +328,93 @@ mod mix {
             _mm512_fmadd_ps,
             _mm512_fnmadd_ps,
             16
+        );
+        // The same updates with each chain's row loaded and stored at
+        // every update, `CHAINS` rows at a time, over all the rows.
+        macro_rules! streamed {
+            ($name:ident, $feature:literal, $e:ty, $t:ty, $set1:ident, $load:ident, $store:ident, $min:ident, $max:ident, $add:ident, $fma:ident, $fnma:ident, $lanes:expr) => {
+                #[target_feature(enable = $feature)]
+                pub unsafe fn $name(p: *mut $e, iterations: usize) -> usize {
+                    // SAFETY (all): `p` is STREAMED_ROWS aligned cache lines.
+                    let rows = super::STREAMED_ROWS * 64 / (std::mem::size_of::<$e>() * $lanes);
+                    let mut r: [$t; CHAINS] = [$set1(0.0); CHAINS];
+                    let (lo, hi, g) = ($set1(-1.0), $set1(1.0), $set1(std::hint::black_box(0.25)));
+                    for _ in 0..iterations {
+                        for j in (0..rows).step_by(CHAINS) {
+                            for k in 0..CHAINS {
+                                let at = unsafe { p.add((j + k) * $lanes) };
+                                let x = unsafe { $load(at) };
+                                let c = $max($min(x, hi), lo);
+                                let x = $fma(g, c, $fnma(g, x, x));
+                                unsafe { $store(at, x) };
+                                r[k] = $add(r[k], x);
+                            }
+                        }
+                    }
+                    std::hint::black_box(r);
+                    $lanes
+                }
+            };
+        }
+        streamed!(
+            avx512_f64_streamed,
+            "avx2,fma,avx512f",
+            f64,
+            __m512d,
+            _mm512_set1_pd,
+            _mm512_load_pd,
+            _mm512_store_pd,
+            _mm512_min_pd,
+            _mm512_max_pd,
+            _mm512_add_pd,
+            _mm512_fmadd_pd,
+            _mm512_fnmadd_pd,
+            8
+        );
+        streamed!(
+            avx512_f32_streamed,
+            "avx2,fma,avx512f",
+            f32,
+            __m512,
+            _mm512_set1_ps,
+            _mm512_load_ps,
+            _mm512_store_ps,
+            _mm512_min_ps,
+            _mm512_max_ps,
+            _mm512_add_ps,
+            _mm512_fmadd_ps,
+            _mm512_fnmadd_ps,
+            16
+        );
+        streamed!(
+            avx2_f64_streamed,
+            "avx2,fma",
+            f64,
+            __m256d,
+            _mm256_set1_pd,
+            _mm256_load_pd,
+            _mm256_store_pd,
+            _mm256_min_pd,
+            _mm256_max_pd,
+            _mm256_add_pd,
+            _mm256_fmadd_pd,
+            _mm256_fnmadd_pd,
+            4
+        );
+        streamed!(
+            avx2_f32_streamed,
+            "avx2,fma",
+            f32,
+            __m256,
+            _mm256_set1_ps,
+            _mm256_load_ps,
+            _mm256_store_ps,
+            _mm256_min_ps,
+            _mm256_max_ps,
+            _mm256_add_ps,
+            _mm256_fmadd_ps,
+            _mm256_fnmadd_ps,
+            8
         );
         chains!(
             avx512_f64,
@@ -430,6 +592,17 @@ fn report<T: Real>(ghz: f64) -> f64 {
     let ops = lane_operations(12, 12, 5);
     let peak = peak_lane_operations_per_ns::<T>();
     let bound = peak * 1e3 / ops as f64; // M channel-steps/s on one core
+                                         // the same updates with their state in memory: what a bank, which must
+                                         // load and store its state, can reach at best
+    let streamed = streamed_lane_operations_per_ns::<T>();
+    let in_l1 = streamed.map_or(f64::NAN, |r| r * 1e3 / ops as f64);
+    if let Some(rate) = streamed {
+        println!(
+            "{}: the creep mix with each update's state loaded from and stored to L1: {rate:.1} lane-operations/ns ({:.0} % of the register rate) -> {in_l1:.1} M channel-steps/s per core",
+            T::NAME,
+            100.0 * rate / peak
+        );
+    }
     println!(
         "\n{}: measured peak {peak:.1} lane-operations/ns of the creep mix; {ops} per channel-step \
          -> bound {bound:.1} M channel-steps/s per core ({:.1} cycles per channel-step at {ghz:.2} GHz)",
@@ -437,8 +610,14 @@ fn report<T: Real>(ghz: f64) -> f64 {
         ops as f64 / peak * ghz
     );
     println!(
-        "{:>8} {:>8} {:>14} {:>12} {:>14} {:>16}",
-        "channels", "threads", "ns per step", "M ch-steps/s", "cycles/ch-step", "bound (per core)"
+        "{:>8} {:>8} {:>14} {:>12} {:>14} {:>16} {:>10}",
+        "channels",
+        "threads",
+        "ns per step",
+        "M ch-steps/s",
+        "cycles/ch-step",
+        "bound (per core)",
+        "state in L1"
     );
     let two = Workers::new(1).unwrap();
     // the crossover: one thread against a forced split, by blocks
@@ -471,9 +650,10 @@ fn report<T: Real>(ghz: f64) -> f64 {
         for (threads, ns) in [(1, one), (2, two_ns)] {
             let rate = channels as f64 / ns * 1e3;
             print!(
-                "{channels:>8} {threads:>8} {ns:>14.1} {rate:>12.1} {:>14.1} {:>15.0} %",
+                "{channels:>8} {threads:>8} {ns:>14.1} {rate:>12.1} {:>14.1} {:>15.0} % {:>8.0} %",
                 ns * ghz / channels as f64,
-                100.0 * rate / (bound * threads as f64)
+                100.0 * rate / (bound * threads as f64),
+                100.0 * rate / (in_l1 * threads as f64)
             );
             if threads == 2 {
                 print!("   two / one {ratio:.3} ({low:.3}-{high:.3})");
@@ -486,9 +666,11 @@ fn report<T: Real>(ghz: f64) -> f64 {
     // every kernel set at 64 channels (the bound is the widest registers')
     for kernels in Kernels::all() {
         let ns = time_bank::<T>(64, Mode::Kernels(kernels));
+        let rate = 64.0 / ns * 1e3;
         println!(
-            "64 channels, one thread, {kernels:?}: {:.1} M channel-steps/s",
-            64.0 / ns * 1e3
+            "64 channels, one thread, {kernels:?}: {rate:.1} M channel-steps/s ({:.0} % of the bound, {:.0} % with the state in L1)",
+            100.0 * rate / bound,
+            100.0 * rate / in_l1
         );
     }
     println!(
