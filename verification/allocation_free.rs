@@ -162,7 +162,7 @@ fn steps_and_in_place_runs_allocate_nothing() {
         .unwrap()
         .with_min_blocks(0);
     assert!(format!("{workers:?}").contains("adaptive: true"));
-    assert!(format!("{workers:?}").contains("balanced: true"));
+    assert!(format!("{workers:?}").contains("measured_shares: true"));
     let mut big = mfcbeam::operators::bank::CompensatorBank::<f64>::uniform(
         &nominal::PARAMETERS,
         100,

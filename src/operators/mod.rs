@@ -10,7 +10,6 @@
 //! ones here, the naive references in [`crate::suite::reference`] and your
 //! own — implements, so that one property suite checks them all.
 
-pub(crate) mod balance;
 pub mod bank;
 pub mod compensator;
 pub mod creep;
@@ -20,6 +19,7 @@ pub mod inverse;
 pub mod model;
 pub mod nominal;
 pub mod play;
+pub(crate) mod shares;
 pub mod supply;
 pub mod traits;
 pub mod workers;

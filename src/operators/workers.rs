@@ -19,14 +19,14 @@
 //! the other way is timed now and then (less often while it stays the
 //! slower, and once confirmed at most every 20 ms), and the steps run
 //! split where that was faster by more than a sixteenth, alone otherwise.
-//! How a split shares out the blocks is the `balance` module's.
+//! How a split shares out the blocks is the `shares` module's.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::thread::{self, JoinHandle, Thread};
 use std::time::Duration;
 
-use super::balance::Balance;
+use super::shares::Shares;
 
 /// A job: called with the part index `1..=workers` on each worker.
 type Job = dyn Fn(usize) + Sync;
@@ -249,8 +249,8 @@ pub struct Workers {
     busy: AtomicBool,
     /// The calling thread's share of a split, and whether it is set by
     /// measurement (else even shares).
-    balance: Balance,
-    balanced: bool,
+    shares: Shares,
+    measured_shares: bool,
 }
 
 impl std::fmt::Debug for Workers {
@@ -259,7 +259,7 @@ impl std::fmt::Debug for Workers {
             .field("threads", &self.threads.len())
             .field("min_blocks", &self.min_blocks)
             .field("adaptive", &self.adaptive)
-            .field("balanced", &self.balanced)
+            .field("measured_shares", &self.measured_shares)
             .finish()
     }
 }
@@ -293,8 +293,8 @@ impl Workers {
             adaptive: true,
             choice: Choice::default(),
             busy: AtomicBool::new(false),
-            balance: Balance::default(),
-            balanced: true,
+            shares: Shares::default(),
+            measured_shares: true,
         })
     }
 
@@ -383,8 +383,8 @@ impl Workers {
 
     /// The calling thread's share of a split and its measurement, if the
     /// share is set by measurement.
-    pub(crate) fn balance(&self) -> Option<&Balance> {
-        self.balanced.then_some(&self.balance)
+    pub(crate) fn shares(&self) -> Option<&Shares> {
+        self.measured_shares.then_some(&self.shares)
     }
 
     /// A split's shares set by measurement (`true`, the default: the
@@ -392,8 +392,8 @@ impl Workers {
     /// than half a block apart) or even (`false`: each core keeps the same
     /// blocks from step to step, for timing a split itself or for cores
     /// reserved to the bank).
-    pub fn with_balance(mut self, balanced: bool) -> Self {
-        self.balanced = balanced;
+    pub fn with_measured_shares(mut self, measured: bool) -> Self {
+        self.measured_shares = measured;
         self
     }
 

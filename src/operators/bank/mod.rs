@@ -41,7 +41,7 @@ use crate::realtime::simd::Kernels;
 use crate::realtime::superposition::Superposition;
 use crate::realtime::CompensatorSettings;
 
-use crate::operators::balance::Division;
+use crate::operators::shares::Division;
 use crate::operators::workers::SharedMut;
 pub use crate::operators::workers::{Workers, DEFAULT_MIN_BLOCKS};
 
@@ -409,8 +409,8 @@ impl<T: Real> CompensatorBank<T> {
         check_length("bank.out", self.channels, out.len())?;
         let k = Kernels::detect();
         let parts = workers.parts().min(self.blocks);
-        let balance = workers.balance();
-        let (lead, timed) = balance.map_or((0, false), |b| b.next());
+        let shares = workers.shares();
+        let (lead, timed) = shares.map_or((0, false), |s| s.next());
         let division = Division::new(self.blocks, parts, lead);
         let (fixed, state) = self.split();
         let state = SharedMut::new(state);
@@ -452,9 +452,9 @@ impl<T: Real> CompensatorBank<T> {
             }
         });
         let (caller_ns, workers_ns) = (caller_end.into_inner(), workers_end.into_inner());
-        if let Some(balance) = balance.filter(|_| split && caller_ns > 0 && workers_ns > 0) {
+        if let Some(shares) = shares.filter(|_| split && caller_ns > 0 && workers_ns > 0) {
             let even = self.blocks.div_ceil(parts);
-            balance.record(caller_ns, workers_ns, division.part(0).len(), even);
+            shares.record(caller_ns, workers_ns, division.part(0).len(), even);
         }
         self.parity ^= 1;
         self.dynamic_channels(targets, out);
@@ -495,7 +495,7 @@ mod tests {
     use crate::realtime::nominal::PARAMETERS;
 
     /// A split step gives the bits of the one-thread step whatever share of
-    /// the blocks the calling thread takes (past the balance's limits
+    /// the blocks the calling thread takes (past the measured shares' limits
     /// too), with one worker and with two, a last partial block included.
     fn check_every_division<T: Real>() {
         let settings = CompensatorSettings::with_limits(-150.0, 150.0);
@@ -521,7 +521,7 @@ mod tests {
                     vec![Compensated::default(); channels],
                 );
                 for row in &rows {
-                    workers.balance().unwrap().set_lead(lead);
+                    workers.shares().unwrap().set_lead(lead);
                     alone.compensate(row, &mut out_alone).unwrap();
                     split.compensate_on(&workers, row, &mut out_split).unwrap();
                     assert_eq!(

@@ -11,7 +11,7 @@
 //! caller's share: to the caller where the workers ended more than half a
 //! block after it (running estimates of both), back to the workers where
 //! they ended more than half a block before it. Within that band nothing
-//! moves, so a balanced split keeps its division (a block that changes
+//! moves, so a split in balance keeps its division (a block that changes
 //! hands is fetched from the other core's cache once). The caller's share
 //! stays within half an even share of even. The blocks are independent,
 //! so every division gives the same bits.
@@ -88,7 +88,7 @@ impl Division {
 /// caller at a time is the expected use, and a race between two only
 /// blurs an estimate).
 #[derive(Debug, Default)]
-pub(crate) struct Balance {
+pub(crate) struct Shares {
     /// Blocks the caller takes beyond an even share (negative: fewer).
     lead: AtomicIsize,
     /// Split steps so far.
@@ -100,9 +100,9 @@ pub(crate) struct Balance {
     block: AtomicU64,
 }
 
-impl Balance {
+impl Shares {
     /// The caller's lead for the next split step, and whether that step
-    /// is to be timed (then [`Balance::record`] its times).
+    /// is to be timed (then [`Shares::record`] its times).
     #[inline]
     pub(crate) fn next(&self) -> (isize, bool) {
         let step = self.steps.load(Ordering::Relaxed);
@@ -245,7 +245,7 @@ mod tests {
     /// `MOVE_EVERY` steps, and back.
     #[test]
     fn recorded_times_move_the_lead() {
-        let b = Balance::default();
+        let b = Shares::default();
         let mut leads = Vec::new();
         for _ in 0..4 * MOVE_EVERY {
             let (lead, timed) = b.next();
