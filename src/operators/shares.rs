@@ -101,14 +101,17 @@ pub(crate) struct Shares {
 }
 
 impl Shares {
-    /// The caller's lead for the next split step, and whether that step
-    /// is to be timed (then [`Shares::record`] its times).
+    /// The caller's lead for the next split step of a bank whose even
+    /// share is `even` blocks (within half of it: a lead set on a larger
+    /// bank does not unbalance a smaller one), and whether that step is to
+    /// be timed (then [`Shares::record`] its times).
     #[inline]
-    pub(crate) fn next(&self) -> (isize, bool) {
+    pub(crate) fn next(&self, even: usize) -> (isize, bool) {
         let step = self.steps.load(Ordering::Relaxed);
         self.steps.store(step.wrapping_add(1), Ordering::Relaxed);
+        let limit = (even / 2) as isize;
         (
-            self.lead.load(Ordering::Relaxed),
+            self.lead.load(Ordering::Relaxed).clamp(-limit, limit),
             step.is_multiple_of(TIME_EVERY),
         )
     }
@@ -132,8 +135,8 @@ impl Shares {
         // the step counter was bumped by `next`: this is step `steps - 1`
         let step = self.steps.load(Ordering::Relaxed).wrapping_sub(1);
         if step.is_multiple_of(MOVE_EVERY) {
-            let lead = self.lead.load(Ordering::Relaxed);
             let limit = (even / 2) as isize;
+            let lead = self.lead.load(Ordering::Relaxed).clamp(-limit, limit);
             self.lead
                 .store(next_lead(lead, skew, block, limit), Ordering::Relaxed);
         }
@@ -248,22 +251,25 @@ mod tests {
         let b = Shares::default();
         let mut leads = Vec::new();
         for _ in 0..4 * MOVE_EVERY {
-            let (lead, timed) = b.next();
+            let (lead, timed) = b.next(8);
             if timed {
                 // the workers end 300 ns after the caller's 8 blocks of 90 ns
                 b.record(720, 1020, 8, 8);
             }
             leads.push(lead);
         }
-        assert_eq!(b.next().0, 4);
+        assert_eq!(b.next(8).0, 4);
+        // a smaller bank's step takes the lead within its own limit
+        assert_eq!(b.next(4).0, 2);
+        assert_eq!(b.next(1).0, 0);
         assert_eq!(leads[0], 0);
         assert!(leads.windows(2).all(|w| w[1] - w[0] <= 1 && w[1] >= w[0]));
         for _ in 0..16 * MOVE_EVERY {
-            let (_, timed) = b.next();
+            let (_, timed) = b.next(8);
             if timed {
                 b.record(720, 420, 8, 8);
             }
         }
-        assert_eq!(b.next().0, -4);
+        assert_eq!(b.next(8).0, -4);
     }
 }

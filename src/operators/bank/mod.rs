@@ -410,7 +410,8 @@ impl<T: Real> CompensatorBank<T> {
         let k = Kernels::detect();
         let parts = workers.parts().min(self.blocks);
         let shares = workers.shares();
-        let (lead, timed) = shares.map_or((0, false), |s| s.next());
+        let even = self.blocks.div_ceil(parts);
+        let (lead, timed) = shares.map_or((0, false), |s| s.next(even));
         let division = Division::new(self.blocks, parts, lead);
         let (fixed, state) = self.split();
         let state = SharedMut::new(state);
@@ -453,7 +454,6 @@ impl<T: Real> CompensatorBank<T> {
         });
         let (caller_ns, workers_ns) = (caller_end.into_inner(), workers_end.into_inner());
         if let Some(shares) = shares.filter(|_| split && caller_ns > 0 && workers_ns > 0) {
-            let even = self.blocks.div_ceil(parts);
             shares.record(caller_ns, workers_ns, division.part(0).len(), even);
         }
         self.parity ^= 1;
@@ -495,8 +495,9 @@ mod tests {
     use crate::realtime::nominal::PARAMETERS;
 
     /// A split step gives the bits of the one-thread step whatever share of
-    /// the blocks the calling thread takes (past the measured shares' limits
-    /// too), with one worker and with two, a last partial block included.
+    /// the blocks the calling thread takes (every lead within half an even
+    /// share; the leads past it are held there), with one worker and with
+    /// two, a last partial block included.
     fn check_every_division<T: Real>() {
         let settings = CompensatorSettings::with_limits(-150.0, 150.0);
         let channels = 13 * lanes::<T>() + 3;
