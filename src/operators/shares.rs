@@ -102,25 +102,27 @@ pub(crate) struct Shares {
 
 impl Shares {
     /// The caller's lead for the next split step of a bank whose even
-    /// share is `even` blocks (within half of it: a lead set on a larger
-    /// bank does not unbalance a smaller one), and whether that step is to
-    /// be timed (then [`Shares::record`] its times).
+    /// share is `even` blocks (within [`limit`]: a lead set on a larger
+    /// bank does not unbalance a smaller one), and the step's number if it
+    /// is to be timed (then [`Shares::record`] its times with it).
     #[inline]
-    pub(crate) fn next(&self, even: usize) -> (isize, bool) {
+    pub(crate) fn next(&self, even: usize) -> (isize, Option<u64>) {
         let step = self.steps.load(Ordering::Relaxed);
         self.steps.store(step.wrapping_add(1), Ordering::Relaxed);
-        let limit = (even / 2) as isize;
+        let limit = limit(even);
         (
             self.lead.load(Ordering::Relaxed).clamp(-limit, limit),
-            step.is_multiple_of(TIME_EVERY),
+            step.is_multiple_of(TIME_EVERY).then_some(step),
         )
     }
 
-    /// A timed split step: its caller's part of `caller_blocks` blocks
-    /// ended `caller_ns` and the last worker's `workers_ns` nanoseconds
-    /// after the step began, `even` being an even share.
+    /// Timed split step `step` (the number [`Shares::next`] gave): its
+    /// caller's part of `caller_blocks` blocks ended `caller_ns` and the
+    /// last worker's `workers_ns` nanoseconds after the step began, `even`
+    /// being an even share.
     pub(crate) fn record(
         &self,
+        step: u64,
         caller_ns: u64,
         workers_ns: u64,
         caller_blocks: usize,
@@ -132,10 +134,8 @@ impl Shares {
         let skew = (workers_ns as i64 - caller_ns as i64).saturating_mul(1000);
         let skew = fold_skew(self.skew.load(Ordering::Relaxed), skew, block);
         self.skew.store(skew, Ordering::Relaxed);
-        // the step counter was bumped by `next`: this is step `steps - 1`
-        let step = self.steps.load(Ordering::Relaxed).wrapping_sub(1);
         if step.is_multiple_of(MOVE_EVERY) {
-            let limit = (even / 2) as isize;
+            let limit = limit(even);
             let lead = self.lead.load(Ordering::Relaxed).clamp(-limit, limit);
             self.lead
                 .store(next_lead(lead, skew, block, limit), Ordering::Relaxed);
@@ -148,6 +148,12 @@ impl Shares {
     pub(crate) fn set_lead(&self, lead: isize) {
         self.lead.store(lead, Ordering::Relaxed);
     }
+}
+
+/// The largest lead, either way, for a bank whose even share is `even`
+/// blocks: half of it.
+fn limit(even: usize) -> isize {
+    isize::try_from(even / 2).unwrap_or(isize::MAX)
 }
 
 /// A skew sample folded into its running estimate `old` (weight ¼), the
@@ -252,9 +258,9 @@ mod tests {
         let mut leads = Vec::new();
         for _ in 0..4 * MOVE_EVERY {
             let (lead, timed) = b.next(8);
-            if timed {
+            if let Some(step) = timed {
                 // the workers end 300 ns after the caller's 8 blocks of 90 ns
-                b.record(720, 1020, 8, 8);
+                b.record(step, 720, 1020, 8, 8);
             }
             leads.push(lead);
         }
@@ -263,11 +269,17 @@ mod tests {
         assert_eq!(b.next(4).0, 2);
         assert_eq!(b.next(1).0, 0);
         assert_eq!(leads[0], 0);
+        // one move per MOVE_EVERY steps, at the timed step that starts each
+        let m = MOVE_EVERY as usize;
+        assert_eq!(
+            (leads[1], leads[m], leads[m + 1], leads[2 * m + 1]),
+            (1, 1, 2, 3)
+        );
         assert!(leads.windows(2).all(|w| w[1] - w[0] <= 1 && w[1] >= w[0]));
         for _ in 0..16 * MOVE_EVERY {
             let (_, timed) = b.next(8);
-            if timed {
-                b.record(720, 420, 8, 8);
+            if let Some(step) = timed {
+                b.record(step, 720, 420, 8, 8);
             }
         }
         assert_eq!(b.next(8).0, -4);

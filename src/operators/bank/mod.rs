@@ -411,14 +411,14 @@ impl<T: Real> CompensatorBank<T> {
         let parts = workers.parts().min(self.blocks);
         let shares = workers.shares();
         let even = self.blocks.div_ceil(parts);
-        let (lead, timed) = shares.map_or((0, false), |s| s.next(even));
+        let (lead, timed) = shares.map_or((0, None), |s| s.next(even));
         let division = Division::new(self.blocks, parts, lead);
         let (fixed, state) = self.split();
         let state = SharedMut::new(state);
         let shared_out = SharedMut::new(&mut *out);
         let (sr, width) = (fixed.layout.state_rows(), lanes::<T>());
         // when the caller's part and the last worker's end (timed steps)
-        let start = timed.then(std::time::Instant::now);
+        let start = timed.map(|_| std::time::Instant::now());
         let (caller_end, workers_end) = (AtomicU64::new(0), AtomicU64::new(0));
         let split = workers.run(&|part: usize| {
             let blocks = division.part(part);
@@ -453,8 +453,10 @@ impl<T: Real> CompensatorBank<T> {
             }
         });
         let (caller_ns, workers_ns) = (caller_end.into_inner(), workers_end.into_inner());
-        if let Some(shares) = shares.filter(|_| split && caller_ns > 0 && workers_ns > 0) {
-            shares.record(caller_ns, workers_ns, division.part(0).len(), even);
+        if let (Some(shares), Some(step)) = (shares, timed) {
+            if split && caller_ns > 0 && workers_ns > 0 {
+                shares.record(step, caller_ns, workers_ns, division.part(0).len(), even);
+            }
         }
         self.parity ^= 1;
         self.dynamic_channels(targets, out);
