@@ -575,6 +575,16 @@ fn time_pair<T: Real>(channels: usize, a: Mode<'_>, b: Mode<'_>) -> (f64, f64, [
     (ta[30], tb[30], [ratio[30], ratio[6], ratio[54]])
 }
 
+/// `rate` as a percentage of `of`, or "n/a" where there is no `of` (no
+/// state-in-L1 rate on a CPU whose bank kernels have no vector registers).
+fn share(rate: f64, of: f64) -> String {
+    if of.is_finite() && of > 0.0 {
+        format!("{:.0} %", 100.0 * rate / of)
+    } else {
+        "n/a".to_string()
+    }
+}
+
 /// Median nanoseconds per step of `channels` channels stepped one way.
 fn time_bank<T: Real>(channels: usize, mode: Mode<'_>) -> f64 {
     let rows = bank_rows::<T>(channels, Timed::<T>::ROWS);
@@ -591,9 +601,11 @@ fn time_bank<T: Real>(channels: usize, mode: Mode<'_>) -> f64 {
 fn report<T: Real>(ghz: f64) -> f64 {
     let ops = lane_operations(12, 12, 5);
     let peak = peak_lane_operations_per_ns::<T>();
-    let bound = peak * 1e3 / ops as f64; // M channel-steps/s on one core
-                                         // the same updates with their state in memory: what a bank, which must
-                                         // load and store its state, can reach at best
+    // M channel-steps/s on one core
+    let bound = peak * 1e3 / ops as f64;
+    // the same updates with their state in memory: what a bank, which must
+    // load and store its state, can reach at best (none where the bank's
+    // kernels have no vector registers)
     let streamed = streamed_lane_operations_per_ns::<T>();
     let in_l1 = streamed.map_or(f64::NAN, |r| r * 1e3 / ops as f64);
     if let Some(rate) = streamed {
@@ -650,10 +662,10 @@ fn report<T: Real>(ghz: f64) -> f64 {
         for (threads, ns) in [(1, one), (2, two_ns)] {
             let rate = channels as f64 / ns * 1e3;
             print!(
-                "{channels:>8} {threads:>8} {ns:>14.1} {rate:>12.1} {:>14.1} {:>15.0} % {:>8.0} %",
+                "{channels:>8} {threads:>8} {ns:>14.1} {rate:>12.1} {:>14.1} {:>17} {:>10}",
                 ns * ghz / channels as f64,
-                100.0 * rate / (bound * threads as f64),
-                100.0 * rate / (in_l1 * threads as f64)
+                share(rate, bound * threads as f64),
+                share(rate, in_l1 * threads as f64)
             );
             if threads == 2 {
                 print!("   two / one {ratio:.3} ({low:.3}-{high:.3})");
@@ -668,9 +680,9 @@ fn report<T: Real>(ghz: f64) -> f64 {
         let ns = time_bank::<T>(64, Mode::Kernels(kernels));
         let rate = 64.0 / ns * 1e3;
         println!(
-            "64 channels, one thread, {kernels:?}: {rate:.1} M channel-steps/s ({:.0} % of the bound, {:.0} % with the state in L1)",
-            100.0 * rate / bound,
-            100.0 * rate / in_l1
+            "64 channels, one thread, {kernels:?}: {rate:.1} M channel-steps/s ({} of the bound, {} with the state in L1)",
+            share(rate, bound),
+            share(rate, in_l1)
         );
     }
     println!(
