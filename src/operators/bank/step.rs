@@ -32,7 +32,10 @@ pub(super) fn step_blocks<T: Real>(
     }
 }
 
-/// [`step_blocks`] walking down if `DOWN`, up otherwise.
+/// [`step_blocks`] walking down if `DOWN`, up otherwise. A function of its
+/// own, with `step_blocks`'s parameters: with the `Step` built in
+/// `step_blocks`, both walks were compiled into one function and a
+/// parameter-row closure was left out of line.
 fn step_walking<T: Real, const DOWN: bool>(
     k: Kernels,
     fixed: &Fixed<'_, T>,
