@@ -48,7 +48,7 @@ impl Division {
     /// `blocks.div_ceil(parts)`.
     pub(crate) fn new(blocks: usize, parts: usize, lead: isize) -> Self {
         let parts = parts.max(1);
-        let even = blocks.div_ceil(parts);
+        let even = Self::even(blocks, parts);
         // every worker keeps a block where the bank has one for it
         let most = blocks.saturating_sub(parts - 1).max(1).min(blocks);
         let first = even.saturating_add_signed(lead).clamp(1.min(blocks), most);
@@ -65,6 +65,12 @@ impl Division {
             per_worker,
             rest,
         }
+    }
+
+    /// An even share of `blocks` in `parts` parts (at least one part),
+    /// the share a lead is counted from.
+    pub(crate) fn even(blocks: usize, parts: usize) -> usize {
+        blocks.div_ceil(parts.max(1))
     }
 
     /// The blocks of part `part` (empty past the last block).

@@ -410,7 +410,7 @@ impl<T: Real> CompensatorBank<T> {
         let k = Kernels::detect();
         let parts = workers.parts().min(self.blocks);
         let shares = workers.shares();
-        let even = self.blocks.div_ceil(parts);
+        let even = Division::even(self.blocks, parts);
         let (lead, timed) = shares.map_or((0, None), |s| s.next(even));
         let division = Division::new(self.blocks, parts, lead);
         let (fixed, state) = self.split();
