@@ -59,22 +59,22 @@
 /**
  * Words of `MfcbeamCompensatorStorageF32`.
  */
-#define MFCBEAM_COMPENSATOR_F32_WORDS 580
+#define MFCBEAM_COMPENSATOR_F32_WORDS 586
 
 /**
  * Words of `MfcbeamCompensatorStorageF64`.
  */
-#define MFCBEAM_COMPENSATOR_F64_WORDS 1122
+#define MFCBEAM_COMPENSATOR_F64_WORDS 1131
 
 /**
  * Words of `MfcbeamModelStorageF32`.
  */
-#define MFCBEAM_MODEL_F32_WORDS 523
+#define MFCBEAM_MODEL_F32_WORDS 529
 
 /**
  * Words of `MfcbeamModelStorageF64`.
  */
-#define MFCBEAM_MODEL_F64_WORDS 1014
+#define MFCBEAM_MODEL_F64_WORDS 1023
 
 #if defined(MFCBEAM_STD)
 /**

@@ -316,8 +316,10 @@ fn the_paper_layouts_step_gives_the_portable_bits() {
 /// The same wherever the compensator lies: an inline one placed at every
 /// offset of a page (in a page-aligned buffer, so that each of its arrays
 /// straddles the page boundary at every place it can), where the kernels
-/// move a register's worth that would straddle the page one value at a
-/// time.
+/// move a register's worth of the plays' states that would straddle the
+/// page one value at a time and the creep state is placed off the
+/// boundary; and moved halfway, as a copy of C storage moves it, to the
+/// mirrored offset of another page, where the creep state is placed again.
 #[test]
 fn every_kernel_set_gives_the_portable_bits_wherever_the_state_lies() {
     fn sweep<T: Real>() {
@@ -336,31 +338,42 @@ fn every_kernel_set_gives_the_portable_bits_wherever_the_state_lies() {
         let size = std::mem::size_of::<Placed<T>>();
         let layout = std::alloc::Layout::from_size_align(size + 4096, 4096).unwrap();
         // SAFETY: a non-zero size; freed below with the same layout.
-        let buffer = unsafe { std::alloc::alloc(layout) };
-        assert!(!buffer.is_null());
+        let (first, second) = unsafe { (std::alloc::alloc(layout), std::alloc::alloc(layout)) };
+        assert!(!first.is_null() && !second.is_null());
         let mut placed = 0;
         for k in simd::Kernels::all() {
             for offset in (0..4096).step_by(std::mem::align_of::<Placed<T>>()) {
-                // SAFETY: offset + size ≤ the buffer's size, aligned for the
-                // type; the value is written before use and dropped after.
+                let mirrored = (4096 - offset) % 4096;
+                // SAFETY: both offsets + size ≤ the buffers' size, aligned
+                // for the type; the value is written before use, moved by
+                // a copy (the first place not used again) and dropped after.
                 unsafe {
-                    let at = buffer.add(offset).cast::<Placed<T>>();
+                    let mut at = first.add(offset).cast::<Placed<T>>();
                     at.write(proto.clone());
-                    for (&t, e) in signal.iter().zip(&expected) {
+                    for (i, (&t, e)) in signal.iter().zip(&expected).enumerate() {
+                        if i == signal.len() / 2 {
+                            let to = second.add(mirrored).cast::<Placed<T>>();
+                            std::ptr::copy_nonoverlapping(at, to, 1);
+                            at = to;
+                        }
                         let u = (*at).compensate_using(k, t);
                         assert_eq!(
                             (u.u.to_f64().to_bits(), u.saturated, u.fault),
                             (e.u.to_f64().to_bits(), e.saturated, e.fault),
-                            "{k:?}, offset {offset}"
+                            "{k:?}, offset {offset}, sample {i}"
                         );
                     }
+                    assert!(*at == reference, "{k:?}, offset {offset}");
                     std::ptr::drop_in_place(at);
                 }
                 placed += 1;
             }
         }
         // SAFETY: allocated above with this layout.
-        unsafe { std::alloc::dealloc(buffer, layout) };
+        unsafe {
+            std::alloc::dealloc(first, layout);
+            std::alloc::dealloc(second, layout);
+        }
         assert!(placed >= 512);
     }
     sweep::<f64>();

@@ -104,7 +104,9 @@ fn paper_sized_storage_and_its_footprint() {
     let f32_bytes = std::mem::size_of::<Compensator<f32, nominal::Capacity>>();
     let f64_bytes = std::mem::size_of::<Compensator<f64, nominal::Capacity>>();
     // Arrays: H⁻¹ (r', w', x') and H (r, w, s, room for x) of 12, creep
-    // (r, w, a, g, w/m, χ) of 60; then one length per array (13), the
+    // (r, w, a, g, w/m, χ) of 60, and 7 more for χ to start off a page
+    // boundary; then where χ starts and the address it was placed for
+    // (2); one length per array (13), the
     // sample time, offset, limits, the last voltage, creep output and last
     // input, and the creep's presence; `S⁻¹` with capacity 0 (the paper's
     // model has none) is two lengths, its zero index and its presence; the
@@ -124,8 +126,8 @@ fn paper_sized_storage_and_its_footprint() {
         }
     };
     for (bytes, size) in [(f32_bytes, 4), (f64_bytes, 8)] {
-        let arrays = (7 * 12 + 6 * 60) * size;
-        let lengths = (13 + 5) * std::mem::size_of::<usize>() + extra(size) + size;
+        let arrays = (7 * 12 + 6 * 60 + 7) * size;
+        let lengths = (2 + 13 + 5) * std::mem::size_of::<usize>() + extra(size) + size;
         eprintln!("Compensator<_, nominal::Capacity>: {bytes} bytes with {size}-byte numbers ({arrays} in arrays)");
         assert!(
             bytes >= arrays + lengths && bytes <= arrays + lengths + 8 * 8,

@@ -32,13 +32,13 @@ pub const MFCBEAM_MAX_SUPERPOSITION: usize = 9;
 pub const MFCBEAM_MAX_DELAY: usize = 16;
 
 /// Words of `MfcbeamCompensatorStorageF32`.
-pub const MFCBEAM_COMPENSATOR_F32_WORDS: usize = 580;
+pub const MFCBEAM_COMPENSATOR_F32_WORDS: usize = 586;
 /// Words of `MfcbeamCompensatorStorageF64`.
-pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 1122;
+pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 1131;
 /// Words of `MfcbeamModelStorageF32`.
-pub const MFCBEAM_MODEL_F32_WORDS: usize = 523;
+pub const MFCBEAM_MODEL_F32_WORDS: usize = 529;
 /// Words of `MfcbeamModelStorageF64`.
-pub const MFCBEAM_MODEL_F64_WORDS: usize = 1014;
+pub const MFCBEAM_MODEL_F64_WORDS: usize = 1023;
 
 /// The capacity of every caller-owned object.
 type Capacity =

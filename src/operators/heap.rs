@@ -1,6 +1,9 @@
 //! Heap storage for the core's operators: [`Heap`] keeps every list in a
 //! `Vec` sized at run time, so the orders have no compile-time limit.
 
+use core::ops::{Deref, DerefMut};
+
+use crate::realtime::storage::SLACK;
 use crate::realtime::{Buffer, ParameterError, Real, Storage};
 
 /// Storage in vectors on the heap (`std`).
@@ -10,6 +13,7 @@ pub struct Heap;
 impl Storage for Heap {
     type Plays<T: Real> = Vec<T>;
     type Creep<T: Real> = Vec<T>;
+    type CreepState<T: Real> = PaddedVec<T>;
     type Superposition<T: Real> = Vec<T>;
     type Delay<T: Real> = Vec<T>;
 }
@@ -32,5 +36,32 @@ impl<T: Real> Buffer<T> for Vec<T> {
             })?;
         v.resize(len, T::ZERO);
         Ok(v)
+    }
+}
+
+/// A vector with [`SLACK`] values beyond those asked for: the creep
+/// state's heap buffer ([`Storage::CreepState`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PaddedVec<T>(Vec<T>);
+
+impl<T: Real> Buffer<T> for PaddedVec<T> {
+    fn zeroed(field: &'static str, len: usize) -> Result<Self, ParameterError> {
+        crate::limits::check(field, LONGEST, len)?;
+        Vec::zeroed(field, len + SLACK).map(PaddedVec)
+    }
+}
+
+impl<T> Deref for PaddedVec<T> {
+    type Target = [T];
+    #[inline(always)]
+    fn deref(&self) -> &[T] {
+        &self.0
+    }
+}
+
+impl<T> DerefMut for PaddedVec<T> {
+    #[inline(always)]
+    fn deref_mut(&mut self) -> &mut [T] {
+        &mut self.0
     }
 }

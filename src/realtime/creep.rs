@@ -17,6 +17,7 @@
 use crate::realtime::creep_pass::output;
 use crate::realtime::error::ParameterError;
 use crate::realtime::parameters::{check_finite, check_length, CreepParameters};
+use crate::realtime::placement::{chi_start, SLACK};
 use crate::realtime::real::Real;
 use crate::realtime::simd::{self, Kernels};
 use crate::realtime::storage::{Buffer, Storage};
@@ -35,15 +36,20 @@ pub fn creep_gain(eigenvalue: f64, sample_time: f64) -> f64 {
 /// A PI creep operator `C` (16): `n + 1` log(t)-creep operators (15) of `m`
 /// elementary operators (13)–(14) each, thresholds as (18), weights with
 /// non-negative partial sums (17), in `T`, kept in storage `S`.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct Creep<T: Real, S: Storage> {
     // what a step reads and writes first, the parameters as given after
     thresholds: S::Creep<T>,
     /// `1 − e^{−a_j T_s}` per eigenvalue and `w_i / m` per threshold.
     gains: S::Creep<T>,
     scaled_weights: S::Creep<T>,
-    /// `χ[j * n + i]`: eigenvalue `j`, threshold `i`.
-    chi: S::Creep<T>,
+    /// `χ[j * n + i]` (eigenvalue `j`, threshold `i`) from `chi_start` on,
+    /// placed so that no register's worth straddles a page
+    /// ([`placement`](crate::realtime::placement)) for the buffer at
+    /// `chi_placed_at`.
+    chi: S::CreepState<T>,
+    chi_start: usize,
+    chi_placed_at: usize,
     /// The output of the current state, kept so `output()` is O(1).
     output: T,
     /// The last finite input, held in place of a non-finite one.
@@ -88,7 +94,9 @@ impl<T: Real, S: Storage> Creep<T, S> {
             sample_time,
             gains: S::Creep::zeroed(field, m)?,
             scaled_weights: S::Creep::zeroed(field, n)?,
-            chi: S::Creep::zeroed(field, n.saturating_mul(m))?,
+            chi: S::CreepState::zeroed(field, n.saturating_mul(m))?,
+            chi_start: 0,
+            chi_placed_at: 0,
             output: T::ZERO,
             last_input: T::ZERO,
         };
@@ -137,7 +145,7 @@ impl<T: Real, S: Storage> Creep<T, S> {
         check_finite("creep.state", state)?;
         for i in 0..n {
             for j in 0..m {
-                self.chi[j * n + i] = T::from_f64(state[i * m + j]);
+                self.chi_mut()[j * n + i] = T::from_f64(state[i * m + j]);
             }
         }
         self.refresh_output();
@@ -150,7 +158,7 @@ impl<T: Real, S: Storage> Creep<T, S> {
         check_length("creep.state", n * m, state.len())?;
         for i in 0..n {
             for j in 0..m {
-                state[i * m + j] = self.chi[j * n + i].to_f64();
+                state[i * m + j] = self.chi()[j * n + i].to_f64();
             }
         }
         Ok(())
@@ -162,8 +170,8 @@ impl<T: Real, S: Storage> Creep<T, S> {
         &mut self,
         other: &Creep<U, S2>,
     ) -> Result<(), ParameterError> {
-        check_length("creep.state", self.chi.len(), other.chi.len())?;
-        for (x, &y) in self.chi.iter_mut().zip(other.chi.iter()) {
+        check_length("creep.state", self.chi().len(), other.chi().len())?;
+        for (x, &y) in self.chi_mut().iter_mut().zip(other.chi()) {
             *x = T::from_f64(y.to_f64());
         }
         self.output = T::from_f64(other.output.to_f64());
@@ -183,8 +191,8 @@ impl<T: Real, S: Storage> Creep<T, S> {
     #[inline]
     pub fn log_creep_outputs_into(&self, out: &mut [T]) {
         let (n, m) = self.shape();
-        out[..n].copy_from_slice(&self.chi[..n]);
-        for row in self.chi.chunks_exact(n).skip(1) {
+        out[..n].copy_from_slice(&self.chi()[..n]);
+        for row in self.chi().chunks_exact(n).skip(1) {
             for (o, &c) in out.iter_mut().zip(row) {
                 *o += c;
             }
@@ -216,9 +224,11 @@ impl<T: Real, S: Storage> Creep<T, S> {
     /// On the kernels `k`.
     #[inline(always)]
     pub(crate) fn advance_with(&mut self, k: Kernels, v: T) -> T {
+        self.place_chi();
+        let (start, len) = (self.chi_start, self.chi.len() - SLACK);
         self.output = simd::creep_advance(
             k,
-            &mut self.chi,
+            &mut self.chi[start..start + len],
             &self.thresholds,
             &self.gains,
             &self.scaled_weights,
@@ -232,8 +242,10 @@ impl<T: Real, S: Storage> Creep<T, S> {
     /// kernel works on.
     #[inline(always)]
     pub(crate) fn step_parts(&mut self) -> simd::CreepParts<'_, T> {
+        self.place_chi();
+        let (start, len) = (self.chi_start, self.chi.len() - SLACK);
         simd::CreepParts {
-            chi: &mut self.chi,
+            chi: &mut self.chi[start..start + len],
             thresholds: &self.thresholds,
             gains: &self.gains,
             weights: &self.scaled_weights,
@@ -249,8 +261,12 @@ impl<T: Real, S: Storage> Creep<T, S> {
     pub(crate) fn paper_step_parts(&mut self) -> simd::CreepParts<'_, T> {
         const NC: usize = simd::PAPER_CREEP.0;
         const M: usize = simd::PAPER_CREEP.1;
+        self.place_chi();
+        // `chi_start ≤ SLACK` (`min` tells the compiler, which then checks
+        // nothing)
+        let start = self.chi_start.min(SLACK);
         simd::CreepParts {
-            chi: self.chi.prefix_mut::<{ NC * M }>(),
+            chi: &mut self.chi.prefix_mut::<{ NC * M + SLACK }>()[start..][..NC * M],
             thresholds: self.thresholds.prefix::<NC>(),
             gains: self.gains.prefix::<M>(),
             weights: self.scaled_weights.prefix::<NC>(),
@@ -268,13 +284,65 @@ impl<T: Real, S: Storage> Creep<T, S> {
     }
 
     fn refresh_output(&mut self) {
-        self.output = output(&self.chi, &self.scaled_weights);
+        self.output = output(self.chi(), &self.scaled_weights);
+    }
+
+    /// `χ`, wherever it starts in its buffer.
+    #[inline(always)]
+    fn chi(&self) -> &[T] {
+        &self.chi[self.chi_start..self.chi.len() - SLACK + self.chi_start]
+    }
+
+    /// `χ`, mutable.
+    #[inline(always)]
+    fn chi_mut(&mut self) -> &mut [T] {
+        let (start, len) = (self.chi_start, self.chi.len() - SLACK);
+        &mut self.chi[start..start + len]
+    }
+
+    /// Places `χ` for its buffer's address if it has not been placed for
+    /// it (a new object, or one moved since): a compare and a predicted
+    /// branch per step.
+    #[inline(always)]
+    fn place_chi(&mut self) {
+        let at = self.chi.as_ptr() as usize;
+        if at != self.chi_placed_at {
+            self.place_chi_at(at);
+        }
+    }
+
+    /// Moves `χ` to the start [`chi_start`] gives for the buffer at `at`.
+    #[cold]
+    #[inline(never)]
+    fn place_chi_at(&mut self, at: usize) {
+        let (n, len) = (self.thresholds.len(), self.chi.len() - SLACK);
+        let start = chi_start(at, size_of::<T>(), n, len);
+        self.chi
+            .copy_within(self.chi_start..self.chi_start + len, start);
+        self.chi_start = start;
+        self.chi_placed_at = at;
     }
 
     /// Back to the zero state.
     pub fn reset(&mut self) {
-        self.chi.fill(T::ZERO);
+        self.chi_mut().fill(T::ZERO);
         self.last_input = T::ZERO;
         self.refresh_output();
+    }
+}
+
+/// Equal when the parameters and states are, wherever `χ` lies in its
+/// buffer.
+impl<T: Real, S: Storage> PartialEq for Creep<T, S> {
+    fn eq(&self, other: &Self) -> bool {
+        self.thresholds == other.thresholds
+            && self.gains == other.gains
+            && self.scaled_weights == other.scaled_weights
+            && self.chi() == other.chi()
+            && self.output == other.output
+            && self.last_input == other.last_input
+            && self.weights == other.weights
+            && self.eigenvalues == other.eigenvalues
+            && self.sample_time == other.sample_time
     }
 }

@@ -51,6 +51,7 @@ pub(crate) mod inverse;
 pub mod model;
 pub mod nominal;
 pub mod parameters;
+pub(crate) mod placement;
 pub(crate) mod play;
 pub mod real;
 pub mod rounding;
@@ -70,5 +71,5 @@ pub use parameters::{
 };
 pub use real::Real;
 pub use rounding::RoundingBounds;
-pub use storage::{Buffer, Inline, InlineBuffer, Storage};
+pub use storage::{Buffer, Inline, InlineBuffer, PaddedBuffer, Storage};
 pub use superposition::Superposition;

@@ -22,6 +22,7 @@ use core::fmt::Debug;
 use core::ops::{Deref, DerefMut};
 
 use crate::realtime::error::ParameterError;
+pub use crate::realtime::placement::SLACK;
 use crate::realtime::real::Real;
 
 /// A storage class: the buffer types for play-sized and creep-sized lists.
@@ -31,6 +32,11 @@ pub trait Storage: Sized + Copy + Debug + PartialEq + 'static {
     /// Room for one value per elementary creep operator (and the shorter
     /// lists of `C`: thresholds, weights, eigenvalues).
     type Creep<T: Real>: Buffer<T>;
+    /// Room for the creep state `χ`: [`Buffer::zeroed`]`(field, len)` holds
+    /// `len` values and [`SLACK`] more (a slice of `len + SLACK`), for the
+    /// operator to start `χ` where no register's worth straddles a page
+    /// (`crate::realtime::placement`).
+    type CreepState<T: Real>: Buffer<T>;
     /// Room for one value per term of the superposition operator `S`.
     type Superposition<T: Real>: Buffer<T>;
     /// Room for one value per sample of dead time.
@@ -77,6 +83,7 @@ impl<const PLAYS: usize, const CREEP: usize, const SUPERPOSITION: usize, const D
 {
     type Plays<T: Real> = InlineBuffer<T, PLAYS>;
     type Creep<T: Real> = InlineBuffer<T, CREEP>;
+    type CreepState<T: Real> = PaddedBuffer<T, CREEP>;
     type Superposition<T: Real> = InlineBuffer<T, SUPERPOSITION>;
     type Delay<T: Real> = InlineBuffer<T, DELAY>;
 }
@@ -129,6 +136,88 @@ impl<T, const N: usize> DerefMut for InlineBuffer<T, N> {
 
 /// Equal when the values in use are (the unused tail does not count).
 impl<T: PartialEq, const N: usize> PartialEq for InlineBuffer<T, N> {
+    fn eq(&self, other: &Self) -> bool {
+        self[..] == other[..]
+    }
+}
+
+/// Up to `N` values in use and [`SLACK`] more, in one array: the creep
+/// state's inline buffer ([`Storage::CreepState`]), seen as a slice of the
+/// `len + SLACK` values from its start.
+#[derive(Debug, Clone, Copy)]
+pub struct PaddedBuffer<T, const N: usize> {
+    len: usize,
+    values: Padded<T, N>,
+}
+
+/// `N` values, then [`SLACK`]: one array of `N + SLACK` (`repr(C)` puts
+/// `slack` right after `data`, with no padding between arrays of one type).
+#[derive(Debug, Clone, Copy)]
+#[repr(C)]
+struct Padded<T, const N: usize> {
+    data: [T; N],
+    slack: [T; SLACK],
+}
+
+impl<T, const N: usize> PaddedBuffer<T, N> {
+    /// All `N + SLACK` values.
+    #[inline(always)]
+    fn all(&self) -> &[T] {
+        // SAFETY: `Padded` is `N + SLACK` values of `T` in a row (above),
+        // read through a pointer to all of it.
+        unsafe { core::slice::from_raw_parts((&raw const self.values).cast::<T>(), N + SLACK) }
+    }
+
+    /// All `N + SLACK` values, mutable.
+    #[inline(always)]
+    fn all_mut(&mut self) -> &mut [T] {
+        // SAFETY: as in `all`, through the one mutable reference.
+        unsafe { core::slice::from_raw_parts_mut((&raw mut self.values).cast::<T>(), N + SLACK) }
+    }
+}
+
+impl<T: Real, const N: usize> Buffer<T> for PaddedBuffer<T, N> {
+    fn zeroed(field: &'static str, len: usize) -> Result<Self, ParameterError> {
+        crate::realtime::parameters::check_capacity(field, N, len)?;
+        Ok(Self {
+            len: len + SLACK,
+            values: Padded {
+                data: [T::ZERO; N],
+                slack: [T::ZERO; SLACK],
+            },
+        })
+    }
+
+    // the array's length known when compiled, as for `InlineBuffer`
+    #[inline(always)]
+    fn prefix<const K: usize>(&self) -> &[T] {
+        &self.all()[..K]
+    }
+
+    #[inline(always)]
+    fn prefix_mut<const K: usize>(&mut self) -> &mut [T] {
+        &mut self.all_mut()[..K]
+    }
+}
+
+impl<T, const N: usize> Deref for PaddedBuffer<T, N> {
+    type Target = [T];
+    #[inline(always)]
+    fn deref(&self) -> &[T] {
+        &self.all()[..self.len.min(N + SLACK)]
+    }
+}
+
+impl<T, const N: usize> DerefMut for PaddedBuffer<T, N> {
+    #[inline(always)]
+    fn deref_mut(&mut self) -> &mut [T] {
+        let len = self.len.min(N + SLACK);
+        &mut self.all_mut()[..len]
+    }
+}
+
+/// Equal when the values in use and the slack are.
+impl<T: PartialEq, const N: usize> PartialEq for PaddedBuffer<T, N> {
     fn eq(&self, other: &Self) -> bool {
         self[..] == other[..]
     }

@@ -564,14 +564,17 @@ mod x86 {
     //! `vmaxpd(t, lo)` is `if t > lo { t } else { lo }`, as `play` and
     //! `clamp` are written, so the bits are the same.
     //!
-    //! The states a step loads and stores again (creep operators, plays,
-    //! their saved copy) go through `*_unsplit`: a register's worth that
-    //! would straddle a 4 KiB page is moved one value at a time. A step
-    //! whose array straddled a page there, at an offset that matched stack
-    //! slots the step had just written, took 13–21 % longer on a Zen 5
-    //! (a compensator on the stack, in 6 of 256 stack offsets). Whether an
+    //! The plays' states and their saved copy, which a step loads and
+    //! stores again, go through `*_unsplit`: a register's worth that would
+    //! straddle a 4 KiB page is moved one value at a time. A step whose
+    //! array straddled a page there, at an offset that matched stack slots
+    //! the step had just written, took 13–21 % longer on a Zen 5 (a
+    //! compensator on the stack, in 6 of 256 stack offsets). Whether an
     //! array can straddle at all is asked once per array and step
-    //! (`SPLIT`): most never do, and their accesses carry no test.
+    //! (`SPLIT`): most never do, and their accesses carry no test. The
+    //! creep state needs neither: the operator places it so that no
+    //! register's worth straddles a page (`crate::realtime::placement`;
+    //! on a Zen 4 the per-access tests cost more than the split).
     use core::arch::x86_64::*;
 
     use crate::realtime::creep_pass::{advance_tail, LANES};
@@ -616,7 +619,7 @@ mod x86 {
     /// The blocks of `creep_pass::advance` for `f64` on 4-lane registers
     /// (callers compiled with AVX2); `v` is finite.
     #[inline(always)]
-    unsafe fn creep_advance_four<const SPLIT: bool>(
+    unsafe fn creep_advance_four(
         chi: &mut [f64],
         thresholds: &[f64],
         gains: &[f64],
@@ -640,12 +643,12 @@ mod x86 {
                 macro_rules! update {
                     ($at:expr, $g:expr) => {{
                         let (at, g) = ($at, $g);
-                        let x = load4_unsplit::<SPLIT>(at);
+                        let x = _mm256_loadu_pd(at);
                         let c = _mm256_max_pd(_mm256_min_pd(x, upper), lower);
                         // `creep_pass::update`: g c + (x − g x)
                         let g = _mm256_set1_pd(g);
                         let x = _mm256_fmadd_pd(g, c, _mm256_fnmadd_pd(g, x, x));
-                        store4_unsplit::<SPLIT>(at, x);
+                        _mm256_storeu_pd(at, x);
                         x
                     }};
                 }
@@ -700,7 +703,8 @@ mod x86 {
         }
     }
 
-    /// [`creep_advance_four`], as [`hysteresis_four`] for its state.
+    /// [`creep_advance_four`] on a placed `χ` (checked with debug
+    /// assertions).
     #[inline(always)]
     unsafe fn creep_four(
         chi: &mut [f64],
@@ -709,12 +713,9 @@ mod x86 {
         weights: &[f64],
         v: f64,
     ) -> f64 {
-        // SAFETY (both): the caller's.
-        if array_straddles(chi) {
-            unsafe { creep_advance_four::<true>(chi, thresholds, gains, weights, v) }
-        } else {
-            unsafe { creep_advance_four::<false>(chi, thresholds, gains, weights, v) }
-        }
+        debug_assert_placed(chi, thresholds.len());
+        // SAFETY: the caller's.
+        unsafe { creep_advance_four(chi, thresholds, gains, weights, v) }
     }
 
     /// [`hysteresis_step_eight`], as [`hysteresis_four`].
@@ -743,12 +744,24 @@ mod x86 {
         weights: &[E::T],
         v: E::T,
     ) -> E::T {
-        // SAFETY (both): the caller's.
-        if array_straddles(chi) {
-            unsafe { creep_advance_eight::<E, true>(chi, thresholds, gains, weights, v) }
-        } else {
-            unsafe { creep_advance_eight::<E, false>(chi, thresholds, gains, weights, v) }
-        }
+        debug_assert_placed(chi, thresholds.len());
+        // SAFETY: the caller's.
+        unsafe { creep_advance_eight::<E>(chi, thresholds, gains, weights, v) }
+    }
+
+    /// With debug assertions: no register of `χ` (rows of `n`) straddles
+    /// the first page boundary in it.
+    #[inline(always)]
+    fn debug_assert_placed<T>(chi: &[T], n: usize) {
+        debug_assert!(
+            !crate::realtime::placement::cuts_a_register(
+                chi.as_ptr() as usize,
+                size_of::<T>(),
+                n,
+                chi.len()
+            ),
+            "χ not placed"
+        );
     }
 
     /// `N` values at `p` read one by one (volatile, so that they are not
@@ -1121,7 +1134,7 @@ mod x86 {
     /// weighted rows added as two blocks of four; then a 4-lane block and
     /// the rest as the portable tail.
     #[inline(always)]
-    unsafe fn creep_advance_eight<E: Eight, const SPLIT: bool>(
+    unsafe fn creep_advance_eight<E: Eight>(
         chi: &mut [E::T],
         thresholds: &[E::T],
         gains: &[E::T],
@@ -1143,11 +1156,11 @@ mod x86 {
                 macro_rules! update {
                     ($at:expr, $g:expr) => {{
                         let (at, g) = ($at, $g);
-                        let x = E::load_unsplit::<SPLIT>(at);
+                        let x = E::load(at);
                         let c = x.min(upper).max(lower);
                         let g = E::splat(g);
                         let x = g.mul_add(c, g.neg_mul_add(x, x));
-                        x.store_unsplit::<SPLIT>(at);
+                        x.store(at);
                         x
                     }};
                 }
@@ -1167,11 +1180,11 @@ mod x86 {
                 macro_rules! update {
                     ($at:expr, $g:expr) => {{
                         let (at, g) = ($at, $g);
-                        let x = E::half_load_unsplit::<SPLIT>(at);
+                        let x = E::half_load(at);
                         let c = E::half_max(E::half_min(x, upper), lower);
                         let g = E::half_splat(g);
                         let x = E::half_mul_add(g, c, E::half_neg_mul_add(g, x, x));
-                        E::half_store_unsplit::<SPLIT>(x, at);
+                        E::half_store(x, at);
                         x
                     }};
                 }
