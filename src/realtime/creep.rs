@@ -17,7 +17,9 @@
 use crate::realtime::creep_pass::output;
 use crate::realtime::error::ParameterError;
 use crate::realtime::parameters::{check_finite, check_length, CreepParameters};
-use crate::realtime::placement::{chi_start, SLACK};
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+use crate::realtime::placement::chi_start;
+use crate::realtime::placement::SLACK;
 use crate::realtime::real::Real;
 use crate::realtime::simd::{self, Kernels};
 use crate::realtime::storage::{Buffer, Storage};
@@ -49,6 +51,8 @@ pub struct Creep<T: Real, S: Storage> {
     /// `chi_placed_at`.
     chi: S::CreepState<T>,
     chi_start: usize,
+    // kept on every target: one layout, one C storage size per word size
+    #[cfg_attr(not(all(feature = "std", target_arch = "x86_64")), allow(dead_code))]
     chi_placed_at: usize,
     /// The output of the current state, kept so `output()` is O(1).
     output: T,
@@ -225,7 +229,7 @@ impl<T: Real, S: Storage> Creep<T, S> {
     #[inline(always)]
     pub(crate) fn advance_with(&mut self, k: Kernels, v: T) -> T {
         self.place_chi();
-        let (start, len) = (self.chi_start, self.chi.len() - SLACK);
+        let (start, len) = (self.chi_offset(), self.chi.len() - SLACK);
         self.output = simd::creep_advance(
             k,
             &mut self.chi[start..start + len],
@@ -243,7 +247,7 @@ impl<T: Real, S: Storage> Creep<T, S> {
     #[inline(always)]
     pub(crate) fn step_parts(&mut self) -> simd::CreepParts<'_, T> {
         self.place_chi();
-        let (start, len) = (self.chi_start, self.chi.len() - SLACK);
+        let (start, len) = (self.chi_offset(), self.chi.len() - SLACK);
         simd::CreepParts {
             chi: &mut self.chi[start..start + len],
             thresholds: &self.thresholds,
@@ -262,9 +266,8 @@ impl<T: Real, S: Storage> Creep<T, S> {
         const NC: usize = simd::PAPER_CREEP.0;
         const M: usize = simd::PAPER_CREEP.1;
         self.place_chi();
-        // `chi_start ≤ SLACK` (`min` tells the compiler, which then checks
-        // nothing)
-        let start = self.chi_start.min(SLACK);
+        // `≤ SLACK` (`min` tells the compiler, which then checks nothing)
+        let start = self.chi_offset().min(SLACK);
         simd::CreepParts {
             chi: &mut self.chi.prefix_mut::<{ NC * M + SLACK }>()[start..][..NC * M],
             thresholds: self.thresholds.prefix::<NC>(),
@@ -287,31 +290,50 @@ impl<T: Real, S: Storage> Creep<T, S> {
         self.output = output(self.chi(), &self.scaled_weights);
     }
 
+    /// Where `χ` starts in its buffer: always 0 where it is not placed
+    /// (a constant the compiler folds into the slicing).
+    #[inline(always)]
+    fn chi_offset(&self) -> usize {
+        if cfg!(all(feature = "std", target_arch = "x86_64")) {
+            self.chi_start
+        } else {
+            0
+        }
+    }
+
     /// `χ`, wherever it starts in its buffer.
     #[inline(always)]
     fn chi(&self) -> &[T] {
-        &self.chi[self.chi_start..self.chi.len() - SLACK + self.chi_start]
+        let (start, len) = (self.chi_offset(), self.chi.len() - SLACK);
+        &self.chi[start..start + len]
     }
 
     /// `χ`, mutable.
     #[inline(always)]
     fn chi_mut(&mut self) -> &mut [T] {
-        let (start, len) = (self.chi_start, self.chi.len() - SLACK);
+        let (start, len) = (self.chi_offset(), self.chi.len() - SLACK);
         &mut self.chi[start..start + len]
     }
 
     /// Places `χ` for its buffer's address if it has not been placed for
     /// it (a new object, or one moved since): a compare and a predicted
-    /// branch per step.
+    /// branch per step, and a copy of `χ` in the first step after a move.
+    /// Only where the vector kernels run (x86-64 with `std`): elsewhere
+    /// `χ` stays at the buffer's start (a Cortex-M has no pages, and its
+    /// worst step would carry the copy).
     #[inline(always)]
     fn place_chi(&mut self) {
-        let at = self.chi.as_ptr() as usize;
-        if at != self.chi_placed_at {
-            self.place_chi_at(at);
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        {
+            let at = self.chi.as_ptr() as usize;
+            if at != self.chi_placed_at {
+                self.place_chi_at(at);
+            }
         }
     }
 
     /// Moves `χ` to the start [`chi_start`] gives for the buffer at `at`.
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
     #[cold]
     #[inline(never)]
     fn place_chi_at(&mut self, at: usize) {

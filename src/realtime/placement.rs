@@ -21,7 +21,9 @@
 //!
 //! An object that moves (a Rust move, a copy of C storage) carries its `χ`
 //! to a new address: the step compares the buffer's address with the one
-//! it placed `χ` for and places it again when they differ, once.
+//! it placed `χ` for and places it again when they differ, once (a copy
+//! of `χ` in that step). Only on x86-64 with `std`, where the vector
+//! kernels run; elsewhere `χ` stays at its buffer's start.
 
 /// Values a buffer for `χ` holds beyond `n · m`: the most the start moves.
 pub const SLACK: usize = 7;
@@ -32,6 +34,7 @@ const PAGE: usize = 4096;
 /// The index in a buffer at address `at` where `len` values of
 /// `size` bytes each (`χ`, rows of `n`) start so that the first page
 /// boundary after `at` cuts no register (see the module's note): `0..=7`.
+#[cfg_attr(not(all(feature = "std", target_arch = "x86_64")), allow(dead_code))]
 pub fn chi_start(at: usize, size: usize, n: usize, len: usize) -> usize {
     let to_boundary = PAGE - at % PAGE;
     if n == 0 || !to_boundary.is_multiple_of(size) {
