@@ -268,4 +268,38 @@ mod tests {
             check::<InlineBuffer<f64, 3>>(len, Some(3));
         }
     }
+
+    /// A creep-state buffer asked for `len` values holds `len + SLACK`
+    /// zeros, all of them writable, inline up to its capacity (and refused
+    /// beyond it, naming the capacity in values in use) and on the heap;
+    /// an inline one's prefix reaches into the slack.
+    #[test]
+    fn a_creep_state_buffer_holds_the_slack_too() {
+        fn check<B: Buffer<f64>>(len: usize) {
+            let mut b = B::zeroed("creep", len).unwrap();
+            assert_eq!(b.len(), len + SLACK);
+            assert!(b.iter().all(|&x| x == 0.0));
+            for (i, x) in b.iter_mut().enumerate() {
+                *x = i as f64;
+            }
+            assert_eq!(b[len + SLACK - 1], (len + SLACK - 1) as f64);
+        }
+        for len in 0..=6 {
+            check::<PaddedBuffer<f64, 6>>(len);
+            #[cfg(feature = "std")]
+            check::<crate::operators::heap::PaddedVec<f64>>(len);
+        }
+        let e = PaddedBuffer::<f64, 6>::zeroed("creep", 7).unwrap_err();
+        assert!(matches!(
+            e,
+            ParameterError::ExceedsCapacity {
+                capacity: 6,
+                found: 7,
+                ..
+            }
+        ));
+        let mut b = PaddedBuffer::<f64, 6>::zeroed("creep", 2).unwrap();
+        b.prefix_mut::<{ 6 + SLACK }>()[6 + SLACK - 1] = 5.0;
+        assert_eq!(b.prefix::<{ 6 + SLACK }>()[6 + SLACK - 1], 5.0);
+    }
 }
