@@ -566,15 +566,16 @@ mod x86 {
     //!
     //! The plays' states and their saved copy, which a step loads and
     //! stores again, go through `*_unsplit`: a register's worth that would
-    //! straddle a 4 KiB page is moved one value at a time. A step whose
-    //! array straddled a page there, at an offset that matched stack slots
-    //! the step had just written, took 13–21 % longer on a Zen 5 (a
-    //! compensator on the stack, in 6 of 256 stack offsets). Whether an
-    //! array can straddle at all is asked once per array and step
-    //! (`SPLIT`): most never do, and their accesses carry no test. The
-    //! creep state needs neither: the operator places it so that no
-    //! register's worth straddles a page (`crate::realtime::placement`;
-    //! on a Zen 4 the per-access tests cost more than the split).
+    //! straddle a 4 KiB page is moved one value at a time. On a Zen 5 a
+    //! step whose creep row straddled a page, at an offset that matched
+    //! stack slots the step had just written, took 13–21 % longer (a
+    //! compensator on the stack, in 6 of 256 stack offsets), and the
+    //! plays' arrays are kept from the same. Whether an array can straddle
+    //! at all is asked once per array and step (`SPLIT`): most never do,
+    //! and their accesses carry no test. The creep state needs neither:
+    //! the operator places it so that no register's worth straddles a page
+    //! (`crate::realtime::placement`; on a Zen 4 the per-access tests had
+    //! cost more than the split).
     use core::arch::x86_64::*;
 
     use crate::realtime::creep_pass::{advance_tail, LANES};
