@@ -46,6 +46,7 @@ pub struct PaddedVec<T>(Vec<T>);
 
 impl<T: Real> Buffer<T> for PaddedVec<T> {
     fn zeroed(field: &'static str, len: usize) -> Result<Self, ParameterError> {
+        // checked for the length asked, so that an error names it
         crate::limits::check(field, LONGEST, len)?;
         Vec::zeroed(field, len + SLACK).map(PaddedVec)
     }

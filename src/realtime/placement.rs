@@ -57,8 +57,9 @@ pub fn chi_start(at: usize, size: usize, n: usize, len: usize) -> usize {
     } else {
         0
     };
-    // `s ≤ p`: the boundary stays in its row (or before `χ`)
-    s.min(b)
+    // `s ≤ p`: the boundary stays in its row
+    debug_assert!(s <= p);
+    s
 }
 
 /// Whether a register of 8 or of 4 values, as the kernels load `χ`
