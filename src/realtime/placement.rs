@@ -31,25 +31,36 @@ pub const SLACK: usize = 7;
 /// Bytes in the pages whose boundaries matter.
 const PAGE: usize = 4096;
 
+/// How many values into its row (of `n`) the first page boundary after
+/// `at` falls, in `len` values of `size` bytes each from `at`; `None` if
+/// it falls at or past the end, if there are no rows, or if the values
+/// are not aligned to their size (never for a Rust `f32` or `f64`).
+fn boundary_in_row(at: usize, size: usize, n: usize, len: usize) -> Option<usize> {
+    let to_boundary = PAGE - at % PAGE;
+    if n == 0 || !to_boundary.is_multiple_of(size) {
+        return None;
+    }
+    let b = to_boundary / size;
+    (b < len).then_some(b % n)
+}
+
+/// The last block of 8 and the start of the scalar tail of a row of `n`:
+/// `(n − n mod 8, n − n mod 4)`.
+fn row_blocks(n: usize) -> (usize, usize) {
+    (n - n % 8, n - n % 4)
+}
+
 /// The index in a buffer at address `at` where `len` values of
 /// `size` bytes each (`χ`, rows of `n`) start so that the first page
 /// boundary after `at` cuts no register (see the module's note): `0..=7`.
 #[cfg_attr(not(all(feature = "std", target_arch = "x86_64")), allow(dead_code))]
 pub fn chi_start(at: usize, size: usize, n: usize, len: usize) -> usize {
-    let to_boundary = PAGE - at % PAGE;
-    if n == 0 || !to_boundary.is_multiple_of(size) {
-        // nothing to place, or values not aligned to their size (never for
-        // a Rust `f32` or `f64`): as it is
+    // `χ` starting at index `s` has the boundary `s` values earlier in
+    // its row
+    let Some(p) = boundary_in_row(at, size, n, len) else {
         return 0;
-    }
-    // the buffer's index where the next page begins; `χ` starting at
-    // index `s` has it `b − s` values in
-    let b = to_boundary / size;
-    if b >= len {
-        return 0;
-    }
-    let p = b % n;
-    let (full8, full4) = (n - n % 8, n - n % 4);
+    };
+    let (full8, full4) = row_blocks(n);
     let s = if p < full8 {
         p % 8
     } else if p < full4 {
@@ -67,12 +78,10 @@ pub fn chi_start(at: usize, size: usize, n: usize, len: usize) -> usize {
 /// first page boundary after `at`: what [`chi_start`] avoids.
 #[cfg_attr(not(all(feature = "std", target_arch = "x86_64")), allow(dead_code))]
 pub fn cuts_a_register(at: usize, size: usize, n: usize, len: usize) -> bool {
-    let to_boundary = PAGE - at % PAGE;
-    if n == 0 || !to_boundary.is_multiple_of(size) || to_boundary / size >= len {
+    let Some(p) = boundary_in_row(at, size, n, len) else {
         return false;
-    }
-    let p = (to_boundary / size) % n;
-    let (full8, full4) = (n - n % 8, n - n % 4);
+    };
+    let (full8, full4) = row_blocks(n);
     // the blocks of 8 (one kernel) and of 4 (the other, and the 8-lane
     // kernels' last half block) that hold values on both sides of `p`
     let in_eight = p < full8 && !p.is_multiple_of(8);
