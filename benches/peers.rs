@@ -7,10 +7,12 @@
 //! `-DSTRONG` (AVX2 intrinsics with FMA, a running creep sum, the chain cut
 //! to its minimum) from `MFCBEAM_C_PEER_STRONG`, the strongest built with
 //! `-DNO_FMA` (each FMA a multiply and an add, as mfcbeam computes) from
-//! `MFCBEAM_C_PEER_STRONG_NO_FMA`, and mfcbeam's own order of operations in
+//! `MFCBEAM_C_PEER_STRONG_NO_FMA`, mfcbeam's own order of operations in
 //! intrinsics (`-DSAME_ORDER`, the same bits) from
-//! `MFCBEAM_C_PEER_SAME_ORDER`; `benches/peers/run.sh` builds and passes
-//! all five.
+//! `MFCBEAM_C_PEER_SAME_ORDER`, and the strongest written in `f32`
+//! (`-DSTRONG_F32`: eight lanes per register) from
+//! `MFCBEAM_C_PEER_STRONG_F32`; `benches/peers/run.sh` builds and passes
+//! all six.
 //!
 //! Each round times one batch of 100 000 consecutive steps of every
 //! implementation (in a rotating order) on the same 4096 targets (W of the
@@ -18,8 +20,9 @@
 //! Reported: the CPU and the kernel set, the median per-step time over the
 //! rounds with the 10th–90th percentile spread, and the median (and spread)
 //! over rounds of each implementation's time divided by the strongest C
-//! peer's in the same round; last a `summary:` line that `run.sh` collects
-//! from three processes.
+//! peer's in the same round, and what `f32` buys each of the two
+//! (`f32` over `f64` time, the C against the C, mfcbeam against mfcbeam);
+//! last a `summary:` line that `run.sh` collects from three processes.
 
 #[cfg(target_os = "linux")]
 fn main() {
@@ -44,6 +47,7 @@ fn main() {
         "MFCBEAM_C_PEER_STRONG",
         "MFCBEAM_C_PEER_STRONG_NO_FMA",
         "MFCBEAM_C_PEER_SAME_ORDER",
+        "MFCBEAM_C_PEER_STRONG_F32",
     ];
     let Ok(paths) = vars
         .iter()
@@ -102,6 +106,7 @@ fn main() {
         "strongest C peer (AVX2 + FMA, -DSTRONG)",
         "strongest C peer without FMA (-DNO_FMA)",
         "mfcbeam's order in C (-DSAME_ORDER)",
+        "strongest C peer in f32 (-DSTRONG_F32)",
         "Compensator (heap, f64)",
         "Compensator<f64, nominal::Capacity>",
         "Compensator<f32, nominal::Capacity>",
@@ -111,7 +116,7 @@ fn main() {
         let t0 = Instant::now();
         match which {
             // SAFETY: the peer's pointer and LEN targets, as peer_run expects.
-            0..=4 => {
+            0..=5 => {
                 black_box(unsafe {
                     (peers[which].1)(
                         c_states[which],
@@ -121,7 +126,7 @@ fn main() {
                     )
                 });
             }
-            5 => {
+            6 => {
                 let mut s = 0.0;
                 for _ in 0..STEPS {
                     ks[0] = (ks[0] + 1) & (LEN - 1);
@@ -129,7 +134,7 @@ fn main() {
                 }
                 black_box(s);
             }
-            6 => {
+            7 => {
                 let mut s = 0.0;
                 for _ in 0..STEPS {
                     ks[1] = (ks[1] + 1) & (LEN - 1);
@@ -200,19 +205,33 @@ fn main() {
         );
         summary.push(format!("{:.4}/{:.4}", quantile(t, 0.5), quantile(r, 0.5)));
     }
-    // f32 against f64, the same rounds
-    let f32_vs_f64: Vec<f64> = times[7].iter().zip(&times[6]).map(|(a, b)| a / b).collect();
-    println!(
-        "Compensator<f32> / Compensator<f64> (nominal::Capacity): {:.3} (p10-p90 {:.3}-{:.3})",
-        quantile(&f32_vs_f64, 0.5),
-        quantile(&f32_vs_f64, 0.1),
-        quantile(&f32_vs_f64, 0.9)
-    );
+    // f32 against f64, the same rounds: mfcbeam's, and the strongest C's
+    let over = |a: usize, b: usize| -> Vec<f64> {
+        times[a].iter().zip(&times[b]).map(|(x, y)| x / y).collect()
+    };
+    let f32_vs_f64 = over(8, 7);
+    let c_f32_vs_f64 = over(5, strongest);
+    for (name, r) in [
+        (
+            "Compensator<f32> / Compensator<f64> (nominal::Capacity)",
+            &f32_vs_f64,
+        ),
+        ("strongest C in f32 / strongest C in f64", &c_f32_vs_f64),
+        ("Compensator<f32> / strongest C in f32", &over(8, 5)),
+    ] {
+        println!(
+            "{name}: {:.3} (p10-p90 {:.3}-{:.3})",
+            quantile(r, 0.5),
+            quantile(r, 0.1),
+            quantile(r, 0.9)
+        );
+    }
     // median ns / median ratio to the strongest peer, per implementation
     println!(
-        "summary: {} f32/f64={:.4}",
+        "summary: {} f32/f64={:.4} c_f32/f64={:.4}",
         summary.join(" "),
-        quantile(&f32_vs_f64, 0.5)
+        quantile(&f32_vs_f64, 0.5),
+        quantile(&c_f32_vs_f64, 0.5)
     );
 }
 

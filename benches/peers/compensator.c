@@ -14,8 +14,9 @@
  * With -DBRANCH_FREE the step is the same loops without the target test,
  * the forward plays and the re-seat; with -DSTRONG (optionally -DNO_FMA) it
  * is the strongest peer, AVX2 intrinsics written for the dependency chain;
- * with -DSAME_ORDER it is mfcbeam's step, its order of operations in
- * intrinsics (each described where it is defined).
+ * with -DSTRONG_F32 the strongest in single precision; with -DSAME_ORDER it
+ * is mfcbeam's step, its order of operations in intrinsics (each described
+ * where it is defined).
  *
  * The input is the random walk of benches/common (same generator and
  * constants); the targets are W of it, computed here by the forward model.
@@ -223,6 +224,145 @@ static double compensate_same(same *c, double target, int *saturated) {
 #define compensator same
 #define init_compensator init_same
 #define compensate compensate_same
+#elif defined(STRONG_F32)
+/* The strongest peer in single precision (-DSTRONG_F32): -DSTRONG's design
+ * (a running creep sum re-summed every RESUM steps, only dC on the chain,
+ * H^-1's bounds formed before dC, sums as trees ending in a butterfly, the
+ * clip a predicted branch; no target test, no forward plays, no re-seat),
+ * in float, eight lanes per AVX2 register instead of four: H^-1 in two
+ * registers (plays 0-7, then 8-11 and four empty lanes), the creep's 60
+ * elements in eight (thresholds 0-7 of row j in register j; thresholds
+ * 8-11 of rows 0 and 1, 2 and 3, 4 and four empty lanes in registers 5-7),
+ * against fifteen and three in double. The target arrives as a double and
+ * is rounded to float, the voltage leaves as a double (both off the
+ * chain). An empty lane has no weight, no gain and a zero state, so it adds
+ * exact zeros. What it shows: what half the bytes and twice the lanes buy
+ * a hand-written step whose dependency chain has the same operations. */
+#include <immintrin.h>
+
+#define G32 8 /* creep registers */
+#define RESUM 1024
+
+typedef struct {
+    __m256 ri[2], wi[2], xi[2];                 /* H^-1 */
+    __m256 r[2], q[G32], g[G32], h[G32], wc[G32], chi[G32]; /* creep */
+    float lower, upper, c_prev, dc;
+    int count;
+} strong32;
+
+/* s in every lane summed, in all eight lanes */
+static inline __m256 all_lanes_sum8(__m256 s) {
+    s = _mm256_add_ps(s, _mm256_permute2f128_ps(s, s, 1));
+    s = _mm256_add_ps(s, _mm256_permute_ps(s, 0x4E));
+    return _mm256_add_ps(s, _mm256_permute_ps(s, 0xB1));
+}
+
+__attribute__((noinline, cold)) static float creep_sum32(const strong32 *c) {
+    __m256 s = _mm256_setzero_ps();
+    for (int e = 0; e < G32; e++) s = _mm256_fmadd_ps(c->wc[e], c->chi[e], s);
+    return _mm256_cvtss_f32(all_lanes_sum8(s));
+}
+
+/* register e, lane l of the creep: its threshold and eigenvalue (-1: empty) */
+static void creep_lane(int e, int l, int *i, int *j) {
+    if (e < M) {
+        *i = l;
+        *j = e;
+    } else {
+        *i = NC - 4 + l % 4;
+        *j = 2 * (e - M) + l / 4;
+        if (*j >= M) *i = *j = -1;
+    }
+}
+
+static void init_strong32(strong32 *c) {
+    compensator base;
+    init_compensator(&base);
+    memset(c, 0, sizeof *c);
+    float ri[16] = {0}, wi[16] = {0}, r[16];
+    for (int i = 0; i < NP; i++) {
+        ri[i] = (float)base.ri[i];
+        wi[i] = (float)base.wi[i];
+    }
+    for (int l = 0; l < 8; l++) {
+        r[l] = (float)base.rc[l];
+        r[8 + l] = (float)base.rc[NC - 4 + l % 4];
+    }
+    for (int b = 0; b < 2; b++) {
+        c->ri[b] = _mm256_loadu_ps(ri + 8 * b);
+        c->wi[b] = _mm256_loadu_ps(wi + 8 * b);
+        c->r[b] = _mm256_loadu_ps(r + 8 * b);
+    }
+    for (int e = 0; e < G32; e++) {
+        float q[8], g[8], h[8], wc[8];
+        for (int l = 0; l < 8; l++) {
+            int i, j;
+            creep_lane(e, l, &i, &j);
+            g[l] = j < 0 ? 0.0f : (float)base.g[j];
+            h[l] = j < 0 ? 0.0f : (float)(1.0 - base.g[j]);
+            wc[l] = j < 0 ? 0.0f : (float)base.wc[i];
+            q[l] = j < 0 ? 0.0f : (float)(base.wc[i] * base.g[j]);
+        }
+        c->q[e] = _mm256_loadu_ps(q);
+        c->g[e] = _mm256_loadu_ps(g);
+        c->h[e] = _mm256_loadu_ps(h);
+        c->wc[e] = _mm256_loadu_ps(wc);
+    }
+    c->lower = (float)base.lower;
+    c->upper = (float)base.upper;
+}
+
+/* dC for the input u (in all lanes), chi advanced with it. */
+static inline __m256 strong32_creep(strong32 *c, __m256 u) {
+    __m256 lo[2], hi[2], p[G32];
+    for (int b = 0; b < 2; b++) {
+        lo[b] = _mm256_sub_ps(u, c->r[b]);
+        hi[b] = _mm256_add_ps(u, c->r[b]);
+    }
+    for (int e = 0; e < G32; e++) {
+        int b = e < M ? 0 : 1;
+        __m256 x = c->chi[e];
+        __m256 minus_qx = _mm256_mul_ps(c->q[e], _mm256_sub_ps(_mm256_setzero_ps(), x));
+        __m256 hx = _mm256_mul_ps(c->h[e], x);
+        __m256 clamped = _mm256_max_ps(_mm256_min_ps(x, hi[b]), lo[b]);
+        p[e] = _mm256_fmadd_ps(c->q[e], clamped, minus_qx);
+        c->chi[e] = _mm256_fmadd_ps(c->g[e], clamped, hx);
+    }
+    __m256 a0 = _mm256_add_ps(p[0], p[4]), a1 = _mm256_add_ps(p[1], p[5]);
+    __m256 a2 = _mm256_add_ps(p[2], p[6]), a3 = _mm256_add_ps(p[3], p[7]);
+    return all_lanes_sum8(_mm256_add_ps(_mm256_add_ps(a0, a2), _mm256_add_ps(a1, a3)));
+}
+
+static double compensate_strong32(strong32 *c, double target, int *saturated) {
+    __m256 dc = _mm256_set1_ps(c->dc);
+    __m256 z = _mm256_set1_ps((float)target - c->c_prev);
+    __m256 s[2];
+    for (int b = 0; b < 2; b++) {
+        __m256 hi = _mm256_sub_ps(_mm256_add_ps(z, c->ri[b]), dc);
+        __m256 lo = _mm256_sub_ps(_mm256_sub_ps(z, c->ri[b]), dc);
+        c->xi[b] = _mm256_max_ps(_mm256_min_ps(c->xi[b], hi), lo);
+        s[b] = _mm256_mul_ps(c->wi[b], c->xi[b]);
+    }
+    __m256 v = all_lanes_sum8(_mm256_add_ps(s[0], s[1]));
+    float vs = _mm256_cvtss_f32(v);
+    *saturated = !(vs >= c->lower && vs <= c->upper);
+    if (__builtin_expect(*saturated, 0)) {
+        vs = fminf(fmaxf(vs, c->lower), c->upper);
+        v = _mm256_set1_ps(vs);
+    }
+    __m256 d = strong32_creep(c, v);
+    c->c_prev += c->dc;
+    c->dc = _mm256_cvtss_f32(d);
+    if (__builtin_expect(++c->count == RESUM, 0)) {
+        c->count = 0;
+        c->c_prev = creep_sum32(c);
+        c->dc = 0.0f;
+    }
+    return vs;
+}
+#define compensator strong32
+#define init_compensator init_strong32
+#define compensate compensate_strong32
 #elif defined(STRONG)
 /* The strongest peer (-DSTRONG): AVX2 intrinsics with FMA, written for one
  * step's dependency chain, u_{k-1} -> creep -> H^-1 -> clip -> u_k, and for
