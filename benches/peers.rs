@@ -169,7 +169,8 @@ fn main() {
         v.sort_by(f64::total_cmp);
         v[((v.len() - 1) as f64 * p).round() as usize]
     };
-    let strongest = 2;
+    // rows of `names` compared below
+    let (strongest, strongest_f32, inline_f64, inline_f32) = (2, 5, 7, 8);
     let ratios: Vec<Vec<f64>> = times
         .iter()
         .map(|t| {
@@ -209,15 +210,18 @@ fn main() {
     let over = |a: usize, b: usize| -> Vec<f64> {
         times[a].iter().zip(&times[b]).map(|(x, y)| x / y).collect()
     };
-    let f32_vs_f64 = over(8, 7);
-    let c_f32_vs_f64 = over(5, strongest);
+    let f32_vs_f64 = over(inline_f32, inline_f64);
+    let c_f32_vs_f64 = over(strongest_f32, strongest);
     for (name, r) in [
         (
             "Compensator<f32> / Compensator<f64> (nominal::Capacity)",
             &f32_vs_f64,
         ),
         ("strongest C in f32 / strongest C in f64", &c_f32_vs_f64),
-        ("Compensator<f32> / strongest C in f32", &over(8, 5)),
+        (
+            "Compensator<f32> / strongest C in f32",
+            &over(inline_f32, strongest_f32),
+        ),
     ] {
         println!(
             "{name}: {:.3} (p10-p90 {:.3}-{:.3})",

@@ -233,7 +233,7 @@ static double compensate_same(same *c, double target, int *saturated) {
  * registers (plays 0-7, then 8-11 and four empty lanes), the creep's 60
  * elements in eight (thresholds 0-7 of row j in register j; thresholds
  * 8-11 of rows 0 and 1, 2 and 3, 4 and four empty lanes in registers 5-7),
- * against fifteen and three in double. The target arrives as a double and
+ * against three and fifteen in double. The target arrives as a double and
  * is rounded to float, the voltage leaves as a double (both off the
  * chain). An empty lane has no weight, no gain and a zero state, so it adds
  * exact zeros. What it shows: what half the bytes and twice the lanes buy
