@@ -229,10 +229,10 @@ impl<T: Real, S: Storage> Creep<T, S> {
     #[inline(always)]
     pub(crate) fn advance_with(&mut self, k: Kernels, v: T) -> T {
         self.place_chi();
-        let (start, len) = (self.chi_offset(), self.chi.len() - SLACK);
+        let start = self.chi_offset();
         self.output = simd::creep_advance(
             k,
-            &mut self.chi[start..start + len],
+            placed_mut(&mut self.chi, start),
             &self.thresholds,
             &self.gains,
             &self.scaled_weights,
@@ -247,9 +247,9 @@ impl<T: Real, S: Storage> Creep<T, S> {
     #[inline(always)]
     pub(crate) fn step_parts(&mut self) -> simd::CreepParts<'_, T> {
         self.place_chi();
-        let (start, len) = (self.chi_offset(), self.chi.len() - SLACK);
+        let start = self.chi_offset();
         simd::CreepParts {
-            chi: &mut self.chi[start..start + len],
+            chi: placed_mut(&mut self.chi, start),
             thresholds: &self.thresholds,
             gains: &self.gains,
             weights: &self.scaled_weights,
@@ -304,15 +304,15 @@ impl<T: Real, S: Storage> Creep<T, S> {
     /// `χ`, wherever it starts in its buffer.
     #[inline(always)]
     fn chi(&self) -> &[T] {
-        let (start, len) = (self.chi_offset(), self.chi.len() - SLACK);
-        &self.chi[start..start + len]
+        let start = self.chi_offset();
+        &self.chi[start..start + self.chi.len() - SLACK]
     }
 
     /// `χ`, mutable.
     #[inline(always)]
     fn chi_mut(&mut self) -> &mut [T] {
-        let (start, len) = (self.chi_offset(), self.chi.len() - SLACK);
-        &mut self.chi[start..start + len]
+        let start = self.chi_offset();
+        placed_mut(&mut self.chi, start)
     }
 
     /// Places `χ` for its buffer's address if it has not been placed for
@@ -351,6 +351,15 @@ impl<T: Real, S: Storage> Creep<T, S> {
         self.last_input = T::ZERO;
         self.refresh_output();
     }
+}
+
+/// `χ` in its buffer (which holds [`SLACK`] values more) from `start`
+/// on: a function of the buffer alone, so that a step can borrow `χ`
+/// beside the operator's other fields.
+#[inline(always)]
+fn placed_mut<T>(buffer: &mut [T], start: usize) -> &mut [T] {
+    let end = start + buffer.len() - SLACK;
+    &mut buffer[start..end]
 }
 
 /// Equal when the parameters and states are, wherever `χ` lies in its
