@@ -244,6 +244,131 @@ proptest! {
     }
 }
 
+/// `RoundingBounds` of a creep operator alone, at precision `eps`, virgin.
+fn creep_bounds<'a>(
+    thresholds: &'a [f64],
+    weights: &'a [f64],
+    eigenvalues: &'a [f64],
+    sample_time: f64,
+    eps: f64,
+) -> mfcbeam::realtime::RoundingBounds<'a> {
+    use mfcbeam::realtime::{CreepParameters, HysteresisParameters, ModelParameters};
+    mfcbeam::realtime::RoundingBounds {
+        parameters: ModelParameters {
+            sample_time,
+            hysteresis: HysteresisParameters {
+                thresholds: &[0.0],
+                weights: &[1.0],
+            },
+            creep: Some(CreepParameters {
+                thresholds,
+                weights,
+                eigenvalues,
+            }),
+            superposition: None,
+            dynamics: None,
+            delay: 0,
+            offset: 0.0,
+        },
+        state_max: 0.0,
+        eps,
+    }
+}
+
+/// `max_k |C₃₂ − C₆₄|` over the first `k` samples of `v`, from virgin
+/// operators: the `f32` real-time operator against the `f64` one.
+fn f32_creep_deviations(c: &CreepOperator, v: &[f64]) -> Vec<f64> {
+    let mut c64 = c.clone();
+    let mut c32 = mfcbeam::realtime::Creep::<f32, mfcbeam::operators::heap::Heap>::new(
+        c.thresholds(),
+        c.weights(),
+        c.eigenvalues(),
+        c.sample_time(),
+    )
+    .unwrap();
+    let mut worst = 0.0f64;
+    v.iter()
+        .map(|&x| {
+            let d = (f64::from(c32.advance(x as f32)) - c64.advance(x)).abs();
+            worst = worst.max(d);
+            worst
+        })
+        .collect()
+}
+
+proptest! {
+    #![proptest_config(config(64, "proptest-regressions/creep_properties.txt"))]
+
+    /// The creep sum's rounding bound over a run (`creep_sum_over`): after
+    /// `k` samples from virgin, the `f32` operator lies within the `f32`
+    /// and `f64` bounds for `k` samples of the `f64` one, at every `k`.
+    /// Random walks (steps up to a tenth of the amplitude) keep the slow
+    /// operators moving by less than an `f32` ulp, where they stall.
+    #[test]
+    fn f32_creep_stays_within_the_rounding_bound_over_its_samples(
+        c in creep_operator(12),
+        steps in prop::collection::vec(-0.1f64..0.1, 100..2000),
+        amplitude in 0.5f64..50.0,
+    ) {
+        let mut x = 0.0f64;
+        let v: Vec<f64> = steps
+            .iter()
+            .map(|d| {
+                x = (x + d * amplitude).clamp(-amplitude, amplitude);
+                x
+            })
+            .collect();
+        let v_max = max_abs(&v);
+        let bound = |eps, k| {
+            creep_bounds(c.thresholds(), c.weights(), c.eigenvalues(), c.sample_time(), eps)
+                .creep_sum_over(v_max, k)
+        };
+        for (k, &worst) in f32_creep_deviations(&c, &v).iter().enumerate() {
+            let samples = k as u64 + 1;
+            let b = bound(f32::EPSILON as f64, samples) + bound(f64::EPSILON, samples);
+            prop_assert!(worst <= b, "after {samples} samples: {worst:e} > {b:e}");
+        }
+    }
+}
+
+/// Where the run is short of the slow operators' time constants the bound
+/// over the run is the sharper one, and still holds: the nominal creep (the
+/// slowest operator `a = 0.05 s⁻¹`, `1/(aT_s) = 10⁵` samples) under a slow
+/// sine in `f32` for 4096 samples. The bound over the run also stays at or
+/// below the bound for any run, grows with the run and reaches it.
+#[test]
+fn the_creep_bound_over_a_run_is_sharper_and_holds() {
+    use mfcbeam::realtime::nominal;
+    let (r, w, a) = (
+        &nominal::THRESHOLDS[..],
+        &nominal::CREEP_WEIGHTS[..],
+        &nominal::CREEP_EIGENVALUES[..],
+    );
+    let ts = nominal::PARAMETERS.sample_time;
+    let c = CreepOperator::new(r, w, a, ts).unwrap();
+    let v: Vec<f64> = (0..4096).map(|k| 600.0 * (k as f64 * 2e-3).sin()).collect();
+    let worst = *f32_creep_deviations(&c, &v).last().unwrap();
+    let b32 = creep_bounds(r, w, a, ts, f32::EPSILON as f64);
+    let b64 = creep_bounds(r, w, a, ts, f64::EPSILON);
+    let over = b32.creep_sum_over(600.0, 4096) + b64.creep_sum_over(600.0, 4096);
+    let any = b32.creep_sum(600.0) + b64.creep_sum(600.0);
+    eprintln!("nominal creep, f32 against f64, 4096 samples: {worst:.3e}; bound over the run {over:.3e}, for any run {any:.3e}");
+    assert!(worst > 0.0 && worst <= over, "{worst:e} > {over:e}");
+    assert!(over < 0.2 * any, "{over:e} against {any:e}");
+    let mut last = 0.0;
+    for k in [1u64, 10, 100, 10_000, 1_000_000, 100_000_000] {
+        let b = b32.creep_sum_over(600.0, k);
+        assert!(b > last && b <= b32.creep_sum(600.0), "{k}: {b:e}");
+        last = b;
+    }
+    // 10⁸ samples are 2000 time constants of the slowest operator
+    let limit = b32.creep_sum(600.0);
+    assert!(
+        (limit - last).abs() <= 1e-12 * limit,
+        "{last:e} against {limit:e}"
+    );
+}
+
 /// log(t) linearity of (15): the step response of the log(t)-creep operator
 /// with eigenvalues (24) rises by `(v − r)/m` per decade of time between
 /// `1/a_1` and `1/a_m`. Telescoping the sum gives the exact per-decade

@@ -22,7 +22,12 @@
 //!   rounding differently shows, and what `f32` shows when a slow
 //!   operator's increment drops below half an ulp of `χ` and it stalls:
 //!   the bound carries `Σ_j (1/g_j + 2)` per threshold, the fused form's
-//!   `δ/g` with `|χ|, |c| ≤ max|v| + r_n`.
+//!   `δ/g` with `|χ|, |c| ≤ max|v| + r_n`. Over a run of `K` samples from
+//!   a common state the errors of at most `K` moving samples add:
+//!   `δ Σ_{k<K} (1 − g)^k = δ (1 − e^{−aKT_s})/g`, at most `K δ` and at
+//!   most `δ/g` ([`RoundingBounds::creep_sum_over`]); `1/g` is that sum's
+//!   limit, which a run reaches once `K ≫ 1/(aT_s)` (`10⁵` samples for
+//!   `a = 0.05 s⁻¹` at 5 kHz).
 //!
 //! * The superposition operator `S` is a sum of `k` dead zones, rounded as
 //!   the hysteresis sum is; an error in its argument comes out scaled by its
@@ -62,6 +67,19 @@ fn last(r: &[f64]) -> f64 {
     r.last().copied().unwrap_or(0.0)
 }
 
+/// How far one creep update's rounding is carried over `samples` samples,
+/// in units of it: `Σ_{k<K} (1 − g)^k = (1 − e^{−aKT_s})/g` with
+/// `1 − g = e^{−aT_s}`, written as `creep_gain(a, K T_s) / creep_gain(a,
+/// T_s)` (no cancellation); `1/g` for `K = ∞`, 1 for `K = 1`.
+fn carried(eigenvalue: f64, sample_time: f64, samples: f64) -> f64 {
+    let g = creep_gain(eigenvalue, sample_time);
+    if samples.is_finite() {
+        creep_gain(eigenvalue, sample_time * samples.max(1.0)) / g
+    } else {
+        1.0 / g
+    }
+}
+
 impl RoundingBounds<'_> {
     /// Smallest partial sum `s_min` of the hysteresis weights.
     pub fn min_slope(&self) -> f64 {
@@ -91,8 +109,23 @@ impl RoundingBounds<'_> {
         4.0 * n * self.eps * abs_sum(h.weights) * self.state_bound(v_max)
     }
 
-    /// The creep sum `Σ_i w_i (1/m) Σ_j χ_ij` and its updates.
+    /// The creep sum `Σ_i w_i (1/m) Σ_j χ_ij` and its updates, on a run of
+    /// any length.
     pub fn creep_sum(&self, v_max: f64) -> f64 {
+        self.creep_sum_within(v_max, f64::INFINITY)
+    }
+
+    /// [`RoundingBounds::creep_sum`] on a run of `samples` samples from a
+    /// state both sides share (virgin, or one state set on both): the
+    /// updates' roundings carried on by `(1 − e^{−a_j K T_s})/g_j` instead
+    /// of `1/g_j`, which is smaller while `K` is short of the slowest
+    /// operator's time constant `1/(a_j T_s)` samples.
+    pub fn creep_sum_over(&self, v_max: f64, samples: u64) -> f64 {
+        self.creep_sum_within(v_max, samples as f64)
+    }
+
+    /// The creep sum's bound for runs of `samples` samples (`∞`: any).
+    fn creep_sum_within(&self, v_max: f64, samples: f64) -> f64 {
         match &self.parameters.creep {
             None => 0.0,
             Some(c) => {
@@ -102,7 +135,7 @@ impl RoundingBounds<'_> {
                 let drift = c
                     .eigenvalues
                     .iter()
-                    .map(|&a| 1.0 / creep_gain(a, ts) + 2.0)
+                    .map(|&a| carried(a, ts, samples) + 2.0)
                     .sum::<f64>()
                     / m;
                 self.eps * abs_sum(c.weights) * self.state_bound(v_max) * (8.0 * n + drift)
@@ -343,8 +376,18 @@ impl RoundingBounds<'_> {
     /// `S⁻¹`'s rounding; compared in the output domain, everything comes
     /// back through `S` (slope at most `σ_max`) with `S`'s own rounding.
     pub fn compensator(&self, v_max: f64, y_max: f64) -> f64 {
+        self.compensator_within(v_max, y_max, f64::INFINITY)
+    }
+
+    /// [`RoundingBounds::compensator`] on a run of `samples` samples from a
+    /// common state ([`RoundingBounds::creep_sum_over`]).
+    pub fn compensator_over(&self, v_max: f64, y_max: f64, samples: u64) -> f64 {
+        self.compensator_within(v_max, y_max, samples as f64)
+    }
+
+    fn compensator_within(&self, v_max: f64, y_max: f64, samples: f64) -> f64 {
         let p = &self.parameters;
-        let creep = self.creep_sum(v_max);
+        let creep = self.creep_sum_within(v_max, samples);
         let creep_out = p
             .creep
             .as_ref()
