@@ -119,7 +119,8 @@ impl RoundingBounds<'_> {
     /// state both sides share (virgin, or one state set on both): the
     /// updates' roundings carried on by `(1 − e^{−a_j K T_s})/g_j` instead
     /// of `1/g_j`, which is smaller while `K` is short of the slowest
-    /// operator's time constant `1/(a_j T_s)` samples.
+    /// operator's time constant `1/(a_j T_s)` samples (`K = 0` counts as
+    /// one sample).
     pub fn creep_sum_over(&self, v_max: f64, samples: u64) -> f64 {
         self.creep_sum_within(v_max, samples as f64)
     }
