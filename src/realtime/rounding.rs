@@ -70,14 +70,10 @@ fn last(r: &[f64]) -> f64 {
 /// How far one creep update's rounding is carried over `samples` samples,
 /// in units of it: `Σ_{k<K} (1 − g)^k = (1 − e^{−aKT_s})/g` with
 /// `1 − g = e^{−aT_s}`, written as `creep_gain(a, K T_s) / creep_gain(a,
-/// T_s)` (no cancellation); `1/g` for `K = ∞`, 1 for `K = 1`.
+/// T_s)` (no cancellation): 1 for `K = 1`, and exactly `1/g` for `K = ∞`
+/// (`−expm1(−∞) = 1`).
 fn carried(eigenvalue: f64, sample_time: f64, samples: f64) -> f64 {
-    let g = creep_gain(eigenvalue, sample_time);
-    if samples.is_finite() {
-        creep_gain(eigenvalue, sample_time * samples.max(1.0)) / g
-    } else {
-        1.0 / g
-    }
+    creep_gain(eigenvalue, sample_time * samples.max(1.0)) / creep_gain(eigenvalue, sample_time)
 }
 
 impl RoundingBounds<'_> {
