@@ -111,12 +111,21 @@ fn main() {
         "Compensator<f64, nominal::Capacity>",
         "Compensator<f32, nominal::Capacity>",
     ];
+    // rows of `names`: the C libraries first, in `vars`' order, then
+    // mfcbeam's three; named where they are timed and compared
+    const STRONGEST: usize = 2;
+    const STRONGEST_F32: usize = 5;
+    const HEAP_F64: usize = 6;
+    const INLINE_F64: usize = 7;
+    const INLINE_F32: usize = 8;
+    assert_eq!(peers.len(), HEAP_F64);
+    assert_eq!(names.len(), INLINE_F32 + 1);
     let mut times = vec![Vec::with_capacity(ROUNDS); names.len()];
     let mut time = |which: usize, ks: &mut [usize; 3]| -> f64 {
         let t0 = Instant::now();
         match which {
             // SAFETY: the peer's pointer and LEN targets, as peer_run expects.
-            0..=5 => {
+            0..HEAP_F64 => {
                 black_box(unsafe {
                     (peers[which].1)(
                         c_states[which],
@@ -126,7 +135,7 @@ fn main() {
                     )
                 });
             }
-            6 => {
+            HEAP_F64 => {
                 let mut s = 0.0;
                 for _ in 0..STEPS {
                     ks[0] = (ks[0] + 1) & (LEN - 1);
@@ -134,7 +143,7 @@ fn main() {
                 }
                 black_box(s);
             }
-            7 => {
+            INLINE_F64 => {
                 let mut s = 0.0;
                 for _ in 0..STEPS {
                     ks[1] = (ks[1] + 1) & (LEN - 1);
@@ -142,7 +151,7 @@ fn main() {
                 }
                 black_box(s);
             }
-            _ => {
+            INLINE_F32 => {
                 let mut s = 0.0;
                 for _ in 0..STEPS {
                     ks[2] = (ks[2] + 1) & (LEN - 1);
@@ -150,6 +159,7 @@ fn main() {
                 }
                 black_box(s);
             }
+            _ => unreachable!("row {which} of {} names", names.len()),
         }
         t0.elapsed().as_nanos() as f64 / STEPS as f64
     };
@@ -169,13 +179,11 @@ fn main() {
         v.sort_by(f64::total_cmp);
         v[((v.len() - 1) as f64 * p).round() as usize]
     };
-    // rows of `names` compared below
-    let (strongest, strongest_f32, inline_f64, inline_f32) = (2, 5, 7, 8);
     let ratios: Vec<Vec<f64>> = times
         .iter()
         .map(|t| {
             t.iter()
-                .zip(&times[strongest])
+                .zip(&times[STRONGEST])
                 .map(|(a, c)| a / c)
                 .collect()
         })
@@ -210,8 +218,8 @@ fn main() {
     let over = |a: usize, b: usize| -> Vec<f64> {
         times[a].iter().zip(&times[b]).map(|(x, y)| x / y).collect()
     };
-    let f32_vs_f64 = over(inline_f32, inline_f64);
-    let c_f32_vs_f64 = over(strongest_f32, strongest);
+    let f32_vs_f64 = over(INLINE_F32, INLINE_F64);
+    let c_f32_vs_f64 = over(STRONGEST_F32, STRONGEST);
     for (name, r) in [
         (
             "Compensator<f32> / Compensator<f64> (nominal::Capacity)",
@@ -220,7 +228,7 @@ fn main() {
         ("strongest C in f32 / strongest C in f64", &c_f32_vs_f64),
         (
             "Compensator<f32> / strongest C in f32",
-            &over(inline_f32, strongest_f32),
+            &over(INLINE_F32, STRONGEST_F32),
         ),
     ] {
         println!(
