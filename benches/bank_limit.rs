@@ -36,7 +36,7 @@
 //! and the share of a core a 4000-actuator mirror at 10 kHz needs.
 //! Last, with `MFCBEAM_C_BANK` naming the library of the hand-written C bank
 //! (`benches/peers/bank.c`, built by `benches/peers/run.sh`), the bank
-//! against it in alternating batches at 8, 64 and 1024 channels (`f64`).
+//! against it in alternating batches at 8, 64, 1024 and 4096 channels (`f64`).
 //!
 //! `cargo bench --bench bank_limit`
 
@@ -696,7 +696,7 @@ fn report<T: Real>(ghz: f64) -> f64 {
 /// The bank against the hand-written C bank of `benches/peers/bank.c`
 /// (`f64`, AVX-512F, built by `benches/peers/run.sh` as `libbank.so` and
 /// loaded from `MFCBEAM_C_BANK`), in alternating batches on one thread at 8,
-/// 64 and 1024 channels: the same targets, the same bits (checked after the
+/// 64, 1024 and 4096 channels: the same targets, the same bits (checked after the
 /// warm-up), the median time of each, and the median and 10–90 % spread of
 /// mfcbeam's time over the C's in the same round.
 #[cfg(target_os = "linux")]
@@ -720,7 +720,7 @@ fn against_c_bank(path: &str, ghz: f64, bound: f64) {
         "{:>8} {:>12} {:>12} {:>14} {:>14} {:>16}",
         "channels", "mfcbeam ns", "C ns", "mfcbeam / C", "10-90 %", "C of the bound"
     );
-    for channels in [8usize, 64, 1024] {
+    for channels in [8usize, 64, 1024, 4096] {
         let rows = bank_rows::<f64>(channels, ROWS);
         let flat: Vec<f64> = rows.iter().flatten().copied().collect();
         let mut bank = nominal_bank::<f64>(channels);

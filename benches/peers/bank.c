@@ -194,10 +194,14 @@ static __attribute__((noinline)) void bank_step(bank *b, const double *targets, 
     /* the parameters and the state apart (restrict): no reloads after stores */
     long n = b->blocks;
     int cur = b->parity;
-    first_part(b, b->state, targets, out, cur);
-    for (long k = 0; k < n; k++) {
-        if (k + 1 < n)
-            first_part(b, b->state + (k + 1) * ROWS, targets + 8 * (k + 1), out + 8 * (k + 1), cur);
+    /* up and down in turn, as mfcbeam's one-thread step: walked back, a
+     * step starts on the lines the step before left in the cache */
+    long first = cur ? n - 1 : 0, dir = cur ? -1 : 1;
+    first_part(b, b->state + first * ROWS, targets + 8 * first, out + 8 * first, cur);
+    for (long i = 0, k = first; i < n; i++, k += dir) {
+        long next = k + dir;
+        if (i + 1 < n)
+            first_part(b, b->state + next * ROWS, targets + 8 * next, out + 8 * next, cur);
         creep_pass(b, b->state + k * ROWS);
     }
     b->parity ^= 1;

@@ -332,8 +332,9 @@ impl<T: Real> CompensatorBank<T> {
     ) -> Result<(), ParameterError> {
         check_length("bank.targets", self.channels, targets.len())?;
         check_length("bank.out", self.channels, out.len())?;
+        let walk = Walk::of_step(self.parity);
         let (fixed, state) = self.split();
-        step_blocks(k, &fixed, 0, state, targets, out, Walk::Up);
+        step_blocks(k, &fixed, 0, state, targets, out, walk);
         self.parity ^= 1;
         self.dynamic_channels(targets, out);
         Ok(())
