@@ -36,7 +36,8 @@
 //! and the share of a core a 4000-actuator mirror at 10 kHz needs.
 //! Last, with `MFCBEAM_C_BANK` naming the library of the hand-written C bank
 //! (`benches/peers/bank.c`, built by `benches/peers/run.sh`), the bank
-//! against it in alternating batches at 8, 64, 1024 and 4096 channels (`f64`).
+//! against it in alternating batches at 8, 64, 1024 and 4096 channels
+//! (`f64`).
 //!
 //! `cargo bench --bench bank_limit`
 
@@ -696,9 +697,9 @@ fn report<T: Real>(ghz: f64) -> f64 {
 /// The bank against the hand-written C bank of `benches/peers/bank.c`
 /// (`f64`, AVX-512F, built by `benches/peers/run.sh` as `libbank.so` and
 /// loaded from `MFCBEAM_C_BANK`), in alternating batches on one thread at 8,
-/// 64, 1024 and 4096 channels: the same targets, the same bits (checked after the
-/// warm-up), the median time of each, and the median and 10–90 % spread of
-/// mfcbeam's time over the C's in the same round.
+/// 64, 1024 and 4096 channels: the same targets, the same bits (checked
+/// after the warm-up), the median time of each, and the median and 10–90 %
+/// spread of mfcbeam's time over the C's in the same round.
 #[cfg(target_os = "linux")]
 fn against_c_bank(path: &str, ghz: f64, bound: f64) {
     use std::ffi::c_void;
