@@ -854,7 +854,15 @@ pub(crate) trait BlockWork<T: Real> {
 #[inline(always)]
 pub(crate) fn run_blocks<T: Real, W: BlockWork<T>>(k: super::Kernels, work: W) -> W::Output {
     match k {
-        super::Kernels::Portable => work.run(Ops::<T, Portable<T>>(core::marker::PhantomData)),
+        super::Kernels::Portable => {
+            // out of line, as the vector sets are: inlined, its frame
+            // (4.4 KiB, probed and aligned) was the bank step's on every step
+            #[inline(never)]
+            fn portable<T: Real, W: BlockWork<T>>(work: W) -> W::Output {
+                work.run(Ops::<T, Portable<T>>(core::marker::PhantomData))
+            }
+            portable::<T, W>(work)
+        }
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         super::Kernels::Avx2(_) => {
             #[target_feature(enable = "avx2,fma")]
