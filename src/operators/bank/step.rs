@@ -78,11 +78,13 @@ impl Walk {
     /// changes at every step). A walk in one direction over more state
     /// than a cache holds finds none of it there: a cache that keeps the
     /// lines used last has evicted each just before it is needed again.
-    /// Walked back, a step starts
-    /// on the lines the step before left in the cache. On a Zen 4 (1 MiB
-    /// L2) that took 2048 and 4096 channels of `f64` and 4096 of `f32`
-    /// 5–10 % less time, and changed nothing measurable where the state
-    /// fits. A split keeps its parts' walks ([`Walk::of_part`]).
+    /// Walked back, a step starts on the lines the step before left in the
+    /// cache. On a Zen 4 (1 MiB L2) that took 2048 and 4096 channels of
+    /// `f64` and 4096 of `f32` 5–10 % less time, and changed nothing
+    /// measurable where the state fits. A split keeps its parts' fixed
+    /// walks ([`Walk::of_part`]): turned, its two parts would walk towards
+    /// each other every other step, one core's prefetcher into the other's
+    /// blocks.
     pub(super) fn of_step(parity: usize) -> Self {
         if parity.is_multiple_of(2) {
             Walk::Up

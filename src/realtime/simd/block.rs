@@ -855,8 +855,9 @@ pub(crate) trait BlockWork<T: Real> {
 pub(crate) fn run_blocks<T: Real, W: BlockWork<T>>(k: super::Kernels, work: W) -> W::Output {
     match k {
         super::Kernels::Portable => {
-            // out of line, as the vector sets are: inlined, its frame
-            // (4.4 KiB, probed and aligned) was the bank step's on every step
+            // out of line, as the vector sets are: inlined, its 4.4 KiB
+            // frame (aligned, its stack probed) was set up by the bank's
+            // step on every call, whichever kernel set ran
             #[inline(never)]
             fn portable<T: Real, W: BlockWork<T>>(work: W) -> W::Output {
                 work.run(Ops::<T, Portable<T>>(core::marker::PhantomData))
