@@ -3,7 +3,7 @@
 //! A delay of one sample on a slow record looks almost like hysteresis: the
 //! fit on the record itself barely tells `d = 0` from `d = 1` (the lag is
 //! absorbed by the plays' widths), but the error of the wrong one grows
-//! with the rate. So every `d` in `0..=max` is fitted ([`identify`](super::identify) with
+//! with the rate. So every `d` in `0..=max` is fitted ([`identify`](fn@super::identify) with
 //! `settings.delay = d`) and the one kept is the best on what the fit did
 //! not see: the validation records when there are any (their pooled rms),
 //! else the held-out samples, else the fitted record's own rms over the

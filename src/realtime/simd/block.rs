@@ -45,9 +45,9 @@ impl Row {
 }
 
 /// The arithmetic of one block of `T` on an instruction set. `unsafe`
-/// because an implementation may need CPU features: only [`Kernels`]
-/// (super::Kernels) values prove them, and the bank calls these only within
-/// a step compiled for them.
+/// because an implementation may need CPU features: only
+/// [`Kernels`](super::Kernels) values prove them, and the bank calls these
+/// only within a step compiled for them.
 pub(crate) trait Block<T: Real>: Copy {
     /// One flag per lane.
     type Mask: Copy;
