@@ -246,7 +246,8 @@ static double compensate_same(same *c, double target, int *saturated) {
 typedef struct {
     __m256 ri[2], wi[2], xi[2];                 /* H^-1 */
     __m256 r[2], q[G32], g[G32], h[G32], wc[G32], chi[G32]; /* creep */
-    float lower, upper, c_prev, dc;
+    __m256 dc;                                  /* dC, in every lane */
+    float lower, upper, c_prev;
     int count;
 } strong32;
 
@@ -322,11 +323,9 @@ static inline __m256 strong32_creep(strong32 *c, __m256 u) {
     for (int e = 0; e < G32; e++) {
         int b = e < M ? 0 : 1;
         __m256 x = c->chi[e];
-        __m256 minus_qx = _mm256_mul_ps(c->q[e], _mm256_sub_ps(_mm256_setzero_ps(), x));
-        __m256 hx = _mm256_mul_ps(c->h[e], x);
         __m256 clamped = _mm256_max_ps(_mm256_min_ps(x, hi[b]), lo[b]);
-        p[e] = _mm256_fmadd_ps(c->q[e], clamped, minus_qx);
-        c->chi[e] = _mm256_fmadd_ps(c->g[e], clamped, hx);
+        p[e] = _mm256_fmsub_ps(c->q[e], clamped, _mm256_mul_ps(c->q[e], x));
+        c->chi[e] = _mm256_fmadd_ps(c->g[e], clamped, _mm256_mul_ps(c->h[e], x));
     }
     __m256 a0 = _mm256_add_ps(p[0], p[4]), a1 = _mm256_add_ps(p[1], p[5]);
     __m256 a2 = _mm256_add_ps(p[2], p[6]), a3 = _mm256_add_ps(p[3], p[7]);
@@ -334,7 +333,7 @@ static inline __m256 strong32_creep(strong32 *c, __m256 u) {
 }
 
 static double compensate_strong32(strong32 *c, double target, int *saturated) {
-    __m256 dc = _mm256_set1_ps(c->dc);
+    __m256 dc = c->dc;
     __m256 z = _mm256_set1_ps((float)target - c->c_prev);
     __m256 s[2];
     for (int b = 0; b < 2; b++) {
@@ -351,12 +350,12 @@ static double compensate_strong32(strong32 *c, double target, int *saturated) {
         v = _mm256_set1_ps(vs);
     }
     __m256 d = strong32_creep(c, v);
-    c->c_prev += c->dc;
-    c->dc = _mm256_cvtss_f32(d);
+    c->c_prev += _mm256_cvtss_f32(dc);
+    c->dc = d;
     if (__builtin_expect(++c->count == RESUM, 0)) {
         c->count = 0;
         c->c_prev = creep_sum32(c);
-        c->dc = 0.0f;
+        c->dc = _mm256_setzero_ps();
     }
     return vs;
 }
@@ -370,14 +369,16 @@ static double compensate_strong32(strong32 *c, double target, int *saturated) {
  *  - the creep output is a running sum, C_{k+1} = C_k + dC_k with
  *    dC_k = sum_ij (w_i g_j / m) (c_ij - chi_ij), c = clamp(chi, u - r,
  *    u + r), re-summed from chi every RESUM steps;
- *  - only dC is on the chain: written as sum q c - sum q chi, the second sum
- *    and (1 - g) chi are formed before u is known, so that both dC's terms
- *    and the state update chi <- g c + (1 - g) chi are one FMA after the
- *    clamp; u -+ r are shared by the five rows;
+ *  - only dC is on the chain: each term is q c - q chi and each state
+ *    update g c + (1 - g) chi, one FMA after the clamp with its product of
+ *    chi formed before u is known (six operations per register of four;
+ *    g, 1 - g and q kept per register, nothing rebuilt per step); u -+ r
+ *    are shared by the five rows;
  *  - the bounds of H^-1's plays are (t -+ r' - C_{k-1}) - dC_{k-1}: one
  *    subtraction after dC, the rest formed early;
  *  - every sum is a tree (the creep's 15 products of depth 4) ending in a
- *    butterfly that leaves it in all four lanes (no scalar round trip);
+ *    butterfly that leaves it in all four lanes, and dC stays a vector from
+ *    one step to the next (no scalar round trip, no broadcast);
  *  - the clip is a predicted branch: the creep runs on v, and only a
  *    clipped sample (never, on the benches' targets) redoes it with u.
  * Like BRANCH_FREE it does no target test, no forward plays and no re-seat.
@@ -389,6 +390,7 @@ static double compensate_strong32(strong32 *c, double target, int *saturated) {
 /* -DNO_FMA: each fused multiply-add as a multiply and an add (two
  * roundings), as mfcbeam computes: what the FMA is worth to this peer */
 #define _mm256_fmadd_pd(a, b, c) _mm256_add_pd(_mm256_mul_pd(a, b), c)
+#define _mm256_fmsub_pd(a, b, c) _mm256_sub_pd(_mm256_mul_pd(a, b), c)
 #endif
 
 #define G 15 /* creep groups of four: 5 rows of 12 thresholds */
@@ -396,9 +398,10 @@ static double compensate_strong32(strong32 *c, double target, int *saturated) {
 
 typedef struct {
     __m256d ri[3], wi[3], xi[3];        /* H^-1 */
-    __m256d r[3], q[G], chi[G]; /* creep; group b of row j is j * 3 + b */
-    double g[M], wc[NC];
-    double lower, upper, c_prev, dc;
+    __m256d r[3], q[G], g[G], h[G], chi[G]; /* creep; group b of row j is j * 3 + b */
+    __m256d dc;                             /* dC, in every lane */
+    double wc[NC];
+    double lower, upper, c_prev;
     int count;
 } strong;
 
@@ -429,8 +432,9 @@ static void init_strong(strong *c) {
             double q[4];
             for (int l = 0; l < 4; l++) q[l] = base.wc[4 * b + l] * base.g[j];
             c->q[j * 3 + b] = _mm256_loadu_pd(q);
+            c->g[j * 3 + b] = _mm256_set1_pd(base.g[j]);
+            c->h[j * 3 + b] = _mm256_set1_pd(1.0 - base.g[j]);
         }
-    memcpy(c->g, base.g, sizeof c->g);
     memcpy(c->wc, base.wc, sizeof c->wc);
     c->lower = base.lower;
     c->upper = base.upper;
@@ -443,17 +447,11 @@ static inline __m256d strong_creep(strong *c, __m256d u) {
         lo[b] = _mm256_sub_pd(u, c->r[b]);
         hi[b] = _mm256_add_pd(u, c->r[b]);
     }
-    for (int j = 0; j < M; j++) {
-        __m256d g = _mm256_set1_pd(c->g[j]), h = _mm256_set1_pd(1.0 - c->g[j]);
-        for (int b = 0; b < 3; b++) {
-            int e = j * 3 + b;
-            __m256d x = c->chi[e];
-            __m256d minus_qx = _mm256_mul_pd(c->q[e], _mm256_sub_pd(_mm256_setzero_pd(), x));
-            __m256d hx = _mm256_mul_pd(h, x);
-            __m256d clamped = _mm256_max_pd(_mm256_min_pd(x, hi[b]), lo[b]);
-            p[e] = _mm256_fmadd_pd(c->q[e], clamped, minus_qx);
-            c->chi[e] = _mm256_fmadd_pd(g, clamped, hx);
-        }
+    for (int e = 0; e < G; e++) {
+        __m256d x = c->chi[e];
+        __m256d clamped = _mm256_max_pd(_mm256_min_pd(x, hi[e % 3]), lo[e % 3]);
+        p[e] = _mm256_fmsub_pd(c->q[e], clamped, _mm256_mul_pd(c->q[e], x));
+        c->chi[e] = _mm256_fmadd_pd(c->g[e], clamped, _mm256_mul_pd(c->h[e], x));
     }
     __m256d a0 = _mm256_add_pd(p[0], p[8]), a1 = _mm256_add_pd(p[1], p[9]);
     __m256d a2 = _mm256_add_pd(p[2], p[10]), a3 = _mm256_add_pd(p[3], p[11]);
@@ -467,7 +465,7 @@ static inline __m256d strong_creep(strong *c, __m256d u) {
 }
 
 static double compensate_strong(strong *c, double target, int *saturated) {
-    __m256d dc = _mm256_set1_pd(c->dc);
+    __m256d dc = c->dc;
     __m256d z = _mm256_set1_pd(target - c->c_prev);
     __m256d s[3];
     for (int b = 0; b < 3; b++) {
@@ -484,12 +482,12 @@ static double compensate_strong(strong *c, double target, int *saturated) {
         v = _mm256_set1_pd(vs);
     }
     __m256d d = strong_creep(c, v);
-    c->c_prev += c->dc;
-    c->dc = _mm256_cvtsd_f64(d);
+    c->c_prev += _mm256_cvtsd_f64(dc);
+    c->dc = d;
     if (__builtin_expect(++c->count == RESUM, 0)) {
         c->count = 0;
         c->c_prev = creep_sum(c);
-        c->dc = 0.0;
+        c->dc = _mm256_setzero_pd();
     }
     return vs;
 }
