@@ -313,6 +313,166 @@ fn the_paper_layouts_step_gives_the_portable_bits() {
     }
 }
 
+/// A run (`compensate_into`: one loop in the kernels' function, the creep's
+/// output carried from sample to sample in a register) gives the bits of
+/// one portable step per sample, on every kernel set: the paper's layout
+/// (inline and on the heap) and random ones, with an offset, `S`, a dead
+/// time and, in some, `G` (the samples a run sends down the general path),
+/// limited and unlimited, with non-finite and huge targets; in runs of
+/// random lengths, so that a stream continues across calls.
+#[test]
+fn a_run_gives_the_bits_of_its_steps_on_every_kernel_set() {
+    use mfcbeam::operators::model::{DynamicsData, LowPassData, ResonanceData};
+    type Free<T> = Compensator<T, mfcbeam::operators::heap::Heap>;
+    type Placed<T> = Compensator<T, Inline<12, 60>>;
+    let mut rng = Rng::new(43);
+    for seed in 0..48u64 {
+        let mut file = if seed % 3 == 0 {
+            nominal_model_file()
+        } else {
+            random_model(&mut rng, 12, ModelShape::Any)
+        };
+        if seed % 4 == 1 {
+            let nyquist = 0.5 / file.sample_time;
+            file.dynamics = Some(DynamicsData {
+                low_pass: Some(LowPassData {
+                    frequency: 0.2 * nyquist,
+                }),
+                resonance: Some(ResonanceData {
+                    frequency: 0.1 * nyquist,
+                    damping: 0.2,
+                }),
+                delay_fraction: None,
+                state: None,
+            });
+        }
+        let p = file.parameters();
+        let settings = if seed % 2 == 0 {
+            CompensatorSettings::unlimited()
+        } else {
+            CompensatorSettings::with_limits(-400.0, 400.0)
+        };
+        let mut signal: Vec<f64> = targets(&mut Rng::new(seed), 1, 1500, 700.0)
+            .into_iter()
+            .map(|row| row[0])
+            .collect();
+        signal.extend([1e30, -1e38, 3e38, 0.0, -0.0, f64::NAN, 5.0, 300.0]);
+        let signal32: Vec<f32> = signal.iter().map(|&t| t as f32).collect();
+
+        // one portable step per sample: the reference
+        let mut reference = Free::<f64>::new(&p, settings).unwrap();
+        let mut reference32 = Free::<f32>::new(&p, settings).unwrap();
+        let expected: Vec<_> = signal
+            .iter()
+            .map(|&t| {
+                let o = reference.compensate_portable(t);
+                (o.u.to_bits(), o.saturated, o.fault)
+            })
+            .collect();
+        let expected32: Vec<_> = signal32
+            .iter()
+            .map(|&t| {
+                let o = reference32.compensate_portable(t);
+                (o.u.to_bits(), o.saturated, o.fault)
+            })
+            .collect();
+        fn counts<B>(e: &[(B, bool, bool)]) -> (usize, usize) {
+            let clipped = e.iter().filter(|x| x.1).count();
+            (clipped, e.iter().filter(|x| x.2).count())
+        }
+        assert!(
+            seed % 2 == 0 || counts(&expected).0 > 0,
+            "seed {seed}: the limits clip no sample"
+        );
+        let cuts: Vec<usize> = {
+            let mut cut_rng = Rng::new(1000 + seed);
+            let mut at = vec![0];
+            while *at.last().unwrap() < signal.len() {
+                let next = at.last().unwrap() + cut_rng.int(0, 300);
+                at.push(next.min(signal.len()));
+            }
+            at
+        };
+        for k in simd::Kernels::all() {
+            let at = |what: &str| format!("seed {seed}, {k:?}, {what}");
+            let (mut free, mut placed) = (
+                Free::<f64>::new(&p, settings).unwrap(),
+                Placed::<f64>::new(&p, settings).ok(),
+            );
+            let mut free32 = Free::<f32>::new(&p, settings).unwrap();
+            let n = signal.len();
+            let (mut u, mut u32s) = (vec![0.0; n], vec![0.0f32; n]);
+            let (mut sat, mut fault) = (vec![false; n], vec![false; n]);
+            let (mut sat_p, mut fault_p, mut u_p) = (vec![false; n], vec![false; n], vec![0.0; n]);
+            let (mut sat32, mut fault32) = (vec![false; n], vec![false; n]);
+            let mut totals = [(0, 0); 3];
+            for w in cuts.windows(2) {
+                let r = w[0]..w[1];
+                let add = |t: &mut (usize, usize), c: (usize, usize)| {
+                    (t.0, t.1) = (t.0 + c.0, t.1 + c.1);
+                };
+                let c = free
+                    .compensate_into_using(
+                        k,
+                        &signal[r.clone()],
+                        &mut u[r.clone()],
+                        &mut sat[r.clone()],
+                        &mut fault[r.clone()],
+                    )
+                    .unwrap();
+                add(&mut totals[0], c);
+                if let Some(placed) = &mut placed {
+                    let c = placed
+                        .compensate_into_using(
+                            k,
+                            &signal[r.clone()],
+                            &mut u_p[r.clone()],
+                            &mut sat_p[r.clone()],
+                            &mut fault_p[r.clone()],
+                        )
+                        .unwrap();
+                    add(&mut totals[1], c);
+                }
+                let c = free32
+                    .compensate_into_using(
+                        k,
+                        &signal32[r.clone()],
+                        &mut u32s[r.clone()],
+                        &mut sat32[r.clone()],
+                        &mut fault32[r],
+                    )
+                    .unwrap();
+                add(&mut totals[2], c);
+            }
+            for i in 0..n {
+                let t = signal[i];
+                assert_eq!(
+                    (u[i].to_bits(), sat[i], fault[i]),
+                    expected[i],
+                    "{} {t}",
+                    at("heap")
+                );
+                if placed.is_some() {
+                    assert_eq!(
+                        (u_p[i].to_bits(), sat_p[i], fault_p[i]),
+                        expected[i],
+                        "{} {t}",
+                        at("inline")
+                    );
+                }
+                assert_eq!(
+                    (u32s[i].to_bits(), sat32[i], fault32[i]),
+                    expected32[i],
+                    "{} {t}",
+                    at("f32")
+                );
+            }
+            assert_eq!(totals[0], counts(&expected), "{}", at("counts"));
+            assert_eq!(totals[2], counts(&expected32), "{}", at("counts, f32"));
+        }
+    }
+}
+
 /// The same wherever the compensator lies: an inline one placed at every
 /// offset of a page (in a page-aligned buffer, so that each of its arrays
 /// straddles the page boundary at every place it can), where the kernels

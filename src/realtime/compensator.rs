@@ -382,20 +382,32 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         saturated: &mut [bool],
         fault: &mut [bool],
     ) -> Result<(usize, usize), ParameterError> {
+        self.compensate_into_using(
+            Kernels::detect_single_step::<T>(),
+            targets,
+            u,
+            saturated,
+            fault,
+        )
+    }
+
+    /// [`Compensator::compensate_into`] on the kernels `k` (any of
+    /// [`Kernels::all`]: the same bits on each, and the same as one
+    /// [`Compensator::compensate_using`] per sample; for tests and benches).
+    /// The samples run in one loop compiled with `k`'s features.
+    #[doc(hidden)]
+    pub fn compensate_into_using(
+        &mut self,
+        k: Kernels,
+        targets: &[T],
+        u: &mut [T],
+        saturated: &mut [bool],
+        fault: &mut [bool],
+    ) -> Result<(usize, usize), ParameterError> {
         check_length("u", targets.len(), u.len())?;
         check_length("saturated", targets.len(), saturated.len())?;
         check_length("fault", targets.len(), fault.len())?;
-        let k = Kernels::detect_single_step::<T>();
-        let (mut clipped, mut faults) = (0, 0);
-        for (i, &t) in targets.iter().enumerate() {
-            let out = self.compensate_with(k, t);
-            u[i] = out.u;
-            saturated[i] = out.saturated;
-            fault[i] = out.fault;
-            clipped += usize::from(out.saturated);
-            faults += usize::from(out.fault);
-        }
-        Ok((clipped, faults))
+        Ok(simd::compensator_run(k, self, targets, u, saturated, fault))
     }
 
     /// One step on the kernels `k`. The common case (no `G`, no `S`, a
@@ -562,6 +574,45 @@ fn c_set_ahead<T: Real>(g: &mut Dynamics<T>, values: Option<&[f64]>) -> Result<(
     g.set_state(values)?;
     *g = g.ahead();
     Ok(())
+}
+
+/// A run of samples ([`Compensator::compensate_into`]): the common case as
+/// [`Compensator::compensate_with`] has it, the rest through
+/// [`Compensator::compensate_general`].
+impl<T: Real, S: Storage> simd::RunSource<T> for Compensator<T, S> {
+    #[inline(always)]
+    fn limits(&self) -> (T, T) {
+        (self.lower, self.upper)
+    }
+
+    #[inline(always)]
+    fn common_target(&self, target: T) -> Option<T> {
+        if self.dynamics.is_some() || self.inverse_superposition.is_some() || !target.is_finite() {
+            return None;
+        }
+        Some(target - self.offset)
+    }
+
+    #[inline(always)]
+    fn creep_output(&self) -> T {
+        match &self.creep {
+            Some(op) => op.output(),
+            None => T::ZERO,
+        }
+    }
+
+    #[inline(always)]
+    fn after_step(&mut self, u: T, saturated: bool) {
+        if saturated {
+            self.reseat_clipped(u);
+        }
+        self.last_u = u;
+    }
+
+    fn general_step(&mut self, k: Kernels, target: T) -> (T, bool, bool) {
+        let out = self.compensate_general(k, target);
+        (out.u, out.saturated, out.fault)
+    }
 }
 
 impl<T: Real, S: Storage> simd::StepSource<T> for Compensator<T, S> {

@@ -447,8 +447,9 @@ impl<T: Real> StepKernels<T> for PortableStep {
 /// zero-threshold play's state, so that it never enters the plays; their
 /// states before the step saved), then the creep pass with the voltage
 /// applied (a non-finite one replaced by the last finite input): one
-/// compensator step once its input `y` is known. Returns the voltage and
-/// whether it was clipped. `PAPER`: the source has the paper's layout
+/// compensator step once its input `y` is known. Returns the voltage,
+/// whether it was clipped, and the creep's new output (zero without creep),
+/// which the step also writes. `PAPER`: the source has the paper's layout
 /// ([`StepSource::paper_parts`]).
 #[inline(always)]
 unsafe fn step_body<T: Real, K: StepKernels<T>, C: StepSource<T>, const PAPER: bool>(
@@ -456,7 +457,7 @@ unsafe fn step_body<T: Real, K: StepKernels<T>, C: StepSource<T>, const PAPER: b
     y: T,
     lower: T,
     upper: T,
-) -> (T, bool) {
+) -> (T, bool, T) {
     let p = if PAPER {
         c.paper_parts()
     } else {
@@ -479,13 +480,15 @@ unsafe fn step_body<T: Real, K: StepKernels<T>, C: StepSource<T>, const PAPER: b
     } else {
         clip(v, lower, upper)
     };
+    let mut creep_output = T::ZERO;
     if let Some(cp) = p.creep {
         let held = if u.is_finite() { u } else { *cp.last_input };
         *cp.last_input = held;
         // SAFETY: as above.
-        *cp.output = unsafe { K::creep(cp.chi, cp.thresholds, cp.gains, cp.weights, held) };
+        creep_output = unsafe { K::creep(cp.chi, cp.thresholds, cp.gains, cp.weights, held) };
+        *cp.output = creep_output;
     }
-    (u, saturated)
+    (u, saturated, creep_output)
 }
 
 /// The zero-threshold play's state: the input that leaves the plays as
@@ -546,6 +549,108 @@ pub(crate) fn compensator_step<T: Real, C: StepSource<T>>(
     }
 }
 
+/// What a run of steps needs besides one step's parts
+/// ([`compensator_run`]): the common case's input to the step, what follows
+/// a step, and the general path for the rest.
+pub(crate) trait RunSource<T: Real>: StepSource<T> {
+    /// The clip's limits, `(lower, upper)`.
+    fn limits(&self) -> (T, T);
+    /// The target less the offset where the sample is the common case (a
+    /// finite target, no `G`, no `S`); `None` where it is not. The input of
+    /// `H⁻¹` is this less the creep's output.
+    fn common_target(&self, target: T) -> Option<T>;
+    /// The creep's output as the state holds it (zero without creep).
+    fn creep_output(&self) -> T;
+    /// After a common step to `u`: the re-seat if it was clipped, and `u`
+    /// kept.
+    fn after_step(&mut self, u: T, saturated: bool);
+    /// A sample outside the common case, on the kernels `k`: the voltage,
+    /// whether it was clipped, whether it was a fault.
+    fn general_step(&mut self, k: Kernels, target: T) -> (T, bool, bool);
+}
+
+/// Every target of `targets` through [`step_body`] in turn, in one loop
+/// within the kernels' function. The creep's output goes from one sample to
+/// the next in a register (the state is written too), not stored and
+/// loaded again on the dependency chain; the loop's constants (the
+/// parameters' addresses, the limits) stay in registers, as a hand-written
+/// loop over a step keeps them. The same operations, so the same bits, as
+/// one call per sample. Returns how many samples were clipped and how many
+/// were faults.
+#[inline(always)]
+unsafe fn run_body<T: Real, K: StepKernels<T>, C: RunSource<T>, const PAPER: bool>(
+    k: Kernels,
+    c: &mut C,
+    targets: &[T],
+    u: &mut [T],
+    saturated: &mut [bool],
+    fault: &mut [bool],
+) -> (usize, usize) {
+    let (lower, upper) = c.limits();
+    let (mut clipped, mut faults) = (0, 0);
+    let mut creep_output = c.creep_output();
+    let outputs = u.iter_mut().zip(saturated.iter_mut()).zip(fault.iter_mut());
+    for (&target, ((u, saturated), fault)) in targets.iter().zip(outputs) {
+        let (v, s, f) = match c.common_target(target) {
+            Some(y) => {
+                // SAFETY: the caller's: `K`'s features are present.
+                let (v, s, next) =
+                    unsafe { step_body::<T, K, C, PAPER>(c, y - creep_output, lower, upper) };
+                creep_output = next;
+                c.after_step(v, s);
+                (v, s, false)
+            }
+            None => {
+                let out = c.general_step(k, target);
+                creep_output = c.creep_output();
+                out
+            }
+        };
+        (*u, *saturated, *fault) = (v, s, f);
+        clipped += usize::from(s);
+        faults += usize::from(f);
+    }
+    (clipped, faults)
+}
+
+/// [`run_body`] on `k`'s kernels, compiled as one function with their
+/// features. The output slices are as long as `targets` (the caller
+/// checks).
+pub(crate) fn compensator_run<T: Real, C: RunSource<T>>(
+    k: Kernels,
+    c: &mut C,
+    targets: &[T],
+    u: &mut [T],
+    saturated: &mut [bool],
+    fault: &mut [bool],
+) -> (usize, usize) {
+    match k {
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        // SAFETY: an `Avx512` value exists only where the CPU has AVX-512F,
+        // AVX2 and FMA.
+        Kernels::Avx512(_) => unsafe {
+            if c.paper_layout() {
+                x86::run_avx512::<T, C, true>(k, c, targets, u, saturated, fault)
+            } else {
+                x86::run_avx512::<T, C, false>(k, c, targets, u, saturated, fault)
+            }
+        },
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        // SAFETY: an `Avx2` value exists only where the CPU has AVX2 and FMA.
+        Kernels::Avx2(_) => unsafe {
+            if c.paper_layout() {
+                x86::run_avx2::<T, C, true>(k, c, targets, u, saturated, fault)
+            } else {
+                x86::run_avx2::<T, C, false>(k, c, targets, u, saturated, fault)
+            }
+        },
+        // SAFETY: the portable kernels need no feature.
+        Kernels::Portable => unsafe {
+            run_body::<T, PortableStep, C, false>(k, c, targets, u, saturated, fault)
+        },
+    }
+}
+
 /// [`step_body`] on the portable kernels: out of line where vector
 /// kernels exist, so that its scalar loops take no registers or stack in
 /// the callers of the vector steps (on a Zen 4 the caller's frame went
@@ -554,7 +659,8 @@ pub(crate) fn compensator_step<T: Real, C: StepSource<T>>(
 #[cfg_attr(not(all(feature = "std", target_arch = "x86_64")), inline(always))]
 fn step_portable<T: Real, C: StepSource<T>>(c: &mut C, y: T, lower: T, upper: T) -> (T, bool) {
     // SAFETY: the portable kernels need no feature.
-    unsafe { step_body::<T, PortableStep, C, false>(c, y, lower, upper) }
+    let (u, saturated, _) = unsafe { step_body::<T, PortableStep, C, false>(c, y, lower, upper) };
+    (u, saturated)
 }
 
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
@@ -1297,7 +1403,9 @@ mod x86 {
         upper: T,
     ) -> (T, bool) {
         // SAFETY: the features are enabled here.
-        unsafe { super::step_body::<T, Avx2Step, C, PAPER>(c, y, lower, upper) }
+        let (u, saturated, _) =
+            unsafe { super::step_body::<T, Avx2Step, C, PAPER>(c, y, lower, upper) };
+        (u, saturated)
     }
 
     /// [`super::step_body`] on the AVX-512 kernels, one function.
@@ -1310,7 +1418,39 @@ mod x86 {
         upper: T,
     ) -> (T, bool) {
         // SAFETY: the features are enabled here.
-        unsafe { super::step_body::<T, Avx512Step, C, PAPER>(c, y, lower, upper) }
+        let (u, saturated, _) =
+            unsafe { super::step_body::<T, Avx512Step, C, PAPER>(c, y, lower, upper) };
+        (u, saturated)
+    }
+
+    /// [`super::run_body`] on the AVX2 kernels, one function.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline(never)]
+    pub(super) unsafe fn run_avx2<T: Real, C: super::RunSource<T>, const PAPER: bool>(
+        k: super::Kernels,
+        c: &mut C,
+        targets: &[T],
+        u: &mut [T],
+        saturated: &mut [bool],
+        fault: &mut [bool],
+    ) -> (usize, usize) {
+        // SAFETY: the features are enabled here.
+        unsafe { super::run_body::<T, Avx2Step, C, PAPER>(k, c, targets, u, saturated, fault) }
+    }
+
+    /// [`super::run_body`] on the AVX-512 kernels, one function.
+    #[target_feature(enable = "avx2,fma,avx512f")]
+    #[inline(never)]
+    pub(super) unsafe fn run_avx512<T: Real, C: super::RunSource<T>, const PAPER: bool>(
+        k: super::Kernels,
+        c: &mut C,
+        targets: &[T],
+        u: &mut [T],
+        saturated: &mut [bool],
+        fault: &mut [bool],
+    ) -> (usize, usize) {
+        // SAFETY: the features are enabled here.
+        unsafe { super::run_body::<T, Avx512Step, C, PAPER>(k, c, targets, u, saturated, fault) }
     }
 }
 
