@@ -11,18 +11,25 @@
 //! intrinsics (`-DSAME_ORDER`, the same bits) from
 //! `MFCBEAM_C_PEER_SAME_ORDER`, and the strongest written in `f32`
 //! (`-DSTRONG_F32`: eight lanes per register) from
-//! `MFCBEAM_C_PEER_STRONG_F32`; `benches/peers/run.sh` builds and passes
-//! all six.
+//! `MFCBEAM_C_PEER_STRONG_F32`, and the strongest kept out of line, one
+//! call per sample (`-DONE_CALL`), from `MFCBEAM_C_PEER_STRONG_CALL`;
+//! `benches/peers/run.sh` builds and passes all seven.
 //!
 //! Each round times one batch of 100 000 consecutive steps of every
 //! implementation (in a rotating order) on the same 4096 targets (W of the
 //! benches' random walk, cycled as `step/compensator_step` cycles them).
+//! mfcbeam is timed two ways: one `compensate` call per sample, and runs of
+//! `compensate_into` (one loop in the kernels' function). The C's
+//! `peer_run` is a loop over its step, which the compiler inlines; like
+//! against like, a run is compared with that loop and one call per sample
+//! with the strongest C's step called once per sample (`-DONE_CALL`).
 //! Reported: the CPU and the kernel set, the median per-step time over the
 //! rounds with the 10th–90th percentile spread, and the median (and spread)
 //! over rounds of each implementation's time divided by the strongest C
-//! peer's in the same round, and what `f32` buys each of the two
-//! (`f32` over `f64` time, the C against the C, mfcbeam against mfcbeam);
-//! last a `summary:` line that `run.sh` collects from three processes.
+//! peer's in the same round, the like-against-like ratios, and what `f32`
+//! buys (`f32` over `f64` time, the C against the C, mfcbeam against
+//! mfcbeam); last a `summary:` line that `run.sh` collects from three
+//! processes.
 
 #[cfg(target_os = "linux")]
 fn main() {
@@ -48,6 +55,7 @@ fn main() {
         "MFCBEAM_C_PEER_STRONG_NO_FMA",
         "MFCBEAM_C_PEER_SAME_ORDER",
         "MFCBEAM_C_PEER_STRONG_F32",
+        "MFCBEAM_C_PEER_STRONG_CALL",
     ];
     let Ok(paths) = vars
         .iter()
@@ -98,7 +106,11 @@ fn main() {
     )
     .unwrap();
     let targets32: Vec<f32> = targets.iter().map(|&t| t as f32).collect();
-    let mut ks = [0usize; 3];
+    let mut ks = [0usize; 5];
+    let mut into64 = fixed64.clone();
+    let mut into32 = fixed32.clone();
+    let (mut u64s, mut u32s) = (vec![0.0f64; LEN], vec![0.0f32; LEN]);
+    let (mut sat, mut fault) = (vec![false; LEN], vec![false; LEN]);
 
     let names = [
         "C peer (-O3 -march=native -ffast-math)",
@@ -107,21 +119,48 @@ fn main() {
         "strongest C peer without FMA (-DNO_FMA)",
         "mfcbeam's order in C (-DSAME_ORDER)",
         "strongest C peer in f32 (-DSTRONG_F32)",
+        "strongest C, one call per step (-DONE_CALL)",
         "Compensator (heap, f64)",
         "Compensator<f64, nominal::Capacity>",
         "Compensator<f32, nominal::Capacity>",
+        "the same f64, a run (compensate_into)",
+        "the same f32, a run (compensate_into)",
     ];
     // rows of `names`: the C libraries first, in `vars`' order, then
     // mfcbeam's three; named where they are timed and compared
     const STRONGEST: usize = 2;
     const STRONGEST_F32: usize = 5;
-    const HEAP_F64: usize = 6;
-    const INLINE_F64: usize = 7;
-    const INLINE_F32: usize = 8;
+    const STRONGEST_CALL: usize = 6;
+    const HEAP_F64: usize = 7;
+    const INLINE_F64: usize = 8;
+    const INLINE_F32: usize = 9;
+    const INTO_F64: usize = 10;
+    const INTO_F32: usize = 11;
     assert_eq!(peers.len(), HEAP_F64);
-    assert_eq!(names.len(), INLINE_F32 + 1);
+    assert_eq!(names.len(), INTO_F32 + 1);
     let mut times = vec![Vec::with_capacity(ROUNDS); names.len()];
-    let mut time = |which: usize, ks: &mut [usize; 3]| -> f64 {
+    // STEPS targets from `k` on, cycling through the LEN of them, as
+    // peer_run takes them: whole runs of `compensate_into`
+    macro_rules! run_into {
+        ($c:expr, $targets:expr, $u:expr, $k:expr) => {{
+            let mut left = STEPS;
+            while left > 0 {
+                let n = (LEN - $k).min(left);
+                let range = $k..$k + n;
+                black_box($c.compensate_into(
+                    black_box(&$targets[range.clone()]),
+                    &mut $u[range.clone()],
+                    &mut sat[range.clone()],
+                    &mut fault[range],
+                ))
+                .unwrap();
+                $k = ($k + n) % LEN;
+                left -= n;
+            }
+            black_box(&$u);
+        }};
+    }
+    let mut time = |which: usize, ks: &mut [usize; 5]| -> f64 {
         let t0 = Instant::now();
         match which {
             // SAFETY: the peer's pointer and LEN targets, as peer_run expects.
@@ -159,6 +198,8 @@ fn main() {
                 }
                 black_box(s);
             }
+            INTO_F64 => run_into!(into64, targets, u64s, ks[3]),
+            INTO_F32 => run_into!(into32, targets32, u32s, ks[4]),
             _ => unreachable!("row {which} of {} names", names.len()),
         }
         t0.elapsed().as_nanos() as f64 / STEPS as f64
@@ -220,7 +261,23 @@ fn main() {
     };
     let f32_vs_f64 = over(INLINE_F32, INLINE_F64);
     let c_f32_vs_f64 = over(STRONGEST_F32, STRONGEST);
+    // like against like: one call per sample against the C's step called
+    // once per sample; a run against the C's loop over its inlined step
+    let run_f32_vs_f64 = over(INTO_F32, INTO_F64);
     for (name, r) in [
+        (
+            "one call per sample: Compensator<f64> / the strongest C's",
+            &over(INLINE_F64, STRONGEST_CALL),
+        ),
+        (
+            "a run: compensate_into f64 / the strongest C's loop",
+            &over(INTO_F64, STRONGEST),
+        ),
+        (
+            "a run: compensate_into f32 / the strongest C's loop in f32",
+            &over(INTO_F32, STRONGEST_F32),
+        ),
+        ("a run: compensate_into f32 / f64", &run_f32_vs_f64),
         (
             "Compensator<f32> / Compensator<f64> (nominal::Capacity)",
             &f32_vs_f64,
@@ -240,8 +297,10 @@ fn main() {
     }
     // median ns / median ratio to the strongest peer, per implementation
     println!(
-        "summary: {} f32/f64={:.4} c_f32/f64={:.4}",
+        "summary: {} call/c_call={:.4} run_f32/f64={:.4} f32/f64={:.4} c_f32/f64={:.4}",
         summary.join(" "),
+        quantile(&over(INLINE_F64, STRONGEST_CALL), 0.5),
+        quantile(&run_f32_vs_f64, 0.5),
         quantile(&f32_vs_f64, 0.5),
         quantile(&c_f32_vs_f64, 0.5)
     );

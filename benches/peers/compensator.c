@@ -13,7 +13,8 @@
  * peer_targets, peer_run) for the interleaved comparison in benches/peers.rs.
  * With -DBRANCH_FREE the step is the same loops without the target test,
  * the forward plays and the re-seat; with -DSTRONG (optionally -DNO_FMA) it
- * is the strongest peer, AVX2 intrinsics written for the dependency chain;
+ * is the strongest peer, AVX2 intrinsics written for the dependency chain
+ * (with -DONE_CALL the same, called once per sample, not inlined);
  * with -DSTRONG_F32 the strongest in single precision; with -DSAME_ORDER it
  * is mfcbeam's step, its order of operations in intrinsics (each described
  * where it is defined).
@@ -464,6 +465,13 @@ static inline __m256d strong_creep(strong *c, __m256d u) {
     return all_lanes_sum(_mm256_add_pd(_mm256_add_pd(a0, a2), _mm256_add_pd(a1, a3)));
 }
 
+#ifdef ONE_CALL
+/* -DONE_CALL: the step kept out of the caller's loop, one call per sample
+ * as a controller calls it; inlined into a loop over samples (peer_run),
+ * the compiler keeps its constants and dC in registers from one sample to
+ * the next */
+__attribute__((noinline))
+#endif
 static double compensate_strong(strong *c, double target, int *saturated) {
     __m256d dc = c->dc;
     __m256d z = _mm256_set1_pd(target - c->c_prev);

@@ -4,7 +4,8 @@
 # -DBRANCH_FREE: no target test, no forward plays, no re-seat; and built
 # with -DSTRONG, the strongest: AVX2 intrinsics with FMA, a running creep
 # sum, the dependency chain cut to its minimum; the same with -DNO_FMA; the
-# same in single precision with -DSTRONG_F32; and with -DSAME_ORDER,
+# same in single precision with -DSTRONG_F32; the same called once per
+# sample, not inlined into the timing loop, with -DONE_CALL; and with -DSAME_ORDER,
 # mfcbeam's own order of operations in intrinsics), the
 # hand-written C bank (bank.c, AVX-512F: checked here, timed by bank_limit
 # with MFCBEAM_C_BANK), numba
@@ -149,6 +150,8 @@ cc "${same_flags[@]}" -DPEER_LIB -shared -fPIC \
   -o "$out/libpeer_same_order.so" benches/peers/compensator.c -lm
 cc "${f32_flags[@]}" -DPEER_LIB -shared -fPIC \
   -o "$out/libpeer_strong_f32.so" benches/peers/compensator.c -lm
+cc "${strong_flags[@]}" -DONE_CALL -DPEER_LIB -shared -fPIC \
+  -o "$out/libpeer_strong_call.so" benches/peers/compensator.c -lm
 # for bank_limit: MFCBEAM_C_BANK=$PWD/target/peers/libbank.so cargo bench --bench bank_limit
 if [[ $bank == yes ]]; then
   cc "${bank_flags[@]}" -DPEER_LIB -shared -fPIC \
@@ -162,19 +165,24 @@ for run in 1 2 3; do
     MFCBEAM_C_PEER_STRONG_NO_FMA="$PWD/$out/libpeer_strong_no_fma.so" \
     MFCBEAM_C_PEER_SAME_ORDER="$PWD/$out/libpeer_same_order.so" \
     MFCBEAM_C_PEER_STRONG_F32="$PWD/$out/libpeer_strong_f32.so" \
+    MFCBEAM_C_PEER_STRONG_CALL="$PWD/$out/libpeer_strong_call.so" \
     cargo bench --quiet --bench peers | tee "$out/peers_$run.txt"
 done
 python3 - "$out"/peers_{1,2,3}.txt <<'EOF'
 import sys
 names = ["C peer", "branch-free C peer", "strongest C peer", "strongest C peer without FMA",
-         "mfcbeam's order in C", "strongest C peer in f32", "Compensator (heap, f64)",
-         "Compensator<f64, nominal::Capacity>", "Compensator<f32, nominal::Capacity>"]
+         "mfcbeam's order in C", "strongest C peer in f32", "strongest C, one call per step",
+         "Compensator (heap, f64)", "Compensator<f64, nominal::Capacity>",
+         "Compensator<f32, nominal::Capacity>", "the same f64, a run", "the same f32, a run"]
+ratios = ["call/c_call", "run_f32/f64", "f32/f64", "c_f32/f64"]
 runs = []
 for path in sys.argv[1:]:
     line = next(l for l in open(path) if l.startswith("summary:"))
     fields = line.split()[1:]
-    runs.append(([tuple(map(float, f.split("/"))) for f in fields[:-2]],
-                 [float(f.split("=")[1]) for f in fields[-2:]]))
+    rows = [tuple(map(float, f.split("/"))) for f in fields[:-len(ratios)]]
+    named = dict(f.split("=") for f in fields[-len(ratios):])
+    assert len(rows) == len(names) and list(named) == ratios, line
+    runs.append((rows, [float(named[r]) for r in ratios]))
 print("over three processes (each process's median; spread = (max - min) / min):")
 print(f"{'implementation':<40} {'ns':>24} {'/ strongest':>24} {'spread':>7}")
 for i, name in enumerate(names):
@@ -183,8 +191,10 @@ for i, name in enumerate(names):
     spread = (max(ratio) - min(ratio)) / min(ratio)
     print(f"{name:<40} {' '.join(f'{x:7.2f}' for x in ns):>24} "
           f"{' '.join(f'{x:7.3f}' for x in ratio):>24} {100 * spread:6.1f}%")
-for i, name in enumerate(["mfcbeam", "the strongest C"]):
-    print(f"f32 / f64, {name}: {' '.join(f'{r[1][i]:.3f}' for r in runs)}")
+for i, name in enumerate(["one call per sample, mfcbeam f64 / the strongest C's",
+                          "a run, mfcbeam f32 / f64", "one call per sample, mfcbeam f32 / f64",
+                          "the strongest C's loop, f32 / f64"]):
+    print(f"{name}: {' '.join(f'{r[1][i]:.3f}' for r in runs)}")
 EOF
 c_ns=$("$out/compensator" time)
 nb_ns=$([[ $numba == yes ]] && python3 benches/peers/numba_compensator.py time || echo nan)
