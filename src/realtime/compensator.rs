@@ -370,11 +370,15 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     }
 
     /// A whole signal into caller buffers, every flag kept; one
-    /// instruction-set dispatch for the lot. Like [`Compensator::compensate`]
-    /// it inverts the memory part: with a dead time `d`, `targets` must be
-    /// the ones wanted `d` samples later (a stream continues across calls;
-    /// [`preview`] shifts a whole planned signal). Returns how many samples
-    /// were saturated and how many were faults.
+    /// instruction-set dispatch for the lot, and one loop compiled with the
+    /// kernels' features, in which the creep's output goes from one sample
+    /// to the next in a register: faster than one
+    /// [`Compensator::compensate`] per sample, with the same bits. Like
+    /// [`Compensator::compensate`] it inverts the memory part: with a dead
+    /// time `d`, `targets` must be the ones wanted `d` samples later (a
+    /// stream continues across calls; [`preview`] shifts a whole planned
+    /// signal). Returns how many samples were saturated and how many were
+    /// faults.
     pub fn compensate_into(
         &mut self,
         targets: &[T],
