@@ -7,7 +7,9 @@
 //! compiled again with AVX2, or AVX-512F, enabled (`Kernels::run`). One
 //! compensator step's vector work — `H⁻¹`, the clip and the creep pass — is
 //! one such function (`compensator_step`), its borrows of the
-//! compensator's arrays in registers. Its `f64` blocks run on explicit
+//! compensator's arrays in registers; a run of steps is another
+//! (`compensator_run`), its loop inside, the creep's output carried from
+//! one sample to the next in a register. Its `f64` blocks run on explicit
 //! 256-bit registers (8-lane 512-bit ones with AVX-512F where the CPU runs
 //! them at full width: [`Kernels::for_single_step`]), its `f32` ones on
 //! 8-lane registers; the plays and creep pass of the forward model likewise;
@@ -1393,65 +1395,43 @@ mod x86 {
         unsafe { <Avx512Step as super::StepKernels<T>>::creep(chi, r, g, w, v) }
     }
 
-    /// [`super::step_body`] on the AVX2 kernels, one function.
-    #[target_feature(enable = "avx2,fma")]
-    #[inline(never)]
-    pub(super) unsafe fn step_avx2<T: Real, C: super::StepSource<T>, const PAPER: bool>(
-        c: &mut C,
-        y: T,
-        lower: T,
-        upper: T,
-    ) -> (T, bool) {
-        // SAFETY: the features are enabled here.
-        let (u, saturated, _) =
-            unsafe { super::step_body::<T, Avx2Step, C, PAPER>(c, y, lower, upper) };
-        (u, saturated)
-    }
+    /// A kernel set's two functions compiled with its features:
+    /// [`super::step_body`] (one step) and [`super::run_body`] (a run).
+    macro_rules! step_and_run {
+        ($set:ident, $features:literal, $step:ident, $run:ident) => {
+            /// [`super::step_body`] on the set's kernels, one function.
+            #[target_feature(enable = $features)]
+            #[inline(never)]
+            pub(super) unsafe fn $step<T: Real, C: super::StepSource<T>, const PAPER: bool>(
+                c: &mut C,
+                y: T,
+                lower: T,
+                upper: T,
+            ) -> (T, bool) {
+                // SAFETY: the features are enabled here.
+                let (u, saturated, _) =
+                    unsafe { super::step_body::<T, $set, C, PAPER>(c, y, lower, upper) };
+                (u, saturated)
+            }
 
-    /// [`super::step_body`] on the AVX-512 kernels, one function.
-    #[target_feature(enable = "avx2,fma,avx512f")]
-    #[inline(never)]
-    pub(super) unsafe fn step_avx512<T: Real, C: super::StepSource<T>, const PAPER: bool>(
-        c: &mut C,
-        y: T,
-        lower: T,
-        upper: T,
-    ) -> (T, bool) {
-        // SAFETY: the features are enabled here.
-        let (u, saturated, _) =
-            unsafe { super::step_body::<T, Avx512Step, C, PAPER>(c, y, lower, upper) };
-        (u, saturated)
+            /// [`super::run_body`] on the set's kernels, one function.
+            #[target_feature(enable = $features)]
+            #[inline(never)]
+            pub(super) unsafe fn $run<T: Real, C: super::RunSource<T>, const PAPER: bool>(
+                k: super::Kernels,
+                c: &mut C,
+                targets: &[T],
+                u: &mut [T],
+                saturated: &mut [bool],
+                fault: &mut [bool],
+            ) -> (usize, usize) {
+                // SAFETY: the features are enabled here.
+                unsafe { super::run_body::<T, $set, C, PAPER>(k, c, targets, u, saturated, fault) }
+            }
+        };
     }
-
-    /// [`super::run_body`] on the AVX2 kernels, one function.
-    #[target_feature(enable = "avx2,fma")]
-    #[inline(never)]
-    pub(super) unsafe fn run_avx2<T: Real, C: super::RunSource<T>, const PAPER: bool>(
-        k: super::Kernels,
-        c: &mut C,
-        targets: &[T],
-        u: &mut [T],
-        saturated: &mut [bool],
-        fault: &mut [bool],
-    ) -> (usize, usize) {
-        // SAFETY: the features are enabled here.
-        unsafe { super::run_body::<T, Avx2Step, C, PAPER>(k, c, targets, u, saturated, fault) }
-    }
-
-    /// [`super::run_body`] on the AVX-512 kernels, one function.
-    #[target_feature(enable = "avx2,fma,avx512f")]
-    #[inline(never)]
-    pub(super) unsafe fn run_avx512<T: Real, C: super::RunSource<T>, const PAPER: bool>(
-        k: super::Kernels,
-        c: &mut C,
-        targets: &[T],
-        u: &mut [T],
-        saturated: &mut [bool],
-        fault: &mut [bool],
-    ) -> (usize, usize) {
-        // SAFETY: the features are enabled here.
-        unsafe { super::run_body::<T, Avx512Step, C, PAPER>(k, c, targets, u, saturated, fault) }
-    }
+    step_and_run!(Avx2Step, "avx2,fma", step_avx2, run_avx2);
+    step_and_run!(Avx512Step, "avx2,fma,avx512f", step_avx512, run_avx512);
 }
 
 #[cfg(all(test, feature = "std", target_arch = "x86_64", target_os = "linux"))]
