@@ -313,6 +313,35 @@ fn the_paper_layouts_step_gives_the_portable_bits() {
     }
 }
 
+/// `c` run over `signal` on the kernels `k` in the pieces between the
+/// indices `cuts` (one `compensate_into` each): every sample's voltage and
+/// flags, and the pieces' counts of clipped samples and faults summed.
+fn run_in_pieces<T: Real, S: mfcbeam::realtime::Storage>(
+    c: &mut Compensator<T, S>,
+    k: simd::Kernels,
+    signal: &[T],
+    cuts: &[usize],
+) -> (Vec<(T, bool, bool)>, (usize, usize)) {
+    let n = signal.len();
+    let (mut u, mut saturated, mut fault) = (vec![T::ZERO; n], vec![false; n], vec![false; n]);
+    let mut total = (0, 0);
+    for w in cuts.windows(2) {
+        let r = w[0]..w[1];
+        let (clipped, faults) = c
+            .compensate_into_using(
+                k,
+                &signal[r.clone()],
+                &mut u[r.clone()],
+                &mut saturated[r.clone()],
+                &mut fault[r],
+            )
+            .unwrap();
+        total = (total.0 + clipped, total.1 + faults);
+    }
+    let out = u.into_iter().zip(saturated).zip(fault);
+    (out.map(|((u, s), f)| (u, s, f)).collect(), total)
+}
+
 /// A run (`compensate_into`: one loop in the kernels' function, the creep's
 /// output carried from sample to sample in a register) gives the bits of
 /// one portable step per sample, on every kernel set: the paper's layout
@@ -395,80 +424,28 @@ fn a_run_gives_the_bits_of_its_steps_on_every_kernel_set() {
         };
         for k in simd::Kernels::all() {
             let at = |what: &str| format!("seed {seed}, {k:?}, {what}");
-            let (mut free, mut placed) = (
-                Free::<f64>::new(&p, settings).unwrap(),
-                Placed::<f64>::new(&p, settings).ok(),
-            );
+            let bits = |out: Vec<(f64, bool, bool)>| -> Vec<_> {
+                out.into_iter()
+                    .map(|(u, s, f)| (u.to_bits(), s, f))
+                    .collect()
+            };
+            let mut free = Free::<f64>::new(&p, settings).unwrap();
+            let (out, total) = run_in_pieces(&mut free, k, &signal, &cuts);
+            assert_eq!(bits(out), expected, "{}", at("heap"));
+            assert_eq!(total, counts(&expected), "{}", at("heap, counts"));
+            if let Ok(mut placed) = Placed::<f64>::new(&p, settings) {
+                let (out, total) = run_in_pieces(&mut placed, k, &signal, &cuts);
+                assert_eq!(bits(out), expected, "{}", at("inline"));
+                assert_eq!(total, counts(&expected), "{}", at("inline, counts"));
+            }
             let mut free32 = Free::<f32>::new(&p, settings).unwrap();
-            let n = signal.len();
-            let (mut u, mut u32s) = (vec![0.0; n], vec![0.0f32; n]);
-            let (mut sat, mut fault) = (vec![false; n], vec![false; n]);
-            let (mut sat_p, mut fault_p, mut u_p) = (vec![false; n], vec![false; n], vec![0.0; n]);
-            let (mut sat32, mut fault32) = (vec![false; n], vec![false; n]);
-            let mut totals = [(0, 0); 3];
-            for w in cuts.windows(2) {
-                let r = w[0]..w[1];
-                let add = |t: &mut (usize, usize), c: (usize, usize)| {
-                    (t.0, t.1) = (t.0 + c.0, t.1 + c.1);
-                };
-                let c = free
-                    .compensate_into_using(
-                        k,
-                        &signal[r.clone()],
-                        &mut u[r.clone()],
-                        &mut sat[r.clone()],
-                        &mut fault[r.clone()],
-                    )
-                    .unwrap();
-                add(&mut totals[0], c);
-                if let Some(placed) = &mut placed {
-                    let c = placed
-                        .compensate_into_using(
-                            k,
-                            &signal[r.clone()],
-                            &mut u_p[r.clone()],
-                            &mut sat_p[r.clone()],
-                            &mut fault_p[r.clone()],
-                        )
-                        .unwrap();
-                    add(&mut totals[1], c);
-                }
-                let c = free32
-                    .compensate_into_using(
-                        k,
-                        &signal32[r.clone()],
-                        &mut u32s[r.clone()],
-                        &mut sat32[r.clone()],
-                        &mut fault32[r],
-                    )
-                    .unwrap();
-                add(&mut totals[2], c);
-            }
-            for i in 0..n {
-                let t = signal[i];
-                assert_eq!(
-                    (u[i].to_bits(), sat[i], fault[i]),
-                    expected[i],
-                    "{} {t}",
-                    at("heap")
-                );
-                if placed.is_some() {
-                    assert_eq!(
-                        (u_p[i].to_bits(), sat_p[i], fault_p[i]),
-                        expected[i],
-                        "{} {t}",
-                        at("inline")
-                    );
-                }
-                assert_eq!(
-                    (u32s[i].to_bits(), sat32[i], fault32[i]),
-                    expected32[i],
-                    "{} {t}",
-                    at("f32")
-                );
-            }
-            assert_eq!(totals[0], counts(&expected), "{}", at("counts"));
-            assert_eq!(totals[2], counts(&expected32), "{}", at("counts, f32"));
+            let (out, total) = run_in_pieces(&mut free32, k, &signal32, &cuts);
+            let out: Vec<_> = out
+                .into_iter()
+                .map(|(u, s, f)| (u.to_bits(), s, f))
+                .collect();
+            assert_eq!(out, expected32, "{}", at("f32"));
+            assert_eq!(total, counts(&expected32), "{}", at("f32, counts"));
         }
     }
 }
