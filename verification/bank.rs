@@ -313,6 +313,9 @@ fn the_paper_layouts_step_gives_the_portable_bits() {
     }
 }
 
+/// Every sample's voltage, whether it was clipped, whether it was a fault.
+type Outputs<T> = Vec<(T, bool, bool)>;
+
 /// `c` run over `signal` on the kernels `k` in the pieces between the
 /// indices `cuts` (one `compensate_into` each): every sample's voltage and
 /// flags, and the pieces' counts of clipped samples and faults summed.
@@ -321,7 +324,7 @@ fn run_in_pieces<T: Real, S: mfcbeam::realtime::Storage>(
     k: simd::Kernels,
     signal: &[T],
     cuts: &[usize],
-) -> (Vec<(T, bool, bool)>, (usize, usize)) {
+) -> (Outputs<T>, (usize, usize)) {
     let n = signal.len();
     let (mut u, mut saturated, mut fault) = (vec![T::ZERO; n], vec![false; n], vec![false; n]);
     let mut total = (0, 0);
@@ -424,7 +427,7 @@ fn a_run_gives_the_bits_of_its_steps_on_every_kernel_set() {
         };
         for k in simd::Kernels::all() {
             let at = |what: &str| format!("seed {seed}, {k:?}, {what}");
-            let bits = |out: Vec<(f64, bool, bool)>| -> Vec<_> {
+            let bits = |out: Outputs<f64>| -> Vec<_> {
                 out.into_iter()
                     .map(|(u, s, f)| (u.to_bits(), s, f))
                     .collect()
