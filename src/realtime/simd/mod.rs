@@ -515,6 +515,19 @@ fn clip<T: Real>(v: T, lower: T, upper: T) -> (T, bool) {
     }
 }
 
+/// `x86::f::<T, C, PAPER>(args)` with `PAPER` whether `c` has the paper's
+/// layout (a const parameter: the step is compiled once for each).
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+macro_rules! by_layout {
+    ($c:ident, $f:ident, $($arg:expr),*) => {
+        if $c.paper_layout() {
+            x86::$f::<T, C, true>($($arg),*)
+        } else {
+            x86::$f::<T, C, false>($($arg),*)
+        }
+    };
+}
+
 /// [`step_body`] on `k`'s kernels, compiled as one function with their
 /// features: one call per step, the parts in registers (split into a call
 /// per kernel, the step wrote some 40 values to the stack per sample).
@@ -530,22 +543,10 @@ pub(crate) fn compensator_step<T: Real, C: StepSource<T>>(
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         // SAFETY: an `Avx512` value exists only where the CPU has AVX-512F,
         // AVX2 and FMA.
-        Kernels::Avx512(_) => unsafe {
-            if c.paper_layout() {
-                x86::step_avx512::<T, C, true>(c, y, lower, upper)
-            } else {
-                x86::step_avx512::<T, C, false>(c, y, lower, upper)
-            }
-        },
+        Kernels::Avx512(_) => unsafe { by_layout!(c, step_avx512, c, y, lower, upper) },
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         // SAFETY: an `Avx2` value exists only where the CPU has AVX2 and FMA.
-        Kernels::Avx2(_) => unsafe {
-            if c.paper_layout() {
-                x86::step_avx2::<T, C, true>(c, y, lower, upper)
-            } else {
-                x86::step_avx2::<T, C, false>(c, y, lower, upper)
-            }
-        },
+        Kernels::Avx2(_) => unsafe { by_layout!(c, step_avx2, c, y, lower, upper) },
         // SAFETY: the portable kernels need no feature.
         Kernels::Portable => step_portable(c, y, lower, upper),
     }
@@ -631,21 +632,11 @@ pub(crate) fn compensator_run<T: Real, C: RunSource<T>>(
         // SAFETY: an `Avx512` value exists only where the CPU has AVX-512F,
         // AVX2 and FMA.
         Kernels::Avx512(_) => unsafe {
-            if c.paper_layout() {
-                x86::run_avx512::<T, C, true>(k, c, targets, u, saturated, fault)
-            } else {
-                x86::run_avx512::<T, C, false>(k, c, targets, u, saturated, fault)
-            }
+            by_layout!(c, run_avx512, k, c, targets, u, saturated, fault)
         },
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         // SAFETY: an `Avx2` value exists only where the CPU has AVX2 and FMA.
-        Kernels::Avx2(_) => unsafe {
-            if c.paper_layout() {
-                x86::run_avx2::<T, C, true>(k, c, targets, u, saturated, fault)
-            } else {
-                x86::run_avx2::<T, C, false>(k, c, targets, u, saturated, fault)
-            }
-        },
+        Kernels::Avx2(_) => unsafe { by_layout!(c, run_avx2, k, c, targets, u, saturated, fault) },
         // SAFETY: the portable kernels need no feature.
         Kernels::Portable => unsafe {
             run_body::<T, PortableStep, C, false>(k, c, targets, u, saturated, fault)
