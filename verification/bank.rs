@@ -12,6 +12,11 @@ use mfcbeam::realtime::{simd, Compensator, CompensatorSettings, Inline, Paramete
 use mfcbeam::suite::conformance::{random_model, ModelShape, Rng};
 
 type Single<T> = Compensator<T, Inline<12, 72>>;
+/// A compensator on the heap: any layout, the general step or the paper's.
+type Free<T> = Compensator<T, mfcbeam::operators::heap::Heap>;
+/// An inline compensator with the paper's layout's room for the plays and
+/// creep (and the default room for `S` and a dead time).
+type Placed<T> = Compensator<T, Inline<12, 60>>;
 
 /// `count` models of one shape (random, or the paper's model): the first as
 /// drawn, the others with weights scaled (which keeps (11) and (17)) and
@@ -182,7 +187,6 @@ fn every_kernel_set_gives_the_portable_bits() {
 /// where `f32` overflows).
 #[test]
 fn every_kernel_set_gives_the_portable_bits_at_every_order() {
-    type Free<T> = Compensator<T, mfcbeam::operators::heap::Heap>;
     let mut rng = Rng::new(11);
     for seed in 0..60u64 {
         let file = random_model(&mut rng, 40, ModelShape::Any);
@@ -237,8 +241,6 @@ fn every_kernel_set_gives_the_portable_bits_at_every_order() {
 /// one short of it (11 plays) through the general step.
 #[test]
 fn the_paper_layouts_step_gives_the_portable_bits() {
-    type Free<T> = Compensator<T, mfcbeam::operators::heap::Heap>;
-    type Placed<T> = Compensator<T, Inline<12, 60>>;
     let mut rng = Rng::new(29);
     for seed in 0..40u64 {
         let drawn = random_model(&mut rng, 12, ModelShape::Any);
@@ -355,8 +357,6 @@ fn run_in_pieces<T: Real, S: mfcbeam::realtime::Storage>(
 #[test]
 fn a_run_gives_the_bits_of_its_steps_on_every_kernel_set() {
     use mfcbeam::operators::model::{DynamicsData, LowPassData, ResonanceData};
-    type Free<T> = Compensator<T, mfcbeam::operators::heap::Heap>;
-    type Placed<T> = Compensator<T, Inline<12, 60>>;
     let mut rng = Rng::new(43);
     for seed in 0..48u64 {
         let mut file = if seed % 3 == 0 {
@@ -463,9 +463,10 @@ fn a_run_gives_the_bits_of_its_steps_on_every_kernel_set() {
 #[test]
 fn every_kernel_set_gives_the_portable_bits_wherever_the_state_lies() {
     fn sweep<T: Real>() {
-        type Placed<T> = Compensator<T, mfcbeam::realtime::nominal::Capacity>;
+        // the nominal model's room only (no `S`, no dead time)
+        type Nominal<T> = Compensator<T, mfcbeam::realtime::nominal::Capacity>;
         let settings = CompensatorSettings::with_limits(-700.0, 700.0);
-        let proto = Placed::<T>::new(&mfcbeam::realtime::nominal::PARAMETERS, settings).unwrap();
+        let proto = Nominal::<T>::new(&mfcbeam::realtime::nominal::PARAMETERS, settings).unwrap();
         let signal: Vec<T> = targets(&mut Rng::new(3), 1, 48, 900.0)
             .into_iter()
             .map(|row| T::from_f64(row[0]))
@@ -475,24 +476,24 @@ fn every_kernel_set_gives_the_portable_bits_wherever_the_state_lies() {
             .iter()
             .map(|&t| reference.compensate_portable(t))
             .collect();
-        let size = std::mem::size_of::<Placed<T>>();
+        let size = std::mem::size_of::<Nominal<T>>();
         let layout = std::alloc::Layout::from_size_align(size + 4096, 4096).unwrap();
         // SAFETY: a non-zero size; freed below with the same layout.
         let (first, second) = unsafe { (std::alloc::alloc(layout), std::alloc::alloc(layout)) };
         assert!(!first.is_null() && !second.is_null());
         let mut placed = 0;
         for k in simd::Kernels::all() {
-            for offset in (0..4096).step_by(std::mem::align_of::<Placed<T>>()) {
+            for offset in (0..4096).step_by(std::mem::align_of::<Nominal<T>>()) {
                 let mirrored = (4096 - offset) % 4096;
                 // SAFETY: both offsets + size ≤ the buffers' size, aligned
                 // for the type; the value is written before use, moved by
                 // a copy (the first place not used again) and dropped after.
                 unsafe {
-                    let mut at = first.add(offset).cast::<Placed<T>>();
+                    let mut at = first.add(offset).cast::<Nominal<T>>();
                     at.write(proto.clone());
                     for (i, (&t, e)) in signal.iter().zip(&expected).enumerate() {
                         if i == signal.len() / 2 {
-                            let to = second.add(mirrored).cast::<Placed<T>>();
+                            let to = second.add(mirrored).cast::<Nominal<T>>();
                             std::ptr::copy_nonoverlapping(at, to, 1);
                             at = to;
                         }
