@@ -210,6 +210,25 @@ float mfcbeam_compensate_f32(struct MfcbeamCompensatorStorageF32 *storage,
                              int *flags);
 
 /**
+ * The voltages for `n` targets in turn, in `f32`: the same values and
+ * flags as one `mfcbeam_compensate_f32` per sample, in one call and faster
+ * (the samples run in one loop). `u` may be the same array as `targets`;
+ * `flags` (may be NULL) gets each sample's flags. Allocation-free. 0; -1
+ * with nothing stepped for NULL arrays (`n > 0`); -1 with NaN voltages and
+ * `MFCBEAM_FLAG_INVALID_HANDLE` for NULL or uninitialised storage.
+ *
+ * # Safety
+ * `storage` NULL or an `MfcbeamCompensatorStorageF32`; `targets` and `u`
+ * NULL or valid for `n` values; `flags` NULL or valid for `n` ints, apart
+ * from both.
+ */
+int mfcbeam_compensate_f32_into(struct MfcbeamCompensatorStorageF32 *storage,
+                                const float *targets,
+                                float *u,
+                                int *flags,
+                                size_t n);
+
+/**
  * The model's dead time `d` (samples): the compensator inverts the memory
  * part, so the target given at sample `k` is the one wanted at `k + d`.
  * 0 for NULL or uninitialised storage.
@@ -272,6 +291,25 @@ int mfcbeam_compensator_f64_init_json(struct MfcbeamCompensatorStorageF64 *stora
 double mfcbeam_compensate_f64(struct MfcbeamCompensatorStorageF64 *storage,
                               double target,
                               int *flags);
+
+/**
+ * The voltages for `n` targets in turn, in `f64`: the same values and
+ * flags as one `mfcbeam_compensate_f64` per sample, in one call and faster
+ * (the samples run in one loop). `u` may be the same array as `targets`;
+ * `flags` (may be NULL) gets each sample's flags. Allocation-free. 0; -1
+ * with nothing stepped for NULL arrays (`n > 0`); -1 with NaN voltages and
+ * `MFCBEAM_FLAG_INVALID_HANDLE` for NULL or uninitialised storage.
+ *
+ * # Safety
+ * `storage` NULL or an `MfcbeamCompensatorStorageF64`; `targets` and `u`
+ * NULL or valid for `n` values; `flags` NULL or valid for `n` ints, apart
+ * from both.
+ */
+int mfcbeam_compensate_f64_into(struct MfcbeamCompensatorStorageF64 *storage,
+                                const double *targets,
+                                double *u,
+                                int *flags,
+                                size_t n);
 
 /**
  * Back to the virgin state. Nothing for NULL or uninitialised storage.
@@ -416,6 +454,26 @@ struct MfcbeamCompensatorHandle *mfcbeam_compensator_from_json(const char *json,
  * `comp` is NULL or a live handle; `flags` is NULL or writable.
  */
 double mfcbeam_compensate(struct MfcbeamCompensatorHandle *comp, double target, int *flags);
+#endif
+
+#if defined(MFCBEAM_STD)
+/**
+ * The voltages for `n` targets, in turn: the same values and flags as one
+ * `mfcbeam_compensate` per sample, in one call and faster (the samples run
+ * in one loop). `u` may be the same array as `targets`; `flags` (may be
+ * NULL) gets each sample's flags. Allocation-free. 0; -1 with nothing
+ * stepped for NULL arrays (`n > 0`); -1 with NaN voltages and
+ * `MFCBEAM_FLAG_INVALID_HANDLE` for a NULL handle.
+ *
+ * # Safety
+ * `comp` is NULL or a live handle; `targets` and `u` NULL or valid for `n`
+ * values; `flags` NULL or valid for `n` ints, apart from both.
+ */
+int mfcbeam_compensate_into(struct MfcbeamCompensatorHandle *comp,
+                            const double *targets,
+                            double *u,
+                            int *flags,
+                            size_t n);
 #endif
 
 #if defined(MFCBEAM_STD)

@@ -16,6 +16,7 @@ use crate::error::{flags_of, set_flags, write_error, Failure, MFCBEAM_FLAG_INVAL
 #[cfg(feature = "std")]
 use crate::heap::model_file;
 use crate::parameters::MfcbeamParameters;
+use crate::run;
 
 /// Plays (hysteresis thresholds) the caller-owned storage holds.
 pub const MFCBEAM_MAX_PLAYS: usize = 24;
@@ -223,6 +224,26 @@ unsafe fn compensate<S, T: Real>(storage: *mut S, target: T, flags: *mut c_int) 
     }
 }
 
+/// A run of steps on storage (`run::run`).
+///
+/// # Safety
+/// `storage` NULL or sized for the compensator; the arrays as `run::run`'s.
+unsafe fn compensate_into<S, T: Real>(
+    storage: *mut S,
+    targets: *const T,
+    u: *mut T,
+    flags: *mut c_int,
+    n: usize,
+) -> c_int {
+    // SAFETY: forwarded from the caller.
+    unsafe {
+        match value::<S, Compensator<T, Capacity>>(storage) {
+            Some(c) => run::run(c, targets, u, flags, n),
+            None => run::refuse(u, flags, n),
+        }
+    }
+}
+
 /// A compensator of the model `parameters` (virgin state) with limits
 /// `lower < upper` in `storage`, computing in `f32`. No allocation. 0, or -1
 /// and the reason in `err`.
@@ -282,6 +303,29 @@ pub unsafe extern "C" fn mfcbeam_compensate_f32(
 ) -> f32 {
     // SAFETY: forwarded from the caller.
     unsafe { compensate(storage, target, flags) }
+}
+
+/// The voltages for `n` targets in turn, in `f32`: the same values and
+/// flags as one `mfcbeam_compensate_f32` per sample, in one call and faster
+/// (the samples run in one loop). `u` may be the same array as `targets`;
+/// `flags` (may be NULL) gets each sample's flags. Allocation-free. 0; -1
+/// with nothing stepped for NULL arrays (`n > 0`); -1 with NaN voltages and
+/// `MFCBEAM_FLAG_INVALID_HANDLE` for NULL or uninitialised storage.
+///
+/// # Safety
+/// `storage` NULL or an `MfcbeamCompensatorStorageF32`; `targets` and `u`
+/// NULL or valid for `n` values; `flags` NULL or valid for `n` ints, apart
+/// from both.
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_compensate_f32_into(
+    storage: *mut MfcbeamCompensatorStorageF32,
+    targets: *const f32,
+    u: *mut f32,
+    flags: *mut c_int,
+    n: usize,
+) -> c_int {
+    // SAFETY: forwarded from the caller.
+    unsafe { compensate_into(storage, targets, u, flags, n) }
 }
 
 /// The model's dead time `d` (samples): the compensator inverts the memory
@@ -377,6 +421,29 @@ pub unsafe extern "C" fn mfcbeam_compensate_f64(
 ) -> f64 {
     // SAFETY: forwarded from the caller.
     unsafe { compensate(storage, target, flags) }
+}
+
+/// The voltages for `n` targets in turn, in `f64`: the same values and
+/// flags as one `mfcbeam_compensate_f64` per sample, in one call and faster
+/// (the samples run in one loop). `u` may be the same array as `targets`;
+/// `flags` (may be NULL) gets each sample's flags. Allocation-free. 0; -1
+/// with nothing stepped for NULL arrays (`n > 0`); -1 with NaN voltages and
+/// `MFCBEAM_FLAG_INVALID_HANDLE` for NULL or uninitialised storage.
+///
+/// # Safety
+/// `storage` NULL or an `MfcbeamCompensatorStorageF64`; `targets` and `u`
+/// NULL or valid for `n` values; `flags` NULL or valid for `n` ints, apart
+/// from both.
+#[no_mangle]
+pub unsafe extern "C" fn mfcbeam_compensate_f64_into(
+    storage: *mut MfcbeamCompensatorStorageF64,
+    targets: *const f64,
+    u: *mut f64,
+    flags: *mut c_int,
+    n: usize,
+) -> c_int {
+    // SAFETY: forwarded from the caller.
+    unsafe { compensate_into(storage, targets, u, flags, n) }
 }
 
 /// Back to the virgin state. Nothing for NULL or uninitialised storage.

@@ -34,6 +34,7 @@ mod fixed;
 #[cfg(feature = "std")]
 mod heap;
 mod parameters;
+mod run;
 
 /// A panic cannot happen in the no_std build's code paths (every input is
 /// checked); should one, the target stops here rather than unwind into C.
