@@ -85,6 +85,10 @@ int main(void) {
     check(isnan(mfcbeam_model_step(NULL, 1.0)), "model step on NULL", NULL);
     double u = mfcbeam_compensate(NULL, 1.0, &flags);
     check(isnan(u) && flags == MFCBEAM_FLAG_INVALID_HANDLE, "compensate on NULL", NULL);
+    double run_targets[3] = {1.0, 2.0, 3.0}, run_u[3] = {0.0, 0.0, 0.0};
+    int run_flags[3] = {0, 0, 0};
+    int refused = mfcbeam_compensate_into(NULL, run_targets, run_u, run_flags, 3);
+    check(refused == -1 && isnan(run_u[2]) && run_flags[2] == MFCBEAM_FLAG_INVALID_HANDLE, "a run on NULL", NULL);
     mfcbeam_model_reset(NULL);
     mfcbeam_model_free(NULL);
     mfcbeam_compensator_reset(NULL);
@@ -97,6 +101,9 @@ int main(void) {
     check(isnan(v) && flags == MFCBEAM_FLAG_INVALID_HANDLE, "uninitialised storage", NULL);
     v = mfcbeam_compensate_f32(NULL, 1.0f, &flags);
     check(isnan(v) && flags == MFCBEAM_FLAG_INVALID_HANDLE, "NULL storage", NULL);
+    float run_v[2] = {1.0f, 2.0f};
+    refused = mfcbeam_compensate_f32_into(&zeroed, run_v, run_v, run_flags, 2);
+    check(refused == -1 && isnan(run_v[1]) && run_flags[1] == MFCBEAM_FLAG_INVALID_HANDLE, "a run on uninitialised storage", NULL);
 
     const double r[2] = {0.0, 100.0}, w[2] = {0.5, 0.25};
     const double rc[1] = {0.0}, wc[1] = {0.05}, a[2] = {50.0, 0.5};

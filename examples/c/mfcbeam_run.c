@@ -8,7 +8,8 @@
  *     mfcbeam_run compensate --model M.json --input IN.csv --output OUT.csv --limits=LO,HI [--f32]
  *
  * `simulate` appends y = W[u] to the input's columns, `compensate` appends
- * u = W^-1[y_d] and `saturated`. Without --f32 it uses the heap handles
+ * u = W^-1[y_d] and `saturated` (the whole column in one call,
+ * mfcbeam_compensate_into). Without --f32 it uses the heap handles
  * (mfcbeam_model_from_json, mfcbeam_compensator_from_json, f64); with --f32
  * the caller-owned storage (MfcbeamModelStorageF32, MfcbeamCompensatorStorageF32) that a
  * target without a heap would use. A model with a dead time of d samples
@@ -127,21 +128,24 @@ int main(int argc, char **argv) {
         MfcbeamCompensatorHandle *c = mfcbeam_compensator_from_json(json, lower, upper, err, sizeof err);
         if (!c) die(model, err);
         size_t d = mfcbeam_compensator_delay(c);
-        for (size_t k = 0; k < t.rows; k++) {
-            int flags = 0;
-            out[k] = mfcbeam_compensate(c, t.values[k + d < t.rows ? k + d : t.rows - 1], &flags);
-            sat[k] = flags & MFCBEAM_FLAG_SATURATED;
-        }
+        /* the column previewed by d samples, then the whole signal in one call */
+        for (size_t k = 0; k < t.rows; k++) out[k] = t.values[k + d < t.rows ? k + d : t.rows - 1];
+        if (mfcbeam_compensate_into(c, out, out, sat, t.rows) != 0) die(model, "the compensator refused the run");
+        for (size_t k = 0; k < t.rows; k++) sat[k] &= MFCBEAM_FLAG_SATURATED;
         mfcbeam_compensator_free(c);
     } else {
         static MfcbeamCompensatorStorageF32 c;
         if (mfcbeam_compensator_f32_init_json(&c, json, lower, upper, err, sizeof err) != 0) die(model, err);
         size_t d = mfcbeam_compensator_f32_delay(&c);
+        float *v = malloc(t.rows * sizeof(float) + 1);
+        if (!v) die("out of memory", input);
+        for (size_t k = 0; k < t.rows; k++) v[k] = (float)t.values[k + d < t.rows ? k + d : t.rows - 1];
+        if (mfcbeam_compensate_f32_into(&c, v, v, sat, t.rows) != 0) die(model, "the compensator refused the run");
         for (size_t k = 0; k < t.rows; k++) {
-            int flags = 0;
-            out[k] = mfcbeam_compensate_f32(&c, (float)t.values[k + d < t.rows ? k + d : t.rows - 1], &flags);
-            sat[k] = flags & MFCBEAM_FLAG_SATURATED;
+            out[k] = v[k];
+            sat[k] &= MFCBEAM_FLAG_SATURATED;
         }
+        free(v);
     }
 
     /* write next to the output, then rename: never a partial output file */
