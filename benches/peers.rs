@@ -13,7 +13,10 @@
 //! (`-DSTRONG_F32`: eight lanes per register) from
 //! `MFCBEAM_C_PEER_STRONG_F32`, and the strongest kept out of line, one
 //! call per sample (`-DONE_CALL`), from `MFCBEAM_C_PEER_STRONG_CALL`;
-//! `benches/peers/run.sh` builds and passes all seven.
+//! `benches/peers/run.sh` builds and passes all seven. `MFCBEAM_C_API`
+//! names mfcbeam's own C library (`libmfcbeam.so` of `capi/`), timed as a C
+//! program calls it: a heap handle, one `mfcbeam_compensate` per sample and
+//! runs of `mfcbeam_compensate_into`.
 //!
 //! Each round times one batch of 100 000 consecutive steps of every
 //! implementation (in a rotating order) on the same 4096 targets (W of the
@@ -33,7 +36,7 @@
 
 #[cfg(target_os = "linux")]
 fn main() {
-    use std::ffi::c_void;
+    use std::ffi::{c_char, c_int, c_void, CString};
     use std::hint::black_box;
     use std::time::Instant;
 
@@ -43,6 +46,11 @@ fn main() {
     type New = unsafe extern "C" fn() -> *mut c_void;
     type Targets = unsafe extern "C" fn(*mut f64);
     type Run = unsafe extern "C" fn(*mut c_void, *const f64, *mut u32, i64) -> f64;
+    type FromJson =
+        unsafe extern "C" fn(*const c_char, f64, f64, *mut c_char, usize) -> *mut c_void;
+    type ApiStep = unsafe extern "C" fn(*mut c_void, f64, *mut c_int) -> f64;
+    type ApiRun =
+        unsafe extern "C" fn(*mut c_void, *const f64, *mut f64, *mut c_int, usize) -> c_int;
 
     const LEN: usize = 4096;
     const STEPS: usize = 100_000;
@@ -56,6 +64,7 @@ fn main() {
         "MFCBEAM_C_PEER_SAME_ORDER",
         "MFCBEAM_C_PEER_STRONG_F32",
         "MFCBEAM_C_PEER_STRONG_CALL",
+        "MFCBEAM_C_API",
     ];
     let Ok(paths) = vars
         .iter()
@@ -76,7 +85,31 @@ fn main() {
             std::mem::transmute::<*mut c_void, Targets>(targets),
         )
     };
+    let (api_path, paths) = paths.split_last().unwrap();
     let peers: Vec<_> = paths.iter().map(|p| load(p)).collect();
+    // SAFETY: libmfcbeam.so of capi/; the symbols as include/mfcbeam.h
+    // declares them.
+    let (api_step, api_run, api) = unsafe {
+        let [from_json, step, run] = common::c_symbols(
+            api_path,
+            [
+                "mfcbeam_compensator_from_json",
+                "mfcbeam_compensate",
+                "mfcbeam_compensate_into",
+            ],
+        );
+        let json = CString::new(include_str!("../golden/nominal_model.json")).unwrap();
+        let mut err = [0 as c_char; 256];
+        let from_json = std::mem::transmute::<*mut c_void, FromJson>(from_json);
+        let handle = from_json(json.as_ptr(), -1000.0, 1000.0, err.as_mut_ptr(), err.len());
+        assert!(!handle.is_null(), "{api_path}: the nominal model refused");
+        (
+            std::mem::transmute::<*mut c_void, ApiStep>(step),
+            std::mem::transmute::<*mut c_void, ApiRun>(run),
+            handle,
+        )
+    };
+    let mut api_flags = vec![0 as c_int; LEN];
     let peer_targets = peers[0].2;
 
     let targets = nominal_model().run(&common::test_input(LEN));
@@ -106,7 +139,7 @@ fn main() {
     )
     .unwrap();
     let targets32: Vec<f32> = targets.iter().map(|&t| t as f32).collect();
-    let mut ks = [0usize; 5];
+    let mut ks = [0usize; 7];
     let mut into64 = fixed64.clone();
     let mut into32 = fixed32.clone();
     let (mut u64s, mut u32s) = (vec![0.0f64; LEN], vec![0.0f32; LEN]);
@@ -125,9 +158,12 @@ fn main() {
         "Compensator<f32, nominal::Capacity>",
         "the same f64, a run (compensate_into)",
         "the same f32, a run (compensate_into)",
+        "C API f64, one call per sample (heap handle)",
+        "C API f64, a run (mfcbeam_compensate_into)",
     ];
-    // rows of `names`: the C libraries first, in `vars`' order, then
-    // mfcbeam's three; named where they are timed and compared
+    // rows of `names`: the C peers first, in `vars`' order, then mfcbeam's
+    // in Rust, then through its C library; named where they are timed and
+    // compared
     const STRONGEST: usize = 2;
     const STRONGEST_F32: usize = 5;
     const STRONGEST_CALL: usize = 6;
@@ -136,8 +172,10 @@ fn main() {
     const INLINE_F32: usize = 9;
     const INTO_F64: usize = 10;
     const INTO_F32: usize = 11;
+    const API_CALL: usize = 12;
+    const API_RUN: usize = 13;
     assert_eq!(peers.len(), HEAP_F64);
-    assert_eq!(names.len(), INTO_F32 + 1);
+    assert_eq!(names.len(), API_RUN + 1);
     let mut times = vec![Vec::with_capacity(ROUNDS); names.len()];
     // STEPS targets from `k` on, cycling through the LEN of them, as
     // peer_run takes them: whole runs of `compensate_into`
@@ -160,7 +198,7 @@ fn main() {
             black_box(&$u);
         }};
     }
-    let mut time = |which: usize, ks: &mut [usize; 5]| -> f64 {
+    let mut time = |which: usize, ks: &mut [usize; 7]| -> f64 {
         let t0 = Instant::now();
         match which {
             // SAFETY: the peer's pointer and LEN targets, as peer_run expects.
@@ -200,6 +238,37 @@ fn main() {
             }
             INTO_F64 => run_into!(into64, targets, u64s, ks[3]),
             INTO_F32 => run_into!(into32, targets32, u32s, ks[4]),
+            API_CALL => {
+                let mut s = 0.0;
+                let mut flags = 0;
+                for _ in 0..STEPS {
+                    ks[5] = (ks[5] + 1) & (LEN - 1);
+                    // SAFETY: a live handle and a writable int.
+                    s += unsafe { api_step(api, black_box(targets[ks[5]]), &mut flags) };
+                }
+                black_box((s, flags));
+            }
+            API_RUN => {
+                let mut left = STEPS;
+                while left > 0 {
+                    let n = (LEN - ks[6]).min(left);
+                    let k = ks[6];
+                    // SAFETY: a live handle and `n` values from `k` in each array.
+                    let rc = unsafe {
+                        api_run(
+                            api,
+                            black_box(targets[k..].as_ptr()),
+                            u64s[k..].as_mut_ptr(),
+                            api_flags[k..].as_mut_ptr(),
+                            n,
+                        )
+                    };
+                    assert_eq!(rc, 0);
+                    ks[6] = (k + n) % LEN;
+                    left -= n;
+                }
+                black_box(&u64s);
+            }
             _ => unreachable!("row {which} of {} names", names.len()),
         }
         t0.elapsed().as_nanos() as f64 / STEPS as f64
@@ -287,6 +356,14 @@ fn main() {
             "Compensator<f32> / strongest C in f32",
             &over(INLINE_F32, STRONGEST_F32),
         ),
+        (
+            "C API, one call per sample: mfcbeam_compensate / the strongest C's",
+            &over(API_CALL, STRONGEST_CALL),
+        ),
+        (
+            "C API, a run: mfcbeam_compensate_into / the strongest C's loop",
+            &over(API_RUN, STRONGEST),
+        ),
     ] {
         println!(
             "{name}: {:.3} (p10-p90 {:.3}-{:.3})",
@@ -297,12 +374,15 @@ fn main() {
     }
     // median ns / median ratio to the strongest peer, per implementation
     println!(
-        "summary: {} call/c_call={:.4} run_f32/f64={:.4} f32/f64={:.4} c_f32/f64={:.4}",
+        "summary: {} call/c_call={:.4} run_f32/f64={:.4} f32/f64={:.4} c_f32/f64={:.4} \
+         api_call/c_call={:.4} api_run/c_loop={:.4}",
         summary.join(" "),
         quantile(&over(INLINE_F64, STRONGEST_CALL), 0.5),
         quantile(&run_f32_vs_f64, 0.5),
         quantile(&f32_vs_f64, 0.5),
-        quantile(&c_f32_vs_f64, 0.5)
+        quantile(&c_f32_vs_f64, 0.5),
+        quantile(&over(API_CALL, STRONGEST_CALL), 0.5),
+        quantile(&over(API_RUN, STRONGEST), 0.5)
     );
 }
 

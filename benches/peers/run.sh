@@ -8,7 +8,8 @@
 # sample, not inlined into the timing loop, with -DONE_CALL; and with -DSAME_ORDER,
 # mfcbeam's own order of operations in intrinsics), the
 # hand-written C bank (bank.c, AVX-512F: checked here, timed by bank_limit
-# with MFCBEAM_C_BANK), numba
+# with MFCBEAM_C_BANK), mfcbeam's own C library (capi/, timed as C calls
+# it), numba
 # (numba_compensator.py, if numba is installed) and this crate's criterion
 # benches (step/compensator_step: the heap compensator, and the fixed f64
 # and f32 cores). Checks first that the peers compute what mfcbeam does.
@@ -158,6 +159,8 @@ if [[ $bank == yes ]]; then
     -o "$out/libbank.so" benches/peers/bank.c -lm
 fi
 echo "the C peers built with -march=$march"
+# mfcbeam's own C library, timed as a C program calls it
+cargo build --quiet --release -p mfcbeam-capi
 for run in 1 2 3; do
   echo "== process $run of 3"
   MFCBEAM_C_PEER="$PWD/$out/libpeer.so" MFCBEAM_C_PEER_BRANCH_FREE="$PWD/$out/libpeer_branch_free.so" \
@@ -166,6 +169,7 @@ for run in 1 2 3; do
     MFCBEAM_C_PEER_SAME_ORDER="$PWD/$out/libpeer_same_order.so" \
     MFCBEAM_C_PEER_STRONG_F32="$PWD/$out/libpeer_strong_f32.so" \
     MFCBEAM_C_PEER_STRONG_CALL="$PWD/$out/libpeer_strong_call.so" \
+    MFCBEAM_C_API="$PWD/target/release/libmfcbeam.so" \
     cargo bench --quiet --bench peers | tee "$out/peers_$run.txt"
 done
 python3 - "$out"/peers_{1,2,3}.txt <<'EOF'
@@ -173,8 +177,9 @@ import sys
 names = ["C peer", "branch-free C peer", "strongest C peer", "strongest C peer without FMA",
          "mfcbeam's order in C", "strongest C peer in f32", "strongest C, one call per step",
          "Compensator (heap, f64)", "Compensator<f64, nominal::Capacity>",
-         "Compensator<f32, nominal::Capacity>", "the same f64, a run", "the same f32, a run"]
-ratios = ["call/c_call", "run_f32/f64", "f32/f64", "c_f32/f64"]
+         "Compensator<f32, nominal::Capacity>", "the same f64, a run", "the same f32, a run",
+         "C API f64, one call per sample", "C API f64, a run"]
+ratios = ["call/c_call", "run_f32/f64", "f32/f64", "c_f32/f64", "api_call/c_call", "api_run/c_loop"]
 runs = []
 for path in sys.argv[1:]:
     line = next(l for l in open(path) if l.startswith("summary:"))
@@ -193,7 +198,9 @@ for i, name in enumerate(names):
           f"{' '.join(f'{x:7.3f}' for x in ratio):>24} {100 * spread:6.1f}%")
 for i, name in enumerate(["one call per sample, mfcbeam f64 / the strongest C's",
                           "a run, mfcbeam f32 / f64", "one call per sample, mfcbeam f32 / f64",
-                          "the strongest C's loop, f32 / f64"]):
+                          "the strongest C's loop, f32 / f64",
+                          "the C API, one call per sample / the strongest C's",
+                          "the C API, a run / the strongest C's loop"]):
     print(f"{name}: {' '.join(f'{r[1][i]:.3f}' for r in runs)}")
 EOF
 c_ns=$("$out/compensator" time)
