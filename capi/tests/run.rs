@@ -193,7 +193,16 @@ fn a_run_refuses_null_and_uninitialised_input_as_its_steps_do() {
         assert_eq!(rc, -1);
         assert!(u.iter().all(|v| v.is_nan()));
         assert!(flags.iter().all(|&f| f == MFCBEAM_FLAG_INVALID_HANDLE));
-        // NULL arrays as well: nothing to write, no crash
+        // NULL arrays as well: nothing to write, no crash, and no walk
+        // over a length that only looks like one
+        let rc = mfcbeam_compensate_into(
+            std::ptr::null_mut(),
+            std::ptr::null(),
+            std::ptr::null_mut(),
+            std::ptr::null_mut(),
+            usize::MAX / 16,
+        );
+        assert_eq!(rc, -1);
         let rc = mfcbeam_compensate_into(
             std::ptr::null_mut(),
             std::ptr::null(),
