@@ -100,7 +100,9 @@ fn the_heap_run_gives_the_bits_of_its_steps_in_pieces_and_in_place() {
     }
 }
 
-/// `storage` initialised from the nominal model file, through `init`.
+/// A test that caller-owned storage, initialised from the nominal model
+/// file, gives in two runs (the second without flags) the bits and flags
+/// of one per-sample step each.
 macro_rules! fixed_matches_its_steps {
     ($name:ident, $storage:ident, $t:ty, $init:ident, $step:ident, $run:ident) => {
         #[test]

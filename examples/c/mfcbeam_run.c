@@ -137,7 +137,7 @@ int main(int argc, char **argv) {
         static MfcbeamCompensatorStorageF32 c;
         if (mfcbeam_compensator_f32_init_json(&c, json, lower, upper, err, sizeof err) != 0) die(model, err);
         size_t d = mfcbeam_compensator_f32_delay(&c);
-        float *v = malloc(t.rows * sizeof(float) + 1);
+        float *v = malloc(t.rows * sizeof(float) + 1); /* + 1: malloc(0) may be NULL */
         if (!v) die("out of memory", input);
         for (size_t k = 0; k < t.rows; k++) v[k] = (float)t.values[k + d < t.rows ? k + d : t.rows - 1];
         if (mfcbeam_compensate_f32_into(&c, v, v, sat, t.rows) != 0) die(model, "the compensator refused the run");
