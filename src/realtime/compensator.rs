@@ -411,7 +411,12 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         check_length("u", targets.len(), u.len())?;
         check_length("saturated", targets.len(), saturated.len())?;
         check_length("fault", targets.len(), fault.len())?;
-        Ok(simd::compensator_run(k, self, targets, u, saturated, fault))
+        let out = simd::RunOutputs {
+            u,
+            saturated,
+            fault,
+        };
+        Ok(simd::compensator_run(k, self, targets, out))
     }
 
     /// One step on the kernels `k`. The common case (no `G`, no `S`, a

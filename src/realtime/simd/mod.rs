@@ -572,6 +572,15 @@ pub(crate) trait RunSource<T: Real>: StepSource<T> {
     fn general_step(&mut self, k: Kernels, target: T) -> (T, bool, bool);
 }
 
+/// Where a run writes, one entry per target: the voltage, whether it was
+/// clipped, whether it was a fault (the slices as long as the targets; the
+/// caller checks).
+pub(crate) struct RunOutputs<'a, T> {
+    pub(crate) u: &'a mut [T],
+    pub(crate) saturated: &'a mut [bool],
+    pub(crate) fault: &'a mut [bool],
+}
+
 /// Every target of `targets` through [`step_body`] in turn, in one loop
 /// within the kernels' function. The creep's output goes from one sample to
 /// the next in a register (the state is written too), not stored and
@@ -585,14 +594,16 @@ unsafe fn run_body<T: Real, K: StepKernels<T>, C: RunSource<T>, const PAPER: boo
     k: Kernels,
     c: &mut C,
     targets: &[T],
-    u: &mut [T],
-    saturated: &mut [bool],
-    fault: &mut [bool],
+    out: RunOutputs<'_, T>,
 ) -> (usize, usize) {
     let (lower, upper) = c.limits();
     let (mut clipped, mut faults) = (0, 0);
     let mut creep_output = c.creep_output();
-    let outputs = u.iter_mut().zip(saturated.iter_mut()).zip(fault.iter_mut());
+    let outputs = out
+        .u
+        .iter_mut()
+        .zip(out.saturated.iter_mut())
+        .zip(out.fault.iter_mut());
     for (&target, ((u, saturated), fault)) in targets.iter().zip(outputs) {
         let (v, s, f) = match c.common_target(target) {
             Some(y) => {
@@ -617,30 +628,23 @@ unsafe fn run_body<T: Real, K: StepKernels<T>, C: RunSource<T>, const PAPER: boo
 }
 
 /// [`run_body`] on `k`'s kernels, compiled as one function with their
-/// features. The output slices are as long as `targets` (the caller
-/// checks).
+/// features.
 pub(crate) fn compensator_run<T: Real, C: RunSource<T>>(
     k: Kernels,
     c: &mut C,
     targets: &[T],
-    u: &mut [T],
-    saturated: &mut [bool],
-    fault: &mut [bool],
+    out: RunOutputs<'_, T>,
 ) -> (usize, usize) {
     match k {
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         // SAFETY: an `Avx512` value exists only where the CPU has AVX-512F,
         // AVX2 and FMA.
-        Kernels::Avx512(_) => unsafe {
-            by_layout!(c, run_avx512, k, c, targets, u, saturated, fault)
-        },
+        Kernels::Avx512(_) => unsafe { by_layout!(c, run_avx512, k, c, targets, out) },
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         // SAFETY: an `Avx2` value exists only where the CPU has AVX2 and FMA.
-        Kernels::Avx2(_) => unsafe { by_layout!(c, run_avx2, k, c, targets, u, saturated, fault) },
+        Kernels::Avx2(_) => unsafe { by_layout!(c, run_avx2, k, c, targets, out) },
         // SAFETY: the portable kernels need no feature.
-        Kernels::Portable => unsafe {
-            run_body::<T, PortableStep, C, false>(k, c, targets, u, saturated, fault)
-        },
+        Kernels::Portable => unsafe { run_body::<T, PortableStep, C, false>(k, c, targets, out) },
     }
 }
 
@@ -1412,12 +1416,10 @@ mod x86 {
                 k: super::Kernels,
                 c: &mut C,
                 targets: &[T],
-                u: &mut [T],
-                saturated: &mut [bool],
-                fault: &mut [bool],
+                out: super::RunOutputs<'_, T>,
             ) -> (usize, usize) {
                 // SAFETY: the features are enabled here.
-                unsafe { super::run_body::<T, $set, C, PAPER>(k, c, targets, u, saturated, fault) }
+                unsafe { super::run_body::<T, $set, C, PAPER>(k, c, targets, out) }
             }
         };
     }
