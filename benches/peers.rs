@@ -324,66 +324,85 @@ fn main() {
         );
         summary.push(format!("{:.4}/{:.4}", quantile(t, 0.5), quantile(r, 0.5)));
     }
-    // f32 against f64, the same rounds: mfcbeam's, and the strongest C's
+    // one row's time over another's, round by round
     let over = |a: usize, b: usize| -> Vec<f64> {
         times[a].iter().zip(&times[b]).map(|(x, y)| x / y).collect()
     };
-    let f32_vs_f64 = over(INLINE_F32, INLINE_F64);
-    let c_f32_vs_f64 = over(STRONGEST_F32, STRONGEST);
     // like against like: one call per sample against the C's step called
-    // once per sample; a run against the C's loop over its inlined step
-    let run_f32_vs_f64 = over(INTO_F32, INTO_F64);
-    for (name, r) in [
+    // once per sample, a run against the C's loop over its inlined step;
+    // then what `f32` buys. Each: its line, the two rows, and the key of
+    // its median in the summary (`run.sh` reads them in this order).
+    let lines = [
         (
             "one call per sample: Compensator<f64> / the strongest C's",
-            &over(INLINE_F64, STRONGEST_CALL),
+            INLINE_F64,
+            STRONGEST_CALL,
+            Some("call/c_call"),
         ),
         (
             "a run: compensate_into f64 / the strongest C's loop",
-            &over(INTO_F64, STRONGEST),
+            INTO_F64,
+            STRONGEST,
+            None,
         ),
         (
             "a run: compensate_into f32 / the strongest C's loop in f32",
-            &over(INTO_F32, STRONGEST_F32),
+            INTO_F32,
+            STRONGEST_F32,
+            None,
         ),
-        ("a run: compensate_into f32 / f64", &run_f32_vs_f64),
+        (
+            "a run: compensate_into f32 / f64",
+            INTO_F32,
+            INTO_F64,
+            Some("run_f32/f64"),
+        ),
         (
             "Compensator<f32> / Compensator<f64> (nominal::Capacity)",
-            &f32_vs_f64,
+            INLINE_F32,
+            INLINE_F64,
+            Some("f32/f64"),
         ),
-        ("strongest C in f32 / strongest C in f64", &c_f32_vs_f64),
+        (
+            "strongest C in f32 / strongest C in f64",
+            STRONGEST_F32,
+            STRONGEST,
+            Some("c_f32/f64"),
+        ),
         (
             "Compensator<f32> / strongest C in f32",
-            &over(INLINE_F32, STRONGEST_F32),
+            INLINE_F32,
+            STRONGEST_F32,
+            None,
         ),
         (
             "C API, one call per sample: mfcbeam_compensate / the strongest C's",
-            &over(API_CALL, STRONGEST_CALL),
+            API_CALL,
+            STRONGEST_CALL,
+            Some("api_call/c_call"),
         ),
         (
             "C API, a run: mfcbeam_compensate_into / the strongest C's loop",
-            &over(API_RUN, STRONGEST),
+            API_RUN,
+            STRONGEST,
+            Some("api_run/c_loop"),
         ),
-    ] {
+    ];
+    for (name, a, b, key) in lines {
+        let r = over(a, b);
         println!(
             "{name}: {:.3} (p10-p90 {:.3}-{:.3})",
-            quantile(r, 0.5),
-            quantile(r, 0.1),
-            quantile(r, 0.9)
+            quantile(&r, 0.5),
+            quantile(&r, 0.1),
+            quantile(&r, 0.9)
         );
+        if let Some(key) = key {
+            summary.push(format!("{key}={:.4}", quantile(&r, 0.5)));
+        }
     }
-    // median ns / median ratio to the strongest peer, per implementation
-    println!(
-        "summary: {} call/c_call={:.4} run_f32/f64={:.4} f32/f64={:.4} c_f32/f64={:.4} \
-         api_call/c_call={:.4} api_run/c_loop={:.4}",
-        summary.join(" "),
-        quantile(&over(INLINE_F64, STRONGEST_CALL), 0.5),
-        quantile(&run_f32_vs_f64, 0.5),
-        quantile(&f32_vs_f64, 0.5),
-        quantile(&c_f32_vs_f64, 0.5),
-        quantile(&over(API_CALL, STRONGEST_CALL), 0.5),
-        quantile(&over(API_RUN, STRONGEST), 0.5)
-    );
+    // median ns / median ratio to the strongest peer, per implementation,
+    // then the keyed ratios
+    println!("summary: {}", summary.join(" "));
 }
 
 #[cfg(not(target_os = "linux"))]
