@@ -425,22 +425,17 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     /// clipped sample; anything else in [`Compensator::compensate_general`].
     #[inline(always)]
     fn compensate_with(&mut self, k: Kernels, target: T) -> Compensated<T> {
-        if self.dynamics.is_some() || self.inverse_superposition.is_some() || !target.is_finite() {
-            return self.compensate_general(k, target);
-        }
+        use simd::RunSource;
         // the common case, no `G` and no `S`: the general path's operations
         // on it, with nothing else in the function (the rest out of line:
-        // fewer instructions and registers per step)
-        let c = match &self.creep {
-            Some(op) => op.output(),
-            None => T::ZERO,
+        // fewer instructions and registers per step); a run's loop takes
+        // the same three pieces
+        let Some(y) = self.common_target(target) else {
+            return self.compensate_general(k, target);
         };
-        let y = target - self.offset;
+        let c = self.creep_output();
         let (u, saturated) = simd::compensator_step(k, self, y - c, self.lower, self.upper);
-        if saturated {
-            self.reseat_clipped(u);
-        }
-        self.last_u = u;
+        self.after_step(u, saturated);
         Compensated {
             u,
             saturated,
