@@ -13,8 +13,9 @@
 //! `g c + (χ − g χ)`, the row's add) that has no loads, stores or
 //! dependencies to wait for, and where the bank's kernels have AVX-512 the
 //! same loop with the row's addition fused on the multiplier (`b · 1 + a`,
-//! as those kernels do it for half of the rows): the faster of the two rates
-//! (each the best of seven runs) divided by 431 is the bound in
+//! as those kernels do it for half of the rows): the fastest of the rates
+//! (each the best of seven runs, with 4, 8 and 16 independent chains: 16
+//! spill on AVX2's registers) divided by 431 is the bound in
 //! channel-steps per second on one core. A bank must also load and store
 //! its state at every step (a row per update); the same updates with each
 //! one's row loaded from and stored to L1 (`mix::streamed`, best of seven)
@@ -99,49 +100,83 @@ fn clock_ghz() -> (f64, &'static str) {
 }
 
 /// Lane operations per nanosecond of the creep-element update on the
-/// registers the bank's kernels use for `T` (measured: the best of seven
-/// runs — the CPU can do at least that; a slower run is a neighbour's on
-/// a shared machine, and a median once came out 18 % low on a Zen 4).
+/// registers the bank's kernels use for `T` (measured: for each chain
+/// count the best of seven runs — the CPU can do at least that; a slower
+/// run is a neighbour's on a shared machine, and a median once came out
+/// 18 % low on a Zen 4 — and the best over the counts, [`mix::run`]).
 fn peak_lane_operations_per_ns<T: Real>() -> f64 {
-    const ITERATIONS: usize = 2_000_000;
     let mut peak = 0.0f64;
     for fused in [false, true] {
-        let mut rates = Vec::new();
-        for _ in 0..7 {
-            let t0 = Instant::now();
-            let Some(lanes) = mix::run::<T>(ITERATIONS, fused) else {
-                break;
-            };
-            let ns = t0.elapsed().as_nanos() as f64;
-            rates.push((ITERATIONS * mix::CHAINS * 5 * lanes) as f64 / ns);
-        }
-        if !rates.is_empty() {
-            let rate = rates.iter().copied().fold(0.0, f64::max);
-            println!(
-                "{}: the creep mix {}: {rate:.1} lane-operations/ns",
-                T::NAME,
-                if fused {
-                    "with its row addition fused on the multiplier"
-                } else {
-                    "as adds"
-                }
-            );
-            peak = peak.max(rate);
-        }
+        let rates = [
+            (4, peak_with_chains::<T, 4>(fused)),
+            (8, peak_with_chains::<T, 8>(fused)),
+            (16, peak_with_chains::<T, 16>(fused)),
+        ];
+        let Some((chains, rate)) = rates
+            .iter()
+            .filter_map(|&(c, r)| Some((c, r?)))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+        else {
+            continue;
+        };
+        let each: Vec<String> = rates
+            .iter()
+            .filter_map(|&(c, r)| Some(format!("{c} chains {:.1}", r?)))
+            .collect();
+        println!(
+            "{}: the creep mix {}: {rate:.1} lane-operations/ns ({chains} chains; {})",
+            T::NAME,
+            if fused {
+                "with its row addition fused on the multiplier"
+            } else {
+                "as adds"
+            },
+            each.join(", ")
+        );
+        peak = peak.max(rate);
     }
     peak
 }
 
+/// [`peak_lane_operations_per_ns`] for one chain count and form; `None`
+/// for a form this CPU's bank does not use.
+fn peak_with_chains<T: Real, const CHAINS: usize>(fused: bool) -> Option<f64> {
+    // the same number of updates for every count
+    let iterations = 32_000_000 / CHAINS;
+    let mut best = None::<f64>;
+    for _ in 0..7 {
+        let t0 = Instant::now();
+        let lanes = mix::run::<T, CHAINS>(iterations, fused)?;
+        let ns = t0.elapsed().as_nanos() as f64;
+        let rate = (iterations * CHAINS * 5 * lanes) as f64 / ns;
+        best = Some(best.map_or(rate, |b| b.max(rate)));
+    }
+    best
+}
+
 /// Lane operations per nanosecond of the same updates with each one's
-/// state loaded from and stored to L1 (best of seven runs; `None` where
-/// the bank's kernels have no vector registers here).
+/// state loaded from and stored to L1 (for each chain count the best of
+/// seven runs, and the best over the counts; `None` where the bank's
+/// kernels have no vector registers here).
 fn streamed_lane_operations_per_ns<T: Real>() -> Option<f64> {
+    [
+        streamed_with_chains::<T, 4>(),
+        streamed_with_chains::<T, 8>(),
+        streamed_with_chains::<T, 16>(),
+    ]
+    .into_iter()
+    .flatten()
+    .max_by(f64::total_cmp)
+}
+
+/// [`streamed_lane_operations_per_ns`] for one chain count.
+fn streamed_with_chains<T: Real, const CHAINS: usize>() -> Option<f64> {
     const ITERATIONS: usize = 200_000;
     let mut rows = mix::Rows::new::<T>();
     let mut best = None::<f64>;
     for _ in 0..7 {
         let t0 = Instant::now();
-        let lanes = mix::streamed::<T>(&mut rows, ITERATIONS)?;
+        let lanes = mix::streamed::<T, CHAINS>(&mut rows, ITERATIONS)?;
         let ns = t0.elapsed().as_nanos() as f64;
         let updates = ITERATIONS * mix::STREAMED_ROWS * 64 / (std::mem::size_of::<T>() * lanes);
         let rate = (updates * 5 * lanes) as f64 / ns;
@@ -155,13 +190,15 @@ mod mix {
     //! Independent chains of the creep-element update on registers.
     use mfcbeam::realtime::{simd::Kernels, Real};
 
-    pub const CHAINS: usize = 16;
-
-    /// Runs `iterations` of every chain on the bank's widest registers for
-    /// `T` (`fused`: the additions on the multiplier, where the bank's set
-    /// does them there); returns the lanes per register, or `None` for a
-    /// form this CPU's bank does not use.
-    pub fn run<T: Real>(iterations: usize, fused: bool) -> Option<usize> {
+    /// Runs `iterations` of `CHAINS` chains on the bank's widest registers
+    /// for `T` (tried with 4, 8 and 16 chains, each of which divides the
+    /// streamed rows of every register width: a chain holds two registers,
+    /// its state and its row sum, so 16 chains spill on AVX2's 16 registers
+    /// — on a Zen 1 at half the rate of 4 — while 4 do not hide the
+    /// latency on a CPU with more or wider pipes) (`fused`: the additions on the multiplier, where the bank's
+    /// set does them there); returns the lanes per register, or `None` for
+    /// a form this CPU's bank does not use.
+    pub fn run<T: Real, const CHAINS: usize>(iterations: usize, fused: bool) -> Option<usize> {
         let f64_ = T::NAME == "f64";
         #[cfg(target_arch = "x86_64")]
         {
@@ -170,10 +207,10 @@ mod mix {
             unsafe {
                 if k.is_avx512() {
                     return Some(match (f64_, fused) {
-                        (true, false) => x86::avx512_f64(iterations),
-                        (false, false) => x86::avx512_f32(iterations),
-                        (true, true) => x86::avx512_f64_fused(iterations),
-                        (false, true) => x86::avx512_f32_fused(iterations),
+                        (true, false) => x86::avx512_f64::<CHAINS>(iterations),
+                        (false, false) => x86::avx512_f32::<CHAINS>(iterations),
+                        (true, true) => x86::avx512_f64_fused::<CHAINS>(iterations),
+                        (false, true) => x86::avx512_f32_fused::<CHAINS>(iterations),
                     });
                 }
                 if fused {
@@ -181,15 +218,15 @@ mod mix {
                 }
                 if k.is_avx2() {
                     return Some(if f64_ {
-                        x86::avx2_f64(iterations)
+                        x86::avx2_f64::<CHAINS>(iterations)
                     } else {
-                        x86::avx2_f32(iterations)
+                        x86::avx2_f32::<CHAINS>(iterations)
                     });
                 }
             }
         }
         let _ = f64_;
-        (!fused).then(|| scalar::<T>(iterations))
+        (!fused).then(|| scalar::<T, CHAINS>(iterations))
     }
 
     /// Rows of state for [`streamed`]: 64 cache lines (4 KiB, in L1).
@@ -215,7 +252,10 @@ mod mix {
     /// loads its row of `rows` and stores it back, as the bank does with its
     /// creep rows; `iterations` passes over the rows. The lanes per
     /// register, or `None` where the bank's set has no such registers.
-    pub fn streamed<T: Real>(rows: &mut Rows, iterations: usize) -> Option<usize> {
+    pub fn streamed<T: Real, const CHAINS: usize>(
+        rows: &mut Rows,
+        iterations: usize,
+    ) -> Option<usize> {
         let f64_ = T::NAME == "f64";
         let p = rows.0.as_mut_ptr().cast::<u8>();
         #[cfg(target_arch = "x86_64")]
@@ -226,16 +266,16 @@ mod mix {
             unsafe {
                 if k.is_avx512() {
                     return Some(if f64_ {
-                        x86::avx512_f64_streamed(p.cast(), iterations)
+                        x86::avx512_f64_streamed::<CHAINS>(p.cast(), iterations)
                     } else {
-                        x86::avx512_f32_streamed(p.cast(), iterations)
+                        x86::avx512_f32_streamed::<CHAINS>(p.cast(), iterations)
                     });
                 }
                 if k.is_avx2() {
                     return Some(if f64_ {
-                        x86::avx2_f64_streamed(p.cast(), iterations)
+                        x86::avx2_f64_streamed::<CHAINS>(p.cast(), iterations)
                     } else {
-                        x86::avx2_f32_streamed(p.cast(), iterations)
+                        x86::avx2_f32_streamed::<CHAINS>(p.cast(), iterations)
                     });
                 }
             }
@@ -244,7 +284,7 @@ mod mix {
         None
     }
 
-    fn scalar<T: Real>(iterations: usize) -> usize {
+    fn scalar<T: Real, const CHAINS: usize>(iterations: usize) -> usize {
         let mut x = [T::from_f64(0.5); CHAINS];
         let mut r = [T::ZERO; CHAINS];
         let (lo, hi, g) = (T::from_f64(-1.0), T::from_f64(1.0), T::from_f64(0.25));
@@ -265,12 +305,10 @@ mod mix {
     mod x86 {
         use core::arch::x86_64::*;
 
-        use super::CHAINS;
-
         macro_rules! chains {
             ($name:ident, $feature:literal, $t:ty, $set1:ident, $min:ident, $max:ident, $add:ident, $fma:ident, $fnma:ident, $lanes:expr) => {
                 #[target_feature(enable = $feature)]
-                pub unsafe fn $name(iterations: usize) -> usize {
+                pub unsafe fn $name<const CHAINS: usize>(iterations: usize) -> usize {
                     let mut x: [$t; CHAINS] = [$set1(std::hint::black_box(0.5)); CHAINS];
                     let mut r: [$t; CHAINS] = [$set1(0.0); CHAINS];
                     let (lo, hi, g) = ($set1(-1.0), $set1(1.0), $set1(std::hint::black_box(0.25)));
@@ -293,7 +331,7 @@ mod mix {
         macro_rules! fused_chains {
             ($name:ident, $t:ty, $set1:ident, $min:ident, $max:ident, $fma:ident, $fnma:ident, $lanes:expr) => {
                 #[target_feature(enable = "avx2,fma,avx512f")]
-                pub unsafe fn $name(iterations: usize) -> usize {
+                pub unsafe fn $name<const CHAINS: usize>(iterations: usize) -> usize {
                     let mut x: [$t; CHAINS] = [$set1(std::hint::black_box(0.5)); CHAINS];
                     let mut r: [$t; CHAINS] = [$set1(0.0); CHAINS];
                     let (lo, hi, g) = ($set1(-1.0), $set1(1.0), $set1(std::hint::black_box(0.25)));
@@ -335,7 +373,7 @@ mod mix {
         macro_rules! streamed {
             ($name:ident, $feature:literal, $e:ty, $t:ty, $set1:ident, $load:ident, $store:ident, $min:ident, $max:ident, $add:ident, $fma:ident, $fnma:ident, $lanes:expr) => {
                 #[target_feature(enable = $feature)]
-                pub unsafe fn $name(p: *mut $e, iterations: usize) -> usize {
+                pub unsafe fn $name<const CHAINS: usize>(p: *mut $e, iterations: usize) -> usize {
                     // SAFETY (all): `p` is STREAMED_ROWS aligned cache lines.
                     let rows = super::STREAMED_ROWS * 64 / (std::mem::size_of::<$e>() * $lanes);
                     let mut r: [$t; CHAINS] = [$set1(0.0); CHAINS];
