@@ -6,15 +6,23 @@
  * the core starts per cycle: two kinds that share execution pipes start
  * no more together than one alone (the bank's bound rests on this). Used
  * for the latency bound and the bank's bound in the guide's performance
- * chapter. Needs AVX-512F:
+ * chapter. On 512-bit registers where the compiler targets AVX-512F, on
+ * 256-bit ones otherwise (AVX2 and FMA needed):
  *
- *   cc -O2 -mavx512f -o latencies benches/peers/latencies.c && ./latencies
+ *   cc -O2 -march=native -o latencies benches/peers/latencies.c && ./latencies
  */
 #include <stdint.h>
 #include <stdio.h>
 #include <x86intrin.h>
 
 #define N 100000000L
+
+/* the widest registers the kernels use here */
+#ifdef __AVX512F__
+#define W "zmm"
+#else
+#define W "ymm"
+#endif
 
 static double mem[8] __attribute__((aligned(64)));
 
@@ -26,17 +34,20 @@ static void int_adds(long n) {
 #define CHAIN(name, one)                                                              \
     static void name(long n) {                                                        \
         double *p = mem;                                                              \
-        __asm__ volatile("vxorpd %%zmm0, %%zmm0, %%zmm0\n vxorpd %%zmm1, %%zmm1, %%zmm1" \
-                         ::: "xmm0", "xmm1");                                          \
+        __asm__ volatile("vxorpd %%" W "0, %%" W "0, %%" W "0\n"                    \
+                         "vxorpd %%" W "1, %%" W "1, %%" W "1" ::: "xmm0", "xmm1");    \
         for (long i = 0; i < n; i++)                                                  \
             __asm__ volatile(one one one one : : "r"(p) : "xmm0", "xmm1", "memory");  \
     }
-CHAIN(addpd, "vaddpd %%zmm1, %%zmm0, %%zmm0\n")
+CHAIN(addpd, "vaddpd %%" W "1, %%" W "0, %%" W "0\n")
 CHAIN(addsd, "vaddsd %%xmm1, %%xmm0, %%xmm0\n")
-CHAIN(minpd, "vminpd %%zmm1, %%zmm0, %%zmm0\n")
-CHAIN(mulpd, "vmulpd %%zmm1, %%zmm0, %%zmm0\n")
-CHAIN(broadcast, "vbroadcastsd %%xmm0, %%zmm0\n")
+CHAIN(minpd, "vminpd %%" W "1, %%" W "0, %%" W "0\n")
+CHAIN(mulpd, "vmulpd %%" W "1, %%" W "0, %%" W "0\n")
+CHAIN(fmapd, "vfmadd231pd %%" W "1, %%" W "1, %%" W "0\n")
+CHAIN(broadcast, "vbroadcastsd %%xmm0, %%" W "0\n")
+#ifdef __AVX512F__
 CHAIN(extract256, "vextractf64x4 $1, %%zmm0, %%ymm0\n")
+#endif
 CHAIN(extract128, "vextractf128 $1, %%ymm0, %%xmm0\n")
 CHAIN(shuffle, "vshufpd $1, %%xmm0, %%xmm0, %%xmm0\n")
 CHAIN(store_load, "vmovsd %%xmm0, 8(%0)\n vmovsd 8(%0), %%xmm0\n")
@@ -45,14 +56,20 @@ CHAIN(store_load, "vmovsd %%xmm0, 8(%0)\n vmovsd 8(%0), %%xmm0\n")
  * latency hidden by the other eleven: operations per cycle. */
 #define RATE(name, a, b)                                                               \
     static void name(long n) {                                                         \
-        __asm__ volatile("vxorpd %%zmm2, %%zmm2, %%zmm2\n" ::: "xmm2");                  \
+        __asm__ volatile("vxorpd %%" W "2, %%" W "2, %%" W "2\n" ::: "xmm2");         \
         for (long i = 0; i < n; i++)                                                   \
-            __asm__ volatile(a " %%zmm2, %%zmm3, %%zmm3\n" b " %%zmm2, %%zmm4, %%zmm4\n"   \
-                             a " %%zmm2, %%zmm5, %%zmm5\n" b " %%zmm2, %%zmm6, %%zmm6\n"   \
-                             a " %%zmm2, %%zmm7, %%zmm7\n" b " %%zmm2, %%zmm8, %%zmm8\n"   \
-                             a " %%zmm2, %%zmm9, %%zmm9\n" b " %%zmm2, %%zmm10, %%zmm10\n" \
-                             a " %%zmm2, %%zmm11, %%zmm11\n" b " %%zmm2, %%zmm12, %%zmm12\n" \
-                             a " %%zmm2, %%zmm13, %%zmm13\n" b " %%zmm2, %%zmm14, %%zmm14\n" \
+            __asm__ volatile(a " %%" W "2, %%" W "3, %%" W "3\n"                         \
+                             b " %%" W "2, %%" W "4, %%" W "4\n"                         \
+                             a " %%" W "2, %%" W "5, %%" W "5\n"                         \
+                             b " %%" W "2, %%" W "6, %%" W "6\n"                         \
+                             a " %%" W "2, %%" W "7, %%" W "7\n"                         \
+                             b " %%" W "2, %%" W "8, %%" W "8\n"                         \
+                             a " %%" W "2, %%" W "9, %%" W "9\n"                         \
+                             b " %%" W "2, %%" W "10, %%" W "10\n"                       \
+                             a " %%" W "2, %%" W "11, %%" W "11\n"                       \
+                             b " %%" W "2, %%" W "12, %%" W "12\n"                       \
+                             a " %%" W "2, %%" W "13, %%" W "13\n"                       \
+                             b " %%" W "2, %%" W "14, %%" W "14\n"                       \
                              ::: "xmm3", "xmm4", "xmm5", "xmm6", "xmm7", "xmm8", "xmm9",     \
                                "xmm10", "xmm11", "xmm12", "xmm13", "xmm14");                 \
     }
@@ -62,14 +79,20 @@ RATE(rate_mul, "vmulpd", "vmulpd")
 RATE(rate_add_min, "vaddpd", "vminpd")
 RATE(rate_add_mul, "vaddpd", "vmulpd")
 RATE(rate_min_mul, "vminpd", "vmulpd")
+RATE(rate_fma, "vfmadd231pd", "vfmadd231pd")
+RATE(rate_add_fma, "vaddpd", "vfmadd231pd")
+RATE(rate_min_fma, "vminpd", "vfmadd231pd")
 
 int main(void) {
     uint64_t t0 = __rdtsc();
     int_adds(N / 4);
     double tsc_per_cycle = (double)(__rdtsc() - t0) / N;
     struct { const char *name; void (*f)(long); } chains[] = {
-        {"vaddpd zmm", addpd}, {"vaddsd", addsd}, {"vminpd zmm", minpd}, {"vmulpd zmm", mulpd},
-        {"vbroadcastsd zmm, xmm", broadcast}, {"vextractf64x4", extract256},
+        {"vaddpd " W, addpd}, {"vaddsd", addsd}, {"vminpd " W, minpd}, {"vmulpd " W, mulpd},
+        {"vfmadd231pd " W, fmapd}, {"vbroadcastsd " W ", xmm", broadcast},
+#ifdef __AVX512F__
+        {"vextractf64x4", extract256},
+#endif
         {"vextractf128", extract128}, {"vshufpd xmm", shuffle}, {"store, then load (sd)", store_load}};
     for (unsigned i = 0; i < sizeof chains / sizeof chains[0]; i++) {
         t0 = __rdtsc();
@@ -79,11 +102,12 @@ int main(void) {
     struct { const char *name; void (*f)(long); } rates[] = {
         {"vaddpd", rate_add}, {"vminpd", rate_min}, {"vmulpd", rate_mul},
         {"vaddpd + vminpd", rate_add_min}, {"vaddpd + vmulpd", rate_add_mul},
-        {"vminpd + vmulpd", rate_min_mul}};
+        {"vminpd + vmulpd", rate_min_mul}, {"vfmadd231pd", rate_fma},
+        {"vaddpd + vfmadd231pd", rate_add_fma}, {"vminpd + vfmadd231pd", rate_min_fma}};
     for (unsigned i = 0; i < sizeof rates / sizeof rates[0]; i++) {
         t0 = __rdtsc();
         rates[i].f(N / 12);
-        printf("%-24s %5.2f per cycle (zmm)\n", rates[i].name,
+        printf("%-24s %5.2f per cycle (" W ")\n", rates[i].name,
                N / ((double)(__rdtsc() - t0) / tsc_per_cycle));
     }
     return 0;
