@@ -191,13 +191,14 @@ mod mix {
     use mfcbeam::realtime::{simd::Kernels, Real};
 
     /// Runs `iterations` of `CHAINS` chains on the bank's widest registers
-    /// for `T` (tried with 4, 8 and 16 chains, each of which divides the
-    /// streamed rows of every register width: a chain holds two registers,
-    /// its state and its row sum, so 16 chains spill on AVX2's 16 registers
-    /// — on a Zen 1 at half the rate of 4 — while 4 do not hide the
-    /// latency on a CPU with more or wider pipes) (`fused`: the additions on the multiplier, where the bank's
+    /// for `T` (`fused`: the additions on the multiplier, where the bank's
     /// set does them there); returns the lanes per register, or `None` for
-    /// a form this CPU's bank does not use.
+    /// a form this CPU's bank does not use. The callers try 4, 8 and 16
+    /// chains (each divides the streamed rows of every register width): a
+    /// chain holds two registers, its state and its row sum, so 16 chains
+    /// spill on AVX2's 16 registers (on a Zen 1 at half the rate of 4) and
+    /// a little on AVX-512's 32, while 4 may not hide the latency on a CPU
+    /// with more or wider pipes.
     pub fn run<T: Real, const CHAINS: usize>(iterations: usize, fused: bool) -> Option<usize> {
         let f64_ = T::NAME == "f64";
         #[cfg(target_arch = "x86_64")]
