@@ -143,15 +143,19 @@ fn peak_lane_operations_per_ns<T: Real>() -> f64 {
 fn peak_with_chains<T: Real, const CHAINS: usize>(fused: bool) -> Option<f64> {
     // the same number of updates for every count
     let iterations = 32_000_000 / CHAINS;
-    let mut best = None::<f64>;
-    for _ in 0..7 {
+    best_of_seven(|| {
         let t0 = Instant::now();
         let lanes = mix::run::<T, CHAINS>(iterations, fused)?;
         let ns = t0.elapsed().as_nanos() as f64;
-        let rate = (iterations * CHAINS * 5 * lanes) as f64 / ns;
-        best = Some(best.map_or(rate, |b| b.max(rate)));
-    }
-    best
+        Some((iterations * CHAINS * 5 * lanes) as f64 / ns)
+    })
+}
+
+/// The highest of seven rates `rate` measures (`None` if it gives none).
+fn best_of_seven(mut rate: impl FnMut() -> Option<f64>) -> Option<f64> {
+    (0..7)
+        .map(|_| rate())
+        .try_fold(0.0f64, |best, r| Some(best.max(r?)))
 }
 
 /// Lane operations per nanosecond of the same updates with each one's
@@ -173,15 +177,13 @@ fn streamed_lane_operations_per_ns<T: Real>() -> Option<f64> {
 fn streamed_with_chains<T: Real, const CHAINS: usize>() -> Option<f64> {
     const ITERATIONS: usize = 200_000;
     let mut rows = mix::Rows::new::<T>();
-    let mut best = None::<f64>;
-    for _ in 0..7 {
+    let best = best_of_seven(|| {
         let t0 = Instant::now();
         let lanes = mix::streamed::<T, CHAINS>(&mut rows, ITERATIONS)?;
         let ns = t0.elapsed().as_nanos() as f64;
         let updates = ITERATIONS * mix::STREAMED_ROWS * 64 / (std::mem::size_of::<T>() * lanes);
-        let rate = (updates * 5 * lanes) as f64 / ns;
-        best = Some(best.map_or(rate, |b| b.max(rate)));
-    }
+        Some((updates * 5 * lanes) as f64 / ns)
+    });
     black_box(&rows);
     best
 }
