@@ -18,8 +18,8 @@
 //! spill on AVX2's registers) divided by 431 is the bound in
 //! channel-steps per second on one core. A bank must also load and store
 //! its state at every step (a row per update); the same updates with each
-//! one's row loaded from and stored to L1 (`mix::streamed`, best of seven)
-//! give the rate a bank can reach at best, and each row is printed as a
+//! one's row loaded from and stored to L1 (`mix::streamed`, the best of
+//! seven runs with each chain count) give the rate a bank can reach at best, and each row is printed as a
 //! share of that too ("state in L1").
 //!
 //! First a crossover scan: 2 to 64 blocks on one thread against a forced
