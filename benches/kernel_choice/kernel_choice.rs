@@ -7,7 +7,8 @@
 //! `.ci/run` runs it). Prints the CPU (vendor, family, model, features)
 //! with the figures.
 //!
-//! `cargo bench --bench kernel_choice`
+//! `cargo bench -p mfcbeam-kernel-choice` (a package of its own: see its
+//! `Cargo.toml`)
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -112,4 +113,5 @@ fn main() {
     }
 }
 
+#[path = "../common/mod.rs"]
 mod common;
