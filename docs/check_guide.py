@@ -40,11 +40,17 @@ a file that exists (inside docs/guide/ for a chapter, so the built book
 has it), an anchor to a heading that exists, and SUMMARY.md lists every
 chapter. Exit 1 on the first failure with the page, line and output.
 
-Usage: python3 docs/check_guide.py [--links-only] [--update-figures] [PAGE ...]
+The pages run side by side, one per core (`--jobs N` for another count):
+each has its own directory, and nearly every block keeps one core busy.
+A page's lines are printed when it and every page before it are done, in
+the pages' order.
+
+Usage: python3 docs/check_guide.py [--links-only] [--update-figures] [--jobs N] [PAGE ...]
 """
 
 import os
 import re
+from concurrent.futures import ThreadPoolExecutor
 import shutil
 import subprocess
 import sys
@@ -218,7 +224,8 @@ def commands(text):
                 yield part
 
 
-def run_page(path, links_only):
+def run_page(path, links_only, say=print):
+    """Run one page's blocks; `say` gets its progress lines."""
     rel = path.relative_to(REPO)
     check_links(path)
     found = blocks(path)
@@ -266,8 +273,7 @@ def run_page(path, links_only):
             p = subprocess.run(argv, cwd=d, env=env, capture_output=True, text=True,
                                timeout=900)
             want = int(notes.get("exit", "0"))
-            print(f"  {where}: {lang}, exit {p.returncode}, {time.monotonic() - t0:.1f} s",
-                  flush=True)
+            say(f"  {where}: {lang}, exit {p.returncode}, {time.monotonic() - t0:.1f} s")
             if p.returncode != want:
                 raise Failure(f"{where}: exit {p.returncode}, expected {want}\n"
                               f"--- block\n{text}--- stdout\n{p.stdout[-4000:]}"
@@ -282,7 +288,7 @@ def run_page(path, links_only):
                     raise Failure(f"{where}: it claims to draw {out}, which is missing")
                 if UPDATE:
                     shutil.copyfile(drawn, committed)
-                    print(f"  updated {figure}")
+                    say(f"  updated {figure}")
                     continue
                 why = same_svg(drawn.read_text(), committed.read_text())
                 if why:
@@ -297,21 +303,49 @@ def run_page(path, links_only):
 UPDATE = False
 
 
+def run_logged(page, links_only):
+    """One page in a worker: its lines, and the count of blocks or the
+    failure that stopped it."""
+    lines = [f"{page.relative_to(REPO)}"]
+    try:
+        return lines, run_page(page, links_only, say=lines.append)
+    except (Failure, subprocess.TimeoutExpired) as e:
+        return lines, e
+
+
+def jobs(argv):
+    if "--jobs" in argv:
+        k = argv.index("--jobs")
+        if k + 1 >= len(argv) or not argv[k + 1].isdigit() or int(argv[k + 1]) < 1:
+            raise Failure("--jobs takes a count of at least 1")
+        return int(argv[k + 1]), argv[:k] + argv[k + 2:]
+    return max(1, len(os.sched_getaffinity(0))), argv
+
+
 def main(argv):
     global UPDATE
-    UPDATE = "--update-figures" in argv
-    links_only = "--links-only" in argv
-    wanted = [a for a in argv if not a.startswith("--")]
     try:
-        total = 0
-        for page in pages():
-            if wanted and not any(page.name == Path(w).name for w in wanted):
-                continue
-            print(f"{page.relative_to(REPO)}", flush=True)
-            total += run_page(page, links_only)
-    except (Failure, subprocess.TimeoutExpired) as e:
+        workers, argv = jobs(argv)
+        UPDATE = "--update-figures" in argv
+        links_only = "--links-only" in argv
+        wanted = [a for a in argv if not a.startswith("--")]
+        chosen = [p for p in pages()
+                  if not wanted or any(p.name == Path(w).name for w in wanted)]
+    except Failure as e:
         print(f"check_guide: {e}", file=sys.stderr)
         return 1
+    total = 0
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        running = [pool.submit(run_logged, page, links_only) for page in chosen]
+        for future in running:
+            lines, result = future.result()
+            print("\n".join(lines), flush=True)
+            if isinstance(result, Exception):
+                for f in running:
+                    f.cancel()
+                print(f"check_guide: {result}", file=sys.stderr)
+                return 1
+            total += result
     print(f"check_guide: every page's links resolve; {total} blocks ran as written")
     return 0
 

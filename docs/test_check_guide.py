@@ -104,3 +104,37 @@ def test_broken_links_and_anchors_are_found(tmp_path, monkeypatch):
     with pytest.raises(g.Failure, match="no heading"):
         run_page(tmp_path, monkeypatch, "see [x](other.md#missing)\n")
     assert run_page(tmp_path, monkeypatch, "see [x](other.md#a-title-with-code)\n") == 0
+
+
+def guide(tmp_path, monkeypatch, chapters):
+    """A repository whose README and chapters are the texts given."""
+    run_page(tmp_path, monkeypatch, "```sh\ntrue\n```\n")
+    summary = "".join(f"- [{name}]({name})\n" for name in chapters)
+    (tmp_path / "docs" / "guide" / "SUMMARY.md").write_text(summary)
+    for name, text in chapters.items():
+        (tmp_path / "docs" / "guide" / name).write_text(text)
+
+
+def test_pages_run_side_by_side_and_print_in_their_order(tmp_path, monkeypatch, capsys):
+    # the first chapter waits (up to 5 s) until the second has run, in a
+    # directory both pages' workspaces link to: only side by side can it pass
+    (tmp_path / "shared").mkdir()
+    guide(tmp_path, monkeypatch, {
+        "a.md": "```sh\nfor _ in $(seq 50); do test -e shared/b-ran && break; sleep 0.1; done\n"
+                "test -e shared/b-ran\n```\n",
+        "b.md": "```sh\ntouch shared/b-ran\n```\n",
+    })
+    assert g.main(["--jobs", "1"]) == 1
+    assert "docs/guide/a.md:1: exit 1" in capsys.readouterr().err
+    (tmp_path / "shared" / "b-ran").unlink()
+    assert g.main(["--jobs", "2"]) == 0
+    out = capsys.readouterr().out
+    assert out.index("docs/guide/a.md") < out.index("docs/guide/b.md") < out.index("3 blocks ran")
+
+
+def test_a_failing_page_fails_the_run_with_its_line(tmp_path, monkeypatch, capsys):
+    guide(tmp_path, monkeypatch, {"a.md": "```sh\ntrue\n```\n", "b.md": "```sh\nexit 4\n```\n"})
+    assert g.main(["--jobs", "2"]) == 1
+    assert "docs/guide/b.md:1: exit 4, expected 0" in capsys.readouterr().err
+    assert g.main(["--jobs", "0"]) == 1
+    assert "--jobs takes a count" in capsys.readouterr().err
