@@ -50,13 +50,13 @@ Usage: python3 docs/check_guide.py [--links-only] [--update-figures] [--jobs N] 
 
 import os
 import re
-from concurrent.futures import ThreadPoolExecutor
 import shutil
 import subprocess
 import sys
 import tempfile
 import time
 import tomllib
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -319,7 +319,10 @@ def jobs(argv):
         if k + 1 >= len(argv) or not argv[k + 1].isdigit() or int(argv[k + 1]) < 1:
             raise Failure("--jobs takes a count of at least 1")
         return int(argv[k + 1]), argv[:k] + argv[k + 2:]
-    return max(1, len(os.sched_getaffinity(0))), argv
+    # the cores this process may run on (Linux), else the machine's
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0))), argv
+    return os.cpu_count() or 1, argv
 
 
 def main(argv):
