@@ -19,7 +19,7 @@
 use core::ops::Range;
 use std::sync::atomic::{AtomicI64, AtomicIsize, AtomicU64, Ordering};
 
-use super::workers::fold;
+use super::split_choice::fold;
 
 /// Split steps between two timed ones.
 pub(crate) const TIME_EVERY: u64 = 16;

@@ -1,0 +1,262 @@
+//! When a bank's step runs split over the workers and when on the calling
+//! thread alone: the adaptive choice of [`Workers`](super::workers::Workers).
+//!
+//! Whether a split pays is measured while the bank runs: a split costs a
+//! hand-over, and on a virtual machine that cost and the worker's speed
+//! depend on where the host puts the virtual CPUs, so the same bank can be
+//! faster split at one moment and slower the next. Every 64th step is
+//! timed the way in use, the other way is probed now and then (less often
+//! while it stays the slower, and once confirmed at most every 20 ms), and
+//! the steps run split where that was faster by more than a sixteenth.
+//! Here are the rules, as functions of the times so far; `Workers` keeps
+//! the counters and times the steps.
+
+use std::sync::atomic::AtomicU64;
+
+/// Steps between two timings of the way in use, and the first and
+/// shortest interval between two probes of the other way.
+pub(crate) const PROBE_EVERY: u64 = 64;
+
+/// The longest interval between two probes, in steps, for steps shorter
+/// than [`PROBE_SPACING_PS`] / 1024: a probe that confirms the choice
+/// doubles the interval up to this or [`longest_interval`].
+pub(crate) const LONGEST_PROBE_INTERVAL: u64 = 1024;
+
+/// The time that confirmed probes keep between them at least (20 ms, in
+/// picoseconds). A probe of the split wakes a parked worker, which took
+/// tens of microseconds on a 2-vCPU Zen 4 guest; every 1024 steps of about
+/// a microsecond that made `compensate_on` some 3 % slower than one thread
+/// where the split did not pay (16 and 32 blocks of `f64`, `bank_limit`).
+pub(crate) const PROBE_SPACING_PS: u64 = 20_000_000_000;
+
+/// How one step above the crossover runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Plan {
+    /// Split over the workers (else on the calling thread alone).
+    pub split: bool,
+    /// Timed, its time recorded with
+    /// [`Workers::record`](super::workers::Workers::record).
+    pub timed: bool,
+    /// The timed step of a probe of the way not in use.
+    pub probe: bool,
+}
+
+/// The plan for step number `step` from the times per block so far of a
+/// step alone and split (0: not timed yet) and the step of the next probe.
+/// Each way is timed first (the split after one step that wakes the
+/// workers); then the faster way runs (the split only if [`split_pays`]),
+/// timed every `PROBE_EVERY` steps,
+/// and at `next_probe` the other way runs twice, the second time timed (a
+/// parked worker's wake-up is not the split's cost).
+pub(crate) fn plan(step: u64, alone: u64, split: u64, next_probe: u64) -> Plan {
+    if split == 0 {
+        return Plan {
+            split: true,
+            timed: step >= 1,
+            probe: false,
+        };
+    }
+    if alone == 0 {
+        return Plan {
+            split: false,
+            timed: true,
+            probe: false,
+        };
+    }
+    let faster_split = split_pays(split, alone);
+    // from `next_probe` on until a probe is recorded (a step that panicked
+    // records nothing)
+    if step >= next_probe {
+        let timed = step > next_probe;
+        return Plan {
+            split: !faster_split,
+            timed,
+            probe: timed,
+        };
+    }
+    Plan {
+        split: faster_split,
+        timed: step % PROBE_EVERY == PROBE_EVERY / 2,
+        probe: false,
+    }
+}
+
+/// Whether a split pays, from the times per block of a step split and
+/// alone: faster by more than 1/16. Where the two are about equal, a
+/// choice that followed every difference would change often, and each
+/// change back to the split wakes a parked worker (tens of microseconds
+/// on a 2-vCPU Zen 4 guest); kept alone there, a step gives up at most a
+/// sixteenth.
+pub(crate) fn split_pays(split: u64, alone: u64) -> bool {
+    split.saturating_add(split / 16) < alone
+}
+
+/// The interval to the next probe after one that changed the choice
+/// (`changed`: back to `PROBE_EVERY`) or confirmed it (doubled, up to
+/// `longest`).
+pub(crate) fn next_interval(interval: u64, changed: bool, longest: u64) -> u64 {
+    if changed {
+        PROBE_EVERY
+    } else {
+        (2 * interval).clamp(PROBE_EVERY, longest.max(PROBE_EVERY))
+    }
+}
+
+/// The longest interval between probes for steps of `step_ps` picoseconds
+/// the way in use: [`LONGEST_PROBE_INTERVAL`] steps, or as many as keep
+/// [`PROBE_SPACING_PS`] between probes.
+pub(crate) fn longest_interval(step_ps: u64) -> u64 {
+    LONGEST_PROBE_INTERVAL.max(PROBE_SPACING_PS / step_ps.max(1))
+}
+
+/// A time per block folded into its running estimate `old` (0: none yet):
+/// weight ¼, and a sample more than four times the estimate counted as
+/// four times it, so that one step delayed by the operating system does
+/// not turn the choice for long.
+pub(crate) fn fold(old: u64, sample: u64) -> u64 {
+    if old == 0 {
+        capped(old, sample)
+    } else {
+        ((3 * old + capped(old, sample)) / 4).max(1)
+    }
+}
+
+/// `sample` at least 1 and at most four times the estimate `old` (any,
+/// while there is none).
+pub(crate) fn capped(old: u64, sample: u64) -> u64 {
+    if old == 0 {
+        sample.max(1)
+    } else {
+        sample.clamp(1, 4 * old)
+    }
+}
+
+/// The adaptive choice's counters (atomics: `Workers` is shared by
+/// reference; one caller at a time is the expected use, and a race between
+/// two only blurs an estimate).
+pub(crate) struct Choice {
+    pub steps: AtomicU64,
+    /// Picoseconds per block of a step on the calling thread alone.
+    pub alone: AtomicU64,
+    /// Picoseconds per block of a split step.
+    pub split: AtomicU64,
+    pub next_probe: AtomicU64,
+    pub interval: AtomicU64,
+}
+
+impl Default for Choice {
+    fn default() -> Self {
+        Self {
+            steps: AtomicU64::new(0),
+            alone: AtomicU64::new(0),
+            split: AtomicU64::new(0),
+            next_probe: AtomicU64::new(PROBE_EVERY),
+            interval: AtomicU64::new(PROBE_EVERY),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_choice_times_both_ways_and_then_follows_the_faster() {
+        let no = |split, timed| Plan {
+            split,
+            timed,
+            probe: false,
+        };
+        // nothing timed yet: a split that wakes the workers, one timed,
+        // then one alone, timed
+        assert_eq!(plan(0, 0, 0, 64), no(true, false));
+        assert_eq!(plan(1, 0, 0, 64), no(true, true));
+        assert_eq!(plan(2, 0, 500, 64), no(false, true));
+        // split slower: alone, timed every PROBE_EVERY steps; the probe at
+        // 64 runs split twice, the second timed
+        for step in 3..66 {
+            let p = plan(step, 100, 300, 64);
+            match step {
+                64 => assert_eq!(p, no(true, false)),
+                65 => assert_eq!(
+                    p,
+                    Plan {
+                        split: true,
+                        timed: true,
+                        probe: true
+                    }
+                ),
+                s if s % PROBE_EVERY == PROBE_EVERY / 2 => assert_eq!(p, no(false, true)),
+                _ => assert_eq!(p, no(false, false)),
+            }
+        }
+        // after the probe (recorded: the next one at 194)
+        assert_eq!(plan(96, 100, 300, 194), no(false, true));
+        assert_eq!(plan(100, 100, 300, 194), no(false, false));
+        // a probe not recorded: every later step probes until one is
+        assert_eq!(
+            plan(90, 100, 300, 64),
+            Plan {
+                split: true,
+                timed: true,
+                probe: true
+            }
+        );
+        // split faster: the other way round
+        assert_eq!(plan(70, 300, 100, 70), no(false, false));
+        assert_eq!(
+            plan(71, 300, 100, 70),
+            Plan {
+                split: false,
+                timed: true,
+                probe: true
+            }
+        );
+        assert_eq!(plan(75, 300, 100, 200), no(true, false));
+    }
+
+    #[test]
+    fn a_split_pays_when_it_is_faster_by_more_than_a_sixteenth() {
+        assert!(split_pays(900, 1000));
+        assert!(split_pays(1600, 1701));
+        assert!(!split_pays(1600, 1700));
+        assert!(!split_pays(950, 1000));
+        assert!(!split_pays(1000, 1000));
+        assert!(!split_pays(1100, 1000));
+        assert!(!plan(500, 1000, 950, 10_000).split);
+        assert!(plan(500, 1000, 900, 10_000).split);
+    }
+
+    #[test]
+    fn a_probe_that_confirms_the_choice_doubles_the_interval() {
+        assert_eq!(next_interval(64, false, 1024), 128);
+        assert_eq!(next_interval(4096, false, 1024), 1024);
+        assert_eq!(next_interval(4096, false, 20_000), 8192);
+        assert_eq!(next_interval(16_384, false, 20_000), 20_000);
+        assert_eq!(next_interval(1024, true, 20_000), PROBE_EVERY);
+        // at least every 1024 steps, and never closer than 20 ms once
+        // confirmed: 1024 steps of 50 µs, 20 000 of 1 µs
+        assert_eq!(longest_interval(50_000_000), LONGEST_PROBE_INTERVAL);
+        assert_eq!(longest_interval(1_000_000), 20_000);
+        assert_eq!(longest_interval(0), PROBE_SPACING_PS);
+    }
+
+    #[test]
+    fn an_estimate_follows_its_samples_and_one_outlier_moves_it_little() {
+        assert_eq!(fold(0, 800), 800);
+        assert_eq!(fold(800, 400), 700);
+        // a step a thousand times slower counts as four times the estimate
+        assert_eq!(fold(800, 800_000), 1400);
+        // a run of samples converges to them
+        let mut e = 1000;
+        for _ in 0..40 {
+            e = fold(e, 200);
+        }
+        assert!(e <= 201, "{e}");
+        assert_eq!(fold(0, 0), 1);
+        // a probe's sample replaces the estimate, capped the same way
+        assert_eq!(capped(800, 300), 300);
+        assert_eq!(capped(800, 800_000), 3200);
+        assert_eq!(capped(0, 0), 1);
+    }
+}
