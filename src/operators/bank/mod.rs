@@ -46,7 +46,9 @@ use crate::operators::workers::SharedMut;
 pub use crate::operators::workers::{Workers, DEFAULT_MIN_BLOCKS};
 
 mod step;
-use step::{step_blocks, Fixed, Walk};
+mod walk;
+use step::{step_blocks, Fixed};
+use walk::Walk;
 
 /// Where each row of a block lies: the state rows and the parameter rows.
 #[derive(Debug, Clone, Copy, PartialEq)]
