@@ -8,8 +8,8 @@
 //! timed the way in use, the other way is probed now and then (less often
 //! while it stays the slower, and once confirmed at most every 20 ms), and
 //! the steps run split where that was faster by more than a sixteenth.
-//! Here are the rules, as functions of the times so far; `Workers` keeps
-//! the counters and times the steps.
+//! Here are the rules, as functions of the times so far, and the counters
+//! they read ([`Choice`]); `Workers` times the steps and updates them.
 
 use std::sync::atomic::AtomicU64;
 
@@ -135,12 +135,15 @@ pub(crate) fn capped(old: u64, sample: u64) -> u64 {
 /// reference; one caller at a time is the expected use, and a race between
 /// two only blurs an estimate).
 pub(crate) struct Choice {
+    /// Steps planned so far.
     pub steps: AtomicU64,
     /// Picoseconds per block of a step on the calling thread alone.
     pub alone: AtomicU64,
     /// Picoseconds per block of a split step.
     pub split: AtomicU64,
+    /// The step at which the next probe of the way not in use starts.
     pub next_probe: AtomicU64,
+    /// Steps from the last probe to the next ([`next_interval`]).
     pub interval: AtomicU64,
 }
 
