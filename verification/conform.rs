@@ -2,8 +2,7 @@
 //! `mfcbeam simulate`/`compensate` and the independent Python and C examples
 //! pass; faulty variants of the Python example fail with a shrunk
 //! counterexample on disk; unusable candidates and bad options exit 2 with
-//! one line. The three slow tests (ignored; `.ci/run` runs them) took
-//! 106 s together on a Zen 1.
+//! one line.
 
 use std::fs;
 use std::path::{Path, PathBuf};
