@@ -14,11 +14,10 @@ const BIN: &str = env!("CARGO_BIN_EXE_mfcbeam");
 const PYTHON: &str = "examples/conformance/python/candidate.py";
 
 /// The Python interpreter itself: `python3` on the path may be a shell shim
-/// (pyenv) that triples the start-up time of every candidate run. With `-S`:
-/// the candidates use the standard library only, and `site` (with whatever
-/// `.pth` files the installation carries) took a quarter of each run's CPU
-/// time on a Zen 1, and the three slow tests took 197 s without `-S`, 106 s
-/// with it.
+/// (pyenv) that triples the start-up time of every candidate run. It runs
+/// with `-S`: the candidates use the standard library only, and `site` (with
+/// whatever `.pth` files the installation carries) took a quarter of each
+/// run's CPU time on a Zen 1.
 fn python() -> &'static str {
     static EXE: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     EXE.get_or_init(|| {
@@ -107,9 +106,10 @@ fn mfcbeam_itself_conforms_as_model_and_compensator() {
     );
 }
 
-// The two Python-candidate checks below start the Python interpreter some
-// thousands of times (with the adapter's test, 106 s on a Zen 1): CI runs
-// them with `--ignored`, a developer's `cargo test` does not.
+// The Python-candidate checks below and the adapter's further down start
+// the Python interpreter some thousands of times (together 197 s on a Zen 1
+// without `-S`, 106 s with it): CI runs them with `--ignored`, a
+// developer's `cargo test` does not.
 #[test]
 #[ignore = "slow (a Python candidate): .ci/run runs it with --ignored"]
 fn the_python_example_conforms() {
