@@ -3,12 +3,13 @@
  * register, the sizes fixed at compile time (12 plays, 12 creep thresholds
  * x 5 eigenvalues: every loop unrolled by the compiler), each lane in
  * mfcbeam's order of operations, so its voltages have mfcbeam's bits:
- *  - y = (t - offset) - C, held at the first inverse play's state where it
- *    is not finite; a non-finite target holds the voltage (its plays keep
- *    their state) and the creep sees the voltage held;
- *  - H^-1 (22): x <- max(min(x, y + r'), y - r'), the bounds fused as
- *    +-(r' . 1) + y, the weighted terms fused into four partial sums (play i
- *    into sum i mod 4), (s0 + s2) + (s1 + s3);
+ *  - y = t' - C with t' = t - offset, t' and C held at the first inverse
+ *    play's state and 0 where y is not finite; a non-finite target holds
+ *    the voltage (its plays keep their state) and the creep sees the
+ *    voltage held;
+ *  - H^-1 (22): x <- max(min(x, (t' + r') - C), (t' - r') - C), t' +- r'
+ *    fused as +-(r' . 1) + t', the weighted terms fused into four partial
+ *    sums (play i into sum i mod 4), (s0 + s2) + (s1 + s3);
  *  - the clip, the saturated lanes re-seated lane by lane as mfcbeam does;
  *  - the creep pass (20): per threshold the five updates
  *    chi <- g c + (chi - g chi) (two FMAs, c = max(min(chi, u + r), u - r)),
@@ -127,14 +128,17 @@ static inline __attribute__((always_inline)) void first_part(const bank *restric
     int next = cur ^ 1;
     __m512d target = _mm512_loadu_pd(t);
     __mmask8 fault = non_finite(target);
-    __m512d y = _mm512_sub_pd(_mm512_sub_pd(target, b->offset), s[CREEP_OUT]);
-    y = _mm512_mask_blend_pd(non_finite(y), y, s[X0 + cur * NP]);
+    __m512d t1 = _mm512_sub_pd(target, b->offset), cr = s[CREEP_OUT];
+    __mmask8 held = non_finite(_mm512_sub_pd(t1, cr));
+    t1 = _mm512_mask_blend_pd(held, t1, s[X0 + cur * NP]);
+    cr = _mm512_mask_blend_pd(held, cr, _mm512_setzero_pd());
     __m512d sums[4] = {_mm512_setzero_pd(), _mm512_setzero_pd(), _mm512_setzero_pd(),
                        _mm512_setzero_pd()};
     #pragma GCC unroll 16
     for (int i = 0; i < NP; i++) {
         __m512d x = s[X0 + cur * NP + i];
-        __m512d lo = _mm512_fnmadd_pd(b->ri[i], b->one, y), hi = _mm512_fmadd_pd(b->ri[i], b->one, y);
+        __m512d lo = _mm512_sub_pd(_mm512_fnmadd_pd(b->ri[i], b->one, t1), cr);
+        __m512d hi = _mm512_sub_pd(_mm512_fmadd_pd(b->ri[i], b->one, t1), cr);
         __m512d nx = _mm512_max_pd(_mm512_min_pd(x, hi), lo);
         s[X0 + next * NP + i] = _mm512_mask_blend_pd(fault, nx, x);
         sums[i & 3] = _mm512_fmadd_pd(b->wi[i], nx, sums[i & 3]);

@@ -135,11 +135,13 @@ static inline double reduce4(__m256d a) {
     return _mm_cvtsd_f64(_mm_add_sd(s, _mm_unpackhi_pd(s, s)));
 }
 
-/* play i0..i0+3 of H^-1 at y into acc (lane l: the thresholds l mod 4) */
-static inline __m256d play4(same *c, int i0, __m256d y, __m256d acc) {
+/* play i0..i0+3 of H^-1 at y = t - cr into acc (lane l: the thresholds
+ * l mod 4); the bounds (t -+ r) - cr, as mfcbeam forms them */
+static inline __m256d play4(same *c, int i0, __m256d t, __m256d cr, __m256d acc) {
     __m256d r = _mm256_loadu_pd(c->ri + i0), x = _mm256_loadu_pd(c->xi + i0);
     _mm256_storeu_pd(c->saved + i0, x);
-    x = _mm256_max_pd(_mm256_min_pd(x, _mm256_add_pd(y, r)), _mm256_sub_pd(y, r));
+    x = _mm256_max_pd(_mm256_min_pd(x, _mm256_sub_pd(_mm256_add_pd(t, r), cr)),
+                      _mm256_sub_pd(_mm256_sub_pd(t, r), cr));
     _mm256_storeu_pd(c->xi + i0, x);
     return _mm256_fmadd_pd(_mm256_loadu_pd(c->wi + i0), x, acc);
 }
@@ -175,22 +177,26 @@ static double compensate_same(same *c, double target, int *saturated) {
         c->creep_out = creep_advance(c->chi, c->rc, c->wc, c->g, c->last_u);
         return c->last_u;
     }
-    double y = target - c->creep_out;
-    if (__builtin_expect(!isfinite(y), 0)) y = c->xi[0];
-    __m256d y4 = _mm256_set1_pd(y), acc;
+    double t = target, cr = c->creep_out;
+    if (__builtin_expect(!isfinite(t - cr), 0)) {
+        t = c->xi[0];
+        cr = 0.0;
+    }
+    __m256d t4 = _mm256_set1_pd(t), c4 = _mm256_set1_pd(cr), acc;
 #ifdef __AVX512F__
     {
-        __m512d y8 = _mm512_set1_pd(y);
+        __m512d t8 = _mm512_set1_pd(t), c8 = _mm512_set1_pd(cr);
         __m512d r = _mm512_loadu_pd(c->ri), x = _mm512_loadu_pd(c->xi);
         _mm512_storeu_pd(c->saved, x);
-        x = _mm512_max_pd(_mm512_min_pd(x, _mm512_add_pd(y8, r)), _mm512_sub_pd(y8, r));
+        x = _mm512_max_pd(_mm512_min_pd(x, _mm512_sub_pd(_mm512_add_pd(t8, r), c8)),
+                          _mm512_sub_pd(_mm512_sub_pd(t8, r), c8));
         _mm512_storeu_pd(c->xi, x);
         acc = halves(_mm512_loadu_pd(c->wi), x);
     }
 #else
-    acc = play4(c, 4, y4, play4(c, 0, y4, _mm256_setzero_pd()));
+    acc = play4(c, 4, t4, c4, play4(c, 0, t4, c4, _mm256_setzero_pd()));
 #endif
-    double u = reduce4(play4(c, 8, y4, acc));
+    double u = reduce4(play4(c, 8, t4, c4, acc));
     if (u < c->lower) {
         u = c->lower;
         *saturated = 1;

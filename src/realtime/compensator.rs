@@ -437,7 +437,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         let Some(y) = self.common_target(target) else {
             return self.compensate_general(k, target);
         };
-        let (u, saturated) = simd::compensator_step(k, self, y - c, self.lower, self.upper);
+        let (u, saturated) = simd::compensator_step(k, self, y, c, self.lower, self.upper);
         self.after_step(u, saturated);
         Compensated {
             u,
@@ -490,7 +490,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             Some(s) => s.apply(v),
             None => v,
         };
-        let (u, saturated) = simd::compensator_step(k, self, y - c, self.lower, self.upper);
+        let (u, saturated) = simd::compensator_step(k, self, y, c, self.lower, self.upper);
         if saturated {
             self.reseat_clipped(u);
         }

@@ -9,7 +9,7 @@ use crate::realtime::inverse::{inverse_parameters_into, inverse_state_into};
 use crate::realtime::parameters::{
     check_admissible, check_finite, check_length, HysteresisParameters,
 };
-use crate::realtime::play::play;
+use crate::realtime::play::{play, play_of_difference};
 use crate::realtime::real::{add_product, Real};
 use crate::realtime::storage::{Buffer, Storage};
 
@@ -19,21 +19,31 @@ use crate::realtime::storage::{Buffer, Storage};
 /// state.
 #[inline(always)]
 pub(crate) fn step<T: Real>(state: &mut [T], thresholds: &[T], weights: &[T], v: T) -> T {
-    step_saving::<T, false>(state, &mut [], thresholds, weights, v)
+    step_saving::<T, false>(state, &mut [], thresholds, weights, v, T::ZERO)
 }
 
-/// [`step`], and with `SAVE` the states before it written to `saved` as it
-/// goes (the compensator's copy for a re-seat: block by block, where a
-/// separate copy of a run-time length is a call to `memmove` per sample).
+/// [`step`] with the input `v = t − c` given as its two terms, and with
+/// `SAVE` the states before it written to `saved` as it goes (the
+/// compensator's copy for a re-seat: block by block, where a separate copy
+/// of a run-time length is a call to `memmove` per sample). Each play's
+/// bounds are `(t ∓ r) − c` ([`play_of_difference`]): the compensator's
+/// `c` is the creep's output, the end of its dependency chain, and so it
+/// enters each bound last instead of first. With `c = 0` this is [`step`]
+/// (`x − 0 = x` exactly). A non-finite `t − c` is replaced by `x_0`.
 #[inline(always)]
 pub(crate) fn step_saving<T: Real, const SAVE: bool>(
     state: &mut [T],
     saved: &mut [T],
     thresholds: &[T],
     weights: &[T],
-    v: T,
+    t: T,
+    c: T,
 ) -> T {
-    let v = if v.is_finite() { v } else { state[0] };
+    let (t, c) = if (t - c).is_finite() {
+        (t, c)
+    } else {
+        (state[0], T::ZERO)
+    };
     let n = state.len();
     debug_assert!(thresholds.len() == n && weights.len() == n);
     debug_assert!(!SAVE || saved.len() == n);
@@ -48,26 +58,28 @@ pub(crate) fn step_saving<T: Real, const SAVE: bool>(
         let r: &[T; 4] = thresholds[i0..i0 + 4].try_into().unwrap();
         let w: &[T; 4] = weights[i0..i0 + 4].try_into().unwrap();
         for l in 0..4 {
-            x[l] = play(v, r[l], x[l]);
+            x[l] = play_of_difference(t, c, r[l], x[l]);
         }
         for l in 0..4 {
             acc[l] = add_product(acc[l], w[l], x[l]);
         }
     }
-    step_tail::<T, SAVE>(state, saved, thresholds, weights, v, full, &mut acc);
+    step_tail::<T, SAVE>(state, saved, thresholds, weights, t, c, full, &mut acc);
     reduce(acc)
 }
 
 /// The plays `full..n` that do not fill a block, one by one, into the lanes
 /// `i − full` (shared by [`step_saving`] and its vector copies, which save
 /// every state as they go).
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(crate) fn step_tail<T: Real, const SAVE: bool>(
     state: &mut [T],
     saved: &mut [T],
     thresholds: &[T],
     weights: &[T],
-    v: T,
+    t: T,
+    c: T,
     full: usize,
     acc: &mut [T; 4],
 ) {
@@ -75,7 +87,7 @@ pub(crate) fn step_tail<T: Real, const SAVE: bool>(
         if SAVE {
             saved[i] = state[i];
         }
-        state[i] = play(v, thresholds[i], state[i]);
+        state[i] = play_of_difference(t, c, thresholds[i], state[i]);
         acc[i - full] = add_product(acc[i - full], weights[i], state[i]);
     }
 }

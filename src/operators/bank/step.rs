@@ -313,17 +313,21 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
 ) -> (V, V, V::Mask, V::Mask) {
     let (cur, next) = (f.parity, f.parity ^ 1);
     let fault = o.non_finite(block.target);
-    // S⁻¹[t − offset] − C: y, or the input held where that is not finite.
-    // The superposed path starts from the targets in memory, so that no
-    // vector is handed to a function left out of line (the compiler put
-    // `t − offset` on the stack in every block for it).
-    let y = if block.superposed {
+    // y = S⁻¹[t − offset] − C as its two terms (the plays' bounds are
+    // `(t ∓ r) − C`, as `hysteresis::step_saving` forms them), or the input
+    // held (x₀ and 0) where `y` is not finite. The superposed path starts
+    // from the targets in memory, so that no vector is handed to a
+    // function left out of line (the compiler put `t − offset` on the
+    // stack in every block for it).
+    let t = if block.superposed {
         inverse_superposition(o, f, block.index, block.targets, p)
     } else {
         o.sub(block.target, o.load(&p[a.offset()]))
     };
-    let y = o.sub(y, o.load(&s[a.creep_out()]));
-    let y = o.select(o.non_finite(y), o.load(&s[a.inv_x(cur, 0)]), y);
+    let creep = o.load(&s[a.creep_out()]);
+    let held = o.non_finite(o.sub(t, creep));
+    let t = o.select(held, o.load(&s[a.inv_x(cur, 0)]), t);
+    let creep = o.select(held, o.splat(T::ZERO), creep);
     // H⁻¹ (22): the plays into the other copy; a faulted lane keeps its
     // own. Whole slices of rows, walked in fours: no index arithmetic or
     // bounds check between the vector operations.
@@ -345,22 +349,14 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
         .zip(new_rows[..full].chunks_exact_mut(4));
     for (((x, r), w), next) in fours {
         for q in 0..4 {
-            sums[q] = inverse_play(o, sums[q], y, one, fault, &x[q], &r[q], &w[q], &mut next[q]);
+            let play = (&x[q], &r[q], &w[q], &mut next[q]);
+            sums[q] = inverse_play(o, sums[q], t, creep, one, fault, play);
         }
     }
     for i in full..n {
         let sum = sums[i - full];
-        sums[i - full] = inverse_play(
-            o,
-            sum,
-            y,
-            one,
-            fault,
-            &old[i],
-            &inv_r[i],
-            &inv_w[i],
-            &mut new_rows[i],
-        );
+        let play = (&old[i], &inv_r[i], &inv_w[i], &mut new_rows[i]);
+        sums[i - full] = inverse_play(o, sum, t, creep, one, fault, play);
     }
     let v = o.add(o.add(sums[0], sums[2]), o.add(sums[1], sums[3]));
     // clip; a faulted lane holds its last voltage
@@ -463,31 +459,31 @@ fn creep_pass<T: Real, V: Block<T>>(
     o.store(creep, &mut s[a.creep_out()]);
 }
 
-/// One play of `H⁻¹` (22) on a block: `x` clamped into `[y − r, y + r]`
-/// into `next` (the old `x` where the lane is faulted), its weighted value
-/// added to `sum` as `realtime::real::add_product` adds it. The bounds go
-/// through `sub_on_multiplier` and `add_on_multiplier` (the same bits): the
-/// rest of a play is adder's work (see [`creep_pass`]). A function, not a
-/// closure: see [`creep_update`].
-#[allow(clippy::too_many_arguments)]
+/// One play of `H⁻¹` (22) on a block, `play` its state `x`, threshold,
+/// weight and `next`: `x` clamped into `[(t − r) − c, (t + r) − c]` (the
+/// input `y = t − c` in its two terms, as `hysteresis::step_saving` has
+/// it) into `next` (the old `x` where the lane is faulted), its weighted
+/// value added to `sum` as `realtime::real::add_product` adds it. `t ∓ r`
+/// go through `sub_on_multiplier` and `add_on_multiplier` (the same bits):
+/// the rest of a play is adder's work (see [`creep_pass`]). A function,
+/// not a closure: see [`creep_update`].
 #[inline(always)]
 fn inverse_play<T: Real, V: Block<T>>(
     o: Ops<T, V>,
     sum: V,
-    y: V,
+    t: V,
+    c: V,
     one: V,
     fault: V::Mask,
-    x: &Row,
-    r: &Row,
-    w: &Row,
-    next: &mut Row,
+    play: (&Row, &Row, &Row, &mut Row),
 ) -> V {
+    let (x, r, w, next) = play;
     let x = o.load(x);
     let r = o.load(r);
     let new = o.clamp(
         x,
-        o.sub_on_multiplier(y, r, one),
-        o.add_on_multiplier(y, r, one),
+        o.sub(o.sub_on_multiplier(t, r, one), c),
+        o.sub(o.add_on_multiplier(t, r, one), c),
     );
     o.store(o.select(fault, x, new), next);
     o.mul_add(o.load(w), new, sum)

@@ -420,12 +420,12 @@ pub(crate) const PAPER_CREEP: (usize, usize) = (
     crate::realtime::nominal::CREEP_EIGENVALUES.len(),
 );
 
-/// The two kernels of a compensator step on one instruction set; `v` is
-/// finite.
+/// The two kernels of a compensator step on one instruction set; `v` and
+/// `t − c` are finite.
 trait StepKernels<T: Real> {
-    /// The plays' step (`hysteresis::step_saving`), the states before it
-    /// saved.
-    unsafe fn inverse_plays(state: &mut [T], saved: &mut [T], r: &[T], w: &[T], v: T) -> T;
+    /// The plays' step (`hysteresis::step_saving`) with the input `t − c`,
+    /// the states before it saved.
+    unsafe fn inverse_plays(state: &mut [T], saved: &mut [T], r: &[T], w: &[T], t: T, c: T) -> T;
     /// The creep pass ([`creep_advance`]'s blocks).
     unsafe fn creep(chi: &mut [T], r: &[T], g: &[T], w: &[T], v: T) -> T;
 }
@@ -435,8 +435,8 @@ struct PortableStep;
 
 impl<T: Real> StepKernels<T> for PortableStep {
     #[inline(always)]
-    unsafe fn inverse_plays(state: &mut [T], saved: &mut [T], r: &[T], w: &[T], v: T) -> T {
-        crate::realtime::hysteresis::step_saving::<T, true>(state, saved, r, w, v)
+    unsafe fn inverse_plays(state: &mut [T], saved: &mut [T], r: &[T], w: &[T], t: T, c: T) -> T {
+        crate::realtime::hysteresis::step_saving::<T, true>(state, saved, r, w, t, c)
     }
     #[inline(always)]
     unsafe fn creep(chi: &mut [T], r: &[T], g: &[T], w: &[T], v: T) -> T {
@@ -445,18 +445,23 @@ impl<T: Real> StepKernels<T> for PortableStep {
     }
 }
 
-/// `H⁻¹[y]` clipped to `[lower, upper]` (a non-finite `y` replaced by the
-/// zero-threshold play's state, so that it never enters the plays; their
-/// states before the step saved), then the creep pass with the voltage
-/// applied (a non-finite one replaced by the last finite input): one
-/// compensator step once its input `y` is known. Returns the voltage,
+/// `H⁻¹[y]` of `y = t − creep` clipped to `[lower, upper]` (a non-finite
+/// `y` replaced by the zero-threshold play's state, so that it never enters
+/// the plays; their states before the step saved), then the creep pass
+/// with the voltage applied (a non-finite one replaced by the last finite
+/// input): one compensator step once the target `t` (less the offset, or
+/// `S⁻¹` of it) and the creep's output `creep` are known. `y` is given as
+/// its two terms so that the creep's output, the end of the step's
+/// dependency chain, enters each play's bounds last
+/// (`hysteresis::step_saving`). Returns the voltage,
 /// whether it was clipped, and the creep's new output (zero without creep),
 /// which the step also writes. `PAPER`: the source has the paper's layout
 /// ([`StepSource::paper_parts`]).
 #[inline(always)]
 unsafe fn step_body<T: Real, K: StepKernels<T>, C: StepSource<T>, const PAPER: bool>(
     c: &mut C,
-    y: T,
+    t: T,
+    creep: T,
     lower: T,
     upper: T,
 ) -> (T, bool, T) {
@@ -468,13 +473,23 @@ unsafe fn step_body<T: Real, K: StepKernels<T>, C: StepSource<T>, const PAPER: b
     assert!(p.saved.len() == p.inv_state.len());
     // a predicted branch (with the length known, a select would put a test
     // and a blend on the chain)
-    let y = if y.is_finite() {
-        y
+    // (the test's subtraction is off the chain: the branch is predicted)
+    let (t, creep) = if (t - creep).is_finite() {
+        (t, creep)
     } else {
-        first_play(p.inv_state)
+        (first_play(p.inv_state), T::ZERO)
     };
     // SAFETY: the caller's: `K`'s features are present.
-    let v = unsafe { K::inverse_plays(p.inv_state, p.saved, p.inv_thresholds, p.inv_weights, y) };
+    let v = unsafe {
+        K::inverse_plays(
+            p.inv_state,
+            p.saved,
+            p.inv_thresholds,
+            p.inv_weights,
+            t,
+            creep,
+        )
+    };
     // within the limits: a predicted branch, off the chain (selects put
     // the clip's `min`, compare and blend on it)
     let (u, saturated) = if v >= lower && v <= upper {
@@ -535,7 +550,8 @@ macro_rules! by_layout {
 pub(crate) fn compensator_step<T: Real, C: StepSource<T>>(
     k: Kernels,
     c: &mut C,
-    y: T,
+    t: T,
+    creep: T,
     lower: T,
     upper: T,
 ) -> (T, bool) {
@@ -543,12 +559,12 @@ pub(crate) fn compensator_step<T: Real, C: StepSource<T>>(
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         // SAFETY: an `Avx512` value exists only where the CPU has AVX-512F,
         // AVX2 and FMA.
-        Kernels::Avx512(_) => unsafe { by_layout!(c, step_avx512, c, y, lower, upper) },
+        Kernels::Avx512(_) => unsafe { by_layout!(c, step_avx512, c, t, creep, lower, upper) },
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         // SAFETY: an `Avx2` value exists only where the CPU has AVX2 and FMA.
-        Kernels::Avx2(_) => unsafe { by_layout!(c, step_avx2, c, y, lower, upper) },
+        Kernels::Avx2(_) => unsafe { by_layout!(c, step_avx2, c, t, creep, lower, upper) },
         // SAFETY: the portable kernels need no feature.
-        Kernels::Portable => step_portable(c, y, lower, upper),
+        Kernels::Portable => step_portable(c, t, creep, lower, upper),
     }
 }
 
@@ -609,7 +625,7 @@ unsafe fn run_body<T: Real, K: StepKernels<T>, C: RunSource<T>, const PAPER: boo
             Some(y) => {
                 // SAFETY: the caller's: `K`'s features are present.
                 let (v, s, next) =
-                    unsafe { step_body::<T, K, C, PAPER>(c, y - creep_output, lower, upper) };
+                    unsafe { step_body::<T, K, C, PAPER>(c, y, creep_output, lower, upper) };
                 creep_output = next;
                 c.after_step(v, s);
                 (v, s, false)
@@ -654,9 +670,16 @@ pub(crate) fn compensator_run<T: Real, C: RunSource<T>>(
 /// from 0x228 to 0x58 bytes).
 #[cfg_attr(all(feature = "std", target_arch = "x86_64"), inline(never))]
 #[cfg_attr(not(all(feature = "std", target_arch = "x86_64")), inline(always))]
-fn step_portable<T: Real, C: StepSource<T>>(c: &mut C, y: T, lower: T, upper: T) -> (T, bool) {
+fn step_portable<T: Real, C: StepSource<T>>(
+    c: &mut C,
+    t: T,
+    creep: T,
+    lower: T,
+    upper: T,
+) -> (T, bool) {
     // SAFETY: the portable kernels need no feature.
-    let (u, saturated, _) = unsafe { step_body::<T, PortableStep, C, false>(c, y, lower, upper) };
+    let (u, saturated, _) =
+        unsafe { step_body::<T, PortableStep, C, false>(c, t, creep, lower, upper) };
     (u, saturated)
 }
 
@@ -686,20 +709,22 @@ mod x86 {
     use crate::realtime::real::Real;
 
     /// The blocks of `hysteresis::step_saving` for `f64` on 4-lane
-    /// registers (callers compiled with AVX2); `v` is finite.
+    /// registers (callers compiled with AVX2); `t − c` is finite.
     #[inline(always)]
     unsafe fn hysteresis_step_four<const SPLIT: bool>(
         state: &mut [f64],
         saved: &mut [f64],
         thresholds: &[f64],
         weights: &[f64],
-        v: f64,
+        t: f64,
+        c: f64,
     ) -> f64 {
         let n = state.len();
         assert!(thresholds.len() == n && weights.len() == n && saved.len() == n);
         let full = n - n % 4;
         // SAFETY: the caller's AVX2.
-        let (vv, mut acc) = unsafe { (_mm256_set1_pd(v), _mm256_setzero_pd()) };
+        let (tt, cc, mut acc) =
+            unsafe { (_mm256_set1_pd(t), _mm256_set1_pd(c), _mm256_setzero_pd()) };
         for i0 in (0..full).step_by(4) {
             // SAFETY: i0 + 4 ≤ n for all three slices.
             unsafe {
@@ -707,7 +732,10 @@ mod x86 {
                 let r = _mm256_loadu_pd(thresholds.as_ptr().add(i0));
                 let x = load4_unsplit::<SPLIT>(at);
                 store4_unsplit::<SPLIT>(saved.as_mut_ptr().add(i0), x);
-                let x = _mm256_max_pd(_mm256_min_pd(x, _mm256_add_pd(vv, r)), _mm256_sub_pd(vv, r));
+                // (t ± r) − c: `t + r` and `t − r` wait only for `t`
+                let upper = _mm256_sub_pd(_mm256_add_pd(tt, r), cc);
+                let lower = _mm256_sub_pd(_mm256_sub_pd(tt, r), cc);
+                let x = _mm256_max_pd(_mm256_min_pd(x, upper), lower);
                 store4_unsplit::<SPLIT>(at, x);
                 let w = _mm256_loadu_pd(weights.as_ptr().add(i0));
                 acc = _mm256_fmadd_pd(w, x, acc);
@@ -716,7 +744,7 @@ mod x86 {
         let mut lanes = [0.0f64; 4];
         // SAFETY: four lanes into four f64.
         unsafe { _mm256_storeu_pd(lanes.as_mut_ptr(), acc) };
-        step_tail::<f64, true>(state, saved, thresholds, weights, v, full, &mut lanes);
+        step_tail::<f64, true>(state, saved, thresholds, weights, t, c, full, &mut lanes);
         reduce(lanes)
     }
 
@@ -797,13 +825,14 @@ mod x86 {
         saved: &mut [f64],
         thresholds: &[f64],
         weights: &[f64],
-        v: f64,
+        t: f64,
+        c: f64,
     ) -> f64 {
         // SAFETY (both): the caller's.
         if array_straddles(state) || array_straddles(saved) {
-            unsafe { hysteresis_step_four::<true>(state, saved, thresholds, weights, v) }
+            unsafe { hysteresis_step_four::<true>(state, saved, thresholds, weights, t, c) }
         } else {
-            unsafe { hysteresis_step_four::<false>(state, saved, thresholds, weights, v) }
+            unsafe { hysteresis_step_four::<false>(state, saved, thresholds, weights, t, c) }
         }
     }
 
@@ -829,13 +858,14 @@ mod x86 {
         saved: &mut [E::T],
         thresholds: &[E::T],
         weights: &[E::T],
-        v: E::T,
+        t: E::T,
+        c: E::T,
     ) -> E::T {
         // SAFETY (both): the caller's.
         if array_straddles(state) || array_straddles(saved) {
-            unsafe { hysteresis_step_eight::<E, true>(state, saved, thresholds, weights, v) }
+            unsafe { hysteresis_step_eight::<E, true>(state, saved, thresholds, weights, t, c) }
         } else {
-            unsafe { hysteresis_step_eight::<E, false>(state, saved, thresholds, weights, v) }
+            unsafe { hysteresis_step_eight::<E, false>(state, saved, thresholds, weights, t, c) }
         }
     }
 
@@ -1194,7 +1224,8 @@ mod x86 {
         saved: &mut [E::T],
         thresholds: &[E::T],
         weights: &[E::T],
-        v: E::T,
+        t: E::T,
+        c: E::T,
     ) -> E::T {
         let n = state.len();
         assert!(thresholds.len() == n && weights.len() == n && saved.len() == n);
@@ -1202,14 +1233,15 @@ mod x86 {
         // SAFETY (all): the features are the caller's; every block ends at
         // or before n in all three slices.
         unsafe {
-            let (v8, v4) = (E::splat(v), E::half_splat(v));
+            let (t8, t4) = (E::splat(t), E::half_splat(t));
+            let (c8, c4) = (E::splat(c), E::half_splat(c));
             let mut acc = E::half_zero();
             for i0 in (0..full8).step_by(8) {
                 let at = state.as_mut_ptr().add(i0);
                 let r = E::load(thresholds.as_ptr().add(i0));
                 let x = E::load_unsplit::<SPLIT>(at);
                 x.store_unsplit::<SPLIT>(saved.as_mut_ptr().add(i0));
-                let x = x.min(v8.add(r)).max(v8.sub(r));
+                let x = x.min(t8.add(r).sub(c8)).max(t8.sub(r).sub(c8));
                 x.store_unsplit::<SPLIT>(at);
                 // lanes 0–3, then 4–7, into the four partial sums
                 let (lo, hi) = x.halves();
@@ -1221,15 +1253,15 @@ mod x86 {
                 let r = E::half_load(thresholds.as_ptr().add(full8));
                 let x = E::half_load_unsplit::<SPLIT>(at);
                 E::half_store_unsplit::<SPLIT>(x, saved.as_mut_ptr().add(full8));
-                let x = E::half_min(x, E::half_add(v4, r));
-                let x = E::half_max(x, E::half_sub(v4, r));
+                let x = E::half_min(x, E::half_sub(E::half_add(t4, r), c4));
+                let x = E::half_max(x, E::half_sub(E::half_sub(t4, r), c4));
                 E::half_store_unsplit::<SPLIT>(x, at);
                 let w = E::half_load(weights.as_ptr().add(full8));
                 acc = E::half_mul_add(w, x, acc);
             }
             let mut lanes = [E::T::ZERO; 4];
             E::half_store(acc, lanes.as_mut_ptr());
-            step_tail::<E::T, true>(state, saved, thresholds, weights, v, full4, &mut lanes);
+            step_tail::<E::T, true>(state, saved, thresholds, weights, t, c, full4, &mut lanes);
             reduce(lanes)
         }
     }
@@ -1324,7 +1356,8 @@ mod x86 {
                     saved: &mut [T],
                     r: &[T],
                     w: &[T],
-                    v: T,
+                    t: T,
+                    c: T,
                 ) -> T {
                     use super::{cast, cast_mut, count_simd_call};
                     count_simd_call();
@@ -1332,12 +1365,14 @@ mod x86 {
                     if let (Some(x), Some(s), Some(r), Some(w)) =
                         (cast_mut(state), cast_mut(saved), cast(r), cast(w))
                     {
-                        return T::from_f64(unsafe { $hysteresis_f64(x, s, r, w, v.to_f64()) });
+                        let (t, c) = (t.to_f64(), c.to_f64());
+                        return T::from_f64(unsafe { $hysteresis_f64(x, s, r, w, t, c) });
                     }
                     if let (Some(x), Some(s), Some(r), Some(w)) =
                         (cast_mut(state), cast_mut(saved), cast(r), cast(w))
                     {
-                        let y = unsafe { hysteresis_eight::<F32x8>(x, s, r, w, v.to_f64() as f32) };
+                        let (t, c) = (t.to_f64() as f32, c.to_f64() as f32);
+                        let y = unsafe { hysteresis_eight::<F32x8>(x, s, r, w, t, c) };
                         return T::from_f64(f64::from(y));
                     }
                     unreachable!("Real is f32 or f64")
@@ -1399,13 +1434,14 @@ mod x86 {
             #[inline(never)]
             pub(super) unsafe fn $step<T: Real, C: super::StepSource<T>, const PAPER: bool>(
                 c: &mut C,
-                y: T,
+                t: T,
+                creep: T,
                 lower: T,
                 upper: T,
             ) -> (T, bool) {
                 // SAFETY: the features are enabled here.
                 let (u, saturated, _) =
-                    unsafe { super::step_body::<T, $set, C, PAPER>(c, y, lower, upper) };
+                    unsafe { super::step_body::<T, $set, C, PAPER>(c, t, creep, lower, upper) };
                 (u, saturated)
             }
 
