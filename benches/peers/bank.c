@@ -8,14 +8,15 @@
  *    the voltage (its plays keep their state) and the creep sees the
  *    voltage held;
  *  - H^-1 (22): x <- max(min(x, (t' + r') - C), (t' - r') - C), t' +- r'
- *    fused as +-(r' . 1) + t', the weighted terms fused into four partial
- *    sums (play i into sum i mod 4), (s0 + s2) + (s1 + s3);
+ *    fused as +-(r' . 1) + t', the weighted terms into four partial sums
+ *    (play i into sum i mod 4; each sum's first term a product, the later
+ *    ones fused with it), (s0 + s2) + (s1 + s3);
  *  - the clip, the saturated lanes re-seated lane by lane as mfcbeam does;
  *  - the creep pass (20): per threshold the five updates
  *    chi <- g c + (chi - g chi) (two FMAs, c = max(min(chi, u + r), u - r)),
  *    their sum from zero (thresholds two at a time, the first's rows by
- *    add, the second's by chi . 1 + rows), fused with its weight into sum
- *    i mod 4.
+ *    add, the second's by chi . 1 + rows), with its weight into sum
+ *    i mod 4 (as H^-1's terms).
  * A step is software-pipelined by one block, as mfcbeam's: H^-1 and the clip
  * of block b + 1 before the creep pass of block b. The output is mfcbeam's
  * Compensated<f64> (u, saturated, fault: 16 bytes a channel).
@@ -141,7 +142,7 @@ static inline __attribute__((always_inline)) void first_part(const bank *restric
         __m512d hi = _mm512_sub_pd(_mm512_fmadd_pd(b->ri[i], b->one, t1), cr);
         __m512d nx = _mm512_max_pd(_mm512_min_pd(x, hi), lo);
         s[X0 + next * NP + i] = _mm512_mask_blend_pd(fault, nx, x);
-        sums[i & 3] = _mm512_fmadd_pd(b->wi[i], nx, sums[i & 3]);
+        sums[i & 3] = i < 4 ? _mm512_mul_pd(b->wi[i], nx) : _mm512_fmadd_pd(b->wi[i], nx, sums[i & 3]);
     }
     __m512d v = _mm512_add_pd(_mm512_add_pd(sums[0], sums[2]), _mm512_add_pd(sums[1], sums[3]));
     __mmask8 below = _mm512_cmp_pd_mask(v, b->lower, _CMP_LT_OQ);
@@ -188,7 +189,8 @@ static inline __attribute__((always_inline)) void creep_pass(const bank *restric
         }
         #pragma GCC unroll 16
         for (int q = 0; q < 2; q++)
-            sums[(i0 + q) & 3] = _mm512_fmadd_pd(b->wc[i0 + q], rows[q], sums[(i0 + q) & 3]);
+            sums[(i0 + q) & 3] = i0 + q < 4 ? _mm512_mul_pd(b->wc[i0 + q], rows[q])
+                                            : _mm512_fmadd_pd(b->wc[i0 + q], rows[q], sums[(i0 + q) & 3]);
     }
     s[CREEP_OUT] = _mm512_add_pd(_mm512_add_pd(sums[0], sums[2]), _mm512_add_pd(sums[1], sums[3]));
 }

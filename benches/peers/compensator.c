@@ -102,7 +102,7 @@ static double creep_advance(double chi[M][NC], const double *rc, const double *w
  * intrinsics — the 8-lane block and the 4-lane block of its AVX-512 kernels
  * (three 4-lane blocks on AVX2, the same sums lane by lane), FMA where
  * mfcbeam fuses (the creep update g c + (x - g x), each weighted term
- * with its sum), the plays saved before each step for a re-seat, a non-finite target held —
+ * after a sum's first, a product, with its sum), the plays saved before each step for a re-seat, a non-finite target held —
  * so its voltages have mfcbeam's bits (run.sh checks that they are equal,
  * not close). Against the strongest peer it shows what the order of the
  * arithmetic costs; against mfcbeam, what the Rust around it costs.
@@ -135,6 +135,12 @@ static inline double reduce4(__m256d a) {
     return _mm_cvtsd_f64(_mm_add_sd(s, _mm_unpackhi_pd(s, s)));
 }
 
+/* the weighted term w x into a partial sum: the product alone for a sum's
+ * first term (first), fused with the sum after it, as mfcbeam adds them */
+static inline __m256d term4(int first, __m256d w, __m256d x, __m256d acc) {
+    return first ? _mm256_mul_pd(w, x) : _mm256_fmadd_pd(w, x, acc);
+}
+
 /* play i0..i0+3 of H^-1 at y = t - cr into acc (lane l: the thresholds
  * l mod 4); the bounds (t -+ r) - cr, as mfcbeam forms them */
 static inline __m256d play4(same *c, int i0, __m256d t, __m256d cr, __m256d acc) {
@@ -143,7 +149,7 @@ static inline __m256d play4(same *c, int i0, __m256d t, __m256d cr, __m256d acc)
     x = _mm256_max_pd(_mm256_min_pd(x, _mm256_sub_pd(_mm256_add_pd(t, r), cr)),
                       _mm256_sub_pd(_mm256_sub_pd(t, r), cr));
     _mm256_storeu_pd(c->xi + i0, x);
-    return _mm256_fmadd_pd(_mm256_loadu_pd(c->wi + i0), x, acc);
+    return term4(i0 == 0, _mm256_loadu_pd(c->wi + i0), x, acc);
 }
 
 /* creep thresholds i0..i0+3, every eigenvalue, into acc */
@@ -158,15 +164,14 @@ static inline __m256d creep4(same *c, int i0, __m256d u, __m256d acc) {
         _mm256_storeu_pd(c->chi[j] + i0, x);
         rows = j == 0 ? x : _mm256_add_pd(rows, x);
     }
-    return _mm256_fmadd_pd(_mm256_loadu_pd(c->wc + i0), rows, acc);
+    return term4(i0 == 0, _mm256_loadu_pd(c->wc + i0), rows, acc);
 }
 
 #ifdef __AVX512F__
-/* w x in lanes 0..7 as two blocks of four added into zero, each product
- * fused with its sum: fma(w_hi, x_hi, fma(w_lo, x_lo, 0)) */
+/* w x in lanes 0..7 as two blocks of four, the second fused with the
+ * first's products: fma(w_hi, x_hi, w_lo x_lo) */
 static inline __m256d halves(__m512d w, __m512d x) {
-    __m256d acc = _mm256_fmadd_pd(_mm512_castpd512_pd256(w), _mm512_castpd512_pd256(x),
-                                  _mm256_setzero_pd());
+    __m256d acc = _mm256_mul_pd(_mm512_castpd512_pd256(w), _mm512_castpd512_pd256(x));
     return _mm256_fmadd_pd(_mm512_extractf64x4_pd(w, 1), _mm512_extractf64x4_pd(x, 1), acc);
 }
 #endif

@@ -142,14 +142,16 @@ impl<T: Real, S: Storage> Creep<T, S> {
     }
 
     /// Set `χ` from `state[i * m + j]` (threshold `i`, eigenvalue `j`: the
-    /// model file's rows, flattened). Checked before anything changes.
+    /// model file's rows, flattened), its zeros `+0` (no state holds a
+    /// `−0`: see `creep_pass::advance`). Checked before anything changes.
     pub fn set_state_flat(&mut self, state: &[f64]) -> Result<(), ParameterError> {
         let (n, m) = self.shape();
         check_length("creep.state", n * m, state.len())?;
         check_finite("creep.state", state)?;
         for i in 0..n {
             for j in 0..m {
-                self.chi_mut()[j * n + i] = T::from_f64(state[i * m + j]);
+                // `+ 0`: `−0` (or a value that rounds to it in `T`) to `+0`
+                self.chi_mut()[j * n + i] = T::from_f64(state[i * m + j]) + T::ZERO;
             }
         }
         self.refresh_output();
@@ -176,7 +178,8 @@ impl<T: Real, S: Storage> Creep<T, S> {
     ) -> Result<(), ParameterError> {
         check_length("creep.state", self.chi().len(), other.chi().len())?;
         for (x, &y) in self.chi_mut().iter_mut().zip(other.chi()) {
-            *x = T::from_f64(y.to_f64());
+            // `+ 0`: a value that rounds to `−0` in `T` to `+0`
+            *x = T::from_f64(y.to_f64()) + T::ZERO;
         }
         self.output = T::from_f64(other.output.to_f64());
         self.last_input = T::from_f64(other.last_input.to_f64());

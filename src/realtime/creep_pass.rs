@@ -5,7 +5,7 @@
 
 use crate::realtime::hysteresis::reduce;
 use crate::realtime::play::clamp;
-use crate::realtime::real::{add_product, Real};
+use crate::realtime::real::{add_term, Real};
 
 /// Thresholds per block of the creep pass: the clamp bounds `v ∓ r_i` are
 /// formed once per threshold and reused by every eigenvalue's row, and a
@@ -25,14 +25,13 @@ pub(crate) const LANES: usize = 4;
 /// its sum. The sums run in a fixed order (lane `l`
 /// of a block adds the thresholds `i ≡ l mod 4`, then
 /// [`reduce`]), the same for every instruction set: the result does not
-/// depend on the CPU. A threshold's rows are summed from its first row, not
-/// from zero: the sums differ only where every row is a zero, in the sign
-/// of that zero, and the weighted rows go into partial sums that start at
-/// `+0` (each term fused with its sum with `std`,
-/// [`crate::realtime::real::add_product`]), which a zero of either sign
-/// leaves unchanged (a sum from `+0` is never `−0`, fused or not: an exact
-/// zero sum of opposite signs is `+0`) — so the output has the same bits as
-/// the sum from zero.
+/// depend on the CPU. The weighted rows go into partial sums that start
+/// from their first product ([`crate::realtime::real::add_term`]). A
+/// threshold's rows are summed from its first row, not from zero: the two
+/// differ only where every row is `−0`, and no state holds a `−0` (a state
+/// set from outside has its zeros made `+0`, and an update never makes one:
+/// `χ − g χ` of `±0` is `+0`, and a zero sum of opposite signs is `+0`) —
+/// so the bank, which sums its rows from zero, has the same bits.
 #[inline(always)]
 pub(crate) fn advance<T: Real>(
     chi: &mut [T],
@@ -73,7 +72,7 @@ pub(crate) fn advance<T: Real>(
         }
         let w: &[T; LANES] = weights[i0..i0 + LANES].try_into().unwrap();
         for l in 0..LANES {
-            acc[l] = add_product(acc[l], w[l], rows[l]);
+            acc[l] = add_term(acc[l], w[l], rows[l], i0 == 0);
         }
     }
     advance_tail(chi, thresholds, gains, weights, v, full, &mut acc);
@@ -133,7 +132,7 @@ pub(crate) fn advance_tail<T: Real>(
             chi[j * n + i] = x;
             row = if j == 0 { x } else { row + x };
         }
-        acc[i - full] = add_product(acc[i - full], weights[i], row);
+        acc[i - full] = add_term(acc[i - full], weights[i], row, full == 0);
     }
 }
 
@@ -149,7 +148,7 @@ pub(crate) fn output<T: Real>(chi: &[T], weights: &[T]) -> T {
             .step_by(n.max(1))
             .copied()
             .reduce(|a, b| a + b);
-        acc[i % LANES] = add_product(acc[i % LANES], w, row.unwrap_or(T::ZERO));
+        acc[i % LANES] = add_term(acc[i % LANES], w, row.unwrap_or(T::ZERO), i < LANES);
     }
     reduce(acc)
 }

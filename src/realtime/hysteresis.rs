@@ -10,7 +10,7 @@ use crate::realtime::parameters::{
     check_admissible, check_finite, check_length, HysteresisParameters,
 };
 use crate::realtime::play::{play, play_of_difference};
-use crate::realtime::real::{add_product, Real};
+use crate::realtime::real::{add_term, Real};
 use crate::realtime::storage::{Buffer, Storage};
 
 /// One sample of `H`: advance every play with `v` and return `Σ w_i x_i`
@@ -61,7 +61,7 @@ pub(crate) fn step_saving<T: Real, const SAVE: bool>(
             x[l] = play_of_difference(t, c, r[l], x[l]);
         }
         for l in 0..4 {
-            acc[l] = add_product(acc[l], w[l], x[l]);
+            acc[l] = add_term(acc[l], w[l], x[l], i0 == 0);
         }
     }
     step_tail::<T, SAVE>(state, saved, thresholds, weights, t, c, full, &mut acc);
@@ -88,7 +88,7 @@ pub(crate) fn step_tail<T: Real, const SAVE: bool>(
             saved[i] = state[i];
         }
         state[i] = play_of_difference(t, c, thresholds[i], state[i]);
-        acc[i - full] = add_product(acc[i - full], weights[i], state[i]);
+        acc[i - full] = add_term(acc[i - full], weights[i], state[i], full == 0);
     }
 }
 
@@ -102,22 +102,23 @@ pub(crate) fn advance_plays<T: Real>(state: &mut [T], thresholds: &[T], v: T) {
 }
 
 /// `Σ w_i x_i` in four partial sums, lane `l` adding the terms `i ≡ l mod
-/// 4` in order, each fused with the sum ([`add_product`]) (SIMD without
-/// `-ffast-math`-style reassociation: the order is fixed, the same for
-/// every instruction set), then [`reduce`]d.
+/// 4` in order, from its first product, each later term fused with the sum
+/// ([`add_term`]) (SIMD without `-ffast-math`-style reassociation: the
+/// order is fixed, the same for every instruction set), then [`reduce`]d.
 #[inline(always)]
 pub(crate) fn weighted_sum<T: Real>(w: &[T], x: &[T]) -> T {
     let mut a = [T::ZERO; 4];
     let wc = w.chunks_exact(4);
     let xc = x.chunks_exact(4);
     let (wr, xr) = (wc.remainder(), xc.remainder());
-    for (w4, x4) in wc.zip(xc) {
+    let full = wc.len();
+    for (k, (w4, x4)) in wc.zip(xc).enumerate() {
         for l in 0..4 {
-            a[l] = add_product(a[l], w4[l], x4[l]);
+            a[l] = add_term(a[l], w4[l], x4[l], k == 0);
         }
     }
     for l in 0..wr.len() {
-        a[l] = add_product(a[l], wr[l], xr[l]);
+        a[l] = add_term(a[l], wr[l], xr[l], full == 0);
     }
     reduce(a)
 }

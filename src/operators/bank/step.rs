@@ -347,14 +347,15 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
         .zip(inv_r[..full].chunks_exact(4))
         .zip(inv_w[..full].chunks_exact(4))
         .zip(new_rows[..full].chunks_exact_mut(4));
-    for (((x, r), w), next) in fours {
+    for (k, (((x, r), w), next)) in fours.enumerate() {
         for q in 0..4 {
             let play = (&x[q], &r[q], &w[q], &mut next[q]);
-            sums[q] = inverse_play(o, sums[q], t, creep, one, fault, play);
+            let sum = (k > 0).then_some(sums[q]);
+            sums[q] = inverse_play(o, sum, t, creep, one, fault, play);
         }
     }
     for i in full..n {
-        let sum = sums[i - full];
+        let sum = (full > 0).then_some(sums[i - full]);
         let play = (&old[i], &inv_r[i], &inv_w[i], &mut new_rows[i]);
         sums[i - full] = inverse_play(o, sum, t, creep, one, fault, play);
     }
@@ -379,8 +380,9 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
 /// Block `block`'s creep pass (20) with the input `uc` that
 /// [`inverse_and_clip`] returned, as `creep_pass::advance` sums it: each threshold's rows
 /// summed over the eigenvalues in order, the weighted rows into the partial
-/// sum `i mod 4`. The rows are summed from zero here and from the first row
-/// there, with the same output bits (see `creep_pass::advance`); from the
+/// sum `i mod 4` (each sum from its first product). The rows are summed
+/// from zero here and from the first row there, with the same output bits
+/// (no state holds a `−0`: see `creep_pass::advance`); from the
 /// first row the bank was 5 % slower in `f32`, for one addition fewer.
 /// Each update is two fused operations ([`creep_update`]); of the four
 /// rows' additions two are adds and two go through `add_on_multiplier`
@@ -416,7 +418,7 @@ fn creep_pass<T: Real, V: Block<T>>(
             .chunks_exact_mut(4 * m)
             .zip(thresholds[..full].chunks_exact(4))
             .zip(weights[..full].chunks_exact(4));
-        for ((rows_of_four, r), w) in fours {
+        for (k, ((rows_of_four, r), w)) in fours.enumerate() {
             let mut lower = [zero; 4];
             let mut upper = [zero; 4];
             for q in 0..4 {
@@ -441,8 +443,13 @@ fn creep_pass<T: Real, V: Block<T>>(
                 rows[2] = o.add_on_multiplier(rows[2], x[2], one);
                 rows[3] = o.add_on_multiplier(rows[3], x[3], one);
             }
+            // from the first product (`realtime::real::add_term`)
             for q in 0..4 {
-                sums[q] = o.mul_add(o.load(&w[q]), rows[q], sums[q]);
+                sums[q] = if k == 0 {
+                    o.mul(o.load(&w[q]), rows[q])
+                } else {
+                    o.mul_add(o.load(&w[q]), rows[q], sums[q])
+                };
             }
         }
     }
@@ -453,7 +460,11 @@ fn creep_pass<T: Real, V: Block<T>>(
         for (x, g) in chi[i * m..][..m].iter_mut().zip(gains) {
             rows = o.add_on_multiplier(rows, creep_update(o, x, o.load(g), lower, upper), one);
         }
-        sums[i - full] = o.mul_add(o.load(&weights[i]), rows, sums[i - full]);
+        sums[i - full] = if full == 0 {
+            o.mul(o.load(&weights[i]), rows)
+        } else {
+            o.mul_add(o.load(&weights[i]), rows, sums[i - full])
+        };
     }
     let creep = o.add(o.add(sums[0], sums[2]), o.add(sums[1], sums[3]));
     o.store(creep, &mut s[a.creep_out()]);
@@ -463,14 +474,15 @@ fn creep_pass<T: Real, V: Block<T>>(
 /// weight and `next`: `x` clamped into `[(t − r) − c, (t + r) − c]` (the
 /// input `y = t − c` in its two terms, as `hysteresis::step_saving` has
 /// it) into `next` (the old `x` where the lane is faulted), its weighted
-/// value added to `sum` as `realtime::real::add_product` adds it. `t ∓ r`
+/// value added to `sum` as `realtime::real::add_term` adds it (`None`: the
+/// sum's first term, the product alone). `t ∓ r`
 /// go through `sub_on_multiplier` and `add_on_multiplier` (the same bits):
 /// the rest of a play is adder's work (see [`creep_pass`]). A function,
 /// not a closure: see [`creep_update`].
 #[inline(always)]
 fn inverse_play<T: Real, V: Block<T>>(
     o: Ops<T, V>,
-    sum: V,
+    sum: Option<V>,
     t: V,
     c: V,
     one: V,
@@ -486,7 +498,10 @@ fn inverse_play<T: Real, V: Block<T>>(
         o.sub(o.add_on_multiplier(t, r, one), c),
     );
     o.store(o.select(fault, x, new), next);
-    o.mul_add(o.load(w), new, sum)
+    match sum {
+        Some(sum) => o.mul_add(o.load(w), new, sum),
+        None => o.mul(o.load(w), new),
+    }
 }
 
 /// One creep operator's update (20) on a block, `χ ← χ + g (clamp(χ, u −

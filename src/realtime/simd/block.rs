@@ -63,6 +63,7 @@ pub(crate) trait Block<T: Real>: Copy {
     unsafe fn min(self, b: Self) -> Self;
     /// `a > b ? a : b` per lane.
     unsafe fn max(self, b: Self) -> Self;
+    unsafe fn mul(self, b: Self) -> Self;
     /// `self · a + b` per lane, rounded as [`Real::fused_mul_add`] rounds.
     unsafe fn mul_add(self, a: Self, b: Self) -> Self;
     /// `b − self · a` per lane, rounded as `(−self).fused_mul_add(a, b)`.
@@ -193,6 +194,11 @@ impl<T: Real> Block<T> for Portable<T> {
     #[inline(always)]
     unsafe fn add(self, b: Self) -> Self {
         self.map2(b, |x, y| x + y)
+    }
+
+    #[inline(always)]
+    unsafe fn mul(self, b: Self) -> Self {
+        self.map2(b, |x, y| x * y)
     }
 
     #[inline(always)]
@@ -425,6 +431,7 @@ mod x86 {
         avx2_op!(sub, _mm256_sub_pd, _mm256_sub_ps);
         avx2_op!(min, _mm256_min_pd, _mm256_min_ps);
         avx2_op!(max, _mm256_max_pd, _mm256_max_ps);
+        avx2_op!(mul, _mm256_mul_pd, _mm256_mul_ps);
         avx2_op3!(mul_add, _mm256_fmadd_pd, _mm256_fmadd_ps);
         avx2_op3!(neg_mul_add, _mm256_fnmadd_pd, _mm256_fnmadd_ps);
         avx2_cmp!(lt, _CMP_LT_OQ);
@@ -687,6 +694,7 @@ mod x86 {
         avx512_op!(sub, _mm512_sub_pd, _mm512_sub_ps);
         avx512_op!(min, _mm512_min_pd, _mm512_min_ps);
         avx512_op!(max, _mm512_max_pd, _mm512_max_ps);
+        avx512_op!(mul, _mm512_mul_pd, _mm512_mul_ps);
         avx512_op3!(mul_add, _mm512_fmadd_pd, _mm512_fmadd_ps);
         avx512_op3!(neg_mul_add, _mm512_fnmadd_pd, _mm512_fnmadd_ps);
         avx512_cmp!(lt, _CMP_LT_OQ);
@@ -806,6 +814,7 @@ impl<T: Real, V: Block<T>> Ops<T, V> {
         splat(x: T) -> V;
         add(a: V, b: V) -> V;
         sub(a: V, b: V) -> V;
+        mul(a: V, b: V) -> V;
         lt(a: V, b: V) -> V::Mask;
         gt(a: V, b: V) -> V::Mask;
         non_finite(a: V) -> V::Mask;

@@ -738,7 +738,12 @@ mod x86 {
                 let x = _mm256_max_pd(_mm256_min_pd(x, upper), lower);
                 store4_unsplit::<SPLIT>(at, x);
                 let w = _mm256_loadu_pd(weights.as_ptr().add(i0));
-                acc = _mm256_fmadd_pd(w, x, acc);
+                // from the first product (`real::add_term`)
+                acc = if i0 == 0 {
+                    _mm256_mul_pd(w, x)
+                } else {
+                    _mm256_fmadd_pd(w, x, acc)
+                };
             }
         }
         let mut lanes = [0.0f64; 4];
@@ -793,7 +798,11 @@ mod x86 {
                     rows = _mm256_add_pd(rows, update!(at, g));
                 }
                 let w = _mm256_loadu_pd(weights.as_ptr().add(i0));
-                acc = _mm256_fmadd_pd(w, rows, acc);
+                acc = if i0 == 0 {
+                    _mm256_mul_pd(w, rows)
+                } else {
+                    _mm256_fmadd_pd(w, rows, acc)
+                };
             }
         }
         let mut lanes = [0.0f64; LANES];
@@ -974,6 +983,7 @@ mod x86 {
         unsafe fn half_sub(a: Self::Half, b: Self::Half) -> Self::Half;
         unsafe fn half_min(a: Self::Half, b: Self::Half) -> Self::Half;
         unsafe fn half_max(a: Self::Half, b: Self::Half) -> Self::Half;
+        unsafe fn half_mul(a: Self::Half, b: Self::Half) -> Self::Half;
         unsafe fn half_mul_add(a: Self::Half, b: Self::Half, c: Self::Half) -> Self::Half;
         unsafe fn half_neg_mul_add(a: Self::Half, b: Self::Half, c: Self::Half) -> Self::Half;
 
@@ -1038,7 +1048,7 @@ mod x86 {
     macro_rules! eight {
         ($name:ident, $feature:literal, $t:ty, $v:ty, $h:ty,
          [$set1:ident, $loadu:ident, $storeu:ident, $add:ident, $sub:ident, $min:ident, $max:ident, $fma:ident, $fnma:ident],
-         [$hset1:ident, $hzero:ident, $hloadu:ident, $hstoreu:ident, $hadd:ident, $hsub:ident, $hmin:ident, $hmax:ident, $hfma:ident, $hfnma:ident],
+         [$hset1:ident, $hzero:ident, $hloadu:ident, $hstoreu:ident, $hadd:ident, $hsub:ident, $hmin:ident, $hmax:ident, $hmul:ident, $hfma:ident, $hfnma:ident],
          $lo:expr, $hi:expr) => {
             #[derive(Clone, Copy)]
             struct $name($v);
@@ -1138,6 +1148,11 @@ mod x86 {
                 }
                 #[target_feature(enable = $feature)]
                 #[inline]
+                unsafe fn half_mul(a: $h, b: $h) -> $h {
+                    $hmul(a, b)
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
                 unsafe fn half_mul_add(a: $h, b: $h, c: $h) -> $h {
                     $hfma(a, b, c)
                 }
@@ -1176,6 +1191,7 @@ mod x86 {
             _mm256_sub_pd,
             _mm256_min_pd,
             _mm256_max_pd,
+            _mm256_mul_pd,
             _mm256_fmadd_pd,
             _mm256_fnmadd_pd
         ],
@@ -1208,6 +1224,7 @@ mod x86 {
             _mm_sub_ps,
             _mm_min_ps,
             _mm_max_ps,
+            _mm_mul_ps,
             _mm_fmadd_ps,
             _mm_fnmadd_ps
         ],
@@ -1243,9 +1260,15 @@ mod x86 {
                 x.store_unsplit::<SPLIT>(saved.as_mut_ptr().add(i0));
                 let x = x.min(t8.add(r).sub(c8)).max(t8.sub(r).sub(c8));
                 x.store_unsplit::<SPLIT>(at);
-                // lanes 0–3, then 4–7, into the four partial sums
+                // lanes 0–3, then 4–7, into the four partial sums (from
+                // the first product, `real::add_term`)
                 let (lo, hi) = x.halves();
-                acc = E::half_mul_add(E::half_load(weights.as_ptr().add(i0)), lo, acc);
+                let w = E::half_load(weights.as_ptr().add(i0));
+                acc = if i0 == 0 {
+                    E::half_mul(w, lo)
+                } else {
+                    E::half_mul_add(w, lo, acc)
+                };
                 acc = E::half_mul_add(E::half_load(weights.as_ptr().add(i0 + 4)), hi, acc);
             }
             if full4 > full8 {
@@ -1257,7 +1280,11 @@ mod x86 {
                 let x = E::half_max(x, E::half_sub(E::half_sub(t4, r), c4));
                 E::half_store_unsplit::<SPLIT>(x, at);
                 let w = E::half_load(weights.as_ptr().add(full8));
-                acc = E::half_mul_add(w, x, acc);
+                acc = if full8 == 0 {
+                    E::half_mul(w, x)
+                } else {
+                    E::half_mul_add(w, x, acc)
+                };
             }
             let mut lanes = [E::T::ZERO; 4];
             E::half_store(acc, lanes.as_mut_ptr());
@@ -1307,7 +1334,12 @@ mod x86 {
                     rows = rows.add(update!(at, g));
                 }
                 let (lo, hi) = rows.halves();
-                acc = E::half_mul_add(E::half_load(weights.as_ptr().add(i0)), lo, acc);
+                let w = E::half_load(weights.as_ptr().add(i0));
+                acc = if i0 == 0 {
+                    E::half_mul(w, lo)
+                } else {
+                    E::half_mul_add(w, lo, acc)
+                };
                 acc = E::half_mul_add(E::half_load(weights.as_ptr().add(i0 + 4)), hi, acc);
             }
             if full4 > full8 {
@@ -1331,7 +1363,11 @@ mod x86 {
                     rows = E::half_add(rows, update!(at, g));
                 }
                 let w = E::half_load(weights.as_ptr().add(full8));
-                acc = E::half_mul_add(w, rows, acc);
+                acc = if full8 == 0 {
+                    E::half_mul(w, rows)
+                } else {
+                    E::half_mul_add(w, rows, acc)
+                };
             }
             let mut lanes = [E::T::ZERO; LANES];
             E::half_store(acc, lanes.as_mut_ptr());
