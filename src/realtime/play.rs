@@ -15,9 +15,10 @@ pub fn play<T: Real>(v: T, r: T, x: T) -> T {
 /// bounds are `(t − r) − c` and `(t + r) − c`, so that `c`, which arrives
 /// last in the compensator's step (the creep's output), takes one
 /// subtraction to reach them instead of two operations. Each bound is
-/// within one rounding of `v ∓ r` of the rounded `v` (both are
-/// `t − c ∓ r` rounded twice), and the zero-threshold play's state is
-/// `t − c` exactly. Exactly odd in `(t, c, x)`, and with `c = 0` it is
+/// `t ∓ r − c` rounded twice, as `(t − c) ∓ r` rounds it, but in another
+/// order: within `u (1 + u) |t ∓ r| + u |t ∓ r − c|` of the exact value
+/// (`u` the unit roundoff). The zero-threshold play's bounds are `t − c`
+/// exactly, as before. Exactly odd in `(t, c, x)`, and with `c = 0` it is
 /// [`play`] bit for bit.
 #[inline(always)]
 pub(crate) fn play_of_difference<T: Real>(t: T, c: T, r: T, x: T) -> T {
