@@ -420,20 +420,47 @@ pub(crate) const PAPER_CREEP: (usize, usize) = (
     crate::realtime::nominal::CREEP_EIGENVALUES.len(),
 );
 
-/// The two kernels of a compensator step on one instruction set; `v` and
-/// `t − c` are finite.
+/// The two kernels of a compensator step on one instruction set, and how
+/// a value on the step's chain goes from one to the next:
+/// [`StepKernels::Lanes`]. On the vector sets it is the value and, for
+/// `f64`, the value in every lane of a register: the 4-lane `f64` kernels
+/// end their sums in a butterfly that leaves the sum in every lane, so the
+/// creep's output and `H⁻¹`'s output reach the next kernel without a
+/// broadcast. `v` and `t − c` are finite.
 trait StepKernels<T: Real> {
+    /// A value of `T` on the chain (on the portable set, the value).
+    type Lanes: Copy;
+    /// `x` as [`StepKernels::Lanes`].
+    unsafe fn splat(x: T) -> Self::Lanes;
+    /// The value of `x`.
+    unsafe fn first(x: Self::Lanes) -> T;
     /// The plays' step (`hysteresis::step_saving`) with the input `t − c`,
     /// the states before it saved.
-    unsafe fn inverse_plays(state: &mut [T], saved: &mut [T], r: &[T], w: &[T], t: T, c: T) -> T;
+    unsafe fn inverse_plays(
+        state: &mut [T],
+        saved: &mut [T],
+        r: &[T],
+        w: &[T],
+        t: T,
+        c: Self::Lanes,
+    ) -> Self::Lanes;
     /// The creep pass ([`creep_advance`]'s blocks).
-    unsafe fn creep(chi: &mut [T], r: &[T], g: &[T], w: &[T], v: T) -> T;
+    unsafe fn creep(chi: &mut [T], r: &[T], g: &[T], w: &[T], v: Self::Lanes) -> Self::Lanes;
 }
 
 /// The portable kernels.
 struct PortableStep;
 
 impl<T: Real> StepKernels<T> for PortableStep {
+    type Lanes = T;
+    #[inline(always)]
+    unsafe fn splat(x: T) -> T {
+        x
+    }
+    #[inline(always)]
+    unsafe fn first(x: T) -> T {
+        x
+    }
     #[inline(always)]
     unsafe fn inverse_plays(state: &mut [T], saved: &mut [T], r: &[T], w: &[T], t: T, c: T) -> T {
         crate::realtime::hysteresis::step_saving::<T, true>(state, saved, r, w, t, c)
@@ -461,10 +488,10 @@ impl<T: Real> StepKernels<T> for PortableStep {
 unsafe fn step_body<T: Real, K: StepKernels<T>, C: StepSource<T>, const PAPER: bool>(
     c: &mut C,
     t: T,
-    creep: T,
+    creep: K::Lanes,
     lower: T,
     upper: T,
-) -> (T, bool, T) {
+) -> (T, bool, K::Lanes) {
     let p = if PAPER {
         c.paper_parts()
     } else {
@@ -474,13 +501,13 @@ unsafe fn step_body<T: Real, K: StepKernels<T>, C: StepSource<T>, const PAPER: b
     // a predicted branch (with the length known, a select would put a test
     // and a blend on the chain)
     // (the test's subtraction is off the chain: the branch is predicted)
-    let (t, creep) = if (t - creep).is_finite() {
+    // SAFETY (every `K` call): the caller's: `K`'s features are present.
+    let (t, creep) = if (t - unsafe { K::first(creep) }).is_finite() {
         (t, creep)
     } else {
-        (first_play(p.inv_state), T::ZERO)
+        (first_play(p.inv_state), unsafe { K::splat(T::ZERO) })
     };
-    // SAFETY: the caller's: `K`'s features are present.
-    let v = unsafe {
+    let v_lanes = unsafe {
         K::inverse_plays(
             p.inv_state,
             p.saved,
@@ -490,20 +517,25 @@ unsafe fn step_body<T: Real, K: StepKernels<T>, C: StepSource<T>, const PAPER: b
             creep,
         )
     };
+    let v = unsafe { K::first(v_lanes) };
     // within the limits: a predicted branch, off the chain (selects put
     // the clip's `min`, compare and blend on it)
-    let (u, saturated) = if v >= lower && v <= upper {
-        (v, false)
+    let (u, u_lanes, saturated) = if v >= lower && v <= upper {
+        (v, v_lanes, false)
     } else {
-        clip(v, lower, upper)
+        let (u, saturated) = clip(v, lower, upper);
+        (u, unsafe { K::splat(u) }, saturated)
     };
-    let mut creep_output = T::ZERO;
+    let mut creep_output = unsafe { K::splat(T::ZERO) };
     if let Some(cp) = p.creep {
-        let held = if u.is_finite() { u } else { *cp.last_input };
-        *cp.last_input = held;
-        // SAFETY: as above.
+        let held = if u.is_finite() {
+            u_lanes
+        } else {
+            unsafe { K::splat(*cp.last_input) }
+        };
+        *cp.last_input = unsafe { K::first(held) };
         creep_output = unsafe { K::creep(cp.chi, cp.thresholds, cp.gains, cp.weights, held) };
-        *cp.output = creep_output;
+        *cp.output = unsafe { K::first(creep_output) };
     }
     (u, saturated, creep_output)
 }
@@ -614,7 +646,8 @@ unsafe fn run_body<T: Real, K: StepKernels<T>, C: RunSource<T>, const PAPER: boo
 ) -> (usize, usize) {
     let (lower, upper) = c.limits();
     let (mut clipped, mut faults) = (0, 0);
-    let mut creep_output = c.creep_output();
+    // SAFETY (every `K` call): the caller's: `K`'s features are present.
+    let mut creep_output = unsafe { K::splat(c.creep_output()) };
     let outputs = out
         .u
         .iter_mut()
@@ -623,7 +656,6 @@ unsafe fn run_body<T: Real, K: StepKernels<T>, C: RunSource<T>, const PAPER: boo
     for (&target, ((u, saturated), fault)) in targets.iter().zip(outputs) {
         let (v, s, f) = match c.common_target(target) {
             Some(y) => {
-                // SAFETY: the caller's: `K`'s features are present.
                 let (v, s, next) =
                     unsafe { step_body::<T, K, C, PAPER>(c, y, creep_output, lower, upper) };
                 creep_output = next;
@@ -632,7 +664,7 @@ unsafe fn run_body<T: Real, K: StepKernels<T>, C: RunSource<T>, const PAPER: boo
             }
             None => {
                 let out = c.general_step(k, target);
-                creep_output = c.creep_output();
+                creep_output = unsafe { K::splat(c.creep_output()) };
                 out
             }
         };
@@ -702,14 +734,50 @@ mod x86 {
     //! the operator places it so that no register's worth straddles a page
     //! (`crate::realtime::placement`; on a Zen 4 the per-access tests had
     //! cost more than the split).
+    //!
+    //! The 4-lane `f64` kernels end each sum in [`all_lanes_sum`]: the same
+    //! bits as `hysteresis::reduce`, in every lane. On a Zen 4 a run took
+    //! 0.977 of the strongest C's loop with it, 0.995 with the scalar sum
+    //! and a broadcast. Zen 1's instruction tables list `vperm2f128` as
+    //! eight micro-operations (its latency 3, as on later cores); that CPU
+    //! was not measured with it.
     use core::arch::x86_64::*;
+
+    use core::any::TypeId;
 
     use crate::realtime::creep_pass::{advance_tail, LANES};
     use crate::realtime::hysteresis::{reduce, step_tail};
     use crate::realtime::real::Real;
 
+    /// `hysteresis::reduce` of `a`'s four lanes, in every lane: a butterfly.
+    /// Lane 0 adds `(a₀ + a₂) + (a₁ + a₃)` as `reduce` does; the other
+    /// lanes add the same pairs with their operands swapped, which leaves
+    /// an IEEE sum as it is. The swap of the halves is `vperm2f128`,
+    /// written out: LLVM emits `_mm256_permute2f128_pd(a, a, 1)` as
+    /// `vpermpd`, a cycle slower on a Zen 4 (4 against 3).
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn all_lanes_sum(a: __m256d) -> __m256d {
+        let swapped: __m256d;
+        // SAFETY: AVX is enabled here; the instruction reads and writes
+        // registers only.
+        unsafe {
+            core::arch::asm!(
+                "vperm2f128 {swapped}, {a}, {a}, 1",
+                a = in(ymm_reg) a,
+                swapped = lateout(ymm_reg) swapped,
+                options(pure, nomem, nostack, preserves_flags)
+            );
+        }
+        // [a₀ + a₂, a₁ + a₃, a₂ + a₀, a₃ + a₁], then each lane and its
+        // neighbour
+        let t = _mm256_add_pd(a, swapped);
+        _mm256_add_pd(t, _mm256_permute_pd::<0b0101>(t))
+    }
+
     /// The blocks of `hysteresis::step_saving` for `f64` on 4-lane
-    /// registers (callers compiled with AVX2); `t − c` is finite.
+    /// registers (callers compiled with AVX2); `cc` holds `c` in every
+    /// lane, `t − c` is finite, and the result is in every lane.
     #[inline(always)]
     unsafe fn hysteresis_step_four<const SPLIT: bool>(
         state: &mut [f64],
@@ -717,14 +785,13 @@ mod x86 {
         thresholds: &[f64],
         weights: &[f64],
         t: f64,
-        c: f64,
-    ) -> f64 {
+        cc: __m256d,
+    ) -> __m256d {
         let n = state.len();
         assert!(thresholds.len() == n && weights.len() == n && saved.len() == n);
         let full = n - n % 4;
         // SAFETY: the caller's AVX2.
-        let (tt, cc, mut acc) =
-            unsafe { (_mm256_set1_pd(t), _mm256_set1_pd(c), _mm256_setzero_pd()) };
+        let (tt, mut acc) = unsafe { (_mm256_set1_pd(t), _mm256_setzero_pd()) };
         for i0 in (0..full).step_by(4) {
             // SAFETY: i0 + 4 ≤ n for all three slices.
             unsafe {
@@ -746,29 +813,34 @@ mod x86 {
                 };
             }
         }
+        // SAFETY (all three): the caller's AVX2.
+        if full == n {
+            return unsafe { all_lanes_sum(acc) };
+        }
         let mut lanes = [0.0f64; 4];
-        // SAFETY: four lanes into four f64.
         unsafe { _mm256_storeu_pd(lanes.as_mut_ptr(), acc) };
+        let c = unsafe { _mm256_cvtsd_f64(cc) };
         step_tail::<f64, true>(state, saved, thresholds, weights, t, c, full, &mut lanes);
-        reduce(lanes)
+        unsafe { _mm256_set1_pd(reduce(lanes)) }
     }
 
     /// The blocks of `creep_pass::advance` for `f64` on 4-lane registers
-    /// (callers compiled with AVX2); `v` is finite.
+    /// (callers compiled with AVX2); `vv` holds a finite `v` in every lane,
+    /// and the result is in every lane.
     #[inline(always)]
     unsafe fn creep_advance_four(
         chi: &mut [f64],
         thresholds: &[f64],
         gains: &[f64],
         weights: &[f64],
-        v: f64,
-    ) -> f64 {
+        vv: __m256d,
+    ) -> __m256d {
         let n = thresholds.len();
         let m = gains.len();
         assert!(weights.len() == n && chi.len() == n * m);
         let full = n - n % LANES;
         // SAFETY: the caller's AVX2.
-        let (vv, mut acc) = unsafe { (_mm256_set1_pd(v), _mm256_setzero_pd()) };
+        let mut acc = unsafe { _mm256_setzero_pd() };
         let p = chi.as_mut_ptr();
         for i0 in (0..full).step_by(LANES) {
             // SAFETY (all pointer accesses): i0 + 4 ≤ n and j < m, so every
@@ -805,11 +877,15 @@ mod x86 {
                 };
             }
         }
+        // SAFETY (all three): the caller's AVX2.
+        if full == n {
+            return unsafe { all_lanes_sum(acc) };
+        }
         let mut lanes = [0.0f64; LANES];
-        // SAFETY: four lanes into four f64.
         unsafe { _mm256_storeu_pd(lanes.as_mut_ptr(), acc) };
+        let v = unsafe { _mm256_cvtsd_f64(vv) };
         advance_tail(chi, thresholds, gains, weights, v, full, &mut lanes);
-        reduce(lanes)
+        unsafe { _mm256_set1_pd(reduce(lanes)) }
     }
 
     /// Whether `bytes` bytes from `p` straddle a 4 KiB page.
@@ -835,8 +911,8 @@ mod x86 {
         thresholds: &[f64],
         weights: &[f64],
         t: f64,
-        c: f64,
-    ) -> f64 {
+        c: __m256d,
+    ) -> __m256d {
         // SAFETY (both): the caller's.
         if array_straddles(state) || array_straddles(saved) {
             unsafe { hysteresis_step_four::<true>(state, saved, thresholds, weights, t, c) }
@@ -853,8 +929,8 @@ mod x86 {
         thresholds: &[f64],
         gains: &[f64],
         weights: &[f64],
-        v: f64,
-    ) -> f64 {
+        v: __m256d,
+    ) -> __m256d {
         debug_assert_placed(chi, thresholds.len());
         // SAFETY: the caller's.
         unsafe { creep_advance_four(chi, thresholds, gains, weights, v) }
@@ -1383,9 +1459,76 @@ mod x86 {
     /// `f32` on the AVX2 8-lane ones.
     struct Avx512Step;
 
+    /// A value on a vector set's chain (its `Lanes`): the value, and for
+    /// `f64` the value in every lane of a register, which the 4-lane
+    /// kernels take and give (the others read the value; a register no
+    /// kernel reads is not computed).
+    #[derive(Clone, Copy)]
+    pub(super) struct OnChain<T> {
+        every_lane: __m256d,
+        value: T,
+    }
+
+    /// [`hysteresis_eight`] on `f64`, as the lanes' kernel of the AVX-512
+    /// set: its sum ends in a scalar.
+    #[inline(always)]
+    unsafe fn hysteresis_eight_lanes(
+        state: &mut [f64],
+        saved: &mut [f64],
+        thresholds: &[f64],
+        weights: &[f64],
+        t: f64,
+        c: __m256d,
+    ) -> __m256d {
+        // SAFETY: the caller's features.
+        unsafe {
+            let c = _mm256_cvtsd_f64(c);
+            _mm256_set1_pd(hysteresis_eight::<F64x8>(
+                state, saved, thresholds, weights, t, c,
+            ))
+        }
+    }
+
+    /// [`creep_eight`] on `f64`, as [`hysteresis_eight_lanes`].
+    #[inline(always)]
+    unsafe fn creep_eight_lanes(
+        chi: &mut [f64],
+        thresholds: &[f64],
+        gains: &[f64],
+        weights: &[f64],
+        v: __m256d,
+    ) -> __m256d {
+        // SAFETY: the caller's features.
+        unsafe {
+            let v = _mm256_cvtsd_f64(v);
+            _mm256_set1_pd(creep_eight::<F64x8>(chi, thresholds, gains, weights, v))
+        }
+    }
+
     macro_rules! step_kernels {
         ($set:ident, $hysteresis_f64:expr, $creep_f64:expr) => {
             impl<T: Real> super::StepKernels<T> for $set {
+                type Lanes = OnChain<T>;
+
+                #[inline(always)]
+                unsafe fn splat(x: T) -> OnChain<T> {
+                    // SAFETY (both): the caller's features.
+                    let every_lane = if TypeId::of::<T>() == TypeId::of::<f64>() {
+                        unsafe { _mm256_set1_pd(x.to_f64()) }
+                    } else {
+                        unsafe { _mm256_setzero_pd() }
+                    };
+                    OnChain {
+                        every_lane,
+                        value: x,
+                    }
+                }
+
+                #[inline(always)]
+                unsafe fn first(x: OnChain<T>) -> T {
+                    x.value
+                }
+
                 #[inline(always)]
                 unsafe fn inverse_plays(
                     state: &mut [T],
@@ -1393,58 +1536,81 @@ mod x86 {
                     r: &[T],
                     w: &[T],
                     t: T,
-                    c: T,
-                ) -> T {
+                    c: OnChain<T>,
+                ) -> OnChain<T> {
                     use super::{cast, cast_mut, count_simd_call};
                     count_simd_call();
-                    // SAFETY (both): the caller's features.
+                    // SAFETY (all): the caller's features.
                     if let (Some(x), Some(s), Some(r), Some(w)) =
                         (cast_mut(state), cast_mut(saved), cast(r), cast(w))
                     {
-                        let (t, c) = (t.to_f64(), c.to_f64());
-                        return T::from_f64(unsafe { $hysteresis_f64(x, s, r, w, t, c) });
+                        let v = unsafe { $hysteresis_f64(x, s, r, w, t.to_f64(), c.every_lane) };
+                        return unsafe { on_chain(v) };
                     }
                     if let (Some(x), Some(s), Some(r), Some(w)) =
                         (cast_mut(state), cast_mut(saved), cast(r), cast(w))
                     {
-                        let (t, c) = (t.to_f64() as f32, c.to_f64() as f32);
+                        let (t, c) = (t.to_f64() as f32, c.value.to_f64() as f32);
                         let y = unsafe { hysteresis_eight::<F32x8>(x, s, r, w, t, c) };
-                        return T::from_f64(f64::from(y));
+                        return unsafe { Self::splat(T::from_f64(f64::from(y))) };
                     }
                     unreachable!("Real is f32 or f64")
                 }
 
                 #[inline(always)]
-                unsafe fn creep(chi: &mut [T], r: &[T], g: &[T], w: &[T], v: T) -> T {
+                unsafe fn creep(
+                    chi: &mut [T],
+                    r: &[T],
+                    g: &[T],
+                    w: &[T],
+                    v: OnChain<T>,
+                ) -> OnChain<T> {
                     use super::{cast, cast_mut, count_simd_call};
                     count_simd_call();
-                    // SAFETY (both): the caller's features.
+                    // SAFETY (all): the caller's features.
                     if let (Some(chi), Some(r), Some(g), Some(w)) =
                         (cast_mut(chi), cast(r), cast(g), cast(w))
                     {
-                        return T::from_f64(unsafe { $creep_f64(chi, r, g, w, v.to_f64()) });
+                        return unsafe { on_chain($creep_f64(chi, r, g, w, v.every_lane)) };
                     }
                     if let (Some(chi), Some(r), Some(g), Some(w)) =
                         (cast_mut(chi), cast(r), cast(g), cast(w))
                     {
-                        let y = unsafe { creep_eight::<F32x8>(chi, r, g, w, v.to_f64() as f32) };
-                        return T::from_f64(f64::from(y));
+                        let v = v.value.to_f64() as f32;
+                        let y = unsafe { creep_eight::<F32x8>(chi, r, g, w, v) };
+                        return unsafe { Self::splat(T::from_f64(f64::from(y))) };
                     }
                     unreachable!("Real is f32 or f64")
                 }
             }
         };
     }
+    /// An `f64` in every lane of `v` as a `T` on the chain (`T` is `f64`).
+    #[inline(always)]
+    unsafe fn on_chain<T: Real>(v: __m256d) -> OnChain<T> {
+        OnChain {
+            every_lane: v,
+            // SAFETY: the caller's AVX.
+            value: T::from_f64(unsafe { _mm256_cvtsd_f64(v) }),
+        }
+    }
+
     step_kernels!(Avx2Step, hysteresis_four, creep_four);
-    step_kernels!(Avx512Step, hysteresis_eight::<F64x8>, creep_eight::<F64x8>);
+    step_kernels!(Avx512Step, hysteresis_eight_lanes, creep_eight_lanes);
 
     /// The creep pass alone on the AVX2 kernels (the forward model's, a
     /// held compensator sample's).
     #[target_feature(enable = "avx2,fma")]
     #[inline]
     pub(super) unsafe fn creep_avx2<T: Real>(chi: &mut [T], r: &[T], g: &[T], w: &[T], v: T) -> T {
+        type K = Avx2Step;
         // SAFETY: the features are enabled here.
-        unsafe { <Avx2Step as super::StepKernels<T>>::creep(chi, r, g, w, v) }
+        unsafe {
+            let v = <K as super::StepKernels<T>>::splat(v);
+            <K as super::StepKernels<T>>::first(<K as super::StepKernels<T>>::creep(
+                chi, r, g, w, v,
+            ))
+        }
     }
 
     /// The creep pass alone on the AVX-512 kernels.
@@ -1457,8 +1623,14 @@ mod x86 {
         w: &[T],
         v: T,
     ) -> T {
+        type K = Avx512Step;
         // SAFETY: the features are enabled here.
-        unsafe { <Avx512Step as super::StepKernels<T>>::creep(chi, r, g, w, v) }
+        unsafe {
+            let v = <K as super::StepKernels<T>>::splat(v);
+            <K as super::StepKernels<T>>::first(<K as super::StepKernels<T>>::creep(
+                chi, r, g, w, v,
+            ))
+        }
     }
 
     /// A kernel set's two functions compiled with its features:
@@ -1476,8 +1648,10 @@ mod x86 {
                 upper: T,
             ) -> (T, bool) {
                 // SAFETY: the features are enabled here.
-                let (u, saturated, _) =
-                    unsafe { super::step_body::<T, $set, C, PAPER>(c, t, creep, lower, upper) };
+                let (u, saturated, _) = unsafe {
+                    let creep = <$set as super::StepKernels<T>>::splat(creep);
+                    super::step_body::<T, $set, C, PAPER>(c, t, creep, lower, upper)
+                };
                 (u, saturated)
             }
 
