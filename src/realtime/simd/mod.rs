@@ -737,8 +737,8 @@ mod x86 {
     //!
     //! The 4-lane `f64` kernels end each sum in [`all_lanes_sum`]: the same
     //! bits as `hysteresis::reduce`, in every lane. On a Zen 4 a run took
-    //! 0.977 of the strongest C's loop with it, 0.995 with the scalar sum
-    //! and a broadcast. Zen 1's instruction tables list `vperm2f128` as
+    //! 0.976–0.982 of the strongest C's loop with it, 0.993–0.996 with the
+    //! scalar sum and a broadcast. Zen 1's instruction tables list `vperm2f128` as
     //! eight micro-operations (its latency 3, as on later cores); that CPU
     //! was not measured with it.
     use core::arch::x86_64::*;
