@@ -775,6 +775,18 @@ mod x86 {
         _mm256_add_pd(t, _mm256_permute_pd::<0b0101>(t))
     }
 
+    /// `real::add_term` on four lanes: `w · x` for a sum's first term,
+    /// fused with `acc` after it (callers compiled with AVX2).
+    #[inline(always)]
+    unsafe fn add_term4(acc: __m256d, w: __m256d, x: __m256d, first: bool) -> __m256d {
+        // SAFETY (both): the caller's AVX2 and FMA.
+        if first {
+            unsafe { _mm256_mul_pd(w, x) }
+        } else {
+            unsafe { _mm256_fmadd_pd(w, x, acc) }
+        }
+    }
+
     /// The blocks of `hysteresis::step_saving` for `f64` on 4-lane
     /// registers (callers compiled with AVX2); `cc` holds `c` in every
     /// lane, `t − c` is finite, and the result is in every lane.
@@ -805,12 +817,7 @@ mod x86 {
                 let x = _mm256_max_pd(_mm256_min_pd(x, upper), lower);
                 store4_unsplit::<SPLIT>(at, x);
                 let w = _mm256_loadu_pd(weights.as_ptr().add(i0));
-                // from the first product (`real::add_term`)
-                acc = if i0 == 0 {
-                    _mm256_mul_pd(w, x)
-                } else {
-                    _mm256_fmadd_pd(w, x, acc)
-                };
+                acc = add_term4(acc, w, x, i0 == 0);
             }
         }
         // SAFETY (all three): the caller's AVX2.
@@ -870,11 +877,7 @@ mod x86 {
                     rows = _mm256_add_pd(rows, update!(at, g));
                 }
                 let w = _mm256_loadu_pd(weights.as_ptr().add(i0));
-                acc = if i0 == 0 {
-                    _mm256_mul_pd(w, rows)
-                } else {
-                    _mm256_fmadd_pd(w, rows, acc)
-                };
+                acc = add_term4(acc, w, rows, i0 == 0);
             }
         }
         // SAFETY (all three): the caller's AVX2.
