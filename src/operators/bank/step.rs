@@ -350,12 +350,11 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
     for (k, (((x, r), w), next)) in fours.enumerate() {
         for q in 0..4 {
             let play = (&x[q], &r[q], &w[q], &mut next[q]);
-            let sum = (k > 0).then_some(sums[q]);
-            sums[q] = inverse_play(o, sum, t, creep, one, fault, play);
+            sums[q] = inverse_play(o, (sums[q], k == 0), t, creep, one, fault, play);
         }
     }
     for i in full..n {
-        let sum = (full > 0).then_some(sums[i - full]);
+        let sum = (sums[i - full], full == 0);
         let play = (&old[i], &inv_r[i], &inv_w[i], &mut new_rows[i]);
         sums[i - full] = inverse_play(o, sum, t, creep, one, fault, play);
     }
@@ -443,13 +442,8 @@ fn creep_pass<T: Real, V: Block<T>>(
                 rows[2] = o.add_on_multiplier(rows[2], x[2], one);
                 rows[3] = o.add_on_multiplier(rows[3], x[3], one);
             }
-            // from the first product (`realtime::real::add_term`)
             for q in 0..4 {
-                sums[q] = if k == 0 {
-                    o.mul(o.load(&w[q]), rows[q])
-                } else {
-                    o.mul_add(o.load(&w[q]), rows[q], sums[q])
-                };
+                sums[q] = o.add_term(sums[q], o.load(&w[q]), rows[q], k == 0);
             }
         }
     }
@@ -460,11 +454,7 @@ fn creep_pass<T: Real, V: Block<T>>(
         for (x, g) in chi[i * m..][..m].iter_mut().zip(gains) {
             rows = o.add_on_multiplier(rows, creep_update(o, x, o.load(g), lower, upper), one);
         }
-        sums[i - full] = if full == 0 {
-            o.mul(o.load(&weights[i]), rows)
-        } else {
-            o.mul_add(o.load(&weights[i]), rows, sums[i - full])
-        };
+        sums[i - full] = o.add_term(sums[i - full], o.load(&weights[i]), rows, full == 0);
     }
     let creep = o.add(o.add(sums[0], sums[2]), o.add(sums[1], sums[3]));
     o.store(creep, &mut s[a.creep_out()]);
@@ -474,15 +464,15 @@ fn creep_pass<T: Real, V: Block<T>>(
 /// weight and `next`: `x` clamped into `[(t − r) − c, (t + r) − c]` (the
 /// input `y = t − c` in its two terms, as `hysteresis::step_saving` has
 /// it) into `next` (the old `x` where the lane is faulted), its weighted
-/// value added to `sum` as `realtime::real::add_term` adds it (`None`: the
-/// sum's first term, the product alone). `t ∓ r`
+/// value added to `sum` as `realtime::real::add_term` adds it (`sum`: the
+/// partial sum and whether this is its first term). `t ∓ r`
 /// go through `sub_on_multiplier` and `add_on_multiplier` (the same bits):
 /// the rest of a play is adder's work (see [`creep_pass`]). A function,
 /// not a closure: see [`creep_update`].
 #[inline(always)]
 fn inverse_play<T: Real, V: Block<T>>(
     o: Ops<T, V>,
-    sum: Option<V>,
+    sum: (V, bool),
     t: V,
     c: V,
     one: V,
@@ -498,10 +488,7 @@ fn inverse_play<T: Real, V: Block<T>>(
         o.sub(o.add_on_multiplier(t, r, one), c),
     );
     o.store(o.select(fault, x, new), next);
-    match sum {
-        Some(sum) => o.mul_add(o.load(w), new, sum),
-        None => o.mul(o.load(w), new),
-    }
+    o.add_term(sum.0, o.load(w), new, sum.1)
 }
 
 /// One creep operator's update (20) on a block, `χ ← χ + g (clamp(χ, u −

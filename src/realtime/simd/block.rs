@@ -829,6 +829,17 @@ impl<T: Real, V: Block<T>> Ops<T, V> {
         sub_on_multiplier(a: V, b: V, one: V) -> V;
     }
 
+    /// `realtime::real::add_term` per lane: `w · x` for a sum's first
+    /// term, fused with `acc` after it.
+    #[inline(always)]
+    pub(crate) fn add_term(self, acc: V, w: V, x: V, first: bool) -> V {
+        if first {
+            self.mul(w, x)
+        } else {
+            self.mul_add(w, x, acc)
+        }
+    }
+
     /// [`Block::store_flagged`] into `out`, whose records are laid out as
     /// it writes them (checked: their size and the flags' offsets).
     #[inline(always)]

@@ -1066,6 +1066,23 @@ mod x86 {
         unsafe fn half_mul_add(a: Self::Half, b: Self::Half, c: Self::Half) -> Self::Half;
         unsafe fn half_neg_mul_add(a: Self::Half, b: Self::Half, c: Self::Half) -> Self::Half;
 
+        /// `real::add_term` on a half: `w · x` for a sum's first term,
+        /// fused with `acc` after it.
+        #[inline(always)]
+        unsafe fn half_add_term(
+            acc: Self::Half,
+            w: Self::Half,
+            x: Self::Half,
+            first: bool,
+        ) -> Self::Half {
+            // SAFETY (both): the caller's features.
+            if first {
+                unsafe { Self::half_mul(w, x) }
+            } else {
+                unsafe { Self::half_mul_add(w, x, acc) }
+            }
+        }
+
         /// [`Eight::load`], one value at a time where the eight straddle a
         /// page (see the module's note).
         #[inline(always)]
@@ -1342,12 +1359,7 @@ mod x86 {
                 // lanes 0–3, then 4–7, into the four partial sums (from
                 // the first product, `real::add_term`)
                 let (lo, hi) = x.halves();
-                let w = E::half_load(weights.as_ptr().add(i0));
-                acc = if i0 == 0 {
-                    E::half_mul(w, lo)
-                } else {
-                    E::half_mul_add(w, lo, acc)
-                };
+                acc = E::half_add_term(acc, E::half_load(weights.as_ptr().add(i0)), lo, i0 == 0);
                 acc = E::half_mul_add(E::half_load(weights.as_ptr().add(i0 + 4)), hi, acc);
             }
             if full4 > full8 {
@@ -1359,11 +1371,7 @@ mod x86 {
                 let x = E::half_max(x, E::half_sub(E::half_sub(t4, r), c4));
                 E::half_store_unsplit::<SPLIT>(x, at);
                 let w = E::half_load(weights.as_ptr().add(full8));
-                acc = if full8 == 0 {
-                    E::half_mul(w, x)
-                } else {
-                    E::half_mul_add(w, x, acc)
-                };
+                acc = E::half_add_term(acc, w, x, full8 == 0);
             }
             let mut lanes = [E::T::ZERO; 4];
             E::half_store(acc, lanes.as_mut_ptr());
@@ -1413,12 +1421,7 @@ mod x86 {
                     rows = rows.add(update!(at, g));
                 }
                 let (lo, hi) = rows.halves();
-                let w = E::half_load(weights.as_ptr().add(i0));
-                acc = if i0 == 0 {
-                    E::half_mul(w, lo)
-                } else {
-                    E::half_mul_add(w, lo, acc)
-                };
+                acc = E::half_add_term(acc, E::half_load(weights.as_ptr().add(i0)), lo, i0 == 0);
                 acc = E::half_mul_add(E::half_load(weights.as_ptr().add(i0 + 4)), hi, acc);
             }
             if full4 > full8 {
@@ -1442,11 +1445,7 @@ mod x86 {
                     rows = E::half_add(rows, update!(at, g));
                 }
                 let w = E::half_load(weights.as_ptr().add(full8));
-                acc = if full8 == 0 {
-                    E::half_mul(w, rows)
-                } else {
-                    E::half_mul_add(w, rows, acc)
-                };
+                acc = E::half_add_term(acc, w, rows, full8 == 0);
             }
             let mut lanes = [E::T::ZERO; LANES];
             E::half_store(acc, lanes.as_mut_ptr());
