@@ -430,9 +430,10 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         // on it, with nothing else in the function (the rest out of line:
         // fewer instructions and registers per step); a run's loop takes
         // the same three pieces. The creep's output is read before the
-        // test: read after it, the C library's per-sample call kept `y − c`
-        // in a stack slot, a store and a load on the dependency chain (a
-        // Zen 4: 29.3 ns a call against 26.7)
+        // test: read after it, the C library's per-sample call kept the
+        // step's input (then `y − c`, now `y` and `c` apart) in a stack
+        // slot, a store and a load on the dependency chain (a Zen 4: 29.3
+        // ns a call against 26.7)
         let c = self.creep_output();
         let Some(y) = self.common_target(target) else {
             return self.compensate_general(k, target);

@@ -481,7 +481,8 @@ impl<T: Real> StepKernels<T> for PortableStep {
 /// its two terms so that the creep's output, the end of the step's
 /// dependency chain, enters each play's bounds last
 /// (`hysteresis::step_saving`). Returns the voltage,
-/// whether it was clipped, and the creep's new output (zero without creep),
+/// whether it was clipped, and the creep's new output as `K::Lanes` (zero
+/// without creep),
 /// which the step also writes. `PAPER`: the source has the paper's layout
 /// ([`StepSource::paper_parts`]).
 #[inline(always)]
@@ -498,9 +499,8 @@ unsafe fn step_body<T: Real, K: StepKernels<T>, C: StepSource<T>, const PAPER: b
         c.step_parts()
     };
     assert!(p.saved.len() == p.inv_state.len());
-    // a predicted branch (with the length known, a select would put a test
-    // and a blend on the chain)
-    // (the test's subtraction is off the chain: the branch is predicted)
+    // a predicted branch, so the test's subtraction stays off the chain
+    // (with the length known, a select would put a test and a blend on it)
     // SAFETY (every `K` call): the caller's: `K`'s features are present.
     let (t, creep) = if (t - unsafe { K::first(creep) }).is_finite() {
         (t, creep)
