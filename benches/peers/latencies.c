@@ -50,6 +50,10 @@ CHAIN(extract256, "vextractf64x4 $1, %%zmm0, %%ymm0\n")
 #endif
 CHAIN(extract128, "vextractf128 $1, %%ymm0, %%xmm0\n")
 CHAIN(shuffle, "vshufpd $1, %%xmm0, %%xmm0, %%xmm0\n")
+/* the butterfly's swap of 128-bit halves, and the f32 sum's lane swap */
+CHAIN(perm2f128, "vperm2f128 $1, %%ymm0, %%ymm0, %%ymm0\n")
+CHAIN(movshdup, "vmovshdup %%xmm0, %%xmm0\n")
+CHAIN(broadcastss, "vbroadcastss %%xmm0, %%ymm0\n")
 CHAIN(store_load, "vmovsd %%xmm0, 8(%0)\n vmovsd 8(%0), %%xmm0\n")
 
 /* Twelve independent chains of `a` and `b` alternating, each op's
@@ -93,7 +97,9 @@ int main(void) {
 #ifdef __AVX512F__
         {"vextractf64x4", extract256},
 #endif
-        {"vextractf128", extract128}, {"vshufpd xmm", shuffle}, {"store, then load (sd)", store_load}};
+        {"vextractf128", extract128}, {"vshufpd xmm", shuffle}, {"vperm2f128 ymm", perm2f128},
+        {"vmovshdup xmm", movshdup}, {"vbroadcastss ymm, xmm", broadcastss},
+        {"store, then load (sd)", store_load}};
     for (unsigned i = 0; i < sizeof chains / sizeof chains[0]; i++) {
         t0 = __rdtsc();
         chains[i].f(N / 4);
