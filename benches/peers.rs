@@ -16,7 +16,9 @@
 //! `benches/peers/run.sh` builds and passes all seven. `MFCBEAM_C_API`
 //! names mfcbeam's own C library (`libmfcbeam.so` of `capi/`), timed as a C
 //! program calls it: a heap handle, one `mfcbeam_compensate` per sample and
-//! runs of `mfcbeam_compensate_into`.
+//! runs of `mfcbeam_compensate_into`; and a compensator in storage the
+//! caller owns (`mfcbeam_compensator_f64_init_json`, the microcontroller's
+//! way), `f64` and `f32`, one call per sample and runs.
 //!
 //! Each round times one batch of 100 000 consecutive steps of every
 //! implementation (in a rotating order) on the same 4096 targets (W of the
@@ -51,6 +53,11 @@ fn main() {
     type ApiStep = unsafe extern "C" fn(*mut c_void, f64, *mut c_int) -> f64;
     type ApiRun =
         unsafe extern "C" fn(*mut c_void, *const f64, *mut f64, *mut c_int, usize) -> c_int;
+    type InitJson =
+        unsafe extern "C" fn(*mut c_void, *const c_char, f64, f64, *mut c_char, usize) -> c_int;
+    type OwnedStep32 = unsafe extern "C" fn(*mut c_void, f32, *mut c_int) -> f32;
+    type OwnedRun32 =
+        unsafe extern "C" fn(*mut c_void, *const f32, *mut f32, *mut c_int, usize) -> c_int;
 
     const LEN: usize = 4096;
     const STEPS: usize = 100_000;
@@ -109,6 +116,63 @@ fn main() {
             handle,
         )
     };
+    // caller-owned storage: the header's word counts, the nominal model
+    // written into it by the JSON init
+    let words = |name: &str| -> usize {
+        let define = format!("#define {name} ");
+        include_str!("../include/mfcbeam.h")
+            .lines()
+            .find_map(|l| l.strip_prefix(define.as_str()))
+            .and_then(|n| n.trim().parse().ok())
+            .unwrap_or_else(|| panic!("include/mfcbeam.h defines no {name}"))
+    };
+    let mut owned64_words = vec![0u64; words("MFCBEAM_COMPENSATOR_F64_WORDS")];
+    let mut owned32_words = vec![0u64; words("MFCBEAM_COMPENSATOR_F32_WORDS")];
+    // SAFETY: libmfcbeam.so of capi/; the symbols as include/mfcbeam.h
+    // declares them, the storage of the header's size.
+    let (owned_step64, owned_run64, owned_step32, owned_run32) = unsafe {
+        let [init64, step64, run64, init32, step32, run32] = common::c_symbols(
+            api_path,
+            [
+                "mfcbeam_compensator_f64_init_json",
+                "mfcbeam_compensate_f64",
+                "mfcbeam_compensate_f64_into",
+                "mfcbeam_compensator_f32_init_json",
+                "mfcbeam_compensate_f32",
+                "mfcbeam_compensate_f32_into",
+            ],
+        );
+        let json = CString::new(include_str!("../golden/nominal_model.json")).unwrap();
+        let mut err = [0 as c_char; 256];
+        for (init, storage) in [
+            (init64, owned64_words.as_mut_ptr()),
+            (init32, owned32_words.as_mut_ptr()),
+        ] {
+            let init = std::mem::transmute::<*mut c_void, InitJson>(init);
+            let rc = init(
+                storage.cast(),
+                json.as_ptr(),
+                -1000.0,
+                1000.0,
+                err.as_mut_ptr(),
+                err.len(),
+            );
+            assert_eq!(
+                rc, 0,
+                "{api_path}: the nominal model refused in owned storage"
+            );
+        }
+        (
+            std::mem::transmute::<*mut c_void, ApiStep>(step64),
+            std::mem::transmute::<*mut c_void, ApiRun>(run64),
+            std::mem::transmute::<*mut c_void, OwnedStep32>(step32),
+            std::mem::transmute::<*mut c_void, OwnedRun32>(run32),
+        )
+    };
+    let (owned64, owned32): (*mut c_void, *mut c_void) = (
+        owned64_words.as_mut_ptr().cast(),
+        owned32_words.as_mut_ptr().cast(),
+    );
     let mut api_flags = vec![0 as c_int; LEN];
     let peer_targets = peers[0].2;
 
@@ -139,7 +203,7 @@ fn main() {
     )
     .unwrap();
     let targets32: Vec<f32> = targets.iter().map(|&t| t as f32).collect();
-    let mut ks = [0usize; 7];
+    let mut ks = [0usize; 11];
     let mut into64 = fixed64.clone();
     let mut into32 = fixed32.clone();
     let (mut u64s, mut u32s) = (vec![0.0f64; LEN], vec![0.0f32; LEN]);
@@ -160,6 +224,10 @@ fn main() {
         "the same f32, a run (compensate_into)",
         "C API f64, one call per sample (heap handle)",
         "C API f64, a run (mfcbeam_compensate_into)",
+        "C API f64, caller-owned storage, one call per sample",
+        "C API f64, caller-owned storage, a run",
+        "C API f32, caller-owned storage, one call per sample",
+        "C API f32, caller-owned storage, a run",
     ];
     // rows of `names`: the C peers first, in `vars`' order, then mfcbeam's
     // in Rust, then through its C library; named where they are timed and
@@ -174,8 +242,12 @@ fn main() {
     const INTO_F32: usize = 11;
     const API_CALL: usize = 12;
     const API_RUN: usize = 13;
+    const OWNED_CALL_F64: usize = 14;
+    const OWNED_RUN_F64: usize = 15;
+    const OWNED_CALL_F32: usize = 16;
+    const OWNED_RUN_F32: usize = 17;
     assert_eq!(peers.len(), HEAP_F64);
-    assert_eq!(names.len(), API_RUN + 1);
+    assert_eq!(names.len(), OWNED_RUN_F32 + 1);
     let mut times = vec![Vec::with_capacity(ROUNDS); names.len()];
     // STEPS targets from `k` on, cycling through the LEN of them, as
     // peer_run takes them: whole runs of `compensate_into`
@@ -198,7 +270,44 @@ fn main() {
             black_box(&$u);
         }};
     }
-    let mut time = |which: usize, ks: &mut [usize; 7]| -> f64 {
+    // STEPS targets from `k` on through a C API run call, as `run_into!`
+    macro_rules! api_run {
+        ($run:expr, $c:expr, $targets:expr, $u:expr, $k:expr) => {{
+            let mut left = STEPS;
+            while left > 0 {
+                let n = (LEN - $k).min(left);
+                let k = $k;
+                // SAFETY: a live compensator and `n` values from `k` in each array.
+                let rc = unsafe {
+                    $run(
+                        $c,
+                        black_box($targets[k..].as_ptr()),
+                        $u[k..].as_mut_ptr(),
+                        api_flags[k..].as_mut_ptr(),
+                        n,
+                    )
+                };
+                assert_eq!(rc, 0);
+                $k = (k + n) % LEN;
+                left -= n;
+            }
+            black_box(&$u);
+        }};
+    }
+    // one C API call per sample, STEPS of them
+    macro_rules! api_calls {
+        ($step:expr, $c:expr, $targets:expr, $k:expr) => {{
+            let mut s = 0.0;
+            let mut flags = 0;
+            for _ in 0..STEPS {
+                $k = ($k + 1) & (LEN - 1);
+                // SAFETY: a live compensator and a writable int.
+                s += unsafe { $step($c, black_box($targets[$k]), &mut flags) };
+            }
+            black_box((s, flags));
+        }};
+    }
+    let mut time = |which: usize, ks: &mut [usize; 11]| -> f64 {
         let t0 = Instant::now();
         match which {
             // SAFETY: the peer's pointer and LEN targets, as peer_run expects.
@@ -238,37 +347,12 @@ fn main() {
             }
             INTO_F64 => run_into!(into64, targets, u64s, ks[3]),
             INTO_F32 => run_into!(into32, targets32, u32s, ks[4]),
-            API_CALL => {
-                let mut s = 0.0;
-                let mut flags = 0;
-                for _ in 0..STEPS {
-                    ks[5] = (ks[5] + 1) & (LEN - 1);
-                    // SAFETY: a live handle and a writable int.
-                    s += unsafe { api_step(api, black_box(targets[ks[5]]), &mut flags) };
-                }
-                black_box((s, flags));
-            }
-            API_RUN => {
-                let mut left = STEPS;
-                while left > 0 {
-                    let n = (LEN - ks[6]).min(left);
-                    let k = ks[6];
-                    // SAFETY: a live handle and `n` values from `k` in each array.
-                    let rc = unsafe {
-                        api_run(
-                            api,
-                            black_box(targets[k..].as_ptr()),
-                            u64s[k..].as_mut_ptr(),
-                            api_flags[k..].as_mut_ptr(),
-                            n,
-                        )
-                    };
-                    assert_eq!(rc, 0);
-                    ks[6] = (k + n) % LEN;
-                    left -= n;
-                }
-                black_box(&u64s);
-            }
+            API_CALL => api_calls!(api_step, api, targets, ks[5]),
+            API_RUN => api_run!(api_run, api, targets, u64s, ks[6]),
+            OWNED_CALL_F64 => api_calls!(owned_step64, owned64, targets, ks[7]),
+            OWNED_RUN_F64 => api_run!(owned_run64, owned64, targets, u64s, ks[8]),
+            OWNED_CALL_F32 => api_calls!(owned_step32, owned32, targets32, ks[9]),
+            OWNED_RUN_F32 => api_run!(owned_run32, owned32, targets32, u32s, ks[10]),
             _ => unreachable!("row {which} of {} names", names.len()),
         }
         t0.elapsed().as_nanos() as f64 / STEPS as f64
@@ -386,6 +470,24 @@ fn main() {
             API_RUN,
             STRONGEST,
             Some("api_run/c_loop"),
+        ),
+        (
+            "C API, caller-owned storage, one call per sample: mfcbeam_compensate_f64 / the strongest C's",
+            OWNED_CALL_F64,
+            STRONGEST_CALL,
+            Some("owned_call/c_call"),
+        ),
+        (
+            "C API, caller-owned storage, a run: mfcbeam_compensate_f64_into / the strongest C's loop",
+            OWNED_RUN_F64,
+            STRONGEST,
+            Some("owned_run/c_loop"),
+        ),
+        (
+            "C API, caller-owned storage, a run in f32 / the strongest C's loop in f32",
+            OWNED_RUN_F32,
+            STRONGEST_F32,
+            Some("owned_run_f32/c_f32_loop"),
         ),
     ];
     for (name, a, b, key) in lines {

@@ -9,7 +9,7 @@
 # mfcbeam's own order of operations in intrinsics), the
 # hand-written C bank (bank.c, AVX-512F: checked here, timed by bank_limit
 # with MFCBEAM_C_BANK), mfcbeam's own C library (capi/, timed as C calls
-# it), numba
+# it: a heap handle, and storage the caller owns in f64 and f32), numba
 # (numba_compensator.py, if numba is installed) and this crate's criterion
 # benches (step/compensator_step: the heap compensator, and the fixed f64
 # and f32 cores). Checks first that the peers compute what mfcbeam does.
@@ -178,8 +178,11 @@ names = ["C peer", "branch-free C peer", "strongest C peer", "strongest C peer w
          "mfcbeam's order in C", "strongest C peer in f32", "strongest C, one call per step",
          "Compensator (heap, f64)", "Compensator<f64, nominal::Capacity>",
          "Compensator<f32, nominal::Capacity>", "the same f64, a run", "the same f32, a run",
-         "C API f64, one call per sample", "C API f64, a run"]
-ratios = ["call/c_call", "run_f32/f64", "f32/f64", "c_f32/f64", "api_call/c_call", "api_run/c_loop"]
+         "C API f64, one call per sample", "C API f64, a run",
+         "caller-owned f64, one call per sample", "caller-owned f64, a run",
+         "caller-owned f32, one call per sample", "caller-owned f32, a run"]
+ratios = ["call/c_call", "run_f32/f64", "f32/f64", "c_f32/f64", "api_call/c_call", "api_run/c_loop",
+          "owned_call/c_call", "owned_run/c_loop", "owned_run_f32/c_f32_loop"]
 runs = []
 for path in sys.argv[1:]:
     line = next(l for l in open(path) if l.startswith("summary:"))
@@ -200,7 +203,10 @@ for i, name in enumerate(["one call per sample, mfcbeam f64 / the strongest C's"
                           "a run, mfcbeam f32 / f64", "one call per sample, mfcbeam f32 / f64",
                           "the strongest C's loop, f32 / f64",
                           "the C API, one call per sample / the strongest C's",
-                          "the C API, a run / the strongest C's loop"]):
+                          "the C API, a run / the strongest C's loop",
+                          "caller-owned storage, one call per sample / the strongest C's",
+                          "caller-owned storage, a run / the strongest C's loop",
+                          "caller-owned storage, a run in f32 / the strongest C's f32 loop"]):
     print(f"{name}: {' '.join(f'{r[1][i]:.3f}' for r in runs)}")
 EOF
 c_ns=$("$out/compensator" time)
