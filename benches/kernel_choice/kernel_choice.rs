@@ -2,8 +2,9 @@
 //! (nominal model, `f64` and `f32`) on every kernel set the CPU has, in
 //! interleaved rounds of 100 000 steps, and the set the step dispatches to
 //! ([`Kernels::detect`], then [`Kernels::for_single_step`]) must not be
-//! slower than the portable one beyond the rounds' spread, nor slower than
-//! the fastest set by more than that spread or 5 % (exit code 1 if it is;
+//! slower than the portable one beyond the rounds' spread (p10–p90), nor
+//! slower than the fastest set by more than the two sets' spread (the
+//! middle half of their rounds) or 5 % (exit code 1 if it is;
 //! `.ci/run` runs it). Prints the CPU (vendor, family, model, features)
 //! with the figures.
 //!
@@ -90,13 +91,18 @@ fn main() {
             if fine { "not slower" } else { "SLOWER" }
         );
         ok &= fine;
-        // and the fastest set, beyond the spread (at least 5 %)
-        let (fastest, best) = runs
+        // and the fastest set, beyond the spread of these two, their
+        // rounds' middle half (at least 5 %): not the portable step's, whose
+        // p10-p90 spread 15-27 % on a quiet Zen 4, nor a vector set's p90,
+        // which a few slow rounds put 14 % out, either of which would let a
+        // set 10 % slower pass
+        let (fastest, best, fastest_times) = runs
             .iter()
-            .map(|(k, t)| (*k, quantile(t, 0.5)))
+            .map(|(k, t)| (*k, quantile(t, 0.5), t))
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .unwrap();
-        let slack = noise.max(0.05);
+        let middle = |t: &[f64]| (quantile(t, 0.75) - quantile(t, 0.25)) / quantile(t, 0.5);
+        let slack = middle(dispatched).max(middle(fastest_times)).max(0.05);
         let to_best = quantile(dispatched, 0.5) / best;
         let near = to_best <= 1.0 + slack;
         println!(
