@@ -423,10 +423,11 @@ pub(crate) const PAPER_CREEP: (usize, usize) = (
 /// The two kernels of a compensator step on one instruction set, and how
 /// a value on the step's chain goes from one to the next:
 /// [`StepKernels::Lanes`]. On the vector sets it is the value and, for
-/// `f64`, the value in every lane of a register: the 4-lane `f64` kernels
+/// `f64`, the value in every lane of a 4-lane register: the `f64` kernels
 /// end their sums in a butterfly that leaves the sum in every lane, so the
-/// creep's output and `H⁻¹`'s output reach the next kernel without a
-/// broadcast. `v` and `t − c` are finite.
+/// creep's output and `H⁻¹`'s output reach the next kernel's 4-lane blocks
+/// without a broadcast (its 8-lane blocks take one from that register).
+/// `v` and `t − c` are finite.
 trait StepKernels<T: Real> {
     /// A value of `T` on the chain (on the portable set, the value).
     type Lanes: Copy;
@@ -735,10 +736,13 @@ mod x86 {
     //! (`crate::realtime::placement`; on a Zen 4 the per-access tests had
     //! cost more than the split).
     //!
-    //! The 4-lane `f64` kernels end each sum in [`all_lanes_sum`]: the same
-    //! bits as `hysteresis::reduce`, in every lane. On a Zen 4 a run took
-    //! 0.976–0.982 of the strongest C's loop with it, 0.993–0.996 with the
-    //! scalar sum and a broadcast. Zen 1's instruction tables list `vperm2f128` as
+    //! The kernels end each sum of four partial sums in a butterfly
+    //! ([`all_lanes_sum`], and its `f32` twin in the 8-lane kernels): the
+    //! same bits as `hysteresis::reduce`, in every lane. On a Zen 4 a run
+    //! of the AVX2 set took 0.976–0.982 of the strongest C's loop with it,
+    //! 0.993–0.996 with the scalar sum and a broadcast; the AVX-512 set's
+    //! `f64` step went from 27.2–27.3 to 26.9–27.0 ns (a broadcast fewer
+    //! between the two kernels). Zen 1's instruction tables list `vperm2f128` as
     //! eight micro-operations (its latency 3, as on later cores); that CPU
     //! was not measured with it.
     use core::arch::x86_64::*;
@@ -757,7 +761,7 @@ mod x86 {
     /// `vpermpd`, a cycle slower on a Zen 4 (4 against 3).
     #[target_feature(enable = "avx2,fma")]
     #[inline]
-    unsafe fn all_lanes_sum(a: __m256d) -> __m256d {
+    fn all_lanes_sum(a: __m256d) -> __m256d {
         let swapped: __m256d;
         // SAFETY: AVX is enabled here; the instruction reads and writes
         // registers only.
@@ -773,6 +777,23 @@ mod x86 {
         // neighbour
         let t = _mm256_add_pd(a, swapped);
         _mm256_add_pd(t, _mm256_permute_pd::<0b0101>(t))
+    }
+
+    /// [`all_lanes_sum`] of four `f32` lanes: `(a₀ + a₂) + (a₁ + a₃)` in
+    /// lane 0, the same pairs swapped in the others.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    fn all_lanes_sum_f32(a: __m128) -> __m128 {
+        // [a₂, a₃, a₀, a₁] added, then each lane and its neighbour
+        let t = _mm_add_ps(a, _mm_permute_ps::<0b01_00_11_10>(a));
+        _mm_add_ps(t, _mm_permute_ps::<0b10_11_00_01>(t))
+    }
+
+    /// Lane 0 of `h` in all eight lanes of a 512-bit register.
+    #[target_feature(enable = "avx2,fma,avx512f")]
+    #[inline]
+    fn broadcast_low_f64(h: __m256d) -> __m512d {
+        _mm512_broadcastsd_pd(_mm256_castpd256_pd128(h))
     }
 
     /// `real::add_term` on four lanes: `w · x` for a sum's first term,
@@ -947,8 +968,8 @@ mod x86 {
         thresholds: &[E::T],
         weights: &[E::T],
         t: E::T,
-        c: E::T,
-    ) -> E::T {
+        c: E::Half,
+    ) -> E::Half {
         // SAFETY (both): the caller's.
         if array_straddles(state) || array_straddles(saved) {
             unsafe { hysteresis_step_eight::<E, true>(state, saved, thresholds, weights, t, c) }
@@ -964,8 +985,8 @@ mod x86 {
         thresholds: &[E::T],
         gains: &[E::T],
         weights: &[E::T],
-        v: E::T,
-    ) -> E::T {
+        v: E::Half,
+    ) -> E::Half {
         debug_assert_placed(chi, thresholds.len());
         // SAFETY: the caller's.
         unsafe { creep_advance_eight::<E>(chi, thresholds, gains, weights, v) }
@@ -1065,6 +1086,13 @@ mod x86 {
         unsafe fn half_mul(a: Self::Half, b: Self::Half) -> Self::Half;
         unsafe fn half_mul_add(a: Self::Half, b: Self::Half, c: Self::Half) -> Self::Half;
         unsafe fn half_neg_mul_add(a: Self::Half, b: Self::Half, c: Self::Half) -> Self::Half;
+        /// Lane 0 of `h`, the value a half holds in every lane.
+        unsafe fn half_first(h: Self::Half) -> Self::T;
+        /// Lane 0 of `h` in all eight lanes.
+        unsafe fn splat_half(h: Self::Half) -> Self;
+        /// `hysteresis::reduce` of `h`'s four lanes, in every lane: a
+        /// butterfly (see [`all_lanes_sum`]).
+        unsafe fn half_every_lane_sum(h: Self::Half) -> Self::Half;
 
         /// `real::add_term` on a half: `w · x` for a sum's first term,
         /// fused with `acc` after it.
@@ -1145,7 +1173,7 @@ mod x86 {
         ($name:ident, $feature:literal, $t:ty, $v:ty, $h:ty,
          [$set1:ident, $loadu:ident, $storeu:ident, $add:ident, $sub:ident, $min:ident, $max:ident, $fma:ident, $fnma:ident],
          [$hset1:ident, $hzero:ident, $hloadu:ident, $hstoreu:ident, $hadd:ident, $hsub:ident, $hmin:ident, $hmax:ident, $hmul:ident, $hfma:ident, $hfnma:ident],
-         $lo:expr, $hi:expr) => {
+         $lo:expr, $hi:expr, $first:expr, $splat_half:expr, $every_lane_sum:expr) => {
             #[derive(Clone, Copy)]
             struct $name($v);
 
@@ -1257,6 +1285,21 @@ mod x86 {
                 unsafe fn half_neg_mul_add(a: $h, b: $h, c: $h) -> $h {
                     $hfnma(a, b, c)
                 }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn half_first(h: $h) -> $t {
+                    $first(h)
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn splat_half(h: $h) -> Self {
+                    $name($splat_half(h))
+                }
+                #[target_feature(enable = $feature)]
+                #[inline]
+                unsafe fn half_every_lane_sum(h: $h) -> $h {
+                    $every_lane_sum(h)
+                }
             }
         };
     }
@@ -1292,7 +1335,10 @@ mod x86 {
             _mm256_fnmadd_pd
         ],
         _mm512_castpd512_pd256,
-        _mm512_extractf64x4_pd::<1>
+        _mm512_extractf64x4_pd::<1>,
+        _mm256_cvtsd_f64,
+        broadcast_low_f64,
+        all_lanes_sum
     );
     eight!(
         F32x8,
@@ -1325,12 +1371,16 @@ mod x86 {
             _mm_fnmadd_ps
         ],
         _mm256_castps256_ps128,
-        _mm256_extractf128_ps::<1>
+        _mm256_extractf128_ps::<1>,
+        _mm_cvtss_f32,
+        _mm256_broadcastss_ps,
+        all_lanes_sum_f32
     );
 
     /// `hysteresis::step` in 8-lane blocks: the products of lanes 0–3 and
     /// then of lanes 4–7 added into the four partial sums, as the portable
     /// blocks of four add them; then a 4-lane block and the rest one by one.
+    /// `c4` holds `c` in every lane, and so does the result.
     #[inline(always)]
     unsafe fn hysteresis_step_eight<E: Eight, const SPLIT: bool>(
         state: &mut [E::T],
@@ -1338,8 +1388,8 @@ mod x86 {
         thresholds: &[E::T],
         weights: &[E::T],
         t: E::T,
-        c: E::T,
-    ) -> E::T {
+        c4: E::Half,
+    ) -> E::Half {
         let n = state.len();
         assert!(thresholds.len() == n && weights.len() == n && saved.len() == n);
         let (full8, full4) = (n - n % 8, n - n % 4);
@@ -1347,7 +1397,7 @@ mod x86 {
         // or before n in all three slices.
         unsafe {
             let (t8, t4) = (E::splat(t), E::half_splat(t));
-            let (c8, c4) = (E::splat(c), E::half_splat(c));
+            let c8 = E::splat_half(c4);
             let mut acc = E::half_zero();
             for i0 in (0..full8).step_by(8) {
                 let at = state.as_mut_ptr().add(i0);
@@ -1373,24 +1423,29 @@ mod x86 {
                 let w = E::half_load(weights.as_ptr().add(full8));
                 acc = E::half_add_term(acc, w, x, full8 == 0);
             }
+            if full4 == n {
+                return E::half_every_lane_sum(acc);
+            }
             let mut lanes = [E::T::ZERO; 4];
             E::half_store(acc, lanes.as_mut_ptr());
+            let c = E::half_first(c4);
             step_tail::<E::T, true>(state, saved, thresholds, weights, t, c, full4, &mut lanes);
-            reduce(lanes)
+            E::half_splat(reduce(lanes))
         }
     }
 
     /// `creep_pass::advance` in 8-lane blocks of thresholds, each block's
     /// weighted rows added as two blocks of four; then a 4-lane block and
-    /// the rest as the portable tail.
+    /// the rest as the portable tail. `v4` holds a finite `v` in every
+    /// lane, and the result is in every lane.
     #[inline(always)]
     unsafe fn creep_advance_eight<E: Eight>(
         chi: &mut [E::T],
         thresholds: &[E::T],
         gains: &[E::T],
         weights: &[E::T],
-        v: E::T,
-    ) -> E::T {
+        v4: E::Half,
+    ) -> E::Half {
         let n = thresholds.len();
         assert!(weights.len() == n && chi.len() == n * gains.len());
         let (full8, full4) = (n - n % 8, n - n % LANES);
@@ -1398,7 +1453,7 @@ mod x86 {
         // SAFETY (all): the features are the caller's; every block ends at
         // or before n in its row of `chi` (n·m) and in the parameter slices.
         unsafe {
-            let (v8, v4) = (E::splat(v), E::half_splat(v));
+            let v8 = E::splat_half(v4);
             let mut acc = E::half_zero();
             for i0 in (0..full8).step_by(8) {
                 let r = E::load(thresholds.as_ptr().add(i0));
@@ -1447,10 +1502,14 @@ mod x86 {
                 let w = E::half_load(weights.as_ptr().add(full8));
                 acc = E::half_add_term(acc, w, rows, full8 == 0);
             }
+            if full4 == n {
+                return E::half_every_lane_sum(acc);
+            }
             let mut lanes = [E::T::ZERO; LANES];
             E::half_store(acc, lanes.as_mut_ptr());
+            let v = E::half_first(v4);
             advance_tail(chi, thresholds, gains, weights, v, full4, &mut lanes);
-            reduce(lanes)
+            E::half_splat(reduce(lanes))
         }
     }
 
@@ -1462,49 +1521,13 @@ mod x86 {
     struct Avx512Step;
 
     /// A value on a vector set's chain (its `Lanes`): the value, and for
-    /// `f64` the value in every lane of a register, which the 4-lane
-    /// kernels take and give (the others read the value; a register no
-    /// kernel reads is not computed).
+    /// `f64` the value in every lane of a 4-lane register, which the `f64`
+    /// kernels take and give (the `f32` kernels read the value; a register
+    /// no kernel reads is not computed).
     #[derive(Clone, Copy)]
     pub(super) struct OnChain<T> {
         every_lane: __m256d,
         value: T,
-    }
-
-    /// [`hysteresis_eight`] on `f64`, as the lanes' kernel of the AVX-512
-    /// set: its sum ends in a scalar.
-    #[inline(always)]
-    unsafe fn hysteresis_eight_lanes(
-        state: &mut [f64],
-        saved: &mut [f64],
-        thresholds: &[f64],
-        weights: &[f64],
-        t: f64,
-        c: __m256d,
-    ) -> __m256d {
-        // SAFETY: the caller's features.
-        unsafe {
-            let c = _mm256_cvtsd_f64(c);
-            _mm256_set1_pd(hysteresis_eight::<F64x8>(
-                state, saved, thresholds, weights, t, c,
-            ))
-        }
-    }
-
-    /// [`creep_eight`] on `f64`, as [`hysteresis_eight_lanes`].
-    #[inline(always)]
-    unsafe fn creep_eight_lanes(
-        chi: &mut [f64],
-        thresholds: &[f64],
-        gains: &[f64],
-        weights: &[f64],
-        v: __m256d,
-    ) -> __m256d {
-        // SAFETY: the caller's features.
-        unsafe {
-            let v = _mm256_cvtsd_f64(v);
-            _mm256_set1_pd(creep_eight::<F64x8>(chi, thresholds, gains, weights, v))
-        }
     }
 
     macro_rules! step_kernels {
@@ -1553,8 +1576,8 @@ mod x86 {
                         (cast_mut(state), cast_mut(saved), cast(r), cast(w))
                     {
                         let (t, c) = (t.to_f64() as f32, c.value.to_f64() as f32);
-                        let y = unsafe { hysteresis_eight::<F32x8>(x, s, r, w, t, c) };
-                        return unsafe { Self::splat(T::from_f64(f64::from(y))) };
+                        let y = unsafe { hysteresis_eight::<F32x8>(x, s, r, w, t, _mm_set1_ps(c)) };
+                        return unsafe { Self::splat(T::from_f64(f64::from(_mm_cvtss_f32(y)))) };
                     }
                     unreachable!("Real is f32 or f64")
                 }
@@ -1579,8 +1602,8 @@ mod x86 {
                         (cast_mut(chi), cast(r), cast(g), cast(w))
                     {
                         let v = v.value.to_f64() as f32;
-                        let y = unsafe { creep_eight::<F32x8>(chi, r, g, w, v) };
-                        return unsafe { Self::splat(T::from_f64(f64::from(y))) };
+                        let y = unsafe { creep_eight::<F32x8>(chi, r, g, w, _mm_set1_ps(v)) };
+                        return unsafe { Self::splat(T::from_f64(f64::from(_mm_cvtss_f32(y)))) };
                     }
                     unreachable!("Real is f32 or f64")
                 }
@@ -1598,7 +1621,7 @@ mod x86 {
     }
 
     step_kernels!(Avx2Step, hysteresis_four, creep_four);
-    step_kernels!(Avx512Step, hysteresis_eight_lanes, creep_eight_lanes);
+    step_kernels!(Avx512Step, hysteresis_eight::<F64x8>, creep_eight::<F64x8>);
 
     /// The creep pass alone on the AVX2 kernels (the forward model's, a
     /// held compensator sample's).
