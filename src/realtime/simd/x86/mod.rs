@@ -1,0 +1,255 @@
+//! The AVX2 kernels. Each does the operations of its portable kernel in
+//! the same order: `vminpd(x, hi)` is `if x < hi { x } else { hi }` and
+//! `vmaxpd(t, lo)` is `if t > lo { t } else { lo }`, as `play` and
+//! `clamp` are written, so the bits are the same.
+//!
+//! The plays' states and their saved copy, which a step loads and
+//! stores again, go through `*_unsplit`: a register's worth that would
+//! straddle a 4 KiB page is moved one value at a time. On a Zen 5 a
+//! step whose creep row straddled a page, at an offset that matched
+//! stack slots the step had just written, took 13–21 % longer (a
+//! compensator on the stack, in 6 of 256 stack offsets), and the
+//! plays' arrays are kept from the same. Whether an array can straddle
+//! at all is asked once per array and step (`SPLIT`): most never do,
+//! and their accesses carry no test. The creep state needs neither:
+//! the operator places it so that no register's worth straddles a page
+//! (`crate::realtime::placement`; on a Zen 4 the per-access tests had
+//! cost more than the split).
+//!
+//! The kernels end each sum of four partial sums in a butterfly
+//! ([`four::all_lanes_sum`], and its `f32` twin in the 8-lane kernels): the
+//! same bits as `hysteresis::reduce`, in every lane. On a Zen 4 a run
+//! of the AVX2 set took 0.976–0.982 of the strongest C's loop with it,
+//! 0.993–0.996 with the scalar sum and a broadcast; the AVX-512 set's
+//! `f64` step went from 27.2–27.3 to 26.9–27.0 ns (a broadcast fewer
+//! between the two kernels). Zen 1's instruction tables list `vperm2f128` as
+//! eight micro-operations (its latency 3, as on later cores); that CPU
+//! was not measured with it.
+//!
+//! [`four`] holds the `f64` kernels on 4-lane registers (the AVX2 set's),
+//! [`eight`] the 8-lane ones (the AVX-512 set's `f64`, both sets' `f32`);
+//! this module, how a step goes through them.
+mod eight;
+mod four;
+
+use core::arch::x86_64::*;
+
+use core::any::TypeId;
+
+use crate::realtime::real::Real;
+use eight::{creep_eight, hysteresis_eight, F32x8, F64x8};
+use four::{creep_four, hysteresis_four};
+
+/// Whether `bytes` bytes from `p` straddle a 4 KiB page.
+#[inline(always)]
+fn straddles_page<T>(p: *const T, bytes: usize) -> bool {
+    (p as usize & 4095) > 4096 - bytes
+}
+
+/// Whether the array `x` straddles a 4 KiB page. Only then can a
+/// register's worth of it, so the kernels check each one (`SPLIT`)
+/// only then: once per array and step instead of once per access.
+#[inline(always)]
+fn array_straddles<T>(x: &[T]) -> bool {
+    (x.as_ptr() as usize & 4095) + size_of_val(x) > 4096
+}
+
+/// With debug assertions: no register of `χ` (rows of `n`) straddles
+/// the first page boundary in it.
+#[inline(always)]
+fn debug_assert_placed<T>(chi: &[T], n: usize) {
+    debug_assert!(
+        !crate::realtime::placement::cuts_a_register(
+            chi.as_ptr() as usize,
+            size_of::<T>(),
+            n,
+            chi.len()
+        ),
+        "χ not placed"
+    );
+}
+
+/// `N` values at `p` read one by one (volatile, so that they are not
+/// merged into the one wide access this avoids) into an array.
+#[inline(always)]
+unsafe fn read_each<T: Real, const N: usize>(p: *const T) -> [T; N] {
+    // SAFETY: the caller's `p..p + N` is readable.
+    core::array::from_fn(|l| unsafe { core::ptr::read_volatile(p.add(l)) })
+}
+
+/// `values` written one by one to `p` (volatile, as in [`read_each`]).
+#[inline(always)]
+unsafe fn write_each<T: Real, const N: usize>(p: *mut T, values: &[T; N]) {
+    for (l, &x) in values.iter().enumerate() {
+        // SAFETY: the caller's `p..p + N` is writable.
+        unsafe { core::ptr::write_volatile(p.add(l), x) };
+    }
+}
+
+/// The step's kernels of the AVX2 set: `f64` on 4-lane registers,
+/// `f32` on 8-lane ones.
+struct Avx2Step;
+/// The step's kernels of the AVX-512 set: `f64` on 8-lane registers,
+/// `f32` on the AVX2 8-lane ones.
+struct Avx512Step;
+
+/// A value on a vector set's chain (its `Lanes`): the value, and for
+/// `f64` the value in every lane of a 4-lane register, which the `f64`
+/// kernels take and give (the `f32` kernels read the value; a register
+/// no kernel reads is not computed).
+#[derive(Clone, Copy)]
+pub(super) struct OnChain<T> {
+    every_lane: __m256d,
+    value: T,
+}
+
+macro_rules! step_kernels {
+    ($set:ident, $hysteresis_f64:expr, $creep_f64:expr) => {
+        impl<T: Real> super::StepKernels<T> for $set {
+            type Lanes = OnChain<T>;
+
+            #[inline(always)]
+            unsafe fn splat(x: T) -> OnChain<T> {
+                // SAFETY (both): the caller's features.
+                let every_lane = if TypeId::of::<T>() == TypeId::of::<f64>() {
+                    unsafe { _mm256_set1_pd(x.to_f64()) }
+                } else {
+                    unsafe { _mm256_setzero_pd() }
+                };
+                OnChain {
+                    every_lane,
+                    value: x,
+                }
+            }
+
+            #[inline(always)]
+            unsafe fn first(x: OnChain<T>) -> T {
+                x.value
+            }
+
+            #[inline(always)]
+            unsafe fn inverse_plays(
+                state: &mut [T],
+                saved: &mut [T],
+                r: &[T],
+                w: &[T],
+                t: T,
+                c: OnChain<T>,
+            ) -> OnChain<T> {
+                use super::{cast, cast_mut, count_simd_call};
+                count_simd_call();
+                // SAFETY (all): the caller's features.
+                if let (Some(x), Some(s), Some(r), Some(w)) =
+                    (cast_mut(state), cast_mut(saved), cast(r), cast(w))
+                {
+                    let v = unsafe { $hysteresis_f64(x, s, r, w, t.to_f64(), c.every_lane) };
+                    return unsafe { on_chain(v) };
+                }
+                if let (Some(x), Some(s), Some(r), Some(w)) =
+                    (cast_mut(state), cast_mut(saved), cast(r), cast(w))
+                {
+                    let (t, c) = (t.to_f64() as f32, c.value.to_f64() as f32);
+                    let y = unsafe { hysteresis_eight::<F32x8>(x, s, r, w, t, _mm_set1_ps(c)) };
+                    return unsafe { Self::splat(T::from_f64(f64::from(_mm_cvtss_f32(y)))) };
+                }
+                unreachable!("Real is f32 or f64")
+            }
+
+            #[inline(always)]
+            unsafe fn creep(chi: &mut [T], r: &[T], g: &[T], w: &[T], v: OnChain<T>) -> OnChain<T> {
+                use super::{cast, cast_mut, count_simd_call};
+                count_simd_call();
+                // SAFETY (all): the caller's features.
+                if let (Some(chi), Some(r), Some(g), Some(w)) =
+                    (cast_mut(chi), cast(r), cast(g), cast(w))
+                {
+                    return unsafe { on_chain($creep_f64(chi, r, g, w, v.every_lane)) };
+                }
+                if let (Some(chi), Some(r), Some(g), Some(w)) =
+                    (cast_mut(chi), cast(r), cast(g), cast(w))
+                {
+                    let v = v.value.to_f64() as f32;
+                    let y = unsafe { creep_eight::<F32x8>(chi, r, g, w, _mm_set1_ps(v)) };
+                    return unsafe { Self::splat(T::from_f64(f64::from(_mm_cvtss_f32(y)))) };
+                }
+                unreachable!("Real is f32 or f64")
+            }
+        }
+    };
+}
+/// An `f64` in every lane of `v` as a `T` on the chain (`T` is `f64`).
+#[inline(always)]
+unsafe fn on_chain<T: Real>(v: __m256d) -> OnChain<T> {
+    OnChain {
+        every_lane: v,
+        // SAFETY: the caller's AVX.
+        value: T::from_f64(unsafe { _mm256_cvtsd_f64(v) }),
+    }
+}
+
+step_kernels!(Avx2Step, hysteresis_four, creep_four);
+step_kernels!(Avx512Step, hysteresis_eight::<F64x8>, creep_eight::<F64x8>);
+
+/// The creep pass alone on the AVX2 kernels (the forward model's, a
+/// held compensator sample's).
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+pub(super) unsafe fn creep_avx2<T: Real>(chi: &mut [T], r: &[T], g: &[T], w: &[T], v: T) -> T {
+    type K = Avx2Step;
+    // SAFETY: the features are enabled here.
+    unsafe {
+        let v = <K as super::StepKernels<T>>::splat(v);
+        <K as super::StepKernels<T>>::first(<K as super::StepKernels<T>>::creep(chi, r, g, w, v))
+    }
+}
+
+/// The creep pass alone on the AVX-512 kernels.
+#[target_feature(enable = "avx2,fma,avx512f")]
+#[inline]
+pub(super) unsafe fn creep_avx512<T: Real>(chi: &mut [T], r: &[T], g: &[T], w: &[T], v: T) -> T {
+    type K = Avx512Step;
+    // SAFETY: the features are enabled here.
+    unsafe {
+        let v = <K as super::StepKernels<T>>::splat(v);
+        <K as super::StepKernels<T>>::first(<K as super::StepKernels<T>>::creep(chi, r, g, w, v))
+    }
+}
+
+/// A kernel set's two functions compiled with its features:
+/// [`super::step_body`] (one step) and [`super::run_body`] (a run).
+macro_rules! step_and_run {
+    ($set:ident, $features:literal, $step:ident, $run:ident) => {
+        /// [`super::step_body`] on the set's kernels, one function.
+        #[target_feature(enable = $features)]
+        #[inline(never)]
+        pub(super) unsafe fn $step<T: Real, C: super::StepSource<T>, const PAPER: bool>(
+            c: &mut C,
+            t: T,
+            creep: T,
+            lower: T,
+            upper: T,
+        ) -> (T, bool) {
+            // SAFETY: the features are enabled here.
+            let (u, saturated, _) = unsafe {
+                let creep = <$set as super::StepKernels<T>>::splat(creep);
+                super::step_body::<T, $set, C, PAPER>(c, t, creep, lower, upper)
+            };
+            (u, saturated)
+        }
+
+        /// [`super::run_body`] on the set's kernels, one function.
+        #[target_feature(enable = $features)]
+        #[inline(never)]
+        pub(super) unsafe fn $run<T: Real, C: super::RunSource<T>, const PAPER: bool>(
+            k: super::Kernels,
+            c: &mut C,
+            targets: &[T],
+            out: super::RunOutputs<'_, T>,
+        ) -> (usize, usize) {
+            // SAFETY: the features are enabled here.
+            unsafe { super::run_body::<T, $set, C, PAPER>(k, c, targets, out) }
+        }
+    };
+}
+step_and_run!(Avx2Step, "avx2,fma", step_avx2, run_avx2);
+step_and_run!(Avx512Step, "avx2,fma,avx512f", step_avx512, run_avx512);
