@@ -116,7 +116,7 @@ pub(super) trait Eight: Copy {
     }
 
     /// [`Eight::load`], one value at a time where the eight straddle a
-    /// page (see the module's note).
+    /// page (see [`super`]'s note).
     #[inline(always)]
     unsafe fn load_unsplit<const SPLIT: bool>(p: *const Self::T) -> Self {
         // SAFETY: the caller's `p..p + 8` is readable.

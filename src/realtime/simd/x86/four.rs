@@ -184,7 +184,7 @@ pub(super) unsafe fn creep_four(
 }
 
 /// `_mm256_loadu_pd`, one value at a time where the four straddle a
-/// page (see the module's note).
+/// page (see [`super`]'s note).
 #[target_feature(enable = "avx2,fma")]
 #[inline]
 unsafe fn load4_unsplit<const SPLIT: bool>(p: *const f64) -> __m256d {
