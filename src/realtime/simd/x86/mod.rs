@@ -1,4 +1,6 @@
-//! The AVX2 kernels. Each does the operations of its portable kernel in
+//! The compensator step's AVX2 and AVX-512 kernels (`step_avx2`,
+//! `run_avx2`, `step_avx512`, `run_avx512`, and the creep pass alone for
+//! the forward model). Each does the operations of its portable kernel in
 //! the same order: `vminpd(x, hi)` is `if x < hi { x } else { hi }` and
 //! `vmaxpd(t, lo)` is `if t > lo { t } else { lo }`, as `play` and
 //! `clamp` are written, so the bits are the same.
