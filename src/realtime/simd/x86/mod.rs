@@ -192,35 +192,11 @@ unsafe fn on_chain<T: Real>(v: __m256d) -> OnChain<T> {
 step_kernels!(Avx2Step, hysteresis_four, creep_four);
 step_kernels!(Avx512Step, hysteresis_eight::<F64x8>, creep_eight::<F64x8>);
 
-/// The creep pass alone on the AVX2 kernels (the forward model's, a
-/// held compensator sample's).
-#[target_feature(enable = "avx2,fma")]
-#[inline]
-pub(super) unsafe fn creep_avx2<T: Real>(chi: &mut [T], r: &[T], g: &[T], w: &[T], v: T) -> T {
-    type K = Avx2Step;
-    // SAFETY: the features are enabled here.
-    unsafe {
-        let v = <K as super::StepKernels<T>>::splat(v);
-        <K as super::StepKernels<T>>::first(<K as super::StepKernels<T>>::creep(chi, r, g, w, v))
-    }
-}
-
-/// The creep pass alone on the AVX-512 kernels.
-#[target_feature(enable = "avx2,fma,avx512f")]
-#[inline]
-pub(super) unsafe fn creep_avx512<T: Real>(chi: &mut [T], r: &[T], g: &[T], w: &[T], v: T) -> T {
-    type K = Avx512Step;
-    // SAFETY: the features are enabled here.
-    unsafe {
-        let v = <K as super::StepKernels<T>>::splat(v);
-        <K as super::StepKernels<T>>::first(<K as super::StepKernels<T>>::creep(chi, r, g, w, v))
-    }
-}
-
-/// A kernel set's two functions compiled with its features:
-/// [`super::step_body`] (one step) and [`super::run_body`] (a run).
-macro_rules! step_and_run {
-    ($set:ident, $features:literal, $step:ident, $run:ident) => {
+/// A kernel set's entry points, each compiled with its features:
+/// [`super::step_body`] (one step), [`super::run_body`] (a run) and the
+/// creep pass alone (the forward model's, a held compensator sample's).
+macro_rules! entry_points {
+    ($set:ident, $features:literal, $step:ident, $run:ident, $creep:ident) => {
         /// [`super::step_body`] on the set's kernels, one function.
         #[target_feature(enable = $features)]
         #[inline(never)]
@@ -251,7 +227,26 @@ macro_rules! step_and_run {
             // SAFETY: the features are enabled here.
             unsafe { super::run_body::<T, $set, C, PAPER>(k, c, targets, out) }
         }
+
+        /// The creep pass alone on the set's kernels.
+        #[target_feature(enable = $features)]
+        #[inline]
+        pub(super) unsafe fn $creep<T: Real>(chi: &mut [T], r: &[T], g: &[T], w: &[T], v: T) -> T {
+            type K = $set;
+            // SAFETY: the features are enabled here.
+            unsafe {
+                let v = <K as super::StepKernels<T>>::splat(v);
+                let c = <K as super::StepKernels<T>>::creep(chi, r, g, w, v);
+                <K as super::StepKernels<T>>::first(c)
+            }
+        }
     };
 }
-step_and_run!(Avx2Step, "avx2,fma", step_avx2, run_avx2);
-step_and_run!(Avx512Step, "avx2,fma,avx512f", step_avx512, run_avx512);
+entry_points!(Avx2Step, "avx2,fma", step_avx2, run_avx2, creep_avx2);
+entry_points!(
+    Avx512Step,
+    "avx2,fma,avx512f",
+    step_avx512,
+    run_avx512,
+    creep_avx512
+);
