@@ -427,6 +427,17 @@ fn creep_pass<T: Real, V: Block<T>>(
             let (r01, r23) = rows_of_four.split_at_mut(2 * m);
             let (x0, x1) = r01.split_at_mut(m);
             let (x2, x3) = r23.split_at_mut(m);
+            if <V as Block<T>>::PAIRED_CREEP {
+                let (a, b) = ((x0, (lower[0], upper[0])), (x1, (lower[1], upper[1])));
+                let (row0, row1) = creep_pair(o, one, zero, gains, a, b);
+                sums[0] = o.add_term(sums[0], o.load(&w[0]), row0, k == 0);
+                sums[1] = o.add_term(sums[1], o.load(&w[1]), row1, k == 0);
+                let (a, b) = ((x2, (lower[2], upper[2])), (x3, (lower[3], upper[3])));
+                let (row2, row3) = creep_pair(o, one, zero, gains, a, b);
+                sums[2] = o.add_term(sums[2], o.load(&w[2]), row2, k == 0);
+                sums[3] = o.add_term(sums[3], o.load(&w[3]), row3, k == 0);
+                continue;
+            }
             let mut rows = [zero; 4];
             for (j, g) in gains.iter().enumerate() {
                 let g = o.load(g);
@@ -458,6 +469,31 @@ fn creep_pass<T: Real, V: Block<T>>(
     }
     let creep = o.add(o.add(sums[0], sums[2]), o.add(sums[1], sums[3]));
     o.store(creep, &mut s[a.creep_out()]);
+}
+
+/// Two thresholds' rows of [`creep_pass`]: every eigenvalue's update of
+/// each (`(rows, (lower, upper))`, its rows and clamp bounds), summed over
+/// the eigenvalues in order from zero, the first pair's sum on the
+/// adder's pipes and the second's on the multiplier's
+/// (`add_on_multiplier`: the same bits).
+#[inline(always)]
+fn creep_pair<T: Real, V: Block<T>>(
+    o: Ops<T, V>,
+    one: V,
+    zero: V,
+    gains: &[Row],
+    a: (&mut [Row], (V, V)),
+    b: (&mut [Row], (V, V)),
+) -> (V, V) {
+    let ((xa, (lower_a, upper_a)), (xb, (lower_b, upper_b))) = (a, b);
+    let (mut row_a, mut row_b) = (zero, zero);
+    for (j, g) in gains.iter().enumerate() {
+        let g = o.load(g);
+        row_a = o.add(row_a, creep_update(o, &mut xa[j], g, lower_a, upper_a));
+        let x = creep_update(o, &mut xb[j], g, lower_b, upper_b);
+        row_b = o.add_on_multiplier(row_b, x, one);
+    }
+    (row_a, row_b)
 }
 
 /// One play of `H⁻¹` (22) on a block, `play` its state `x`, threshold,

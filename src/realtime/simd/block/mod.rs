@@ -51,6 +51,10 @@ impl Row {
 pub(crate) trait Block<T: Real>: Copy {
     /// One flag per lane.
     type Mask: Copy;
+    /// Whether the bank's creep pass updates two thresholds at a time
+    /// instead of four (the same bits): where a block takes two of sixteen
+    /// registers, four thresholds' bounds and rows do not fit in them.
+    const PAIRED_CREEP: bool = false;
     /// The lanes of `row`.
     unsafe fn load(row: &Row) -> Self;
     /// The first lanes of `values` (at least a block's worth; unaligned).
