@@ -393,7 +393,9 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
 /// Four thresholds go together, eigenvalue by eigenvalue, so that four
 /// independent update chains stand next to each other in the
 /// instruction stream (one threshold's chain — five updates and their sum —
-/// is long, and the scheduler holds only so many waiting operations). Whole
+/// is long, and the scheduler holds only so many waiting operations); two
+/// where a block is two registers ([`Block::PAIRED_CREEP`]: AVX2), whose
+/// sixteen hold two thresholds' bounds and rows but not four. Whole
 /// slices of rows, so that no index arithmetic or bounds check stands
 /// between the vector operations.
 #[inline(always)]
