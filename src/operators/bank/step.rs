@@ -473,11 +473,11 @@ fn creep_pass<T: Real, V: Block<T>>(
     o.store(creep, &mut s[a.creep_out()]);
 }
 
-/// Two thresholds' rows of [`creep_pass`]: every eigenvalue's update of
-/// each (`(rows, (lower, upper))`, its rows and clamp bounds), summed over
-/// the eigenvalues in order from zero, the first pair's sum on the
-/// adder's pipes and the second's on the multiplier's
-/// (`add_on_multiplier`: the same bits).
+/// Two thresholds' rows of [`creep_pass`], `a` and `b` each a threshold's
+/// state rows (one per eigenvalue) and clamp bounds: every eigenvalue's
+/// update, summed over the eigenvalues in order from zero, `a`'s sum on
+/// the adder's pipes and `b`'s on the multiplier's (`add_on_multiplier`:
+/// the same bits).
 #[inline(always)]
 fn creep_pair<T: Real, V: Block<T>>(
     o: Ops<T, V>,
