@@ -45,6 +45,7 @@ use crate::operators::shares::Division;
 use crate::operators::workers::SharedMut;
 pub use crate::operators::workers::{Workers, DEFAULT_MIN_BLOCKS};
 
+mod lane_by_lane;
 mod step;
 mod walk;
 use step::{step_blocks, Fixed};
