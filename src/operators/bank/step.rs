@@ -420,30 +420,26 @@ fn creep_pass<T: Real, V: Block<T>>(
             .zip(thresholds[..full].chunks_exact(4))
             .zip(weights[..full].chunks_exact(4));
         for (k, ((rows_of_four, r), w)) in fours.enumerate() {
+            let (r01, r23) = rows_of_four.split_at_mut(2 * m);
+            let (x0, x1) = r01.split_at_mut(m);
+            let (x2, x3) = r23.split_at_mut(m);
+            if <V as Block<T>>::PAIRED_CREEP {
+                // each pair's bounds formed just before it and its
+                // weighted sums taken just after, so that one pair's
+                // bounds and rows are live at a time
+                let (row0, row1) = creep_pair(o, one, uc, gains, (x0, &r[0]), (x1, &r[1]));
+                sums[0] = o.add_term(sums[0], o.load(&w[0]), row0, k == 0);
+                sums[1] = o.add_term(sums[1], o.load(&w[1]), row1, k == 0);
+                let (row2, row3) = creep_pair(o, one, uc, gains, (x2, &r[2]), (x3, &r[3]));
+                sums[2] = o.add_term(sums[2], o.load(&w[2]), row2, k == 0);
+                sums[3] = o.add_term(sums[3], o.load(&w[3]), row3, k == 0);
+                continue;
+            }
             let mut lower = [zero; 4];
             let mut upper = [zero; 4];
             for q in 0..4 {
                 let r = o.load(&r[q]);
                 (lower[q], upper[q]) = (o.sub(uc, r), o.add(uc, r));
-            }
-            let (r01, r23) = rows_of_four.split_at_mut(2 * m);
-            let (x0, x1) = r01.split_at_mut(m);
-            let (x2, x3) = r23.split_at_mut(m);
-            if <V as Block<T>>::PAIRED_CREEP {
-                // each pair's weighted sums taken before the next pair
-                // starts, so that one pair's rows are live at a time: the
-                // form measured (with both pairs' rows summed after them,
-                // and the bounds passed through a closure, the AVX2 bank
-                // was 7-39 % slower than this)
-                let (a, b) = ((x0, (lower[0], upper[0])), (x1, (lower[1], upper[1])));
-                let (row0, row1) = creep_pair(o, one, zero, gains, a, b);
-                sums[0] = o.add_term(sums[0], o.load(&w[0]), row0, k == 0);
-                sums[1] = o.add_term(sums[1], o.load(&w[1]), row1, k == 0);
-                let (a, b) = ((x2, (lower[2], upper[2])), (x3, (lower[3], upper[3])));
-                let (row2, row3) = creep_pair(o, one, zero, gains, a, b);
-                sums[2] = o.add_term(sums[2], o.load(&w[2]), row2, k == 0);
-                sums[3] = o.add_term(sums[3], o.load(&w[3]), row3, k == 0);
-                continue;
             }
             let mut rows = [zero; 4];
             for (j, g) in gains.iter().enumerate() {
@@ -478,21 +474,24 @@ fn creep_pass<T: Real, V: Block<T>>(
     o.store(creep, &mut s[a.creep_out()]);
 }
 
-/// Two thresholds' rows of [`creep_pass`], `a` and `b` each a threshold's
-/// state rows (one per eigenvalue) and clamp bounds: every eigenvalue's
-/// update, summed over the eigenvalues in order from zero, `a`'s sum on
-/// the adder's pipes and `b`'s on the multiplier's (`add_on_multiplier`:
-/// the same bits).
+/// Two thresholds' rows of [`creep_pass`] with the creep input `uc`, `a`
+/// and `b` each a threshold's state rows (one per eigenvalue) and its
+/// threshold: every eigenvalue's update, summed over the eigenvalues in
+/// order from zero, `a`'s sum on the adder's pipes and `b`'s on the
+/// multiplier's (`add_on_multiplier`: the same bits).
 #[inline(always)]
 fn creep_pair<T: Real, V: Block<T>>(
     o: Ops<T, V>,
     one: V,
-    zero: V,
+    uc: V,
     gains: &[Row],
-    a: (&mut [Row], (V, V)),
-    b: (&mut [Row], (V, V)),
+    (xa, ra): (&mut [Row], &Row),
+    (xb, rb): (&mut [Row], &Row),
 ) -> (V, V) {
-    let ((xa, (lower_a, upper_a)), (xb, (lower_b, upper_b))) = (a, b);
+    let (ra, rb) = (o.load(ra), o.load(rb));
+    let (lower_a, upper_a) = (o.sub(uc, ra), o.add(uc, ra));
+    let (lower_b, upper_b) = (o.sub(uc, rb), o.add(uc, rb));
+    let zero = o.splat(T::ZERO);
     let (mut row_a, mut row_b) = (zero, zero);
     for (j, g) in gains.iter().enumerate() {
         let g = o.load(g);
