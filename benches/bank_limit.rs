@@ -35,7 +35,11 @@
 //! median time of each and the median and 10–90 % of two's time over one's
 //! in the same round; printed with the CPU, its
 //! bound, the ratio, the cycles per channel-step at the clock measured here,
-//! and the share of a core a 4000-actuator mirror at 10 kHz needs.
+//! and the share of a core a 4000-actuator mirror at 10 kHz needs. Then each
+//! kernel set on one thread (the vector sets at 64 and 1024 channels, the
+//! portable one at 64) against the bound measured on its own registers: on
+//! a CPU with AVX-512 the AVX2 set is measured against a 256-bit mix, which
+//! is what a CPU with AVX2 only would give it.
 //! Last, with `MFCBEAM_C_BANK` naming the library of the hand-written C bank
 //! (`benches/peers/bank.c`, built by `benches/peers/run.sh`), the bank
 //! against it in alternating batches at 8, 64, 1024 and 4096 channels
@@ -105,13 +109,13 @@ fn clock_ghz() -> (f64, &'static str) {
 /// count the best of seven runs — the CPU can do at least that; a slower
 /// run is a neighbour's on a shared machine, and a median once came out
 /// 18 % low on a Zen 4 — and the best over the counts, [`mix::run`]).
-fn peak_lane_operations_per_ns<T: Real>() -> f64 {
+fn peak_lane_operations_per_ns<T: Real>(k: Kernels) -> f64 {
     let mut peak = 0.0f64;
     for fused in [false, true] {
         let rates = [
-            (4, peak_with_chains::<T, 4>(fused)),
-            (8, peak_with_chains::<T, 8>(fused)),
-            (16, peak_with_chains::<T, 16>(fused)),
+            (4, peak_with_chains::<T, 4>(k, fused)),
+            (8, peak_with_chains::<T, 8>(k, fused)),
+            (16, peak_with_chains::<T, 16>(k, fused)),
         ];
         let Some((chains, rate)) = rates
             .iter()
@@ -125,8 +129,9 @@ fn peak_lane_operations_per_ns<T: Real>() -> f64 {
             .filter_map(|&(c, r)| Some(format!("{c} chains {:.1}", r?)))
             .collect();
         println!(
-            "{}: the creep mix {}: {rate:.1} lane-operations/ns ({chains} chains; {})",
+            "{} on {}'s registers: the creep mix {}: {rate:.1} lane-operations/ns ({chains} chains; {})",
             T::NAME,
+            k.name(),
             if fused {
                 "with its row addition fused on the multiplier"
             } else {
@@ -140,13 +145,13 @@ fn peak_lane_operations_per_ns<T: Real>() -> f64 {
 }
 
 /// [`peak_lane_operations_per_ns`] for one chain count and form; `None`
-/// for a form this CPU's bank does not use.
-fn peak_with_chains<T: Real, const CHAINS: usize>(fused: bool) -> Option<f64> {
+/// for a form `k`'s kernels do not use.
+fn peak_with_chains<T: Real, const CHAINS: usize>(k: Kernels, fused: bool) -> Option<f64> {
     // the same number of updates for every count
     let iterations = 32_000_000 / CHAINS;
     best_of_seven(|| {
         let t0 = Instant::now();
-        let lanes = mix::run::<T, CHAINS>(iterations, fused)?;
+        let lanes = mix::run::<T, CHAINS>(k, iterations, fused)?;
         let ns = t0.elapsed().as_nanos() as f64;
         Some((iterations * CHAINS * 5 * lanes) as f64 / ns)
     })
@@ -162,12 +167,12 @@ fn best_of_seven(mut rate: impl FnMut() -> Option<f64>) -> Option<f64> {
 /// Lane operations per nanosecond of the same updates with each one's
 /// state loaded from and stored to L1 (for each chain count the best of
 /// seven runs, and the best over the counts; `None` where the bank's
-/// kernels have no vector registers here).
-fn streamed_lane_operations_per_ns<T: Real>() -> Option<f64> {
+/// kernels `k` have no vector registers).
+fn streamed_lane_operations_per_ns<T: Real>(k: Kernels) -> Option<f64> {
     [
-        streamed_with_chains::<T, 4>(),
-        streamed_with_chains::<T, 8>(),
-        streamed_with_chains::<T, 16>(),
+        streamed_with_chains::<T, 4>(k),
+        streamed_with_chains::<T, 8>(k),
+        streamed_with_chains::<T, 16>(k),
     ]
     .into_iter()
     .flatten()
@@ -175,12 +180,12 @@ fn streamed_lane_operations_per_ns<T: Real>() -> Option<f64> {
 }
 
 /// [`streamed_lane_operations_per_ns`] for one chain count.
-fn streamed_with_chains<T: Real, const CHAINS: usize>() -> Option<f64> {
+fn streamed_with_chains<T: Real, const CHAINS: usize>(k: Kernels) -> Option<f64> {
     const ITERATIONS: usize = 200_000;
     let mut rows = mix::Rows::new::<T>();
     let best = best_of_seven(|| {
         let t0 = Instant::now();
-        let lanes = mix::streamed::<T, CHAINS>(&mut rows, ITERATIONS)?;
+        let lanes = mix::streamed::<T, CHAINS>(k, &mut rows, ITERATIONS)?;
         let ns = t0.elapsed().as_nanos() as f64;
         let updates = ITERATIONS * mix::STREAMED_ROWS * 64 / (std::mem::size_of::<T>() * lanes);
         Some((updates * 5 * lanes) as f64 / ns)
@@ -193,21 +198,25 @@ mod mix {
     //! Independent chains of the creep-element update on registers.
     use mfcbeam::realtime::{simd::Kernels, Real};
 
-    /// Runs `iterations` of `CHAINS` chains on the bank's widest registers
-    /// for `T` (`fused`: the additions on the multiplier, where the bank's
+    /// Runs `iterations` of `CHAINS` chains on the registers of kernel set
+    /// `k` for `T` (`fused`: the additions on the multiplier, where the
     /// set does them there); returns the lanes per register, or `None` for
-    /// a form this CPU's bank does not use. The callers try 4, 8 and 16
+    /// a form the set does not use. The callers try 4, 8 and 16
     /// chains (each divides the streamed rows of every register width): a
     /// chain holds two registers, its state and its row sum, so 16 chains
     /// spill on AVX2's 16 registers (on a Zen 1 at half the rate of 4) and
     /// a little on AVX-512's 32, while 4 may not hide the latency on a CPU
     /// with more or wider pipes.
-    pub fn run<T: Real, const CHAINS: usize>(iterations: usize, fused: bool) -> Option<usize> {
+    pub fn run<T: Real, const CHAINS: usize>(
+        k: Kernels,
+        iterations: usize,
+        fused: bool,
+    ) -> Option<usize> {
         let f64_ = T::NAME == "f64";
         #[cfg(target_arch = "x86_64")]
         {
-            let k = Kernels::detect();
-            // SAFETY: the features are checked by `Kernels::detect`.
+            // SAFETY: a `Kernels` value exists only where the CPU has its
+            // features.
             unsafe {
                 if k.is_avx512() {
                     return Some(match (f64_, fused) {
@@ -229,7 +238,7 @@ mod mix {
                 }
             }
         }
-        let _ = f64_;
+        let _ = (f64_, k);
         (!fused).then(|| scalar::<T, CHAINS>(iterations))
     }
 
@@ -255,8 +264,9 @@ mod mix {
     /// [`run`]'s updates with each chain's state in memory: every update
     /// loads its row of `rows` and stores it back, as the bank does with its
     /// creep rows; `iterations` passes over the rows. The lanes per
-    /// register, or `None` where the bank's set has no such registers.
+    /// register, or `None` where the set `k` has no vector registers.
     pub fn streamed<T: Real, const CHAINS: usize>(
+        k: Kernels,
         rows: &mut Rows,
         iterations: usize,
     ) -> Option<usize> {
@@ -264,9 +274,8 @@ mod mix {
         let p = rows.0.as_mut_ptr().cast::<u8>();
         #[cfg(target_arch = "x86_64")]
         {
-            let k = Kernels::detect();
-            // SAFETY: the features are checked by `Kernels::detect`; the
-            // rows are STREAMED_ROWS cache lines.
+            // SAFETY: a `Kernels` value exists only where the CPU has its
+            // features; the rows are STREAMED_ROWS cache lines.
             unsafe {
                 if k.is_avx512() {
                     return Some(if f64_ {
@@ -284,7 +293,7 @@ mod mix {
                 }
             }
         }
-        let _ = (f64_, p, iterations);
+        let _ = (f64_, p, iterations, k);
         None
     }
 
@@ -643,13 +652,14 @@ fn time_bank<T: Real>(channels: usize, mode: Mode<'_>) -> f64 {
 /// The table of `T`; returns the bound (M channel-steps/s on one core).
 fn report<T: Real>(ghz: f64) -> f64 {
     let ops = lane_operations(12, 12, 5);
-    let peak = peak_lane_operations_per_ns::<T>();
+    let dispatched = Kernels::detect();
+    let peak = peak_lane_operations_per_ns::<T>(dispatched);
     // M channel-steps/s on one core
     let bound = peak * 1e3 / ops as f64;
     // the same updates with their state in memory: what a bank, which must
     // load and store its state, can reach at best (none where the bank's
     // kernels have no vector registers)
-    let streamed = streamed_lane_operations_per_ns::<T>();
+    let streamed = streamed_lane_operations_per_ns::<T>(dispatched);
     let in_l1 = streamed.map_or(f64::NAN, |r| r * 1e3 / ops as f64);
     if let Some(rate) = streamed {
         println!(
@@ -718,15 +728,42 @@ fn report<T: Real>(ghz: f64) -> f64 {
             println!();
         }
     }
-    // every kernel set at 64 channels (the bound is the widest registers')
+    // every kernel set against the mix on its own registers (a CPU with
+    // AVX-512 runs the AVX2 set at 256 bits, as a CPU with AVX2 only does);
+    // the vector sets at 1024 channels too. The portable set beside a
+    // vector one has no bound of its own: each of its fused operations is
+    // a call to the C library's `fma`.
     for kernels in Kernels::all() {
-        let ns = time_bank::<T>(64, Mode::Kernels(kernels));
-        let rate = 64.0 / ns * 1e3;
-        println!(
-            "64 channels, one thread, {kernels:?}: {rate:.1} M channel-steps/s ({} of the bound, {} with the state in L1)",
-            share(rate, bound),
-            share(rate, in_l1)
-        );
+        let bounds = if kernels == dispatched {
+            Some((bound, in_l1))
+        } else if kernels == Kernels::Portable {
+            None
+        } else {
+            let peak = peak_lane_operations_per_ns::<T>(kernels);
+            let streamed = streamed_lane_operations_per_ns::<T>(kernels);
+            let in_l1 = streamed.map_or(f64::NAN, |r| r * 1e3 / ops as f64);
+            Some((peak * 1e3 / ops as f64, in_l1))
+        };
+        let sizes: &[usize] = if kernels == Kernels::Portable {
+            &[64]
+        } else {
+            &[64, 1024]
+        };
+        for &channels in sizes {
+            let ns = time_bank::<T>(channels, Mode::Kernels(kernels));
+            let rate = channels as f64 / ns * 1e3;
+            let of_bound = bounds.map_or("no bound of its own".to_string(), |(bound, in_l1)| {
+                format!(
+                    "{} of its registers' bound {bound:.1}, {} with the state in L1",
+                    share(rate, bound),
+                    share(rate, in_l1)
+                )
+            });
+            println!(
+                "{channels} channels, one thread, {}: {rate:.1} M channel-steps/s ({of_bound})",
+                kernels.name()
+            );
+        }
     }
     println!(
         "a 4000-actuator mirror at 10 kHz (40 M channel-steps/s) needs {:.2} of one core in {}",
