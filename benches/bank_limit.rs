@@ -649,18 +649,43 @@ fn time_bank<T: Real>(channels: usize, mode: Mode<'_>) -> f64 {
     times[times.len() / 2]
 }
 
+/// The bank's bound on kernel set `k`'s registers for a step of `ops`
+/// lane operations per channel.
+struct Bound {
+    /// The creep mix's rate, lane operations per ns.
+    peak: f64,
+    /// The same updates with their state in memory: what a bank, which
+    /// must load and store its state, can reach at best (`None` where `k`
+    /// has no vector registers).
+    streamed: Option<f64>,
+    /// `peak` in M channel-steps/s on one core.
+    per_core: f64,
+    /// `streamed` in M channel-steps/s on one core (NaN if `None`).
+    in_l1: f64,
+}
+
+fn bound_on<T: Real>(k: Kernels, ops: usize) -> Bound {
+    let peak = peak_lane_operations_per_ns::<T>(k);
+    let streamed = streamed_lane_operations_per_ns::<T>(k);
+    let per_core = |rate: f64| rate * 1e3 / ops as f64;
+    Bound {
+        peak,
+        streamed,
+        per_core: per_core(peak),
+        in_l1: streamed.map_or(f64::NAN, per_core),
+    }
+}
+
 /// The table of `T`; returns the bound (M channel-steps/s on one core).
 fn report<T: Real>(ghz: f64) -> f64 {
     let ops = lane_operations(12, 12, 5);
     let dispatched = Kernels::detect();
-    let peak = peak_lane_operations_per_ns::<T>(dispatched);
-    // M channel-steps/s on one core
-    let bound = peak * 1e3 / ops as f64;
-    // the same updates with their state in memory: what a bank, which must
-    // load and store its state, can reach at best (none where the bank's
-    // kernels have no vector registers)
-    let streamed = streamed_lane_operations_per_ns::<T>(dispatched);
-    let in_l1 = streamed.map_or(f64::NAN, |r| r * 1e3 / ops as f64);
+    let Bound {
+        peak,
+        streamed,
+        per_core: bound,
+        in_l1,
+    } = bound_on::<T>(dispatched, ops);
     if let Some(rate) = streamed {
         println!(
             "{}: the creep mix with each update's state loaded from and stored to L1: {rate:.1} lane-operations/ns ({:.0} % of the register rate) -> {in_l1:.1} M channel-steps/s per core",
@@ -739,10 +764,8 @@ fn report<T: Real>(ghz: f64) -> f64 {
         } else if kernels == Kernels::Portable {
             None
         } else {
-            let peak = peak_lane_operations_per_ns::<T>(kernels);
-            let streamed = streamed_lane_operations_per_ns::<T>(kernels);
-            let in_l1 = streamed.map_or(f64::NAN, |r| r * 1e3 / ops as f64);
-            Some((peak * 1e3 / ops as f64, in_l1))
+            let own = bound_on::<T>(kernels, ops);
+            Some((own.per_core, own.in_l1))
         };
         let sizes: &[usize] = if kernels == Kernels::Portable {
             &[64]
