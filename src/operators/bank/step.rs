@@ -363,16 +363,14 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
     let (lower, upper) = (o.splat(f.lower), o.splat(f.upper));
     let (below, above) = (o.lt(v, lower), o.gt(v, upper));
     let clipped = o.select(below, lower, o.select(above, upper, v));
-    let u = o.select(fault, o.load(&s[a.last_u()]), clipped);
+    let u = o.store_except(clipped, fault, &mut s[a.last_u()]);
     let saturated_lanes = o.and_not(o.or(below, above), fault);
-    o.store(u, &mut s[a.last_u()]);
     let saturated = o.bits(saturated_lanes);
     if saturated != 0 {
         reseat(f, s, p, saturated, cur, next);
     }
     // the creep input: the voltage applied, or the last one if not finite
-    let uc = o.select(o.non_finite(u), o.load(&s[a.creep_last()]), u);
-    o.store(uc, &mut s[a.creep_last()]);
+    let uc = o.store_except(u, o.non_finite(u), &mut s[a.creep_last()]);
     (u, uc, saturated_lanes, fault)
 }
 

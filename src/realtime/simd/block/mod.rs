@@ -101,6 +101,19 @@ pub(crate) trait Block<T: Real>: Copy {
         false
     }
 
+    /// `m ? row : self` per lane, stored to `row` and returned: `row`
+    /// updated where `m` is false. A method of its own so that a set can
+    /// keep the compiler from making it a masked store (see `Avx2`'s).
+    #[inline(always)]
+    unsafe fn store_except(self, m: Self::Mask, row: &mut Row) -> Self {
+        // SAFETY: the caller's, forwarded.
+        unsafe {
+            let v = Self::select(m, Self::load(row), self);
+            v.store(row);
+            v
+        }
+    }
+
     /// `max(min(x, upper), lower)`: the play (20), as `play::clamp`.
     #[inline(always)]
     unsafe fn clamp(self, lower: Self, upper: Self) -> Self {
@@ -324,6 +337,7 @@ impl<T: Real, V: Block<T>> Ops<T, V> {
         neg_mul_add(x: V, a: V, b: V) -> V;
         add_on_multiplier(a: V, b: V, one: V) -> V;
         sub_on_multiplier(a: V, b: V, one: V) -> V;
+        store_except(v: V, m: V::Mask, row: &mut Row) -> V;
     }
 
     /// `realtime::real::add_term` per lane: `w · x` for a sum's first
