@@ -219,10 +219,23 @@ fn pipelined<'p, 'b, T: Real + 'b, V: Block<T>>(
     for (next_b, ((next, t), out)) in blocks {
         let this_uc = uc;
         uc = first_part(o, f, a, one, input(next_b), next, p(next_b), t, out);
-        creep_pass(o, a, one, this_uc, this, p(b));
+        creep(o, a, one, this_uc, this, p(b));
         (this, b) = (next, next_b);
     }
-    creep_pass(o, a, one, uc, this, p(b));
+    creep(o, a, one, uc, this, p(b));
+}
+
+/// [`creep_pass`] on the block, or on each of its halves in turn where
+/// `V` says so ([`Block::CREEP_IN_HALVES`]).
+#[inline(always)]
+fn creep<T: Real, V: Block<T>>(o: Ops<T, V>, a: Layout, one: V, uc: V, s: &mut [Row], p: &[Row]) {
+    if V::CREEP_IN_HALVES {
+        let (lo, hi) = o.halves();
+        creep_pass(lo, a, o.lo(one), o.lo(uc), s, p);
+        creep_pass(hi, a, o.hi(one), o.hi(uc), s, p);
+    } else {
+        creep_pass(o, a, one, uc, s, p);
+    }
 }
 
 /// The paper's layout (the compensator step's [`PAPER_PLAYS`] and

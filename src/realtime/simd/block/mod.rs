@@ -52,9 +52,22 @@ pub(crate) trait Block<T: Real>: Copy {
     /// One flag per lane.
     type Mask: Copy;
     /// Whether the bank's creep pass updates two thresholds at a time
-    /// instead of four (the same bits): where a block takes two of sixteen
-    /// registers, four thresholds' bounds and rows do not fit in them.
+    /// instead of four (the same bits): where sixteen registers are all a
+    /// set has, four thresholds' bounds and rows do not fit in them.
     const PAIRED_CREEP: bool = false;
+    /// Whether the bank's creep pass runs on each half of the block in
+    /// turn ([`Block::Lo`], then [`Block::Hi`]; the same bits: every
+    /// operation is lane by lane), where a block takes two registers.
+    const CREEP_IN_HALVES: bool = false;
+    /// The block's first half where [`Block::CREEP_IN_HALVES`] (its loads
+    /// and stores the first half of a row); otherwise the block.
+    type Lo: Block<T>;
+    /// The second half, as [`Block::Lo`].
+    type Hi: Block<T>;
+    /// The first half of the block's lanes ([`Block::Lo`]).
+    unsafe fn lo(self) -> Self::Lo;
+    /// The second half ([`Block::Hi`]).
+    unsafe fn hi(self) -> Self::Hi;
     /// The lanes of `row`.
     unsafe fn load(row: &Row) -> Self;
     /// The first lanes of `values` (at least a block's worth; unaligned).
@@ -183,6 +196,18 @@ impl<T: Real> Portable<T> {
 
 impl<T: Real> Block<T> for Portable<T> {
     type Mask = [bool; 16];
+    type Lo = Self;
+    type Hi = Self;
+
+    #[inline(always)]
+    unsafe fn lo(self) -> Self {
+        self
+    }
+
+    #[inline(always)]
+    unsafe fn hi(self) -> Self {
+        self
+    }
 
     #[inline(always)]
     unsafe fn load(row: &Row) -> Self {
@@ -289,7 +314,11 @@ impl<T: Real> Block<T> for Portable<T> {
 pub(crate) use x86::{Avx2, Avx512};
 
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
+mod half;
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
 mod x86;
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+pub(crate) use half::Avx2Half;
 
 /// Safe access to a [`Block`]'s operations: made only by [`run_blocks`] for
 /// the block type of kernels the CPU has, so its methods may call them.
@@ -338,6 +367,17 @@ impl<T: Real, V: Block<T>> Ops<T, V> {
         add_on_multiplier(a: V, b: V, one: V) -> V;
         sub_on_multiplier(a: V, b: V, one: V) -> V;
         store_except(v: V, m: V::Mask, row: &mut Row) -> V;
+        lo(v: V) -> V::Lo;
+        hi(v: V) -> V::Hi;
+    }
+
+    /// The operations of `V`'s halves (the same CPU features).
+    #[inline(always)]
+    pub(crate) fn halves(self) -> (Ops<T, V::Lo>, Ops<T, V::Hi>) {
+        (
+            Ops(core::marker::PhantomData),
+            Ops(core::marker::PhantomData),
+        )
     }
 
     /// `realtime::real::add_term` per lane: `w · x` for a sum's first
