@@ -580,4 +580,121 @@ mod tests {
         fused_addition_is_addition::<f64>();
         fused_addition_is_addition::<f32>();
     }
+
+    /// Every operation of a block on rows `a`, `b`, `c` (lanes of values):
+    /// the result rows and the masks' bits, computed on the whole block
+    /// and, where `V` has halves, on its halves (each writing its half of
+    /// the rows; where it has none, the block twice).
+    struct Halves<'a, T>(&'a [T], &'a [T], &'a [T]);
+
+    /// Each operation of [`Halves`] on one block type, `values` being the
+    /// first row's lanes in a slice (for `load_values`): its rows and bits.
+    #[inline(always)]
+    fn all_operations<T: Real, W: Block<T>>(
+        o: Ops<T, W>,
+        values: &[T],
+        rows: [&Row; 3],
+        out: &mut [Row; 14],
+    ) -> u32 {
+        let (a, b, c) = (o.load(rows[0]), o.load(rows[1]), o.load(rows[2]));
+        let one = o.splat(T::ONE);
+        let results = [
+            o.add(a, b),
+            o.sub(a, b),
+            o.clamp(a, c, b),
+            o.mul(a, b),
+            o.mul_add(a, b, c),
+            o.neg_mul_add(a, b, c),
+            o.clamp(a, b, c),
+            o.add_on_multiplier(a, b, one),
+            o.sub_on_multiplier(a, b, one),
+            o.select(o.lt(a, b), a, c),
+            o.select(o.gt(a, b), b, c),
+            o.select(o.or(o.non_finite(a), o.lt(b, c)), a, b),
+            o.load_values(values),
+        ];
+        for (v, row) in results.into_iter().zip(out.iter_mut()) {
+            o.store(v, row);
+        }
+        // `store_except` into the last row, which starts as `c`
+        o.store_except(a, o.and_not(o.gt(a, c), o.non_finite(b)), &mut out[13]);
+        o.bits(o.and_not(o.lt(a, b), o.non_finite(c)))
+    }
+
+    impl<T: Real> BlockWork<T> for Halves<'_, T> {
+        /// Per block: the whole's rows and bits, the halves' rows and bits.
+        type Output = Vec<(([Row; 14], u32), ([Row; 14], u32))>;
+
+        fn run<V: Block<T>>(self, o: Ops<T, V>) -> Self::Output {
+            let width = lanes::<T>();
+            let row = |values: &[T]| {
+                let mut r = Row::default();
+                r.lanes_mut().copy_from_slice(values);
+                r
+            };
+            let blocks = self.0.chunks_exact(width).zip(self.1.chunks_exact(width));
+            blocks
+                .zip(self.2.chunks_exact(width))
+                .map(|((a, b), c)| {
+                    let rows = [&row(a), &row(b), &row(c)];
+                    let mut whole = [row(c); 14];
+                    let whole_bits = all_operations(o, a, rows, &mut whole);
+                    let mut halves = [row(c); 14];
+                    let (lo, hi) = o.halves();
+                    let bits = all_operations(lo, a, rows, &mut halves)
+                        | all_operations(hi, a, rows, &mut halves);
+                    ((whole, whole_bits), (halves, bits))
+                })
+                .collect()
+        }
+    }
+
+    /// Each operation on a block's halves in turn gives its bits on the
+    /// whole block, for signed zeros, infinities, NaN and seeded random
+    /// values, on every kernel set (the AVX2 creep pass runs on halves).
+    fn halves_are_the_block<T: Real>() {
+        let special = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            1e-310,
+        ];
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut random = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 200.0 - 100.0
+        };
+        let n = 64 * lanes::<T>();
+        let mut pick = |i: usize| {
+            let x = if i.is_multiple_of(5) {
+                special[(i / 5) % special.len()]
+            } else {
+                random()
+            };
+            T::from_f64(x)
+        };
+        let a: Vec<T> = (0..n).map(&mut pick).collect();
+        let b: Vec<T> = (0..n).map(|i| pick(i + 1)).collect();
+        let c: Vec<T> = (0..n).map(|i| pick(i + 3)).collect();
+        for k in Kernels::all() {
+            for (i, ((whole, whole_bits), (halves, bits))) in
+                run_blocks(k, Halves(&a, &b, &c)).into_iter().enumerate()
+            {
+                assert_eq!(whole, halves, "{k:?}, block {i}: rows");
+                assert_eq!(whole_bits, bits, "{k:?}, block {i}: mask bits");
+            }
+        }
+    }
+
+    #[test]
+    fn each_half_of_a_block_gives_the_blocks_bits() {
+        halves_are_the_block::<f64>();
+        halves_are_the_block::<f32>();
+    }
 }
