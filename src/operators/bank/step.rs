@@ -405,10 +405,10 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
 /// independent update chains stand next to each other in the
 /// instruction stream (one threshold's chain — five updates and their sum —
 /// is long, and the scheduler holds only so many waiting operations); two
-/// where a block is two registers ([`Block::PAIRED_CREEP`]: AVX2), whose
-/// sixteen hold two thresholds' bounds and rows but not four. Whole
-/// slices of rows, so that no index arithmetic or bounds check stands
-/// between the vector operations.
+/// at a time where a set has sixteen registers ([`Block::PAIRED_CREEP`]:
+/// AVX2, whose blocks run this pass on each of their two registers in
+/// turn, see [`creep`]). Whole slices of rows, so that no index arithmetic
+/// or bounds check stands between the vector operations.
 #[inline(always)]
 fn creep_pass<T: Real, V: Block<T>>(
     o: Ops<T, V>,

@@ -60,7 +60,9 @@ pub(crate) trait Block<T: Real>: Copy {
     /// operation is lane by lane), where a block takes two registers.
     const CREEP_IN_HALVES: bool = false;
     /// The block's first half where [`Block::CREEP_IN_HALVES`] (its loads
-    /// and stores the first half of a row); otherwise the block.
+    /// and stores the first half of a row); otherwise the block. A half
+    /// needs no CPU feature its block does not ([`Ops::halves`] relies on
+    /// it).
     type Lo: Block<T>;
     /// The second half, as [`Block::Lo`].
     type Hi: Block<T>;
@@ -371,9 +373,11 @@ impl<T: Real, V: Block<T>> Ops<T, V> {
         hi(v: V) -> V::Hi;
     }
 
-    /// The operations of `V`'s halves (the same CPU features).
+    /// The operations of `V`'s halves.
     #[inline(always)]
     pub(crate) fn halves(self) -> (Ops<T, V::Lo>, Ops<T, V::Hi>) {
+        // sound: `Ops<T, V>` proves `V`'s features, and a half needs no
+        // feature its block does not (`Block::Lo`)
         (
             Ops(core::marker::PhantomData),
             Ops(core::marker::PhantomData),
