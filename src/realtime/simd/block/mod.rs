@@ -161,6 +161,64 @@ pub(crate) trait Block<T: Real>: Copy {
     }
 }
 
+/// The items of a block type without halves: [`Block::Lo`] and
+/// [`Block::Hi`] are the block itself.
+macro_rules! whole_block_halves {
+    () => {
+        type Lo = Self;
+        type Hi = Self;
+
+        #[inline(always)]
+        unsafe fn lo(self) -> Self {
+            self
+        }
+
+        #[inline(always)]
+        unsafe fn hi(self) -> Self {
+            self
+        }
+    };
+}
+pub(crate) use whole_block_halves;
+
+/// Operation `$name` of `b`, a block type of one register (its `f64` form
+/// first, its `f32` form second) compiled for `$feature`: `$pd` on the
+/// `f64` form or `$ps` on the `f32` form.
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+macro_rules! one_register_op {
+    ($b:ident, $feature:literal, $name:ident, $pd:ident, $ps:ident) => {
+        #[target_feature(enable = $feature)]
+        #[inline]
+        unsafe fn $name(self, b: Self) -> Self {
+            if is_f64::<T>() {
+                $b($pd(self.0, b.0), self.1)
+            } else {
+                $b(self.0, $ps(self.1, b.1))
+            }
+        }
+    };
+}
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+pub(crate) use one_register_op;
+
+/// [`one_register_op`] of three operands.
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+macro_rules! one_register_op3 {
+    ($b:ident, $feature:literal, $name:ident, $pd:ident, $ps:ident) => {
+        #[target_feature(enable = $feature)]
+        #[inline]
+        unsafe fn $name(self, a: Self, b: Self) -> Self {
+            if is_f64::<T>() {
+                $b($pd(self.0, a.0, b.0), self.1)
+            } else {
+                $b(self.0, $ps(self.1, a.1, b.1))
+            }
+        }
+    };
+}
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+pub(crate) use one_register_op3;
+
 /// Lanes in an array, one by one: any CPU.
 #[derive(Clone, Copy)]
 pub(crate) struct Portable<T>([T; 16]);
@@ -198,18 +256,7 @@ impl<T: Real> Portable<T> {
 
 impl<T: Real> Block<T> for Portable<T> {
     type Mask = [bool; 16];
-    type Lo = Self;
-    type Hi = Self;
-
-    #[inline(always)]
-    unsafe fn lo(self) -> Self {
-        self
-    }
-
-    #[inline(always)]
-    unsafe fn hi(self) -> Self {
-        self
-    }
+    whole_block_halves!();
 
     #[inline(always)]
     unsafe fn load(row: &Row) -> Self {
@@ -313,14 +360,13 @@ impl<T: Real> Block<T> for Portable<T> {
 }
 
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
-pub(crate) use x86::{Avx2, Avx512};
-
+mod avx2;
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
-mod half;
+mod avx512;
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
-mod x86;
+pub(crate) use avx2::Avx2;
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
-pub(crate) use half::Avx2Half;
+pub(crate) use avx512::Avx512;
 
 /// Safe access to a [`Block`]'s operations: made only by [`run_blocks`] for
 /// the block type of kernels the CPU has, so its methods may call them.
@@ -464,241 +510,4 @@ pub(crate) fn run_blocks<T: Real, W: BlockWork<T>>(k: super::Kernels, work: W) -
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::realtime::simd::Kernels;
-
-    /// `add_on_multiplier`, `add`, `sub_on_multiplier` and `sub` of every
-    /// pair of `values`, lane by lane.
-    struct AddBoth<'a, T>(&'a [T], &'a [T]);
-
-    impl<T: Real> BlockWork<T> for AddBoth<'_, T> {
-        type Output = [Vec<T>; 4];
-
-        fn run<V: Block<T>>(self, o: Ops<T, V>) -> Self::Output {
-            let one = o.splat(core::hint::black_box(T::ONE));
-            let mut out: [Vec<T>; 4] = Default::default();
-            let width = lanes::<T>();
-            for (a, b) in self.0.chunks_exact(width).zip(self.1.chunks_exact(width)) {
-                let (a, b) = (o.load_values(a), o.load_values(b));
-                let mut row = Row::default();
-                let results = [
-                    o.add_on_multiplier(a, b, one),
-                    o.add(a, b),
-                    o.sub_on_multiplier(a, b, one),
-                    o.sub(a, b),
-                ];
-                for (r, v) in results.into_iter().zip(&mut out) {
-                    o.store(r, &mut row);
-                    v.extend_from_slice(row.lanes::<T>());
-                }
-            }
-            out
-        }
-    }
-
-    /// Every pair of signed zeros, subnormals, ones, the largest values,
-    /// infinities, sums that cancel exactly and seeded random values: the
-    /// fused `b · 1 + a` gives the bits of `a + b`, and `−(b · 1) + a` those
-    /// of `a − b`, on every kernel set (one rounding of an exact product,
-    /// IEEE 754).
-    fn fused_addition_is_addition<T: Real>() {
-        let special = [
-            0.0,
-            -0.0,
-            1.0,
-            -1.0,
-            f64::MIN_POSITIVE,
-            -f64::MIN_POSITIVE,
-            1e-310,
-            -1e-310,
-            f64::MAX,
-            -f64::MAX,
-            f64::INFINITY,
-            -f64::INFINITY,
-            0.1,
-            -0.1,
-            3.0e38,
-            1.0e-45,
-        ];
-        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
-        let mut random = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
-        let mut values: Vec<T> = special.iter().map(|&x| T::from_f64(x)).collect();
-        for _ in 0..200 {
-            let x = random() * 10f64.powf(random() * 30.0);
-            values.push(T::from_f64(x));
-            values.push(T::from_f64(-x)); // exact cancellation: a + (−a)
-        }
-        let (mut a, mut b) = (Vec::new(), Vec::new());
-        for &x in &values {
-            for &y in &values {
-                a.push(x);
-                b.push(y);
-            }
-        }
-        let width = lanes::<T>();
-        while a.len() % width != 0 {
-            a.push(T::ZERO);
-            b.push(T::ZERO);
-        }
-        for k in Kernels::all() {
-            let [fused, added, fused_sub, subtracted] = run_blocks(k, AddBoth(&a, &b));
-            let bits = |x: T| x.to_f64().to_bits();
-            #[allow(clippy::eq_op)] // x != x: NaN
-            let nan = |x: T| x != x;
-            // the scalar result is the reference; ∞ − ∞ is a NaN on every
-            // path, its payload not compared
-            let same = |f: T, s: T, exact: T| {
-                if nan(exact) {
-                    nan(f) && nan(s)
-                } else {
-                    bits(f) == bits(exact) && bits(s) == bits(exact)
-                }
-            };
-            for i in 0..a.len() {
-                let (f, s) = (fused[i], added[i]);
-                assert!(
-                    same(f, s, a[i] + b[i]),
-                    "{k:?}: {:?} + {:?}: fused {f:?}, added {s:?}",
-                    a[i],
-                    b[i]
-                );
-                let (f, s) = (fused_sub[i], subtracted[i]);
-                assert!(
-                    same(f, s, a[i] - b[i]),
-                    "{k:?}: {:?} − {:?}: fused {f:?}, subtracted {s:?}",
-                    a[i],
-                    b[i]
-                );
-            }
-        }
-    }
-
-    #[test]
-    fn fused_addition_and_subtraction_give_their_bits_on_every_kernel_set() {
-        fused_addition_is_addition::<f64>();
-        fused_addition_is_addition::<f32>();
-    }
-
-    /// Every operation of a block on rows `a`, `b`, `c` (lanes of values):
-    /// the result rows and the masks' bits, computed on the whole block
-    /// and, where `V` has halves, on its halves (each writing its half of
-    /// the rows; where it has none, the block twice).
-    struct Halves<'a, T>(&'a [T], &'a [T], &'a [T]);
-
-    /// Each operation of [`Halves`] on one block type, `values` being the
-    /// first row's lanes in a slice (for `load_values`): its rows and bits.
-    #[inline(always)]
-    fn all_operations<T: Real, W: Block<T>>(
-        o: Ops<T, W>,
-        values: &[T],
-        rows: [&Row; 3],
-        out: &mut [Row; 14],
-    ) -> u32 {
-        let (a, b, c) = (o.load(rows[0]), o.load(rows[1]), o.load(rows[2]));
-        let one = o.splat(T::ONE);
-        let results = [
-            o.add(a, b),
-            o.sub(a, b),
-            o.clamp(a, c, b),
-            o.mul(a, b),
-            o.mul_add(a, b, c),
-            o.neg_mul_add(a, b, c),
-            o.clamp(a, b, c),
-            o.add_on_multiplier(a, b, one),
-            o.sub_on_multiplier(a, b, one),
-            o.select(o.lt(a, b), a, c),
-            o.select(o.gt(a, b), b, c),
-            o.select(o.or(o.non_finite(a), o.lt(b, c)), a, b),
-            o.load_values(values),
-        ];
-        for (v, row) in results.into_iter().zip(out.iter_mut()) {
-            o.store(v, row);
-        }
-        // `store_except` into the last row, which starts as `c`
-        o.store_except(a, o.and_not(o.gt(a, c), o.non_finite(b)), &mut out[13]);
-        o.bits(o.and_not(o.lt(a, b), o.non_finite(c)))
-    }
-
-    impl<T: Real> BlockWork<T> for Halves<'_, T> {
-        /// Per block: the whole's rows and bits, the halves' rows and bits.
-        type Output = Vec<(([Row; 14], u32), ([Row; 14], u32))>;
-
-        fn run<V: Block<T>>(self, o: Ops<T, V>) -> Self::Output {
-            let width = lanes::<T>();
-            let row = |values: &[T]| {
-                let mut r = Row::default();
-                r.lanes_mut().copy_from_slice(values);
-                r
-            };
-            let blocks = self.0.chunks_exact(width).zip(self.1.chunks_exact(width));
-            blocks
-                .zip(self.2.chunks_exact(width))
-                .map(|((a, b), c)| {
-                    let rows = [&row(a), &row(b), &row(c)];
-                    let mut whole = [row(c); 14];
-                    let whole_bits = all_operations(o, a, rows, &mut whole);
-                    let mut halves = [row(c); 14];
-                    let (lo, hi) = o.halves();
-                    let bits = all_operations(lo, a, rows, &mut halves)
-                        | all_operations(hi, a, rows, &mut halves);
-                    ((whole, whole_bits), (halves, bits))
-                })
-                .collect()
-        }
-    }
-
-    /// Each operation on a block's halves in turn gives its bits on the
-    /// whole block, for signed zeros, infinities, NaN and seeded random
-    /// values, on every kernel set (the AVX2 creep pass runs on halves).
-    fn halves_are_the_block<T: Real>() {
-        let special = [
-            0.0,
-            -0.0,
-            1.0,
-            -1.0,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NAN,
-            1e-310,
-        ];
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut random = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 200.0 - 100.0
-        };
-        let n = 64 * lanes::<T>();
-        let mut pick = |i: usize| {
-            let x = if i.is_multiple_of(5) {
-                special[(i / 5) % special.len()]
-            } else {
-                random()
-            };
-            T::from_f64(x)
-        };
-        let a: Vec<T> = (0..n).map(&mut pick).collect();
-        let b: Vec<T> = (0..n).map(|i| pick(i + 1)).collect();
-        let c: Vec<T> = (0..n).map(|i| pick(i + 3)).collect();
-        for k in Kernels::all() {
-            for (i, ((whole, whole_bits), (halves, bits))) in
-                run_blocks(k, Halves(&a, &b, &c)).into_iter().enumerate()
-            {
-                assert_eq!(whole, halves, "{k:?}, block {i}: rows");
-                assert_eq!(whole_bits, bits, "{k:?}, block {i}: mask bits");
-            }
-        }
-    }
-
-    #[test]
-    fn each_half_of_a_block_gives_the_blocks_bits() {
-        halves_are_the_block::<f64>();
-        halves_are_the_block::<f32>();
-    }
-}
+mod tests;
