@@ -181,8 +181,8 @@ macro_rules! whole_block_halves {
 }
 pub(crate) use whole_block_halves;
 
-/// Operation `$name` of `b`, a block type of one register (its `f64` form
-/// first, its `f32` form second) compiled for `$feature`: `$pd` on the
+/// Operation `$name` of the block type `$b`, one register (its `f64` form
+/// first, its `f32` form second), compiled for `$feature`: `$pd` on the
 /// `f64` form or `$ps` on the `f32` form.
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 macro_rules! one_register_op {
