@@ -257,10 +257,10 @@ pub(crate) struct Avx2(Avx2Half<0>, Avx2Half<1>);
 /// Operation `$name` of [`Avx2`], taking blocks `$arg…`: the half's
 /// operation on each half.
 macro_rules! on_both_halves {
-    ($name:ident($($arg:ident),*) -> $out:ident) => {
+    ($name:ident($($arg:ident),*)) => {
         #[target_feature(enable = "avx2,fma")]
         #[inline]
-        unsafe fn $name($($arg: Self),*) -> $out {
+        unsafe fn $name($($arg: Self),*) -> Self {
             // SAFETY: AVX2 by the caller's contract.
             unsafe {
                 Avx2(
@@ -330,19 +330,19 @@ impl<T: Real> Block<T> for Avx2 {
         unsafe { Avx2(Block::<T>::splat(x), Block::<T>::splat(x)) }
     }
 
-    on_both_halves!(add(self, b) -> Self);
-    on_both_halves!(sub(self, b) -> Self);
-    on_both_halves!(min(self, b) -> Self);
-    on_both_halves!(max(self, b) -> Self);
-    on_both_halves!(mul(self, b) -> Self);
-    on_both_halves!(mul_add(self, a, b) -> Self);
-    on_both_halves!(neg_mul_add(self, a, b) -> Self);
-    on_both_halves!(lt(self, b) -> Self);
-    on_both_halves!(gt(self, b) -> Self);
-    on_both_halves!(non_finite(self) -> Self);
-    on_both_halves!(select(m, a, b) -> Self);
-    on_both_halves!(or(a, b) -> Self);
-    on_both_halves!(and_not(a, b) -> Self);
+    on_both_halves!(add(self, b));
+    on_both_halves!(sub(self, b));
+    on_both_halves!(min(self, b));
+    on_both_halves!(max(self, b));
+    on_both_halves!(mul(self, b));
+    on_both_halves!(mul_add(self, a, b));
+    on_both_halves!(neg_mul_add(self, a, b));
+    on_both_halves!(lt(self, b));
+    on_both_halves!(gt(self, b));
+    on_both_halves!(non_finite(self));
+    on_both_halves!(select(m, a, b));
+    on_both_halves!(or(a, b));
+    on_both_halves!(and_not(a, b));
 
     #[target_feature(enable = "avx2,fma")]
     #[inline]
