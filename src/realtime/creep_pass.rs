@@ -27,11 +27,11 @@ pub(crate) const LANES: usize = 4;
 /// [`reduce`]), the same for every instruction set: the result does not
 /// depend on the CPU. The weighted rows go into partial sums that start
 /// from their first product ([`crate::realtime::real::add_term`]). A
-/// threshold's rows are summed from its first row, not from zero: the two
-/// differ only where every row is `−0`, and no state holds a `−0` (a state
-/// set from outside has its zeros made `+0`, and an update never makes one:
-/// `χ − g χ` of `±0` is `+0`, and a zero sum of opposite signs is `+0`) —
-/// so the bank, which sums its rows from zero, has the same bits.
+/// threshold's rows are summed from its first row, not from zero, here and
+/// in the bank. (The two would differ only where every row is `−0`, and no
+/// state holds a `−0`: a state set from outside has its zeros made `+0`,
+/// and an update never makes one — `χ − g χ` of `±0` is `+0`, and a zero
+/// sum of opposite signs is `+0`.)
 #[inline(always)]
 pub(crate) fn advance<T: Real>(
     chi: &mut [T],
