@@ -3,12 +3,12 @@
 //! Per channel-step the bank's block step does a fixed number of vector-lane
 //! operations (adds, subtractions, multiplies, fused multiply-adds, `min`,
 //! `max`, compares and selects; loads and stores not counted): `24 + 8 n +
-//! n_C (3 + 5 m)` — 456 at the paper's order (12 plays, 12 creep thresholds
+//! n_C (2 + 5 m)` — 444 at the paper's order (12 plays, 12 creep thresholds
 //! × 5 eigenvalues): a play's bounds (`(t ∓ r) − C`, two operations each),
 //! clamp, fault select and weighted term (one fused operation with its
-//! sum); a creep threshold's bounds and
-//! weighted term, and per eigenvalue the clamp, the update's two fused
-//! operations and the row's add. The CPU's rate for that kind of work is measured here,
+//! sum); a creep threshold's bounds, weighted term and the `m − 1`
+//! additions of its rows, and per eigenvalue the clamp and the update's two
+//! fused operations. The CPU's rate for that kind of work is measured here,
 //! on the widest registers the bank uses on it, with a loop of independent
 //! creep-element updates (`min`, `max`, the two fused operations of
 //! `g c + (χ − g χ)`, the row's add) that has no loads, stores or
@@ -16,7 +16,7 @@
 //! same loop with the row's addition fused on the multiplier (`b · 1 + a`,
 //! as those kernels do it for half of the rows): the fastest of the rates
 //! (each the best of seven runs, with 4, 8 and 16 independent chains: 16
-//! spill on AVX2's registers) divided by 456 is the bound in
+//! spill on AVX2's registers) divided by 444 is the bound in
 //! channel-steps per second on one core. A bank must also load and store
 //! its state at every step (a row per update); the same updates with each
 //! one's row loaded from and stored to L1 (`mix::streamed`, the best of
@@ -60,7 +60,7 @@ use mfcbeam::realtime::{simd::Kernels, Compensated, Real};
 
 /// Vector-lane operations per channel-step of the bank's block step.
 fn lane_operations(n: usize, nc: usize, m: usize) -> usize {
-    24 + 8 * n + nc * (3 + 5 * m)
+    24 + 8 * n + nc * (2 + 5 * m)
 }
 
 /// The core's clock while it runs this, in GHz: a chain of dependent
