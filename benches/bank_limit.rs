@@ -11,19 +11,23 @@
 //! fused operations. The CPU's rate for that kind of work is measured here,
 //! on the widest registers the bank uses on it, with a loop of independent
 //! creep-element updates (`min`, `max`, the two fused operations of
-//! `g c + (χ − g χ)`, the row's add) that has no loads, stores or
-//! dependencies to wait for, and where the bank's kernels have AVX-512 the
-//! same loop with the row's addition fused on the multiplier (`b · 1 + a`,
-//! as those kernels do it for half of the rows): the fastest of the rates
-//! (each the best of seven runs, with 4, 8 and 16 independent chains: 16
-//! spill on AVX2's registers) divided by 444 is the bound in
-//! channel-steps per second on one core. A bank must also load and store
-//! its state at every step (a row per update); the same updates with each
-//! one's row loaded from and stored to L1 (`mix::streamed`, the best of
-//! seven runs with each chain count) give the rate a bank can reach at best, and each row is printed as a
-//! share of that too ("state in L1"). Where that rate is the higher (AVX2,
-//! whose register mix cannot both hide its latency and fit in sixteen
-//! registers), it is the bound.
+//! `g c + (χ − g χ)`, the row's addition) that has no loads, stores or
+//! dependencies to wait for, in three forms: the row's addition as an add,
+//! fused on the multiplier (`b · 1 + a`, the same sum), or the one in even
+//! chains and the other in odd ones. A Zen core runs adds, `min` and `max`
+//! on one pair of pipes and fused operations on the other, so only the
+//! last form balances them (the AVX-512 kernels fuse half their rows'
+//! additions; on a Zen 4 it ran 9 % faster than the other two, which were
+//! all the bound had before). The fastest of the rates (each the best of
+//! seven runs, with 4, 8 and 16 independent chains: 16 spill on AVX2's
+//! registers) divided by 444 is the bound in channel-steps per second on
+//! one core. A bank must also load and store its state at every step (a
+//! row per update); the same updates with each one's row loaded from and
+//! stored to L1 (`mix::streamed`, in each form, the best of seven runs
+//! with each chain count) give the rate a bank can reach at best, and each
+//! row is printed as a share of that too ("state in L1"). Where that rate
+//! is the higher (AVX2, whose register mix cannot both hide its latency and
+//! fit in sixteen registers), it is the bound.
 //!
 //! First a crossover scan: 2 to 64 blocks on one thread against a forced
 //! split over two (`Workers::with_min_blocks(0).with_adaptive(false)`), and the smallest block
@@ -106,54 +110,80 @@ fn clock_ghz() -> (f64, &'static str) {
     }
 }
 
+/// How a creep update's row addition is done in a mix: as an add (on the
+/// adder's pipes, with `min` and `max`), as the fused `b · 1 + a` (the same
+/// sum, on the multiplier's pipes, with the two fused operations), or the
+/// one way in even chains and the other in odd ones. A Zen core has two
+/// pipes of each kind, so only the last balances them (three operations
+/// of each kind in two updates); which form is fastest depends on the CPU,
+/// and the bound takes the fastest.
+#[derive(Clone, Copy, Debug)]
+enum Form {
+    Adds,
+    Fused,
+    HalfFused,
+}
+
+impl Form {
+    const ALL: [Form; 3] = [Form::Adds, Form::Fused, Form::HalfFused];
+
+    fn describe(self) -> &'static str {
+        match self {
+            Form::Adds => "its row additions as adds",
+            Form::Fused => "its row additions fused on the multiplier",
+            Form::HalfFused => "half its row additions fused on the multiplier",
+        }
+    }
+}
+
+/// The fastest of `rates` (a chain count and its rate, `None` where not
+/// measured), printed with the others as `what` on `k`'s registers.
+fn fastest<T: Real>(k: Kernels, what: &str, rates: &[(usize, Option<f64>)]) -> Option<f64> {
+    let (chains, rate) = rates
+        .iter()
+        .filter_map(|&(c, r)| Some((c, r?)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    let each: Vec<String> = rates
+        .iter()
+        .filter_map(|&(c, r)| Some(format!("{c} chains {:.1}", r?)))
+        .collect();
+    println!(
+        "{} on {}'s registers: {what}: {rate:.1} lane-operations/ns ({chains} chains; {})",
+        T::NAME,
+        k.name(),
+        each.join(", ")
+    );
+    Some(rate)
+}
+
 /// Lane operations per nanosecond of the creep-element update on the
-/// registers the bank's kernels use for `T` (measured: for each chain
-/// count the best of seven runs — the CPU can do at least that; a slower
-/// run is a neighbour's on a shared machine, and a median once came out
-/// 18 % low on a Zen 4 — and the best over the counts, [`mix::run`]).
+/// registers the bank's kernels use for `T` (measured: for each form and
+/// chain count the best of seven runs — the CPU can do at least that; a
+/// slower run is a neighbour's on a shared machine, and a median once came
+/// out 18 % low on a Zen 4 — and the best over them, [`mix::run`]).
 fn peak_lane_operations_per_ns<T: Real>(k: Kernels) -> f64 {
     let mut peak = 0.0f64;
-    for fused in [false, true] {
+    for form in Form::ALL {
         let rates = [
-            (4, peak_with_chains::<T, 4>(k, fused)),
-            (8, peak_with_chains::<T, 8>(k, fused)),
-            (16, peak_with_chains::<T, 16>(k, fused)),
+            (4, peak_with_chains::<T, 4>(k, form)),
+            (8, peak_with_chains::<T, 8>(k, form)),
+            (16, peak_with_chains::<T, 16>(k, form)),
         ];
-        let Some((chains, rate)) = rates
-            .iter()
-            .filter_map(|&(c, r)| Some((c, r?)))
-            .max_by(|a, b| a.1.total_cmp(&b.1))
-        else {
-            continue;
-        };
-        let each: Vec<String> = rates
-            .iter()
-            .filter_map(|&(c, r)| Some(format!("{c} chains {:.1}", r?)))
-            .collect();
-        println!(
-            "{} on {}'s registers: the creep mix {}: {rate:.1} lane-operations/ns ({chains} chains; {})",
-            T::NAME,
-            k.name(),
-            if fused {
-                "with its row addition fused on the multiplier"
-            } else {
-                "as adds"
-            },
-            each.join(", ")
-        );
-        peak = peak.max(rate);
+        let what = format!("the creep mix with {}", form.describe());
+        if let Some(rate) = fastest::<T>(k, &what, &rates) {
+            peak = peak.max(rate);
+        }
     }
     peak
 }
 
-/// [`peak_lane_operations_per_ns`] for one chain count and form; `None`
-/// for a form `k`'s kernels do not use.
-fn peak_with_chains<T: Real, const CHAINS: usize>(k: Kernels, fused: bool) -> Option<f64> {
+/// [`peak_lane_operations_per_ns`] for one chain count and form.
+fn peak_with_chains<T: Real, const CHAINS: usize>(k: Kernels, form: Form) -> Option<f64> {
     // the same number of updates for every count
     let iterations = 32_000_000 / CHAINS;
     best_of_seven(|| {
         let t0 = Instant::now();
-        let lanes = mix::run::<T, CHAINS>(k, iterations, fused)?;
+        let lanes = mix::run::<T, CHAINS>(k, iterations, form)?;
         let ns = t0.elapsed().as_nanos() as f64;
         Some((iterations * CHAINS * 5 * lanes) as f64 / ns)
     })
@@ -167,27 +197,32 @@ fn best_of_seven(mut rate: impl FnMut() -> Option<f64>) -> Option<f64> {
 }
 
 /// Lane operations per nanosecond of the same updates with each one's
-/// state loaded from and stored to L1 (for each chain count the best of
-/// seven runs, and the best over the counts; `None` where the bank's
+/// state loaded from and stored to L1 (for each form and chain count the
+/// best of seven runs, and the best over them; `None` where the bank's
 /// kernels `k` have no vector registers).
 fn streamed_lane_operations_per_ns<T: Real>(k: Kernels) -> Option<f64> {
-    [
-        streamed_with_chains::<T, 4>(k),
-        streamed_with_chains::<T, 8>(k),
-        streamed_with_chains::<T, 16>(k),
-    ]
-    .into_iter()
-    .flatten()
-    .max_by(f64::total_cmp)
+    let mut peak: Option<f64> = None;
+    for form in Form::ALL {
+        let rates = [
+            (4, streamed_with_chains::<T, 4>(k, form)),
+            (8, streamed_with_chains::<T, 8>(k, form)),
+            (16, streamed_with_chains::<T, 16>(k, form)),
+        ];
+        let what = format!("the creep mix with its state in L1, {}", form.describe());
+        if let Some(rate) = fastest::<T>(k, &what, &rates) {
+            peak = Some(peak.map_or(rate, |p| p.max(rate)));
+        }
+    }
+    peak
 }
 
-/// [`streamed_lane_operations_per_ns`] for one chain count.
-fn streamed_with_chains<T: Real, const CHAINS: usize>(k: Kernels) -> Option<f64> {
+/// [`streamed_lane_operations_per_ns`] for one chain count and form.
+fn streamed_with_chains<T: Real, const CHAINS: usize>(k: Kernels, form: Form) -> Option<f64> {
     const ITERATIONS: usize = 200_000;
     let mut rows = mix::Rows::new::<T>();
     let best = best_of_seven(|| {
         let t0 = Instant::now();
-        let lanes = mix::streamed::<T, CHAINS>(k, &mut rows, ITERATIONS)?;
+        let lanes = mix::streamed::<T, CHAINS>(k, &mut rows, ITERATIONS, form)?;
         let ns = t0.elapsed().as_nanos() as f64;
         let updates = ITERATIONS * mix::STREAMED_ROWS * 64 / (std::mem::size_of::<T>() * lanes);
         Some((updates * 5 * lanes) as f64 / ns)
@@ -197,51 +232,68 @@ fn streamed_with_chains<T: Real, const CHAINS: usize>(k: Kernels) -> Option<f64>
 }
 
 mod mix {
-    //! Independent chains of the creep-element update on registers.
+    //! Independent chains of the creep-element update, on registers or
+    //! with their state in L1.
+    use super::Form;
     use mfcbeam::realtime::{simd::Kernels, Real};
 
+    /// The form's number for the kernels' const parameter.
+    const fn code(form: Form) -> u8 {
+        match form {
+            Form::Adds => 0,
+            Form::Fused => 1,
+            Form::HalfFused => 2,
+        }
+    }
+
     /// Runs `iterations` of `CHAINS` chains on the registers of kernel set
-    /// `k` for `T` (`fused`: the additions on the multiplier, where the
-    /// set does them there); returns the lanes per register, or `None` for
-    /// a form the set does not use. The callers try 4, 8 and 16
-    /// chains (each divides the streamed rows of every register width): a
-    /// chain holds two registers, its state and its row sum, so 16 chains
-    /// spill on AVX2's 16 registers (on a Zen 1 at half the rate of 4) and
-    /// a little on AVX-512's 32, while 4 may not hide the latency on a CPU
-    /// with more or wider pipes.
+    /// `k` for `T`, their rows added in `form`; returns the lanes per
+    /// register. The callers try 4, 8 and 16 chains (each divides the
+    /// streamed rows of every register width): a chain holds two
+    /// registers, its state and its row sum, so 16 chains spill on AVX2's
+    /// 16 registers (on a Zen 1 at half the rate of 4) and a little on
+    /// AVX-512's 32, while 4 may not hide the latency on a CPU with more or
+    /// wider pipes. `None` for a fused form without vector registers.
     pub fn run<T: Real, const CHAINS: usize>(
         k: Kernels,
         iterations: usize,
-        fused: bool,
+        form: Form,
     ) -> Option<usize> {
         let f64_ = T::NAME == "f64";
         #[cfg(target_arch = "x86_64")]
         {
+            macro_rules! each_form {
+                ($kernel:ident) => {
+                    match form {
+                        Form::Adds => x86::$kernel::<CHAINS, { code(Form::Adds) }>(iterations),
+                        Form::Fused => x86::$kernel::<CHAINS, { code(Form::Fused) }>(iterations),
+                        Form::HalfFused => {
+                            x86::$kernel::<CHAINS, { code(Form::HalfFused) }>(iterations)
+                        }
+                    }
+                };
+            }
             // SAFETY: a `Kernels` value exists only where the CPU has its
             // features.
             unsafe {
                 if k.is_avx512() {
-                    return Some(match (f64_, fused) {
-                        (true, false) => x86::avx512_f64::<CHAINS>(iterations),
-                        (false, false) => x86::avx512_f32::<CHAINS>(iterations),
-                        (true, true) => x86::avx512_f64_fused::<CHAINS>(iterations),
-                        (false, true) => x86::avx512_f32_fused::<CHAINS>(iterations),
+                    return Some(if f64_ {
+                        each_form!(avx512_f64)
+                    } else {
+                        each_form!(avx512_f32)
                     });
-                }
-                if fused {
-                    return None;
                 }
                 if k.is_avx2() {
                     return Some(if f64_ {
-                        x86::avx2_f64::<CHAINS>(iterations)
+                        each_form!(avx2_f64)
                     } else {
-                        x86::avx2_f32::<CHAINS>(iterations)
+                        each_form!(avx2_f32)
                     });
                 }
             }
         }
         let _ = (f64_, k);
-        (!fused).then(|| scalar::<T, CHAINS>(iterations))
+        matches!(form, Form::Adds).then(|| scalar::<T, CHAINS>(iterations))
     }
 
     /// Rows of state for [`streamed`]: 64 cache lines (4 KiB, in L1).
@@ -271,31 +323,47 @@ mod mix {
         k: Kernels,
         rows: &mut Rows,
         iterations: usize,
+        form: Form,
     ) -> Option<usize> {
         let f64_ = T::NAME == "f64";
         let p = rows.0.as_mut_ptr().cast::<u8>();
         #[cfg(target_arch = "x86_64")]
         {
+            macro_rules! each_form {
+                ($kernel:ident) => {
+                    match form {
+                        Form::Adds => {
+                            x86::$kernel::<CHAINS, { code(Form::Adds) }>(p.cast(), iterations)
+                        }
+                        Form::Fused => {
+                            x86::$kernel::<CHAINS, { code(Form::Fused) }>(p.cast(), iterations)
+                        }
+                        Form::HalfFused => {
+                            x86::$kernel::<CHAINS, { code(Form::HalfFused) }>(p.cast(), iterations)
+                        }
+                    }
+                };
+            }
             // SAFETY: a `Kernels` value exists only where the CPU has its
             // features; the rows are STREAMED_ROWS cache lines.
             unsafe {
                 if k.is_avx512() {
                     return Some(if f64_ {
-                        x86::avx512_f64_streamed::<CHAINS>(p.cast(), iterations)
+                        each_form!(avx512_f64_streamed)
                     } else {
-                        x86::avx512_f32_streamed::<CHAINS>(p.cast(), iterations)
+                        each_form!(avx512_f32_streamed)
                     });
                 }
                 if k.is_avx2() {
                     return Some(if f64_ {
-                        x86::avx2_f64_streamed::<CHAINS>(p.cast(), iterations)
+                        each_form!(avx2_f64_streamed)
                     } else {
-                        x86::avx2_f32_streamed::<CHAINS>(p.cast(), iterations)
+                        each_form!(avx2_f32_streamed)
                     });
                 }
             }
         }
-        let _ = (f64_, p, iterations, k);
+        let _ = (f64_, p, iterations, k, form);
         None
     }
 
@@ -320,33 +388,27 @@ mod mix {
     mod x86 {
         use core::arch::x86_64::*;
 
-        macro_rules! chains {
-            ($name:ident, $feature:literal, $t:ty, $set1:ident, $min:ident, $max:ident, $add:ident, $fma:ident, $fnma:ident, $lanes:expr) => {
-                #[target_feature(enable = $feature)]
-                pub unsafe fn $name<const CHAINS: usize>(iterations: usize) -> usize {
-                    let mut x: [$t; CHAINS] = [$set1(std::hint::black_box(0.5)); CHAINS];
-                    let mut r: [$t; CHAINS] = [$set1(0.0); CHAINS];
-                    let (lo, hi, g) = ($set1(-1.0), $set1(1.0), $set1(std::hint::black_box(0.25)));
-                    for _ in 0..iterations {
-                        for k in 0..CHAINS {
-                            let c = $max($min(x[k], hi), lo);
-                            x[k] = $fma(g, c, $fnma(g, x[k], x[k]));
-                            r[k] = $add(r[k], x[k]);
-                        }
-                    }
-                    std::hint::black_box((x, r));
-                    $lanes
+        /// Chain `k`'s row sum `r` with `x` added in form `FORM` (see
+        /// [`super::code`]): `b · 1 + a` fused, or an add.
+        macro_rules! row_add {
+            ($form:ident, $k:expr, $r:expr, $x:expr, $one:expr, $add:ident, $fma:ident) => {
+                if $form == 1 || ($form == 2 && $k % 2 == 1) {
+                    $fma($x, $one, $r)
+                } else {
+                    $add($r, $x)
                 }
             };
         }
-        // The same updates with the row's addition as `b · 1 + a` fused
-        // (the same sums, on the multiplier's pipes), as the AVX-512 bank
-        // does it for half of its rows: the rate the CPU reaches when its
-        // adders and multipliers share the work.
-        macro_rules! fused_chains {
-            ($name:ident, $t:ty, $set1:ident, $min:ident, $max:ident, $fma:ident, $fnma:ident, $lanes:expr) => {
-                #[target_feature(enable = "avx2,fma,avx512f")]
-                pub unsafe fn $name<const CHAINS: usize>(iterations: usize) -> usize {
+
+        // `CHAINS` independent updates on registers, their rows added in
+        // form `FORM`. The `1` of the fused form is hidden from the
+        // compiler, which would otherwise make it an add.
+        macro_rules! chains {
+            ($name:ident, $feature:literal, $t:ty, $set1:ident, $min:ident, $max:ident, $add:ident, $fma:ident, $fnma:ident, $lanes:expr) => {
+                #[target_feature(enable = $feature)]
+                pub unsafe fn $name<const CHAINS: usize, const FORM: u8>(
+                    iterations: usize,
+                ) -> usize {
                     let mut x: [$t; CHAINS] = [$set1(std::hint::black_box(0.5)); CHAINS];
                     let mut r: [$t; CHAINS] = [$set1(0.0); CHAINS];
                     let (lo, hi, g) = ($set1(-1.0), $set1(1.0), $set1(std::hint::black_box(0.25)));
@@ -355,7 +417,7 @@ mod mix {
                         for k in 0..CHAINS {
                             let c = $max($min(x[k], hi), lo);
                             x[k] = $fma(g, c, $fnma(g, x[k], x[k]));
-                            r[k] = $fma(x[k], one, r[k]);
+                            r[k] = row_add!(FORM, k, r[k], x[k], one, $add, $fma);
                         }
                     }
                     std::hint::black_box((x, r));
@@ -363,36 +425,20 @@ mod mix {
                 }
             };
         }
-        fused_chains!(
-            avx512_f64_fused,
-            __m512d,
-            _mm512_set1_pd,
-            _mm512_min_pd,
-            _mm512_max_pd,
-            _mm512_fmadd_pd,
-            _mm512_fnmadd_pd,
-            8
-        );
-        fused_chains!(
-            avx512_f32_fused,
-            __m512,
-            _mm512_set1_ps,
-            _mm512_min_ps,
-            _mm512_max_ps,
-            _mm512_fmadd_ps,
-            _mm512_fnmadd_ps,
-            16
-        );
         // The same updates with each chain's row loaded and stored at
         // every update, `CHAINS` rows at a time, over all the rows.
         macro_rules! streamed {
             ($name:ident, $feature:literal, $e:ty, $t:ty, $set1:ident, $load:ident, $store:ident, $min:ident, $max:ident, $add:ident, $fma:ident, $fnma:ident, $lanes:expr) => {
                 #[target_feature(enable = $feature)]
-                pub unsafe fn $name<const CHAINS: usize>(p: *mut $e, iterations: usize) -> usize {
+                pub unsafe fn $name<const CHAINS: usize, const FORM: u8>(
+                    p: *mut $e,
+                    iterations: usize,
+                ) -> usize {
                     // SAFETY (all): `p` is STREAMED_ROWS aligned cache lines.
                     let rows = super::STREAMED_ROWS * 64 / (std::mem::size_of::<$e>() * $lanes);
                     let mut r: [$t; CHAINS] = [$set1(0.0); CHAINS];
                     let (lo, hi, g) = ($set1(-1.0), $set1(1.0), $set1(std::hint::black_box(0.25)));
+                    let one = $set1(std::hint::black_box(1.0));
                     for _ in 0..iterations {
                         for j in (0..rows).step_by(CHAINS) {
                             for k in 0..CHAINS {
@@ -401,7 +447,7 @@ mod mix {
                                 let c = $max($min(x, hi), lo);
                                 let x = $fma(g, c, $fnma(g, x, x));
                                 unsafe { $store(at, x) };
-                                r[k] = $add(r[k], x);
+                                r[k] = row_add!(FORM, k, r[k], x, one, $add, $fma);
                             }
                         }
                     }
@@ -670,7 +716,7 @@ struct Bound {
 /// The bound: the register mix's rate, or the streamed mix's where that is
 /// faster. On AVX2's sixteen registers the register mix's chains are too
 /// few to hide their latency at 8 and spill at 16, and the same updates
-/// with their state in L1 ran faster (47 lane-operations/ns against 43 in
+/// with their state in L1 ran faster (52 lane-operations/ns against 44 in
 /// `f64` on a Zen 4): a rate the CPU reached is no bound if it can go faster.
 fn bound_on<T: Real>(k: Kernels, ops: usize) -> Bound {
     let in_registers = peak_lane_operations_per_ns::<T>(k);
