@@ -162,19 +162,27 @@ fn fastest<T: Real>(k: Kernels, what: &str, rates: &[(usize, Option<f64>)]) -> O
 /// slower run is a neighbour's on a shared machine, and a median once came
 /// out 18 % low on a Zen 4 — and the best over them, [`mix::run`]).
 fn peak_lane_operations_per_ns<T: Real>(k: Kernels) -> f64 {
-    let mut peak = 0.0f64;
-    for form in Form::ALL {
-        let rates = [
+    fastest_form::<T>(k, "the creep mix with ", |form| {
+        [
             (4, peak_with_chains::<T, 4>(k, form)),
             (8, peak_with_chains::<T, 8>(k, form)),
             (16, peak_with_chains::<T, 16>(k, form)),
-        ];
-        let what = format!("the creep mix with {}", form.describe());
-        if let Some(rate) = fastest::<T>(k, &what, &rates) {
-            peak = peak.max(rate);
-        }
-    }
-    peak
+        ]
+    })
+    .unwrap_or(0.0)
+}
+
+/// The fastest over the forms of a mix, each form's rates at 4, 8 and 16
+/// chains from `rates` and printed as `what` followed by the form.
+fn fastest_form<T: Real>(
+    k: Kernels,
+    what: &str,
+    rates: impl Fn(Form) -> [(usize, Option<f64>); 3],
+) -> Option<f64> {
+    Form::ALL
+        .into_iter()
+        .filter_map(|form| fastest::<T>(k, &format!("{what}{}", form.describe()), &rates(form)))
+        .max_by(f64::total_cmp)
 }
 
 /// [`peak_lane_operations_per_ns`] for one chain count and form.
@@ -201,19 +209,13 @@ fn best_of_seven(mut rate: impl FnMut() -> Option<f64>) -> Option<f64> {
 /// best of seven runs, and the best over them; `None` where the bank's
 /// kernels `k` have no vector registers).
 fn streamed_lane_operations_per_ns<T: Real>(k: Kernels) -> Option<f64> {
-    let mut peak: Option<f64> = None;
-    for form in Form::ALL {
-        let rates = [
+    fastest_form::<T>(k, "the creep mix with its state in L1, ", |form| {
+        [
             (4, streamed_with_chains::<T, 4>(k, form)),
             (8, streamed_with_chains::<T, 8>(k, form)),
             (16, streamed_with_chains::<T, 16>(k, form)),
-        ];
-        let what = format!("the creep mix with its state in L1, {}", form.describe());
-        if let Some(rate) = fastest::<T>(k, &what, &rates) {
-            peak = Some(peak.map_or(rate, |p| p.max(rate)));
-        }
-    }
-    peak
+        ]
+    })
 }
 
 /// [`streamed_lane_operations_per_ns`] for one chain count and form.
