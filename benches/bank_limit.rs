@@ -703,7 +703,8 @@ fn time_bank<T: Real>(channels: usize, mode: Mode<'_>) -> f64 {
 /// lane operations per channel.
 struct Bound {
     /// The creep mix's rate, lane operations per ns: the faster of the
-    /// register and streamed mixes (see [`bound_on`]).
+    /// register and streamed mixes, each in its fastest form (see
+    /// [`bound_on`]).
     peak: f64,
     /// The same updates with their state in memory: what a bank, which
     /// must load and store its state, can reach at best (`None` where `k`

@@ -497,9 +497,10 @@ fn creep_pass<T: Real, V: Block<T>>(
 
 /// Two thresholds' rows of [`creep_pass`] with the creep input `uc`, `a`
 /// and `b` each a threshold's state rows (one per eigenvalue) and its
-/// threshold: every eigenvalue's update, summed over the eigenvalues in
-/// order from the first, `a`'s sum on the adder's pipes and `b`'s on the
-/// multiplier's (`add_on_multiplier`: the same bits).
+/// threshold (at least one eigenvalue): every eigenvalue's update, summed
+/// over the eigenvalues in order from the first, `a`'s sum on the adder's
+/// pipes and `b`'s on the multiplier's where a set has it
+/// (`add_on_multiplier`: the same bits).
 #[inline(always)]
 fn creep_pair<T: Real, V: Block<T>>(
     o: Ops<T, V>,
