@@ -114,14 +114,16 @@ fn clock_ghz() -> (f64, &'static str) {
 /// adder's pipes, with `min` and `max`), as the fused `b · 1 + a` (the same
 /// sum, on the multiplier's pipes, with the two fused operations), or the
 /// one way in even chains and the other in odd ones. A Zen core has two
-/// pipes of each kind, so only the last balances them (three operations
+/// pipes of each kind, so only the last balances them (five operations
 /// of each kind in two updates); which form is fastest depends on the CPU,
-/// and the bound takes the fastest.
+/// and the bound takes the fastest. Its number is the kernels' const
+/// parameter.
 #[derive(Clone, Copy, Debug)]
+#[repr(u8)]
 enum Form {
-    Adds,
-    Fused,
-    HalfFused,
+    Adds = 0,
+    Fused = 1,
+    HalfFused = 2,
 }
 
 impl Form {
@@ -239,15 +241,6 @@ mod mix {
     use super::Form;
     use mfcbeam::realtime::{simd::Kernels, Real};
 
-    /// The form's number for the kernels' const parameter.
-    const fn code(form: Form) -> u8 {
-        match form {
-            Form::Adds => 0,
-            Form::Fused => 1,
-            Form::HalfFused => 2,
-        }
-    }
-
     /// Runs `iterations` of `CHAINS` chains on the registers of kernel set
     /// `k` for `T`, their rows added in `form`; returns the lanes per
     /// register. The callers try 4, 8 and 16 chains (each divides the
@@ -267,10 +260,10 @@ mod mix {
             macro_rules! each_form {
                 ($kernel:ident) => {
                     match form {
-                        Form::Adds => x86::$kernel::<CHAINS, { code(Form::Adds) }>(iterations),
-                        Form::Fused => x86::$kernel::<CHAINS, { code(Form::Fused) }>(iterations),
+                        Form::Adds => x86::$kernel::<CHAINS, { Form::Adds as u8 }>(iterations),
+                        Form::Fused => x86::$kernel::<CHAINS, { Form::Fused as u8 }>(iterations),
                         Form::HalfFused => {
-                            x86::$kernel::<CHAINS, { code(Form::HalfFused) }>(iterations)
+                            x86::$kernel::<CHAINS, { Form::HalfFused as u8 }>(iterations)
                         }
                     }
                 };
@@ -335,13 +328,13 @@ mod mix {
                 ($kernel:ident) => {
                     match form {
                         Form::Adds => {
-                            x86::$kernel::<CHAINS, { code(Form::Adds) }>(p.cast(), iterations)
+                            x86::$kernel::<CHAINS, { Form::Adds as u8 }>(p.cast(), iterations)
                         }
                         Form::Fused => {
-                            x86::$kernel::<CHAINS, { code(Form::Fused) }>(p.cast(), iterations)
+                            x86::$kernel::<CHAINS, { Form::Fused as u8 }>(p.cast(), iterations)
                         }
                         Form::HalfFused => {
-                            x86::$kernel::<CHAINS, { code(Form::HalfFused) }>(p.cast(), iterations)
+                            x86::$kernel::<CHAINS, { Form::HalfFused as u8 }>(p.cast(), iterations)
                         }
                     }
                 };
@@ -391,10 +384,12 @@ mod mix {
         use core::arch::x86_64::*;
 
         /// Chain `k`'s row sum `r` with `x` added in form `FORM` (see
-        /// [`super::code`]): `b · 1 + a` fused, or an add.
+        /// [`super::Form`]): `b · 1 + a` fused, or an add.
         macro_rules! row_add {
             ($form:ident, $k:expr, $r:expr, $x:expr, $one:expr, $add:ident, $fma:ident) => {
-                if $form == 1 || ($form == 2 && $k % 2 == 1) {
+                if $form == super::Form::Fused as u8
+                    || ($form == super::Form::HalfFused as u8 && $k % 2 == 1)
+                {
                     $fma($x, $one, $r)
                 } else {
                     $add($r, $x)
