@@ -32,6 +32,29 @@ impl<T: Real> BlockWork<T> for AddBoth<'_, T> {
     }
 }
 
+/// The edge cases both tests feed the blocks: signed zeros, ones, the
+/// smallest normal and a subnormal (`f64`; `1e-45` is `f32`'s), the
+/// largest values, infinities, and a few ordinary ones. No NaN: with two
+/// NaN operands, `b · 1 + a` and `a + b` need not keep the same payload.
+const SPECIAL: [f64; 16] = [
+    0.0,
+    -0.0,
+    1.0,
+    -1.0,
+    f64::MIN_POSITIVE,
+    -f64::MIN_POSITIVE,
+    1e-310,
+    -1e-310,
+    f64::MAX,
+    -f64::MAX,
+    f64::INFINITY,
+    -f64::INFINITY,
+    0.1,
+    -0.1,
+    3.0e38,
+    1.0e-45,
+];
+
 /// A seeded xorshift sequence of values in `[−1, 1)`.
 fn seeded() -> impl FnMut() -> f64 {
     let mut seed = 0x2545_f491_4f6c_dd1d_u64;
@@ -49,26 +72,8 @@ fn seeded() -> impl FnMut() -> f64 {
 /// of `a − b`, on every kernel set (one rounding of an exact product,
 /// IEEE 754).
 fn fused_addition_is_addition<T: Real>() {
-    let special = [
-        0.0,
-        -0.0,
-        1.0,
-        -1.0,
-        f64::MIN_POSITIVE,
-        -f64::MIN_POSITIVE,
-        1e-310,
-        -1e-310,
-        f64::MAX,
-        -f64::MAX,
-        f64::INFINITY,
-        -f64::INFINITY,
-        0.1,
-        -0.1,
-        3.0e38,
-        1.0e-45,
-    ];
     let mut random = seeded();
-    let mut values: Vec<T> = special.iter().map(|&x| T::from_f64(x)).collect();
+    let mut values: Vec<T> = SPECIAL.iter().map(|&x| T::from_f64(x)).collect();
     for _ in 0..200 {
         let x = random() * 10f64.powf(random() * 30.0);
         values.push(T::from_f64(x));
@@ -198,21 +203,15 @@ impl<T: Real> BlockWork<T> for Halves<'_, T> {
 /// values, on every kernel set (the AVX2 creep pass runs on halves).
 /// The AVX2 block is its two halves, so there this checks that they
 /// compose: each loads and stores its own half of a row and gives its
-/// own lanes' bits. The lanes' values are checked against the scalar
+/// own lanes' bits. So the mask's bits are also checked against the
+/// lanes' comparisons; the lanes' values are checked against the scalar
 /// arithmetic by the test above and the bank's tests.
 fn halves_are_the_block<T: Real>() {
-    let special = [
-        0.0,
-        -0.0,
-        1.0,
-        -1.0,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::NAN,
-        1e-310,
-    ];
+    // the halves must carry a NaN through as the whole block does
+    let special: Vec<f64> = SPECIAL.iter().copied().chain([f64::NAN]).collect();
     let mut random = seeded();
-    let n = 64 * lanes::<T>();
+    let width = lanes::<T>();
+    let n = 64 * width;
     let mut pick = |i: usize| {
         let x = if i.is_multiple_of(5) {
             special[(i / 5) % special.len()]
@@ -230,6 +229,13 @@ fn halves_are_the_block<T: Real>() {
         {
             assert_eq!(whole, halves, "{k:?}, block {i}: rows");
             assert_eq!(whole_bits, bits, "{k:?}, block {i}: mask bits");
+            // the bits against the lanes, which the comparison of whole and
+            // halves cannot see where the block is made of its halves
+            let lanes = (i * width..(i + 1) * width).enumerate();
+            let expected = lanes
+                .filter(|&(_, j)| a[j] < b[j] && c[j].is_finite())
+                .fold(0u32, |m, (l, _)| m | 1 << l);
+            assert_eq!(whole_bits, expected, "{k:?}, block {i}: bit l for lane l");
         }
     }
 }
