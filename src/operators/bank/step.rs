@@ -1,7 +1,7 @@
 //! One step of a run of blocks of a [`CompensatorBank`](super::CompensatorBank):
 //! `H⁻¹`, the clip and the re-seat of a clipped sample, then the creep pass,
-//! software-pipelined by one block, each lane in the order of
-//! [`Compensator`](crate::realtime::Compensator) (21).
+//! software-pipelined by one block (see [`pipelined`]), each lane in the
+//! order of [`Compensator`](crate::realtime::Compensator) (21).
 
 use crate::operators::heap::Heap;
 use crate::realtime::compensator::Compensated;
@@ -89,7 +89,7 @@ impl<T: Real, const DOWN: bool> BlockWork<T> for Step<'_, '_, T, DOWN> {
         // fused forms of `add_on_multiplier`. Made once per run: made in
         // every block, it was read back from the stack at the head of each
         // block's chain (a store-to-load forwarding); with the superposed
-        // path's spill (see `inverse_and_clip`), the first part alone took
+        // path's spill (see `inverse_sum`), the first part alone took
         // 36 instead of 26 ns per block on a Zen 4.
         let one = o.splat(core::hint::black_box(T::ONE));
         let (first, state, targets, out) = (self.first_block, self.state, self.targets, self.out);
@@ -194,11 +194,17 @@ fn pipeline<'p, T: Real, V: Block<T>, const DOWN: bool>(
 }
 
 /// The blocks `blocks` (their indices, state rows, targets and outputs),
-/// software-pipelined by one block: `H⁻¹` and the clip of the next block
-/// (a chain of dependent reductions) are issued before the creep pass of
-/// this one (independent rows), so that the core has work while the
-/// chain's latency runs out. The vector work is in plain functions, not
-/// closures (see [`creep_update`]); `p` and `input` only pick rows and flags.
+/// software-pipelined by one block: `H⁻¹` of the next block (a chain of
+/// dependent reductions) is issued before the creep pass of this one
+/// (independent rows), so that the core has work while the chain's
+/// latency runs out, and the next block's clip after it. (With the clip
+/// issued before the creep pass as well, the two parts timed alone took
+/// about as long as the bank: on a Zen 4, about 95 and 210 cycles a block of
+/// `f64`, the bank 310. With the clip after it, the bank made 5 % more
+/// `f64` and 3 % more `f32` channel-steps at 1024 channels on the AVX-512
+/// set, 0–2 % at 64, and 1–5 % more on the AVX2 set; alternating
+/// processes.) The vector work is in plain functions, not closures (see
+/// [`creep_update`]); `p` and `input` only pick rows and flags.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn pipelined<'p, 'b, T: Real + 'b, V: Block<T>>(
@@ -213,13 +219,14 @@ fn pipelined<'p, 'b, T: Real + 'b, V: Block<T>>(
     let Some((mut b, ((mut this, t), out))) = blocks.next() else {
         return;
     };
-    // the creep input goes from a block's first part to its creep pass
-    // in a register (and to the state, for the next step's hold)
-    let mut uc = first_part(o, f, a, one, input(b), this, p(b), t, out);
+    // the creep input goes from a block's clip to its creep pass in a
+    // register (and to the state, for the next step's hold)
+    let sum = inverse(o, f, a, one, input(b), this, p(b), t);
+    let mut uc = clip(o, f, a, sum, (this, p(b)), out);
     for (next_b, ((next, t), out)) in blocks {
-        let this_uc = uc;
-        uc = first_part(o, f, a, one, input(next_b), next, p(next_b), t, out);
-        creep(o, a, one, this_uc, this, p(b));
+        let sum = inverse(o, f, a, one, input(next_b), next, p(next_b), t);
+        creep(o, a, one, uc, this, p(b));
+        uc = clip(o, f, a, sum, (next, p(next_b)), out);
         (this, b) = (next, next_b);
     }
     creep(o, a, one, uc, this, p(b));
@@ -257,12 +264,12 @@ struct Input<'a, T: Real, V: Block<T>> {
     targets: &'a [T],
 }
 
-/// [`inverse_and_clip`] of the bank's block `index` (with `superposed`
-/// telling whether a lane of it has `S`): its state rows, parameter rows,
-/// targets and outputs (a block's lanes, fewer in a last, partial block).
+/// [`inverse_sum`] of the bank's block `index` (with `superposed`
+/// telling whether a lane of it has `S`): its state rows, parameter rows
+/// and targets (a block's lanes, fewer in a last, partial block).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn first_part<T: Real, V: Block<T>>(
+fn inverse<T: Real, V: Block<T>>(
     o: Ops<T, V>,
     f: &Fixed<'_, T>,
     a: Layout,
@@ -271,8 +278,7 @@ fn first_part<T: Real, V: Block<T>>(
     state: &mut [Row],
     p: &[Row],
     targets: &[T],
-    out: &mut [Compensated<T>],
-) -> V {
+) -> Inverse<V, V::Mask> {
     // a whole block (all but perhaps the last) straight from the caller's
     // slice; the last one through a padded row
     let target = if targets.len() == lanes::<T>() {
@@ -288,34 +294,22 @@ fn first_part<T: Real, V: Block<T>>(
         target,
         targets,
     };
-    let (u, uc, saturated, fault) = inverse_and_clip(o, f, a, one, block, state, p);
-    let flags = (
-        core::mem::offset_of!(Compensated<T>, saturated),
-        core::mem::offset_of!(Compensated<T>, fault),
-    );
-    if o.store_flagged(u, saturated, fault, out, flags) {
-        return uc;
-    }
-    let mut row = Row::default();
-    o.store(u, &mut row);
-    let (saturated, fault) = (o.bits(saturated), o.bits(fault));
-    for ((l, out), &u) in out.iter_mut().enumerate().zip(row.lanes::<T>()) {
-        *out = Compensated {
-            u,
-            saturated: saturated & (1 << l) != 0,
-            fault: fault & (1 << l) != 0,
-        };
-    }
-    uc
+    inverse_sum(o, f, a, one, block, state, p)
+}
+
+/// What [`inverse_sum`] hands to [`clip`]: `H⁻¹`'s voltages before the
+/// clip and the lanes whose target is not finite.
+#[derive(Clone, Copy)]
+struct Inverse<V, M> {
+    v: V,
+    fault: M,
 }
 
 /// Block `block` of the bank, first part: what `Compensator::compensate`
-/// does up to the applied voltage, lane by lane, in its order of
-/// operations (the creep pass is [`creep_pass`]). Returns the voltages, the
-/// creep input (also stored, for the next step's hold) and the saturated
-/// and faulted lanes.
+/// does up to `H⁻¹`'s sum, lane by lane, in its order of operations (the
+/// clip is [`clip`], the creep pass [`creep_pass`]).
 #[inline(always)]
-fn inverse_and_clip<T: Real, V: Block<T>>(
+fn inverse_sum<T: Real, V: Block<T>>(
     o: Ops<T, V>,
     f: &Fixed<'_, T>,
     a: Layout,
@@ -323,8 +317,8 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
     block: Input<'_, T, V>,
     s: &mut [Row],
     p: &[Row],
-) -> (V, V, V::Mask, V::Mask) {
-    let (cur, next) = (f.parity, f.parity ^ 1);
+) -> Inverse<V, V::Mask> {
+    let cur = f.parity;
     let fault = o.non_finite(block.target);
     // y = S⁻¹[t − offset] − C as its two terms (the plays' bounds are
     // `(t ∓ r) − C`, as `hysteresis::step_saving` forms them), or the input
@@ -372,6 +366,23 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
         sums[i - full] = inverse_play(o, sum, t, creep, one, fault, play);
     }
     let v = o.add(o.add(sums[0], sums[2]), o.add(sums[1], sums[3]));
+    Inverse { v, fault }
+}
+
+/// Block `block` of the bank, second part: the clip of [`inverse_sum`]'s
+/// voltages, the re-seat of a clipped lane's plays, the held voltage and
+/// the creep input into the state rows `s` and the voltages and flags into
+/// `out`. Returns the creep input.
+#[inline(always)]
+fn clip<T: Real, V: Block<T>>(
+    o: Ops<T, V>,
+    f: &Fixed<'_, T>,
+    a: Layout,
+    Inverse { v, fault }: Inverse<V, V::Mask>,
+    (s, p): (&mut [Row], &[Row]),
+    out: &mut [Compensated<T>],
+) -> V {
+    let (cur, next) = (f.parity, f.parity ^ 1);
     // clip; a faulted lane holds its last voltage
     let (lower, upper) = (o.splat(f.lower), o.splat(f.upper));
     let (below, above) = (o.lt(v, lower), o.gt(v, upper));
@@ -384,12 +395,29 @@ fn inverse_and_clip<T: Real, V: Block<T>>(
     }
     // the creep input: the voltage applied, or the last one if not finite
     let uc = o.store_except(u, o.non_finite(u), &mut s[a.creep_last()]);
-    (u, uc, saturated_lanes, fault)
+    let flags = (
+        core::mem::offset_of!(Compensated<T>, saturated),
+        core::mem::offset_of!(Compensated<T>, fault),
+    );
+    if o.store_flagged(u, saturated_lanes, fault, out, flags) {
+        return uc;
+    }
+    let mut row = Row::default();
+    o.store(u, &mut row);
+    let (saturated, fault) = (o.bits(saturated_lanes), o.bits(fault));
+    for ((l, out), &u) in out.iter_mut().enumerate().zip(row.lanes::<T>()) {
+        *out = Compensated {
+            u,
+            saturated: saturated & (1 << l) != 0,
+            fault: fault & (1 << l) != 0,
+        };
+    }
+    uc
 }
 
 /// Block `block`'s creep pass (20) with the input `uc` that
-/// [`inverse_and_clip`] returned, as `creep_pass::advance` sums it: each threshold's rows
-/// summed over the eigenvalues in order, the weighted rows into the partial
+/// [`clip`] returned, as `creep_pass::advance` sums it: each threshold's
+/// rows summed over the eigenvalues in order, the weighted rows into the partial
 /// sum `i mod 4` (each sum from its first product), each threshold's rows
 /// from its first row, as there. (Summed from zero, one addition more per
 /// threshold, the bank gave the same bits but made 2–5 % fewer
