@@ -202,8 +202,8 @@ fn pipeline<'p, T: Real, V: Block<T>, const DOWN: bool>(
 /// about as long as the bank: on a Zen 4, about 95 and 210 cycles a block of
 /// `f64`, the bank 310. With the clip after it, the bank made 5 % more
 /// `f64` and 3 % more `f32` channel-steps at 1024 channels on the AVX-512
-/// set, 0–2 % at 64, and 1–5 % more on the AVX2 set; alternating
-/// processes.) The vector work is in plain functions, not closures (see
+/// set, +2 % and −2 % at 64 (within the runs' spread), and 1–5 % more on
+/// the AVX2 set; alternating processes.) The vector work is in plain functions, not closures (see
 /// [`creep_update`]); `p` and `input` only pick rows and flags.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
