@@ -199,12 +199,13 @@ fn pipeline<'p, T: Real, V: Block<T>, const DOWN: bool>(
 /// (independent rows), so that the core has work while the chain's
 /// latency runs out, and the next block's clip after it. (With the clip
 /// issued before the creep pass as well, the two parts timed alone took
-/// about as long as the bank: on a Zen 4, about 95 and 210 cycles a block of
-/// `f64`, the bank 310. With the clip after it, the bank made 5 % more
+/// about as long as the bank: on a Zen 4, about 95 and 210 cycles a block
+/// of `f64`, the bank 310. With the clip after it, the bank made 5 % more
 /// `f64` and 3 % more `f32` channel-steps at 1024 channels on the AVX-512
 /// set, +2 % and −2 % at 64 (within the runs' spread), and 1–5 % more on
-/// the AVX2 set; alternating processes.) The vector work is in plain functions, not closures (see
-/// [`creep_update`]); `p` and `input` only pick rows and flags.
+/// the AVX2 set; alternating processes.) The vector work is in plain
+/// functions, not closures (see [`creep_update`]); `p` and `input` only
+/// pick rows and flags.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn pipelined<'p, 'b, T: Real + 'b, V: Block<T>>(
@@ -369,10 +370,10 @@ fn inverse_sum<T: Real, V: Block<T>>(
     Inverse { v, fault }
 }
 
-/// Block `block` of the bank, second part: the clip of [`inverse_sum`]'s
-/// voltages, the re-seat of a clipped lane's plays, the held voltage and
-/// the creep input into the state rows `s` and the voltages and flags into
-/// `out`. Returns the creep input.
+/// A block's second part: the clip of [`inverse_sum`]'s voltages, the
+/// re-seat of a clipped lane's plays, the held voltage and the creep input
+/// into the state rows `s` and the voltages and flags into `out`. Returns
+/// the creep input.
 #[inline(always)]
 fn clip<T: Real, V: Block<T>>(
     o: Ops<T, V>,
@@ -417,9 +418,9 @@ fn clip<T: Real, V: Block<T>>(
 
 /// Block `block`'s creep pass (20) with the input `uc` that
 /// [`clip`] returned, as `creep_pass::advance` sums it: each threshold's
-/// rows summed over the eigenvalues in order, the weighted rows into the partial
-/// sum `i mod 4` (each sum from its first product), each threshold's rows
-/// from its first row, as there. (Summed from zero, one addition more per
+/// rows summed over the eigenvalues in order, the weighted rows into the
+/// partial sum `i mod 4` (each sum from its first product), each
+/// threshold's rows from its first row, as there. (Summed from zero, one addition more per
 /// threshold, the bank gave the same bits but made 2–5 % fewer
 /// channel-steps on a Zen 4's AVX2 set and 0–2 % fewer on its AVX-512 set.)
 /// Each update is two fused operations ([`creep_update`]); of the four
