@@ -89,7 +89,7 @@ impl<T: Real, const DOWN: bool> BlockWork<T> for Step<'_, '_, T, DOWN> {
         // fused forms of `add_on_multiplier`. Made once per run: made in
         // every block, it was read back from the stack at the head of each
         // block's chain (a store-to-load forwarding); with the superposed
-        // path's spill (see `inverse_sum`), the first part alone took
+        // path's spill (see `inverse_sum`), `H⁻¹` and the clip alone took
         // 36 instead of 26 ns per block on a Zen 4.
         let one = o.splat(core::hint::black_box(T::ONE));
         let (first, state, targets, out) = (self.first_block, self.state, self.targets, self.out);
@@ -420,9 +420,10 @@ fn clip<T: Real, V: Block<T>>(
 /// [`clip`] returned, as `creep_pass::advance` sums it: each threshold's
 /// rows summed over the eigenvalues in order, the weighted rows into the
 /// partial sum `i mod 4` (each sum from its first product), each
-/// threshold's rows from its first row, as there. (Summed from zero, one addition more per
-/// threshold, the bank gave the same bits but made 2–5 % fewer
-/// channel-steps on a Zen 4's AVX2 set and 0–2 % fewer on its AVX-512 set.)
+/// threshold's rows from its first row, as there. (Summed from zero, one
+/// addition more per threshold, the bank gave the same bits but made 2–5 %
+/// fewer channel-steps on a Zen 4's AVX2 set and 0–2 % fewer on its
+/// AVX-512 set.)
 /// Each update is two fused operations ([`creep_update`]); of the four
 /// rows' additions two are adds and two go through `add_on_multiplier`
 /// (the same bits; on AVX-512 a fused `b · 1 + a`). A Zen core runs fused
