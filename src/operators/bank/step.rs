@@ -1,7 +1,7 @@
 //! One step of a run of blocks of a [`CompensatorBank`](super::CompensatorBank):
-//! `H⁻¹`, the clip and the re-seat of a clipped sample, then the creep pass,
-//! software-pipelined by one block (see [`pipelined`]), each lane in the
-//! order of [`Compensator`](crate::realtime::Compensator) (21).
+//! `H⁻¹`, the clip and the re-seat of a clipped sample, the creep pass,
+//! software-pipelined ([`pipelined`]), each lane in the order of
+//! [`Compensator`](crate::realtime::Compensator) (21).
 
 use crate::operators::heap::Heap;
 use crate::realtime::compensator::Compensated;
@@ -157,7 +157,7 @@ fn run_blocks_of<T: Real, V: Block<T>, const DOWN: bool>(
 }
 
 /// The blocks of [`run_blocks_of`], up the memory or, `DOWN`, down, with their
-/// parameter rows from `p` and their [`Input`]'s index and `S` from `input`.
+/// parameter rows from `p` and their index and `S` for [`head`] from `input`.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn pipeline<'p, T: Real, V: Block<T>, const DOWN: bool>(
@@ -194,18 +194,19 @@ fn pipeline<'p, T: Real, V: Block<T>, const DOWN: bool>(
 }
 
 /// The blocks `blocks` (their indices, state rows, targets and outputs),
-/// software-pipelined by one block: `H⁻¹` of the next block (a chain of
-/// dependent reductions) is issued before the creep pass of this one
-/// (independent rows), so that the core has work while the chain's
-/// latency runs out, and the next block's clip after it. (With the clip
-/// issued before the creep pass as well, the two parts timed alone took
-/// about as long as the bank: on a Zen 4, about 95 and 210 cycles a block
-/// of `f64`, the bank 310. With the clip after it, the bank made 5 % more
-/// `f64` and 3 % more `f32` channel-steps at 1024 channels on the AVX-512
-/// set, +2 % and −2 % at 64 (within the runs' spread), and 1–5 % more on
-/// the AVX2 set; alternating processes.) The vector work is in plain
-/// functions, not closures (see [`creep_update`]); `p` and `input` only
-/// pick rows and flags.
+/// software-pipelined: a block's plays (`H⁻¹`: four chains of dependent
+/// reductions), the next block's [`head`], the creep pass of the block
+/// before (independent rows), this block's clip. The chains' latency runs
+/// out under the creep pass, and their input `y` is ready when they are
+/// issued. (On a Zen 4, `H⁻¹` with the clip and the creep pass took about
+/// 95 and 210 cycles a block of `f64` alone, 310 together in the order
+/// `H⁻¹`, clip, creep; the clip after the creep pass made 3–5 % more
+/// channel-steps at 1024 channels on the AVX-512 set, the head a block
+/// ahead 2–3 % more again, no change on the AVX2 set.) One loop, the creep
+/// pass due held in an `Option`: with a first and a last block written
+/// out, the AVX2 set's extra creep passes made its 64-channel bank 20–35 %
+/// slower. The vector work is in plain functions, not closures (see
+/// [`creep_update`]); `p` and `input` only pick rows and flags.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn pipelined<'p, 'b, T: Real + 'b, V: Block<T>>(
@@ -217,20 +218,31 @@ fn pipelined<'p, 'b, T: Real + 'b, V: Block<T>>(
     p: impl Fn(usize) -> &'p [Row],
     input: impl Fn(usize) -> (usize, bool),
 ) {
-    let Some((mut b, ((mut this, t), out))) = blocks.next() else {
+    let Some((mut b, ((mut this, t), mut this_out))) = blocks.next() else {
         return;
     };
-    // the creep input goes from a block's clip to its creep pass in a
-    // register (and to the state, for the next step's hold)
-    let sum = inverse(o, f, a, one, input(b), this, p(b), t);
-    let mut uc = clip(o, f, a, sum, (this, p(b)), out);
-    for (next_b, ((next, t), out)) in blocks {
-        let sum = inverse(o, f, a, one, input(next_b), next, p(next_b), t);
-        creep(o, a, one, uc, this, p(b));
-        uc = clip(o, f, a, sum, (next, p(next_b)), out);
-        (this, b) = (next, next_b);
+    let mut h = head(o, f, a, input(b), this, p(b), t);
+    // the block whose creep pass is due and its input (none before a clip)
+    let mut due = None;
+    loop {
+        let sum = inverse_sum(o, f, a, one, h, this, p(b));
+        let after = blocks.next();
+        if let Some((after_b, ((after, t), _))) = &after {
+            h = head(o, f, a, input(*after_b), after, p(*after_b), t);
+        }
+        if let Some((due_b, due_state, uc)) = due {
+            creep(o, a, one, uc, due_state, p(due_b));
+        }
+        let uc = clip(o, f, a, sum, (this, p(b)), this_out);
+        due = Some((b, this, uc));
+        let Some((after_b, ((after, _), after_out))) = after else {
+            break;
+        };
+        (b, this, this_out) = (after_b, after, after_out);
     }
-    creep(o, a, one, uc, this, p(b));
+    if let Some((due_b, due_state, uc)) = due {
+        creep(o, a, one, uc, due_state, p(due_b));
+    }
 }
 
 /// [`creep_pass`] on the block, or on each of its halves in turn where
@@ -256,30 +268,19 @@ const PAPER: Layout = Layout {
     m: PAPER_CREEP.1,
 };
 
-/// A block's input: its index in the bank, whether a lane of it has `S`,
-/// its targets in a vector and in the caller's slice.
-struct Input<'a, T: Real, V: Block<T>> {
-    index: usize,
-    superposed: bool,
-    target: V,
-    targets: &'a [T],
-}
-
-/// [`inverse_sum`] of the bank's block `index` (with `superposed`
-/// telling whether a lane of it has `S`): its state rows, parameter rows
-/// and targets (a block's lanes, fewer in a last, partial block).
-#[allow(clippy::too_many_arguments)]
+/// `H⁻¹`'s input `y` (two terms) and faulted lanes for the bank's block
+/// `index` (`superposed`: a lane of it has `S`) from its state and
+/// parameter rows and targets (fewer than a block's lanes in a last one).
 #[inline(always)]
-fn inverse<T: Real, V: Block<T>>(
+fn head<T: Real, V: Block<T>>(
     o: Ops<T, V>,
     f: &Fixed<'_, T>,
     a: Layout,
-    one: V,
     (index, superposed): (usize, bool),
-    state: &mut [Row],
+    s: &[Row],
     p: &[Row],
     targets: &[T],
-) -> Inverse<V, V::Mask> {
+) -> Head<V, V::Mask> {
     // a whole block (all but perhaps the last) straight from the caller's
     // slice; the last one through a padded row
     let target = if targets.len() == lanes::<T>() {
@@ -289,13 +290,30 @@ fn inverse<T: Real, V: Block<T>>(
         row.lanes_mut()[..targets.len()].copy_from_slice(targets);
         o.load(&row)
     };
-    let block = Input {
-        index,
-        superposed,
-        target,
-        targets,
+    let fault = o.non_finite(target);
+    // y = S⁻¹[t − offset] − C in two terms (the plays' bounds are `(t ∓ r)
+    // − C`, as `hysteresis::step_saving` forms them), or held (x₀ and 0)
+    // where not finite. The superposed path starts from the targets in
+    // memory: no vector handed to a function left out of line (the
+    // compiler put `t − offset` on the stack in every block for it).
+    let t = if superposed {
+        inverse_superposition(o, f, index, targets, p)
+    } else {
+        o.sub(target, o.load(&p[a.offset()]))
     };
-    inverse_sum(o, f, a, one, block, state, p)
+    let creep = o.load(&s[a.creep_out()]);
+    let held = o.non_finite(o.sub(t, creep));
+    let t = o.select(held, o.load(&s[a.inv_x(f.parity, 0)]), t);
+    let creep = o.select(held, o.splat(T::ZERO), creep);
+    Head { t, creep, fault }
+}
+
+/// What [`head`] hands to [`inverse_sum`].
+#[derive(Clone, Copy)]
+struct Head<V, M> {
+    t: V,
+    creep: V,
+    fault: M,
 }
 
 /// What [`inverse_sum`] hands to [`clip`]: `H⁻¹`'s voltages before the
@@ -306,36 +324,20 @@ struct Inverse<V, M> {
     fault: M,
 }
 
-/// Block `block` of the bank, first part: what `Compensator::compensate`
-/// does up to `H⁻¹`'s sum, lane by lane, in its order of operations (the
-/// clip is [`clip`], the creep pass [`creep_pass`]).
+/// A block's plays: what `Compensator::compensate` does from `y` ([`head`])
+/// to `H⁻¹`'s sum, lane by lane, in its order of operations (the clip is
+/// [`clip`], the creep pass [`creep_pass`]).
 #[inline(always)]
 fn inverse_sum<T: Real, V: Block<T>>(
     o: Ops<T, V>,
     f: &Fixed<'_, T>,
     a: Layout,
     one: V,
-    block: Input<'_, T, V>,
+    Head { t, creep, fault }: Head<V, V::Mask>,
     s: &mut [Row],
     p: &[Row],
 ) -> Inverse<V, V::Mask> {
     let cur = f.parity;
-    let fault = o.non_finite(block.target);
-    // y = S⁻¹[t − offset] − C as its two terms (the plays' bounds are
-    // `(t ∓ r) − C`, as `hysteresis::step_saving` forms them), or the input
-    // held (x₀ and 0) where `y` is not finite. The superposed path starts
-    // from the targets in memory, so that no vector is handed to a
-    // function left out of line (the compiler put `t − offset` on the
-    // stack in every block for it).
-    let t = if block.superposed {
-        inverse_superposition(o, f, block.index, block.targets, p)
-    } else {
-        o.sub(block.target, o.load(&p[a.offset()]))
-    };
-    let creep = o.load(&s[a.creep_out()]);
-    let held = o.non_finite(o.sub(t, creep));
-    let t = o.select(held, o.load(&s[a.inv_x(cur, 0)]), t);
-    let creep = o.select(held, o.splat(T::ZERO), creep);
     // H⁻¹ (22): the plays into the other copy; a faulted lane keeps its
     // own. Whole slices of rows, walked in fours: no index arithmetic or
     // bounds check between the vector operations.
