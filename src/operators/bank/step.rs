@@ -200,7 +200,7 @@ fn pipeline<'p, T: Real, V: Block<T>, const DOWN: bool>(
 /// out under the creep pass, and their input `y` is ready when they are
 /// issued. (On a Zen 4, `H⁻¹` with the clip and the creep pass took about
 /// 95 and 210 cycles a block of `f64` alone, 310 together in the order
-/// `H⁻¹`, clip, creep; the clip after the creep pass made 3–5 % more
+/// `H⁻¹`, clip, creep; the clip after the creep pass made 3–4 % more
 /// channel-steps at 1024 channels on the AVX-512 set, the head a block
 /// ahead 2–3 % more again, no change on the AVX2 set.) One loop, the creep
 /// pass due held in an `Option`: with a first and a last block written
@@ -318,7 +318,6 @@ struct Head<V, M> {
 
 /// What [`inverse_sum`] hands to [`clip`]: `H⁻¹`'s voltages before the
 /// clip and the lanes whose target is not finite.
-#[derive(Clone, Copy)]
 struct Inverse<V, M> {
     v: V,
     fault: M,
@@ -418,7 +417,7 @@ fn clip<T: Real, V: Block<T>>(
     uc
 }
 
-/// Block `block`'s creep pass (20) with the input `uc` that
+/// A block's creep pass (20) with the input `uc` that
 /// [`clip`] returned, as `creep_pass::advance` sums it: each threshold's
 /// rows summed over the eigenvalues in order, the weighted rows into the
 /// partial sum `i mod 4` (each sum from its first product), each
