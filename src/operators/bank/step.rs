@@ -371,10 +371,10 @@ fn inverse_sum<T: Real, V: Block<T>>(
     Inverse { v, fault }
 }
 
-/// A block's second part: the clip of [`inverse_sum`]'s voltages, the
-/// re-seat of a clipped lane's plays, the held voltage and the creep input
-/// into the state rows `s` and the voltages and flags into `out`. Returns
-/// the creep input.
+/// The clip of a block's voltages from [`inverse_sum`], the re-seat of a
+/// clipped lane's plays, the held voltage and the creep input into the
+/// state rows `s`, and the voltages and flags into `out`. Returns the
+/// creep input.
 #[inline(always)]
 fn clip<T: Real, V: Block<T>>(
     o: Ops<T, V>,
