@@ -282,13 +282,11 @@ fn head<T: Real, V: Block<T>>(
     targets: &[T],
 ) -> Head<V, V::Mask> {
     // a whole block (all but perhaps the last) straight from the caller's
-    // slice; the last one through a padded row
+    // slice; the last one's lanes and zeros
     let target = if targets.len() == lanes::<T>() {
         o.load_values(targets)
     } else {
-        let mut row = Row::default();
-        row.lanes_mut()[..targets.len()].copy_from_slice(targets);
-        o.load(&row)
+        o.load_first(targets)
     };
     let fault = o.non_finite(target);
     // y = S⁻¹[t − offset] − C in two terms (the plays' bounds are `(t ∓ r)

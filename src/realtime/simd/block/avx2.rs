@@ -14,6 +14,11 @@ use crate::realtime::real::Real;
 #[derive(Clone, Copy)]
 pub(crate) struct Avx2Half<const H: usize>(__m256d, __m256);
 
+/// Masks of the first `k` lanes of a register: the 32 bytes from
+/// element `4 − k` (`f64`) or `8 − k` (`f32`).
+const FIRST_OF_64: [i64; 8] = [-1, -1, -1, -1, 0, 0, 0, 0];
+const FIRST_OF_32: [i32; 16] = [-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0];
+
 impl<const H: usize> Avx2Half<H> {
     /// The offset of the half in a row, in bytes.
     const OFFSET: usize = 32 * H;
@@ -52,6 +57,31 @@ impl<T: Real, const H: usize> Block<T> for Avx2Half<H> {
                 Avx2Half(_mm256_load_pd(p.cast()), _mm256_setzero_ps())
             } else {
                 Avx2Half(_mm256_setzero_pd(), _mm256_load_ps(p.cast()))
+            }
+        }
+    }
+
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn load_first(values: &[T]) -> Self {
+        assert!(values.len() <= lanes::<T>());
+        // this half's lanes of `values`: a mask of the first `k` of its own
+        let half = lanes::<T>() / 2;
+        let k = values.len().saturating_sub(H * half).min(half);
+        if k == 0 {
+            // SAFETY: no memory read.
+            return unsafe { Block::<T>::splat(T::ZERO) };
+        }
+        // SAFETY: lane `H * half` is in `values` (k > 0); of the lanes from
+        // it the masked load reads the first `k`, which are too.
+        unsafe {
+            let p = values.as_ptr().add(H * half);
+            if is_f64::<T>() {
+                let mask = _mm256_loadu_si256(FIRST_OF_64[4 - k..].as_ptr().cast());
+                Avx2Half(_mm256_maskload_pd(p.cast(), mask), _mm256_setzero_ps())
+            } else {
+                let mask = _mm256_loadu_si256(FIRST_OF_32[8 - k..].as_ptr().cast());
+                Avx2Half(_mm256_setzero_pd(), _mm256_maskload_ps(p.cast(), mask))
             }
         }
     }
@@ -299,6 +329,18 @@ impl<T: Real> Block<T> for Avx2 {
     unsafe fn load(row: &Row) -> Self {
         // SAFETY: the caller's, forwarded.
         unsafe { Avx2(Block::<T>::load(row), Block::<T>::load(row)) }
+    }
+
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn load_first(values: &[T]) -> Self {
+        // SAFETY: the caller's, forwarded.
+        unsafe {
+            Avx2(
+                Block::<T>::load_first(values),
+                Block::<T>::load_first(values),
+            )
+        }
     }
 
     #[target_feature(enable = "avx2,fma")]

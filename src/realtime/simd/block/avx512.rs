@@ -45,6 +45,26 @@ impl<T: Real> Block<T> for Avx512 {
 
     #[target_feature(enable = "avx2,fma,avx512f")]
     #[inline]
+    unsafe fn load_first(values: &[T]) -> Self {
+        let n = values.len();
+        assert!(n <= super::lanes::<T>());
+        // lanes 0..n: the masked lanes are not read
+        let mask = (1u32 << n) - 1;
+        let p = values.as_ptr();
+        // SAFETY: the `n` lanes read are `values`.
+        unsafe {
+            if is_f64::<T>() {
+                let v = _mm512_maskz_loadu_pd(mask as __mmask8, p as *const f64);
+                Avx512(v, _mm512_setzero_ps())
+            } else {
+                let v = _mm512_maskz_loadu_ps(mask as __mmask16, p as *const f32);
+                Avx512(_mm512_setzero_pd(), v)
+            }
+        }
+    }
+
+    #[target_feature(enable = "avx2,fma,avx512f")]
+    #[inline]
     unsafe fn load_values(values: &[T]) -> Self {
         assert!(values.len() >= super::lanes::<T>());
         let p = values.as_ptr();

@@ -245,3 +245,55 @@ fn each_half_of_a_block_gives_the_blocks_bits() {
     halves_are_the_block::<f64>();
     halves_are_the_block::<f32>();
 }
+
+/// `load_first` of each length of `values` from 0 to a block's: its rows.
+struct FirstLanes<'a, T>(&'a [T]);
+
+impl<T: Real> BlockWork<T> for FirstLanes<'_, T> {
+    type Output = Vec<Row>;
+
+    fn run<V: Block<T>>(self, o: Ops<T, V>) -> Self::Output {
+        (0..=lanes::<T>())
+            .map(|n| {
+                // each length in a slice of its own: nothing after it to read
+                let values = self.0[..n].to_vec();
+                let mut row = Row::default();
+                o.store(o.load_first(&values), &mut row);
+                row
+            })
+            .collect()
+    }
+}
+
+/// `load_first` gives the values' bits in the first lanes and `+0` in the
+/// others, for every length up to a block's, on every kernel set: signed
+/// zeros, a NaN, infinities and a subnormal among the values.
+fn first_lanes_are_the_values<T: Real>() {
+    let width = lanes::<T>();
+    let values: Vec<T> = [-0.0, f64::NAN, f64::INFINITY, -f64::INFINITY, 1e-310]
+        .into_iter()
+        .chain((1..).map(|i| -0.5 * i as f64))
+        .take(width)
+        .map(T::from_f64)
+        .collect();
+    for k in Kernels::all() {
+        for (n, row) in run_blocks(k, FirstLanes(&values)).into_iter().enumerate() {
+            let bits: Vec<u64> = row
+                .lanes::<T>()
+                .iter()
+                .map(|x| x.to_f64().to_bits())
+                .collect();
+            let expected: Vec<u64> = (0..width)
+                .map(|l| values.get(l).filter(|_| l < n).copied().unwrap_or(T::ZERO))
+                .map(|x| x.to_f64().to_bits())
+                .collect();
+            assert_eq!(bits, expected, "{k:?}, {n} values");
+        }
+    }
+}
+
+#[test]
+fn a_partial_block_loads_its_values_and_zeros() {
+    first_lanes_are_the_values::<f64>();
+    first_lanes_are_the_values::<f32>();
+}
