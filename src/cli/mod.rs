@@ -1,5 +1,6 @@
 //! The `mfcbeam` command line: [`args`] defines the arguments, [`commands`]
-//! carries them out. Errors end the program with exit code 2 and one line on
+//! carries them out (the larger commands in files of their own:
+//! [`identify`], [`conform`], [`fmu`], [`control`]). Errors end the program with exit code 2 and one line on
 //! stderr naming the file, row or field.
 
 pub mod args;
@@ -7,6 +8,7 @@ pub mod commands;
 pub mod conform;
 pub mod control;
 pub mod fmu;
+pub mod identify;
 
 pub use args::Cli;
 pub use commands::run;

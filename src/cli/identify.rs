@@ -1,0 +1,329 @@
+//! `mfcbeam identify`: a compensator's model from one or more measured
+//! records (the offset, the creep, `H`, a dead time and the dynamics), its
+//! report and, with a held-out part, the validation table.
+
+use anyhow::{anyhow, bail, Context, Result};
+
+use mfcbeam::identification::{
+    check_record, dominant_rate, fit_dynamics_and_delay, holdout_samples, identify_records,
+    search_delay_records, DelaySetting, FitRecord, IdentificationSettings, Record, ValidationRow,
+    ValidationTable,
+};
+use mfcbeam::io::{write_json, Trace};
+use mfcbeam::operators::traits::Operator;
+
+use super::args::{IdentifyArgs, OffsetSetting, ThresholdRule};
+use super::commands::trace_sample_time;
+
+pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
+    let first = Trace::read(&a.input[0])?;
+    let ts = trace_sample_time(&first, a.sample_time, None)?;
+    let jitter = if first.has_column("t") && first.len() > 1 {
+        Some(first.time_axis()?.jitter)
+    } else {
+        None
+    };
+    // every fitted record: its name, input and output
+    let mut fitted = vec![(
+        a.input[0].display().to_string(),
+        first.column("u")?,
+        first.column("y")?,
+    )];
+    for path in &a.input[1..] {
+        let other = Trace::read(path)?;
+        other.check_time_column(ts)?;
+        fitted.push((
+            path.display().to_string(),
+            other.column("u")?,
+            other.column("y")?,
+        ));
+    }
+    let several = fitted.len() > 1;
+    if several && a.holdout.is_some() {
+        bail!("--holdout: with several --input records, validate on another record (--validate) instead");
+    }
+    let (u, y) = (&fitted[0].1, &fitted[0].2);
+    let holdout =
+        holdout_samples(a.holdout.unwrap_or(0.0), u.len()).map_err(|e| anyhow!("--{e}"))?;
+    let mut validation = Vec::new();
+    for path in &a.validate {
+        let other = Trace::read(path)?;
+        other.check_time_column(ts)?;
+        validation.push((path, other.column("u")?, other.column("y")?));
+    }
+    // each record's own start
+    let starts: Vec<Option<usize>> = fitted
+        .iter()
+        .map(|(_, u, _)| a.fit_from.map(|f| f.resolve(u, ts)))
+        .collect();
+    if several {
+        for ((name, u, _), start) in fitted.iter().zip(&starts) {
+            if let Some(k) = start {
+                if *k >= u.len() {
+                    bail!(
+                        "--fit-from: {name}: sample {k} is beyond its {} samples",
+                        u.len()
+                    );
+                }
+            }
+        }
+    }
+    let validate_from = a.validate_from.or(a.fit_from).unwrap_or_default();
+    if let Some(p) = &a.plot {
+        if !matches!(p.extension().and_then(|e| e.to_str()), Some("png" | "svg")) {
+            bail!("--plot: {}: name a .png or .svg file", p.display());
+        }
+    }
+    let hysteresis_thresholds = match (a.thresholds, &a.hysteresis_thresholds) {
+        (ThresholdRule::Uniform, given) => given.clone(),
+        (ThresholdRule::Reversals, Some(_)) => {
+            bail!("--thresholds reversals: give either the rule or --hysteresis-thresholds")
+        }
+        (ThresholdRule::Reversals, None) => {
+            let all: Vec<f64> = fitted
+                .iter()
+                .flat_map(|(_, u, _)| u.iter().copied())
+                .collect();
+            Some(
+                mfcbeam::identification::thresholds::reversal_thresholds(
+                    &all,
+                    a.hysteresis_operators,
+                )
+                .map_err(|e| anyhow!("--{e}"))?,
+            )
+        }
+    };
+    let settings = IdentificationSettings {
+        fit_offset: !a.no_offset,
+        fit_from: starts[0],
+        holdout,
+        hysteresis_operators: a.hysteresis_operators,
+        creep_operators: a.creep_operators,
+        creep_eigenvalues: a.creep_eigenvalues,
+        hysteresis_thresholds,
+        creep_thresholds: a.creep_thresholds.clone(),
+        eigenvalues: a.eigenvalues.clone(),
+        epsilon_h: a.epsilon_h,
+        superposition: a.superposition,
+        superposition_kinks: a.superposition_kinks.clone(),
+        delay: match a.delay {
+            DelaySetting::Fixed(d) => d,
+            DelaySetting::Auto => 0,
+        },
+        offset_per_record: a.offset == OffsetSetting::PerRecord,
+        dynamics: None,
+    };
+    // the settings are options: named as such, not after the input file
+    if let Err(mfcbeam::identification::IdentificationError::InvalidSetting { field, reason }) =
+        settings.validate()
+    {
+        bail!("--{}: {reason}", field.replace('_', "-"));
+    }
+    if matches!(a.delay, DelaySetting::Auto) {
+        mfcbeam::limits::check("max-delay", mfcbeam::limits::MAX_DELAY_SEARCH, a.max_delay)
+            .map_err(|e| anyhow!("--{e}"))?;
+    }
+    let names: Vec<String> = validation
+        .iter()
+        .map(|(path, _, _)| path.display().to_string())
+        .collect();
+    let mut records: Vec<Record> = Vec::with_capacity(validation.len());
+    for ((_, vu, vy), name) in validation.iter().zip(&names) {
+        let zero = match &a.validate_zero {
+            Some(z) => Some(
+                z.resolve(vu.len(), ts)
+                    .map_err(|e| anyhow!("--validate-zero: {name}: {e}"))?,
+            ),
+            None => None,
+        };
+        records.push(Record {
+            name,
+            u: vu,
+            y: vy,
+            from: validate_from.resolve(vu, ts),
+            zero,
+        });
+    }
+    // a record's own errors first, so that a bad one is named by its file
+    for r in &records {
+        check_record(r.name, r.u, r.y, r.from).with_context(|| r.name.to_string())?;
+    }
+    let fit_records: Vec<FitRecord> = fitted
+        .iter()
+        .zip(&starts)
+        .map(|((_, u, y), &fit_from)| FitRecord { u, y, fit_from })
+        .collect();
+    let name_of = |e: mfcbeam::identification::IdentificationError| -> anyhow::Error {
+        let what = if several {
+            "the --input records".to_string()
+        } else {
+            a.input[0].display().to_string()
+        };
+        anyhow!("{what}: {e}")
+    };
+    let (mut id, search) = match a.delay {
+        DelaySetting::Fixed(_) => (
+            identify_records(&fit_records, ts, &settings).map_err(name_of)?,
+            None,
+        ),
+        DelaySetting::Auto => {
+            let (id, search) =
+                search_delay_records(&fit_records, ts, &settings, a.max_delay, &records)
+                    .map_err(name_of)?;
+            (id, Some(search))
+        }
+    };
+    if a.dynamics.any() {
+        let s = IdentificationSettings {
+            delay: id.report.delay,
+            ..settings.clone()
+        };
+        id = fit_dynamics_and_delay(&fit_records, ts, &s, a.dynamics, &records).map_err(
+            |e| match e {
+                mfcbeam::identification::IdentificationError::InvalidSetting {
+                    field: "dynamics",
+                    reason,
+                } => anyhow!("--dynamics: {reason}"),
+                e => name_of(e),
+            },
+        )?;
+    }
+    let mut rows = Vec::new();
+    for r in &records {
+        rows.push(r.row(&id.model)?);
+    }
+    if let Some(p) = &a.plot {
+        let fit = id.model.clone().run(u);
+        let mut others: Vec<(String, Vec<f64>)> = Vec::new();
+        for (i, (name, fu, fy)) in fitted.iter().enumerate().skip(1) {
+            let offset = id
+                .report
+                .records
+                .get(i)
+                .map_or(id.model.offset(), |r| r.offset);
+            let fit = id.model.clone().with_offset(offset).run(fu);
+            others.push((
+                format!("{name} (fitted)"),
+                fit.iter().zip(fy).map(|(a, b)| a - b).collect(),
+            ));
+        }
+        for (path, vu, vy) in &validation {
+            let fit = id.model.clone().run(vu);
+            let e = fit.iter().zip(vy.iter()).map(|(a, b)| a - b).collect();
+            others.push((path.display().to_string(), e));
+        }
+        let fitted_range = &id.report.fitted;
+        mfcbeam::suite::plots::write_identification_plot(p, u, y, &fit, ts, fitted_range, &others)
+            .map_err(anyhow::Error::msg)?;
+    }
+    write_json(&a.output, &id.model.to_file().without_state())?;
+    if let Some(j) = jitter {
+        eprintln!(
+            "sample time          {ts:?} s (mean step of t; jitter {:.2e} of a step)",
+            j
+        );
+    }
+    eprint!("{}", id.report);
+    if let Some(search) = &search {
+        eprint!("{search}");
+    }
+    if let Some(g) = &id.report.dynamics {
+        eprint!("{}", DynamicsLine(g));
+        eprintln!(
+            "dynamics: dead time    {} samples with them (and {} of the resonance's lag)",
+            id.report.delay,
+            g.parameters.lag()
+        );
+    }
+    // are the measured minor loops congruent (what a PI model can follow)?
+    let from = id.report.fitted.start;
+    if let Some(span) = mfcbeam::identification::thresholds::median_branch(&u[from..]) {
+        let c =
+            |y: &[f64]| mfcbeam::identification::thresholds::branch_congruence(u, y, from, span);
+        if let (Some(measured), Some(model)) = (c(y), c(&id.model.clone().run(u))) {
+            eprintln!(
+                "minor loops          {} branches of at least {span:.4e}: y(u_a ± s) − y(u_a) spreads about its median by {:.4} % of the range measured, {:.4} % in the model (H alone has one curve, Masing; S, creep and G spread it)",
+                measured.branches, measured.spread_percent, model.spread_percent
+            );
+        }
+    }
+    if several || !rows.is_empty() {
+        // the fitted records first, then one row per validation record
+        let mut table = Vec::new();
+        for (i, (name, fu, _)) in fitted.iter().enumerate() {
+            let (from, errors) = match id.report.records.get(i) {
+                Some(r) => (r.fitted.start, r.fit),
+                None => (id.report.fitted.start, id.report.fit),
+            };
+            table.push(ValidationRow {
+                name: name.clone(),
+                from,
+                errors,
+                rate: dominant_rate(fu, ts),
+                zeroed: None,
+            });
+        }
+        table.extend(rows);
+        eprint!("{}", ValidationTable(table));
+    }
+    if several && settings.offset_per_record && settings.fit_offset {
+        let first = id
+            .report
+            .records
+            .first()
+            .map_or(id.model.offset(), |r| r.offset);
+        for (r, (name, _, _)) in id.report.records.iter().zip(&fitted) {
+            eprintln!("offset of {name}: {:.6e}", r.offset);
+        }
+        eprintln!("the model file keeps the first record's offset, {first:.6e}");
+    }
+    if let Some(p) = &a.plot {
+        eprintln!("mfcbeam: wrote {}", p.display());
+    }
+    eprintln!("mfcbeam: wrote {}", a.output.display());
+    Ok(())
+}
+
+/// The fitted dynamics in one block of the report.
+struct DynamicsLine<'a>(&'a mfcbeam::identification::DynamicsReport);
+
+impl std::fmt::Display for DynamicsLine<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let g = self.0;
+        let se = |s: Option<f64>| s.map_or("?".to_string(), |s| format!("{s:.2e}"));
+        if let Some(fc) = g.parameters.low_pass {
+            writeln!(
+                f,
+                "dynamics: low-pass    {fc:.6e} Hz ± {}",
+                se(g.standard_errors[0])
+            )?;
+        }
+        if let Some(r) = g.parameters.resonance {
+            writeln!(
+                f,
+                "dynamics: resonance   {:.6e} Hz ± {}, damping {:.6e} ± {}",
+                r.frequency,
+                se(g.standard_errors[1]),
+                r.damping,
+                se(g.standard_errors[2])
+            )?;
+        }
+        let tau = g.parameters.delay_fraction;
+        match g.standard_errors[3] {
+            Some(se) => writeln!(
+                f,
+                "dynamics: delay fraction {tau:.6} samples ± {se:.2e} (on top of the dead time)"
+            )?,
+            None if tau != 0.0 => writeln!(
+                f,
+                "dynamics: delay fraction {tau:.6} samples, at its bound (the dead time was tried one sample either way)"
+            )?,
+            None => {}
+        }
+        writeln!(
+            f,
+            "dynamics: output error rms {:.6e} without, {:.6e} with them ({} steps)",
+            g.rms_static, g.rms, g.iterations
+        )
+    }
+}
