@@ -53,6 +53,7 @@
 pub mod delay;
 mod dynamics;
 mod identify;
+mod plan;
 mod regressor;
 pub mod report;
 pub mod settings;
