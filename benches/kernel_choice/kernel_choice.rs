@@ -1,12 +1,15 @@
 //! The kernel choice, checked on the CPU that runs it: one compensator step
 //! (nominal model, `f64` and `f32`) on every kernel set the CPU has, in
-//! interleaved rounds of 100 000 steps, and the set the step dispatches to
-//! ([`Kernels::detect`], then [`Kernels::for_single_step`]) must not be
-//! slower than the portable one beyond the rounds' spread (p10–p90), nor
-//! slower than the fastest set by more than the two sets' spread (the
-//! middle half of their rounds) or 5 % (exit code 1 if it is;
-//! `.ci/run` runs it). Prints the CPU (vendor, family, model, features)
-//! with the figures.
+//! interleaved rounds of 100 000 steps, and a bank of 64 channels of it in
+//! rounds of 2000 steps. The set each dispatches to (the step:
+//! [`Kernels::detect`], then [`Kernels::for_single_step`]; the bank:
+//! [`Kernels::detect`]) must not be slower than the portable one beyond
+//! the rounds' spread (p10–p90), nor slower than the fastest set by more
+//! than the two sets' spread (the middle half of their rounds) or 5 %
+//! (exit code 1 if it is; `.ci/run` runs it). Prints the CPU (vendor,
+//! family, model, features) with the figures. This binary is also where
+//! `.ci/run` looks for masked stores in the bank's AVX2 kernels
+//! (`no_masked_stores.sh`).
 //!
 //! `cargo bench -p mfcbeam-kernel-choice` (a package of its own: see its
 //! `Cargo.toml`)
@@ -15,6 +18,7 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use mfcbeam::operators::traits::Operator;
+use mfcbeam::realtime::compensator::Compensated;
 use mfcbeam::realtime::simd::{cpu_description, Kernels};
 use mfcbeam::realtime::{nominal, Compensator, CompensatorSettings, Real};
 
@@ -45,6 +49,44 @@ fn rounds<T: Real>(targets: &[f64]) -> Vec<(Kernels, Vec<f64>)> {
     runs.into_iter().map(|(k, _, _, t)| (k, t)).collect()
 }
 
+/// Channels and steps a round of the bank.
+const BANK_CHANNELS: usize = 64;
+const BANK_STEPS: usize = 2000;
+
+/// Banks per kernel set, one a round in turn: a bank's speed depends on
+/// where its memory lands (on a Zen 4 a few banks of 64 took up to 1.34×
+/// the median, see `bank_limit`), so the median is taken over placements.
+const PLACEMENTS: usize = 3;
+
+/// Per-step ns of a bank of [`BANK_CHANNELS`] channels on each kernel set
+/// in each round, the sets interleaved.
+fn bank_rounds<T: Real>() -> Vec<(Kernels, Vec<f64>)> {
+    let rows = common::bank_rows::<T>(BANK_CHANNELS, 64);
+    let mut runs: Vec<_> = Kernels::all()
+        .map(|k| {
+            let banks: Vec<_> = (0..PLACEMENTS)
+                .map(|_| common::nominal_bank::<T>(BANK_CHANNELS))
+                .collect();
+            let out = vec![Compensated::<T>::default(); BANK_CHANNELS];
+            (k, banks, out, 0usize, Vec::with_capacity(ROUNDS))
+        })
+        .collect();
+    for round in 0..ROUNDS {
+        for (k, banks, out, i, times) in &mut runs {
+            let bank = &mut banks[round % PLACEMENTS];
+            let t0 = Instant::now();
+            for _ in 0..BANK_STEPS {
+                *i = (*i + 1) % rows.len();
+                bank.compensate_using(*k, black_box(&rows[*i]), out)
+                    .unwrap();
+                black_box(&*out);
+            }
+            times.push(t0.elapsed().as_nanos() as f64 / BANK_STEPS as f64);
+        }
+    }
+    runs.into_iter().map(|(k, _, _, _, t)| (k, t)).collect()
+}
+
 fn quantile(v: &[f64], p: f64) -> f64 {
     let mut v = v.to_vec();
     v.sort_by(f64::total_cmp);
@@ -58,20 +100,22 @@ fn main() {
     let mut ok = true;
     for (name, runs, chosen) in [
         (
-            "f64",
+            "f64 step",
             rounds::<f64>(&targets),
             Kernels::detect_single_step::<f64>(),
         ),
         (
-            "f32",
+            "f32 step",
             rounds::<f32>(&targets),
             Kernels::detect_single_step::<f32>(),
         ),
+        ("f64 bank (64 ch.)", bank_rounds::<f64>(), Kernels::detect()),
+        ("f32 bank (64 ch.)", bank_rounds::<f32>(), Kernels::detect()),
     ] {
         let portable = &runs[0].1;
         for (k, times) in &runs {
             println!(
-                "{name} step, {:>8} kernels: median {:.1} ns (p10-p90 {:.1}-{:.1})",
+                "{name}, {:>8} kernels: median {:.1} ns (p10-p90 {:.1}-{:.1})",
                 k.name(),
                 quantile(times, 0.5),
                 quantile(times, 0.1),
@@ -85,7 +129,7 @@ fn main() {
         let ratio = quantile(dispatched, 0.5) / quantile(portable, 0.5);
         let fine = ratio <= 1.0 + noise;
         println!(
-            "{name}: {} dispatched, {ratio:.2}x the portable step (noise {:.1} %): {}",
+            "{name}: {} dispatched, {ratio:.2}x the portable set (noise {:.1} %): {}",
             chosen.name(),
             100.0 * noise,
             if fine { "not slower" } else { "SLOWER" }
