@@ -14,9 +14,11 @@ use crate::realtime::real::Real;
 #[derive(Clone, Copy)]
 pub(crate) struct Avx2Half<const H: usize>(__m256d, __m256);
 
-/// Masks of the first `k` lanes of a register: the 32 bytes from
-/// element `4 − k` (`f64`) or `8 − k` (`f32`).
+/// The mask of a register's first `k` `f64` lanes: the 32 bytes from
+/// element `4 − k`.
 const FIRST_OF_64: [i64; 8] = [-1, -1, -1, -1, 0, 0, 0, 0];
+/// The mask of a register's first `k` `f32` lanes: the 32 bytes from
+/// element `8 − k`.
 const FIRST_OF_32: [i32; 16] = [-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0];
 
 impl<const H: usize> Avx2Half<H> {
