@@ -1,6 +1,6 @@
-//! `mfcbeam identify`: a compensator's model from one or more measured
-//! records (the offset, the creep, `H`, a dead time and the dynamics), its
-//! report and, with a held-out part, the validation table.
+//! `mfcbeam identify`: a model from one or more measured records, its fit
+//! report and, with a held-out part or other records, the validation
+//! table.
 
 use anyhow::{anyhow, bail, Context, Result};
 

@@ -1,7 +1,7 @@
 //! The plan of an identification (25), made before the regression: what
-//! it fits ([`FitPlan`]) — the records' fitted samples, the thresholds (23) and eigenvalues (24), the
-//! operators the input excites, the margin of (11), and `S⁻¹`'s kinks
-//! about the output's mid-point.
+//! it fits ([`FitPlan`]) — the records' fitted samples, the thresholds
+//! (23) and eigenvalues (24), the operators the input excites, the margin
+//! of (11), and `S⁻¹`'s kinks about the output's mid-point.
 
 use super::identify::{in_record, Solution, EPSILON_S};
 use super::regressor::Segment;

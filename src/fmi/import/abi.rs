@@ -1,6 +1,6 @@
-//! The C side of an imported FMU: the FMI 2.0 and 3.0 functions a
-//! sampled Co-Simulation run calls, looked up by name from its library,
-//! and the loggers and memory callbacks handed to it.
+//! The C side of an imported FMU: the types of the FMI 2.0 and 3.0
+//! functions a sampled Co-Simulation run calls (looked up by name in
+//! `fmu`), and the loggers and memory callbacks handed to it.
 
 use std::ffi::{c_char, c_int, c_void, CStr};
 use std::sync::Mutex;
