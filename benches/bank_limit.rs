@@ -241,6 +241,19 @@ mod mix {
     use super::Form;
     use mfcbeam::realtime::{simd::Kernels, Real};
 
+    /// `$kernel::<CHAINS, FORM>($args)` of module `x86` with the form
+    /// `$form` made a constant (the kernels take it as a const parameter).
+    #[cfg(target_arch = "x86_64")]
+    macro_rules! each_form {
+        ($form:expr, $kernel:ident::<$chains:ident>($($arg:expr),*)) => {
+            match $form {
+                Form::Adds => x86::$kernel::<$chains, { Form::Adds as u8 }>($($arg),*),
+                Form::Fused => x86::$kernel::<$chains, { Form::Fused as u8 }>($($arg),*),
+                Form::HalfFused => x86::$kernel::<$chains, { Form::HalfFused as u8 }>($($arg),*),
+            }
+        };
+    }
+
     /// Runs `iterations` of `CHAINS` chains on the registers of kernel set
     /// `k` for `T`, their rows added in `form`; returns the lanes per
     /// register. The callers try 4, 8 and 16 chains (each divides the
@@ -257,32 +270,21 @@ mod mix {
         let f64_ = T::NAME == "f64";
         #[cfg(target_arch = "x86_64")]
         {
-            macro_rules! each_form {
-                ($kernel:ident) => {
-                    match form {
-                        Form::Adds => x86::$kernel::<CHAINS, { Form::Adds as u8 }>(iterations),
-                        Form::Fused => x86::$kernel::<CHAINS, { Form::Fused as u8 }>(iterations),
-                        Form::HalfFused => {
-                            x86::$kernel::<CHAINS, { Form::HalfFused as u8 }>(iterations)
-                        }
-                    }
-                };
-            }
             // SAFETY: a `Kernels` value exists only where the CPU has its
             // features.
             unsafe {
                 if k.is_avx512() {
                     return Some(if f64_ {
-                        each_form!(avx512_f64)
+                        each_form!(form, avx512_f64::<CHAINS>(iterations))
                     } else {
-                        each_form!(avx512_f32)
+                        each_form!(form, avx512_f32::<CHAINS>(iterations))
                     });
                 }
                 if k.is_avx2() {
                     return Some(if f64_ {
-                        each_form!(avx2_f64)
+                        each_form!(form, avx2_f64::<CHAINS>(iterations))
                     } else {
-                        each_form!(avx2_f32)
+                        each_form!(form, avx2_f32::<CHAINS>(iterations))
                     });
                 }
             }
@@ -324,36 +326,21 @@ mod mix {
         let p = rows.0.as_mut_ptr().cast::<u8>();
         #[cfg(target_arch = "x86_64")]
         {
-            macro_rules! each_form {
-                ($kernel:ident) => {
-                    match form {
-                        Form::Adds => {
-                            x86::$kernel::<CHAINS, { Form::Adds as u8 }>(p.cast(), iterations)
-                        }
-                        Form::Fused => {
-                            x86::$kernel::<CHAINS, { Form::Fused as u8 }>(p.cast(), iterations)
-                        }
-                        Form::HalfFused => {
-                            x86::$kernel::<CHAINS, { Form::HalfFused as u8 }>(p.cast(), iterations)
-                        }
-                    }
-                };
-            }
             // SAFETY: a `Kernels` value exists only where the CPU has its
             // features; the rows are STREAMED_ROWS cache lines.
             unsafe {
                 if k.is_avx512() {
                     return Some(if f64_ {
-                        each_form!(avx512_f64_streamed)
+                        each_form!(form, avx512_f64_streamed::<CHAINS>(p.cast(), iterations))
                     } else {
-                        each_form!(avx512_f32_streamed)
+                        each_form!(form, avx512_f32_streamed::<CHAINS>(p.cast(), iterations))
                     });
                 }
                 if k.is_avx2() {
                     return Some(if f64_ {
-                        each_form!(avx2_f64_streamed)
+                        each_form!(form, avx2_f64_streamed::<CHAINS>(p.cast(), iterations))
                     } else {
-                        each_form!(avx2_f32_streamed)
+                        each_form!(form, avx2_f32_streamed::<CHAINS>(p.cast(), iterations))
                     });
                 }
             }
