@@ -25,28 +25,40 @@ use mfcbeam::realtime::{nominal, Compensator, CompensatorSettings, Real};
 const ROUNDS: usize = 31;
 const STEPS: usize = 100_000;
 
-/// Per-step ns of each kernel set in each round, the sets interleaved.
+/// Per-step ns of each kernel set in each round, the sets interleaved:
+/// `steps` calls of `step(set, its state, round)` a round.
+fn interleaved<S>(
+    sets: impl Iterator<Item = (Kernels, S)>,
+    steps: usize,
+    mut step: impl FnMut(Kernels, &mut S, usize),
+) -> Vec<(Kernels, Vec<f64>)> {
+    let mut runs: Vec<_> = sets
+        .map(|(k, s)| (k, s, Vec::with_capacity(ROUNDS)))
+        .collect();
+    for round in 0..ROUNDS {
+        for (k, s, times) in &mut runs {
+            let t0 = Instant::now();
+            for _ in 0..steps {
+                step(*k, s, round);
+            }
+            times.push(t0.elapsed().as_nanos() as f64 / steps as f64);
+        }
+    }
+    runs.into_iter().map(|(k, _, t)| (k, t)).collect()
+}
+
+/// [`interleaved`] rounds of [`STEPS`] compensator steps.
 fn rounds<T: Real>(targets: &[f64]) -> Vec<(Kernels, Vec<f64>)> {
     let targets: Vec<T> = targets.iter().map(|&t| T::from_f64(t)).collect();
     let settings = CompensatorSettings::default();
-    let mut runs: Vec<_> = Kernels::all()
-        .map(|k| {
-            let c =
-                Compensator::<T, nominal::Capacity>::new(&nominal::PARAMETERS, settings).unwrap();
-            (k, c, 0usize, Vec::with_capacity(ROUNDS))
-        })
-        .collect();
-    for _ in 0..ROUNDS {
-        for (k, c, i, times) in &mut runs {
-            let t0 = Instant::now();
-            for _ in 0..STEPS {
-                *i = (*i + 1) % targets.len();
-                black_box(c.compensate_using(*k, black_box(targets[*i])));
-            }
-            times.push(t0.elapsed().as_nanos() as f64 / STEPS as f64);
-        }
-    }
-    runs.into_iter().map(|(k, _, _, t)| (k, t)).collect()
+    let sets = Kernels::all().map(|k| {
+        let c = Compensator::<T, nominal::Capacity>::new(&nominal::PARAMETERS, settings).unwrap();
+        (k, (c, 0usize))
+    });
+    interleaved(sets, STEPS, |k, (c, i), _| {
+        *i = (*i + 1) % targets.len();
+        black_box(c.compensate_using(k, black_box(targets[*i])));
+    })
 }
 
 /// Channels and steps a round of the bank.
@@ -58,33 +70,23 @@ const BANK_STEPS: usize = 2000;
 /// the median, see `bank_limit`), so the median is taken over placements.
 const PLACEMENTS: usize = 3;
 
-/// Per-step ns of a bank of [`BANK_CHANNELS`] channels on each kernel set
-/// in each round, the sets interleaved.
+/// [`interleaved`] rounds of [`BANK_STEPS`] steps of a bank of
+/// [`BANK_CHANNELS`] channels.
 fn bank_rounds<T: Real>() -> Vec<(Kernels, Vec<f64>)> {
     let rows = common::bank_rows::<T>(BANK_CHANNELS, 64);
-    let mut runs: Vec<_> = Kernels::all()
-        .map(|k| {
-            let banks: Vec<_> = (0..PLACEMENTS)
-                .map(|_| common::nominal_bank::<T>(BANK_CHANNELS))
-                .collect();
-            let out = vec![Compensated::<T>::default(); BANK_CHANNELS];
-            (k, banks, out, 0usize, Vec::with_capacity(ROUNDS))
-        })
-        .collect();
-    for round in 0..ROUNDS {
-        for (k, banks, out, i, times) in &mut runs {
-            let bank = &mut banks[round % PLACEMENTS];
-            let t0 = Instant::now();
-            for _ in 0..BANK_STEPS {
-                *i = (*i + 1) % rows.len();
-                bank.compensate_using(*k, black_box(&rows[*i]), out)
-                    .unwrap();
-                black_box(&*out);
-            }
-            times.push(t0.elapsed().as_nanos() as f64 / BANK_STEPS as f64);
-        }
-    }
-    runs.into_iter().map(|(k, _, _, _, t)| (k, t)).collect()
+    let sets = Kernels::all().map(|k| {
+        let banks: Vec<_> = (0..PLACEMENTS)
+            .map(|_| common::nominal_bank::<T>(BANK_CHANNELS))
+            .collect();
+        let out = vec![Compensated::<T>::default(); BANK_CHANNELS];
+        (k, (banks, out, 0usize))
+    });
+    interleaved(sets, BANK_STEPS, |k, (banks, out, i), round| {
+        *i = (*i + 1) % rows.len();
+        let bank = &mut banks[round % PLACEMENTS];
+        bank.compensate_using(k, black_box(&rows[*i]), out).unwrap();
+        black_box(&*out);
+    })
 }
 
 fn quantile(v: &[f64], p: f64) -> f64 {
