@@ -99,8 +99,9 @@ static double creep_advance(double chi[M][NC], const double *rc, const double *w
 
 #if defined(SAME_ORDER)
 /* mfcbeam's step in C (-DSAME_ORDER): its operations in its order, with
- * intrinsics — the 8-lane block and the 4-lane block of its AVX-512 kernels
- * (three 4-lane blocks on AVX2, the same sums lane by lane), FMA where
+ * intrinsics — H^-1's plays in three 4-lane blocks, the creep pass in the
+ * 8-lane block and the 4-lane block of its AVX-512 kernels (three 4-lane
+ * blocks on AVX2, the same sums lane by lane), FMA where
  * mfcbeam fuses (the creep update g c + (x - g x), each weighted term
  * after a sum's first, a product, with its sum), the plays saved before each step for a re-seat, a non-finite target held —
  * so its voltages have mfcbeam's bits (run.sh checks that they are equal,
@@ -188,19 +189,7 @@ static double compensate_same(same *c, double target, int *saturated) {
         cr = 0.0;
     }
     __m256d t4 = _mm256_set1_pd(t), c4 = _mm256_set1_pd(cr), acc;
-#ifdef __AVX512F__
-    {
-        __m512d t8 = _mm512_set1_pd(t), c8 = _mm512_set1_pd(cr);
-        __m512d r = _mm512_loadu_pd(c->ri), x = _mm512_loadu_pd(c->xi);
-        _mm512_storeu_pd(c->saved, x);
-        x = _mm512_max_pd(_mm512_min_pd(x, _mm512_sub_pd(_mm512_add_pd(t8, r), c8)),
-                          _mm512_sub_pd(_mm512_sub_pd(t8, r), c8));
-        _mm512_storeu_pd(c->xi, x);
-        acc = halves(_mm512_loadu_pd(c->wi), x);
-    }
-#else
     acc = play4(c, 4, t4, c4, play4(c, 0, t4, c4, _mm256_setzero_pd()));
-#endif
     double u = reduce4(play4(c, 8, t4, c4, acc));
     if (u < c->lower) {
         u = c->lower;

@@ -429,16 +429,13 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         // the common case, no `G` and no `S`: the general path's operations
         // on it, with nothing else in the function (the rest out of line:
         // fewer instructions and registers per step); a run's loop takes
-        // the same three pieces. The creep's output is read before the
-        // test: read after it, the C library's per-sample call kept the
-        // step's input (then `y − c`, now `y` and `c` apart) in a stack
-        // slot, a store and a load on the dependency chain (a Zen 4: 29.3
-        // ns a call against 26.7)
-        let c = self.creep_output();
+        // the same three pieces. The creep's output is read inside the
+        // kernels' function, by the broadcast of the step's first kernel
+        // (`simd::compensator_step`)
         let Some(y) = self.common_target(target) else {
             return self.compensate_general(k, target);
         };
-        let (u, saturated) = simd::compensator_step(k, self, y, c, self.lower, self.upper);
+        let (u, saturated) = simd::compensator_step(k, self, y, self.lower, self.upper);
         self.after_step(u, saturated);
         Compensated {
             u,
@@ -491,7 +488,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             Some(s) => s.apply(v),
             None => v,
         };
-        let (u, saturated) = simd::compensator_step(k, self, y, c, self.lower, self.upper);
+        let (u, saturated) = simd::compensator_step(k, self, y, self.lower, self.upper);
         if saturated {
             self.reseat_clipped(u);
         }

@@ -10,11 +10,12 @@
 //! compensator's arrays in registers; a run of steps is another
 //! (`compensator_run`), its loop inside, the creep's output carried from
 //! one sample to the next in a register. Its `f64` blocks run on explicit
-//! 256-bit registers (8-lane 512-bit ones with AVX-512F where the CPU runs
-//! them at full width: [`Kernels::for_single_step`]), its `f32` ones on
-//! 8-lane registers; the plays and creep pass of the forward model likewise;
-//! the bank's 64-byte blocks (`block`: 8 `f64` or 16 `f32` lanes, one
-//! cache line) on two 256-bit registers or one 512-bit register. A
+//! 256-bit registers (the creep pass's on 8-lane 512-bit ones with
+//! AVX-512F where the CPU runs them at full width:
+//! [`Kernels::for_single_step`]), its `f32` ones on 8-lane registers; the
+//! plays and creep pass of the forward model likewise; the bank's 64-byte
+//! blocks (`block`: 8 `f64` or 16 `f32` lanes, one cache line) on two
+//! 256-bit registers or one 512-bit register. A
 //! multiply and an add are fused only where every copy fuses them (with
 //! `std`: the creep update's two operations, `creep_pass::update`, and each
 //! weighted term with its partial sum, `real::add_product`; Rust never
@@ -364,6 +365,11 @@ trait StepKernels<T: Real> {
     type Lanes: Copy;
     /// `x` as [`StepKernels::Lanes`].
     unsafe fn splat(x: T) -> Self::Lanes;
+    /// `*x` as [`StepKernels::Lanes`], read by the broadcast itself: where
+    /// `*x` was just stored (the creep's output of the step before), the
+    /// store goes to the vector register in one forwarded load, without a
+    /// scalar load and a broadcast after it on the chain.
+    unsafe fn splat_from(x: &T) -> Self::Lanes;
     /// The value of `x`.
     unsafe fn first(x: Self::Lanes) -> T;
     /// The plays' step (`hysteresis::step_saving`) with the input `t − c`,
@@ -390,6 +396,10 @@ impl<T: Real> StepKernels<T> for PortableStep {
         x
     }
     #[inline(always)]
+    unsafe fn splat_from(x: &T) -> T {
+        *x
+    }
+    #[inline(always)]
     unsafe fn first(x: T) -> T {
         x
     }
@@ -409,7 +419,8 @@ impl<T: Real> StepKernels<T> for PortableStep {
 /// the plays; their states before the step saved), then the creep pass
 /// with the voltage applied (a non-finite one replaced by the last finite
 /// input): one compensator step once the target `t` (less the offset, or
-/// `S⁻¹` of it) and the creep's output `creep` are known. `y` is given as
+/// `S⁻¹` of it) and the creep's output `creep` are known (`None`: the
+/// output the creep operator holds, read from it here). `y` is given as
 /// its two terms so that the creep's output, the end of the step's
 /// dependency chain, enters each play's bounds last
 /// (`hysteresis::step_saving`). Returns the voltage,
@@ -421,7 +432,7 @@ impl<T: Real> StepKernels<T> for PortableStep {
 unsafe fn step_body<T: Real, K: StepKernels<T>, C: StepSource<T>, const PAPER: bool>(
     c: &mut C,
     t: T,
-    creep: K::Lanes,
+    creep: Option<K::Lanes>,
     lower: T,
     upper: T,
 ) -> (T, bool, K::Lanes) {
@@ -431,9 +442,14 @@ unsafe fn step_body<T: Real, K: StepKernels<T>, C: StepSource<T>, const PAPER: b
         c.step_parts()
     };
     assert!(p.saved.len() == p.inv_state.len());
+    // SAFETY (every `K` call): the caller's: `K`'s features are present.
+    let creep = match (creep, &p.creep) {
+        (Some(lanes), _) => lanes,
+        (None, Some(cp)) => unsafe { K::splat_from(&*cp.output) },
+        (None, None) => unsafe { K::splat(T::ZERO) },
+    };
     // a predicted branch, so the test's subtraction stays off the chain
     // (with the length known, a select would put a test and a blend on it)
-    // SAFETY (every `K` call): the caller's: `K`'s features are present.
     let (t, creep) = if (t - unsafe { K::first(creep) }).is_finite() {
         (t, creep)
     } else {
@@ -509,13 +525,15 @@ macro_rules! by_layout {
 
 /// [`step_body`] on `k`'s kernels, compiled as one function with their
 /// features: one call per step, the parts in registers (split into a call
-/// per kernel, the step wrote some 40 values to the stack per sample).
+/// per kernel, the step wrote some 40 values to the stack per sample). The
+/// creep's output enters as the creep operator of `c` holds it, read inside
+/// the kernels' function by the broadcast that needs it
+/// ([`StepKernels::splat_from`]).
 #[inline(always)]
 pub(crate) fn compensator_step<T: Real, C: StepSource<T>>(
     k: Kernels,
     c: &mut C,
     t: T,
-    creep: T,
     lower: T,
     upper: T,
 ) -> (T, bool) {
@@ -523,12 +541,12 @@ pub(crate) fn compensator_step<T: Real, C: StepSource<T>>(
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         // SAFETY: an `Avx512` value exists only where the CPU has AVX-512F,
         // AVX2 and FMA.
-        Kernels::Avx512(_) => unsafe { by_layout!(c, step_avx512, c, t, creep, lower, upper) },
+        Kernels::Avx512(_) => unsafe { by_layout!(c, step_avx512, c, t, lower, upper) },
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         // SAFETY: an `Avx2` value exists only where the CPU has AVX2 and FMA.
-        Kernels::Avx2(_) => unsafe { by_layout!(c, step_avx2, c, t, creep, lower, upper) },
+        Kernels::Avx2(_) => unsafe { by_layout!(c, step_avx2, c, t, lower, upper) },
         // SAFETY: the portable kernels need no feature.
-        Kernels::Portable => step_portable(c, t, creep, lower, upper),
+        Kernels::Portable => step_portable(c, t, lower, upper),
     }
 }
 
@@ -589,7 +607,7 @@ unsafe fn run_body<T: Real, K: StepKernels<T>, C: RunSource<T>, const PAPER: boo
         let (v, s, f) = match c.common_target(target) {
             Some(y) => {
                 let (v, s, next) =
-                    unsafe { step_body::<T, K, C, PAPER>(c, y, creep_output, lower, upper) };
+                    unsafe { step_body::<T, K, C, PAPER>(c, y, Some(creep_output), lower, upper) };
                 creep_output = next;
                 c.after_step(v, s);
                 (v, s, false)
@@ -634,16 +652,10 @@ pub(crate) fn compensator_run<T: Real, C: RunSource<T>>(
 /// from 0x228 to 0x58 bytes).
 #[cfg_attr(all(feature = "std", target_arch = "x86_64"), inline(never))]
 #[cfg_attr(not(all(feature = "std", target_arch = "x86_64")), inline(always))]
-fn step_portable<T: Real, C: StepSource<T>>(
-    c: &mut C,
-    t: T,
-    creep: T,
-    lower: T,
-    upper: T,
-) -> (T, bool) {
+fn step_portable<T: Real, C: StepSource<T>>(c: &mut C, t: T, lower: T, upper: T) -> (T, bool) {
     // SAFETY: the portable kernels need no feature.
     let (u, saturated, _) =
-        unsafe { step_body::<T, PortableStep, C, false>(c, t, creep, lower, upper) };
+        unsafe { step_body::<T, PortableStep, C, false>(c, t, None, lower, upper) };
     (u, saturated)
 }
 

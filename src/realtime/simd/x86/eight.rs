@@ -1,6 +1,7 @@
-//! The kernels on 8-lane registers: the AVX-512 set's `f64` (`__m512d`,
-//! with `__m256d` halves) and both sets' `f32` (`__m256`, with `__m128`
-//! halves), written once over [`Eight`]. `H⁻¹`'s plays and the creep pass
+//! The kernels on 8-lane registers: the AVX-512 set's `f64` creep pass
+//! (`__m512d`, with `__m256d` halves; its `H⁻¹` runs on 4 lanes, see
+//! `Avx512Step`) and both sets' `f32` (`__m256`, with `__m128` halves),
+//! written once over [`Eight`]. `H⁻¹`'s plays and the creep pass
 //! in blocks of eight, then a block of four and a scalar tail; each sum
 //! of four partial sums ended in a butterfly.
 use core::arch::x86_64::*;

@@ -29,7 +29,8 @@
 //! was not measured with it.
 //!
 //! [`four`] holds the `f64` kernels on 4-lane registers (the AVX2 set's),
-//! [`eight`] the 8-lane ones (the AVX-512 set's `f64`, both sets' `f32`);
+//! [`eight`] the 8-lane ones (the AVX-512 set's `f64` creep pass, both
+//! sets' `f32`);
 //! this module, how a step goes through them.
 mod eight;
 mod four;
@@ -91,8 +92,15 @@ unsafe fn write_each<T: Real, const N: usize>(p: *mut T, values: &[T; N]) {
 /// The step's kernels of the AVX2 set: `f64` on 4-lane registers,
 /// `f32` on 8-lane ones.
 struct Avx2Step;
-/// The step's kernels of the AVX-512 set: `f64` on 8-lane registers,
-/// `f32` on the AVX2 8-lane ones.
+/// The step's kernels of the AVX-512 set: for `f64`, `H⁻¹`'s plays on the
+/// AVX2 set's 4-lane registers and the creep pass on 8-lane ones; for
+/// `f32`, the AVX2 8-lane ones. The paper's twelve plays are too few for
+/// 8 lanes to pay: there the step's chain waited for the creep's output
+/// to be broadcast to 8 lanes and for the upper half of the plays' sum to
+/// be extracted, where on 4 lanes it waits for neither; the creep pass's
+/// sixty updates are enough, and 8 lanes halve its operations. On a Zen 5
+/// a run went from 1.037 to 1.000 of the strongest C's loop with it (the
+/// guide's performance chapter). The same bits either way.
 struct Avx512Step;
 
 /// A value on a vector set's chain (its `Lanes`): the value, and for
@@ -122,6 +130,19 @@ macro_rules! step_kernels {
                     every_lane,
                     value: x,
                 }
+            }
+
+            #[inline(always)]
+            unsafe fn splat_from(x: &T) -> OnChain<T> {
+                if let Some(x) = super::cast::<T, f64>(core::slice::from_ref(x)) {
+                    // SAFETY: the caller's features; `x` is one readable
+                    // `f64`. The value is lane 0 of the broadcast, so that
+                    // the one load is the broadcast's.
+                    let every_lane = unsafe { _mm256_broadcast_sd(&x[0]) };
+                    return unsafe { on_chain(every_lane) };
+                }
+                // SAFETY: the caller's features.
+                unsafe { Self::splat(*x) }
             }
 
             #[inline(always)]
@@ -190,7 +211,7 @@ unsafe fn on_chain<T: Real>(v: __m256d) -> OnChain<T> {
 }
 
 step_kernels!(Avx2Step, hysteresis_four, creep_four);
-step_kernels!(Avx512Step, hysteresis_eight::<F64x8>, creep_eight::<F64x8>);
+step_kernels!(Avx512Step, hysteresis_four, creep_eight::<F64x8>);
 
 /// A kernel set's entry points, each compiled with its features:
 /// [`super::step_body`] (one step), [`super::run_body`] (a run) and the
@@ -203,15 +224,12 @@ macro_rules! entry_points {
         pub(super) unsafe fn $step<T: Real, C: super::StepSource<T>, const PAPER: bool>(
             c: &mut C,
             t: T,
-            creep: T,
             lower: T,
             upper: T,
         ) -> (T, bool) {
             // SAFETY: the features are enabled here.
-            let (u, saturated, _) = unsafe {
-                let creep = <$set as super::StepKernels<T>>::splat(creep);
-                super::step_body::<T, $set, C, PAPER>(c, t, creep, lower, upper)
-            };
+            let (u, saturated, _) =
+                unsafe { super::step_body::<T, $set, C, PAPER>(c, t, None, lower, upper) };
             (u, saturated)
         }
 
