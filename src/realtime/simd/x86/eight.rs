@@ -1,9 +1,9 @@
 //! The kernels on 8-lane registers: the AVX-512 set's `f64` creep pass
-//! (`__m512d`, with `__m256d` halves; its `H⁻¹` runs on 4 lanes, see
-//! `Avx512Step`) and both sets' `f32` (`__m256`, with `__m128` halves),
-//! written once over [`Eight`]. `H⁻¹`'s plays and the creep pass
-//! in blocks of eight, then a block of four and a scalar tail; each sum
-//! of four partial sums ended in a butterfly.
+//! (`__m512d`, with `__m256d` halves) and both sets' `f32` (`__m256`, with
+//! `__m128` halves), written once over [`Eight`]. `H⁻¹`'s plays and the
+//! creep pass in blocks of eight, then a block of four and a scalar tail
+//! (the AVX-512 set's `H⁻¹` in blocks of four only, `hysteresis_halves`:
+//! see `Avx512Step`); each sum of four partial sums ended in a butterfly.
 use core::arch::x86_64::*;
 
 use super::four::all_lanes_sum;
@@ -39,11 +39,43 @@ pub(super) unsafe fn hysteresis_eight<E: Eight>(
     t: E::T,
     c: E::Half,
 ) -> E::Half {
+    // SAFETY: the caller's.
+    unsafe { hysteresis_by_split::<E, false>(state, saved, thresholds, weights, t, c) }
+}
+
+/// [`hysteresis_step_eight`] with every block of four on the 4-lane
+/// halves, none on 8 lanes: `H⁻¹` of the AVX-512 set's `f32` step (see
+/// `Avx512Step`).
+#[inline(always)]
+pub(super) unsafe fn hysteresis_halves<E: Eight>(
+    state: &mut [E::T],
+    saved: &mut [E::T],
+    thresholds: &[E::T],
+    weights: &[E::T],
+    t: E::T,
+    c: E::Half,
+) -> E::Half {
+    // SAFETY: the caller's.
+    unsafe { hysteresis_by_split::<E, true>(state, saved, thresholds, weights, t, c) }
+}
+
+/// [`hysteresis_step_eight`], `SPLIT` asked once for both arrays.
+#[inline(always)]
+unsafe fn hysteresis_by_split<E: Eight, const HALVES: bool>(
+    state: &mut [E::T],
+    saved: &mut [E::T],
+    thresholds: &[E::T],
+    weights: &[E::T],
+    t: E::T,
+    c: E::Half,
+) -> E::Half {
     // SAFETY (both): the caller's.
     if array_straddles(state) || array_straddles(saved) {
-        unsafe { hysteresis_step_eight::<E, true>(state, saved, thresholds, weights, t, c) }
+        unsafe { hysteresis_step_eight::<E, true, HALVES>(state, saved, thresholds, weights, t, c) }
     } else {
-        unsafe { hysteresis_step_eight::<E, false>(state, saved, thresholds, weights, t, c) }
+        unsafe {
+            hysteresis_step_eight::<E, false, HALVES>(state, saved, thresholds, weights, t, c)
+        }
     }
 }
 
@@ -384,10 +416,11 @@ eight!(
 
 /// `hysteresis::step` in 8-lane blocks: the products of lanes 0–3 and
 /// then of lanes 4–7 added into the four partial sums, as the portable
-/// blocks of four add them; then a 4-lane block and the rest one by one.
-/// `c4` holds `c` in every lane, and so does the result.
+/// blocks of four add them; then 4-lane blocks (one; every one with
+/// `HALVES`) and the rest one by one. `c4` holds `c` in every lane, and
+/// so does the result.
 #[inline(always)]
-unsafe fn hysteresis_step_eight<E: Eight, const SPLIT: bool>(
+unsafe fn hysteresis_step_eight<E: Eight, const SPLIT: bool, const HALVES: bool>(
     state: &mut [E::T],
     saved: &mut [E::T],
     thresholds: &[E::T],
@@ -397,7 +430,8 @@ unsafe fn hysteresis_step_eight<E: Eight, const SPLIT: bool>(
 ) -> E::Half {
     let n = state.len();
     assert!(thresholds.len() == n && weights.len() == n && saved.len() == n);
-    let (full8, full4) = (n - n % 8, n - n % 4);
+    let full4 = n - n % 4;
+    let full8 = if HALVES { 0 } else { n - n % 8 };
     // SAFETY (all): the features are the caller's; every block ends at
     // or before n in all three slices.
     unsafe {
@@ -417,16 +451,16 @@ unsafe fn hysteresis_step_eight<E: Eight, const SPLIT: bool>(
             acc = E::half_add_term(acc, E::half_load(weights.as_ptr().add(i0)), lo, i0 == 0);
             acc = E::half_mul_add(E::half_load(weights.as_ptr().add(i0 + 4)), hi, acc);
         }
-        if full4 > full8 {
-            let at = state.as_mut_ptr().add(full8);
-            let r = E::half_load(thresholds.as_ptr().add(full8));
+        for i0 in (full8..full4).step_by(4) {
+            let at = state.as_mut_ptr().add(i0);
+            let r = E::half_load(thresholds.as_ptr().add(i0));
             let x = E::half_load_unsplit::<SPLIT>(at);
-            E::half_store_unsplit::<SPLIT>(x, saved.as_mut_ptr().add(full8));
+            E::half_store_unsplit::<SPLIT>(x, saved.as_mut_ptr().add(i0));
             let x = E::half_min(x, E::half_sub(E::half_add(t4, r), c4));
             let x = E::half_max(x, E::half_sub(E::half_sub(t4, r), c4));
             E::half_store_unsplit::<SPLIT>(x, at);
-            let w = E::half_load(weights.as_ptr().add(full8));
-            acc = E::half_add_term(acc, w, x, full8 == 0);
+            let w = E::half_load(weights.as_ptr().add(i0));
+            acc = E::half_add_term(acc, w, x, i0 == 0);
         }
         if full4 == n {
             return E::half_every_lane_sum(acc);

@@ -40,7 +40,7 @@ use core::arch::x86_64::*;
 use core::any::TypeId;
 
 use crate::realtime::real::Real;
-use eight::{creep_eight, hysteresis_eight, F32x8, F64x8};
+use eight::{creep_eight, hysteresis_eight, hysteresis_halves, F32x8, F64x8};
 use four::{creep_four, hysteresis_four};
 
 /// Whether `bytes` bytes from `p` straddle a 4 KiB page.
@@ -92,21 +92,23 @@ unsafe fn write_each<T: Real, const N: usize>(p: *mut T, values: &[T; N]) {
 /// The step's kernels of the AVX2 set: `f64` on 4-lane registers,
 /// `f32` on 8-lane ones.
 struct Avx2Step;
-/// The step's kernels of the AVX-512 set: for `f64`, `H⁻¹`'s plays on the
-/// AVX2 set's 4-lane registers and the creep pass on 8-lane ones; for
-/// `f32`, the AVX2 8-lane ones. The paper's twelve plays are too few for
-/// 8 lanes to pay: there the step's chain waited for the creep's output
-/// to be broadcast to 8 lanes and for the upper half of the plays' sum to
-/// be extracted, where on 4 lanes it waits for neither; the creep pass's
-/// sixty updates are enough, and 8 lanes halve its operations. On a Zen 5
-/// a run went from 1.037 to 1.000 of the strongest C's loop with it (the
-/// guide's performance chapter). The same bits either way.
+/// The step's kernels of the AVX-512 set: `H⁻¹`'s plays on 4-lane
+/// registers (for `f64` the AVX2 set's kernel, for `f32` 128-bit halves)
+/// and the creep pass on 8-lane ones (512-bit for `f64`, 256-bit for
+/// `f32`). The paper's twelve plays are too few for 8 lanes to pay: there
+/// the step's chain waited for the creep's output to be broadcast to 8
+/// lanes and for the upper half of the plays' sum to be extracted, where
+/// on 4 lanes it waits for neither; the creep pass's sixty updates are
+/// enough, and 8 lanes halve its operations. On a Zen 5 a run went from
+/// 1.037 to 1.000 of the strongest C's loop with it in `f64`, from 1.085
+/// to 1.047 of the strongest C in `f32` (the guide's performance
+/// chapter). The same bits either way.
 struct Avx512Step;
 
-/// A value on a vector set's chain (its `Lanes`): the value, and for
-/// `f64` the value in every lane of a 4-lane register, which the `f64`
-/// kernels take and give (the `f32` kernels read the value; a register
-/// no kernel reads is not computed).
+/// A value on a vector set's chain (its `Lanes`): the value, and the
+/// value in every lane of a 4-lane register, which the kernels take and
+/// give: for `f64` the register, for `f32` its low 128 bits as four `f32`
+/// (the upper half unused).
 #[derive(Clone, Copy)]
 pub(super) struct OnChain<T> {
     every_lane: __m256d,
@@ -114,35 +116,32 @@ pub(super) struct OnChain<T> {
 }
 
 macro_rules! step_kernels {
-    ($set:ident, $hysteresis_f64:expr, $creep_f64:expr) => {
+    ($set:ident, $hysteresis_f64:expr, $creep_f64:expr, $hysteresis_f32:expr, $creep_f32:expr) => {
         impl<T: Real> super::StepKernels<T> for $set {
             type Lanes = OnChain<T>;
 
             #[inline(always)]
             unsafe fn splat(x: T) -> OnChain<T> {
                 // SAFETY (both): the caller's features.
-                let every_lane = if TypeId::of::<T>() == TypeId::of::<f64>() {
-                    unsafe { _mm256_set1_pd(x.to_f64()) }
+                if TypeId::of::<T>() == TypeId::of::<f64>() {
+                    unsafe { on_chain(_mm256_set1_pd(x.to_f64())) }
                 } else {
-                    unsafe { _mm256_setzero_pd() }
-                };
-                OnChain {
-                    every_lane,
-                    value: x,
+                    unsafe { on_chain_f32(_mm_set1_ps(x.to_f64() as f32)) }
                 }
             }
 
             #[inline(always)]
             unsafe fn splat_from(x: &T) -> OnChain<T> {
+                // SAFETY (both): the caller's features; `x` is one
+                // readable `f64` or `f32`. The value is lane 0 of the
+                // broadcast, so that the one load is the broadcast's.
                 if let Some(x) = super::cast::<T, f64>(core::slice::from_ref(x)) {
-                    // SAFETY: the caller's features; `x` is one readable
-                    // `f64`. The value is lane 0 of the broadcast, so that
-                    // the one load is the broadcast's.
-                    let every_lane = unsafe { _mm256_broadcast_sd(&x[0]) };
-                    return unsafe { on_chain(every_lane) };
+                    return unsafe { on_chain(_mm256_broadcast_sd(&x[0])) };
                 }
-                // SAFETY: the caller's features.
-                unsafe { Self::splat(*x) }
+                if let Some(x) = super::cast::<T, f32>(core::slice::from_ref(x)) {
+                    return unsafe { on_chain_f32(_mm_broadcast_ss(&x[0])) };
+                }
+                unreachable!("Real is f32 or f64")
             }
 
             #[inline(always)]
@@ -171,9 +170,9 @@ macro_rules! step_kernels {
                 if let (Some(x), Some(s), Some(r), Some(w)) =
                     (cast_mut(state), cast_mut(saved), cast(r), cast(w))
                 {
-                    let (t, c) = (t.to_f64() as f32, c.value.to_f64() as f32);
-                    let y = unsafe { hysteresis_eight::<F32x8>(x, s, r, w, t, _mm_set1_ps(c)) };
-                    return unsafe { Self::splat(T::from_f64(f64::from(_mm_cvtss_f32(y)))) };
+                    let t = t.to_f64() as f32;
+                    let y = unsafe { $hysteresis_f32(x, s, r, w, t, lanes_f32(c)) };
+                    return unsafe { on_chain_f32(y) };
                 }
                 unreachable!("Real is f32 or f64")
             }
@@ -191,9 +190,8 @@ macro_rules! step_kernels {
                 if let (Some(chi), Some(r), Some(g), Some(w)) =
                     (cast_mut(chi), cast(r), cast(g), cast(w))
                 {
-                    let v = v.value.to_f64() as f32;
-                    let y = unsafe { creep_eight::<F32x8>(chi, r, g, w, _mm_set1_ps(v)) };
-                    return unsafe { Self::splat(T::from_f64(f64::from(_mm_cvtss_f32(y)))) };
+                    let y = unsafe { $creep_f32(chi, r, g, w, lanes_f32(v)) };
+                    return unsafe { on_chain_f32(y) };
                 }
                 unreachable!("Real is f32 or f64")
             }
@@ -210,8 +208,38 @@ unsafe fn on_chain<T: Real>(v: __m256d) -> OnChain<T> {
     }
 }
 
-step_kernels!(Avx2Step, hysteresis_four, creep_four);
-step_kernels!(Avx512Step, hysteresis_four, creep_eight::<F64x8>);
+/// An `f32` in every lane of `v` as a `T` on the chain (`T` is `f32`).
+#[inline(always)]
+unsafe fn on_chain_f32<T: Real>(v: __m128) -> OnChain<T> {
+    OnChain {
+        // SAFETY: the caller's AVX; the upper half is never read.
+        every_lane: unsafe { _mm256_castpd128_pd256(_mm_castps_pd(v)) },
+        // SAFETY: the caller's AVX.
+        value: T::from_f64(f64::from(unsafe { _mm_cvtss_f32(v) })),
+    }
+}
+
+/// The four `f32` lanes of an `f32` on the chain ([`on_chain_f32`]).
+#[inline(always)]
+unsafe fn lanes_f32<T>(x: OnChain<T>) -> __m128 {
+    // SAFETY: the caller's AVX.
+    unsafe { _mm_castpd_ps(_mm256_castpd256_pd128(x.every_lane)) }
+}
+
+step_kernels!(
+    Avx2Step,
+    hysteresis_four,
+    creep_four,
+    hysteresis_eight::<F32x8>,
+    creep_eight::<F32x8>
+);
+step_kernels!(
+    Avx512Step,
+    hysteresis_four,
+    creep_eight::<F64x8>,
+    hysteresis_halves::<F32x8>,
+    creep_eight::<F32x8>
+);
 
 /// A kernel set's entry points, each compiled with its features:
 /// [`super::step_body`] (one step), [`super::run_body`] (a run) and the
