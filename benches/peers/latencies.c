@@ -56,6 +56,16 @@ CHAIN(movshdup, "vmovshdup %%xmm0, %%xmm0\n")
 CHAIN(broadcastss, "vbroadcastss %%xmm0, %%ymm0\n")
 CHAIN(store_load, "vmovsd %%xmm0, 8(%0)\n vmovsd 8(%0), %%xmm0\n")
 
+/* Two kinds alternating in one chain: their latencies, plus what a result
+ * waits to pass from one kind of pipe to the other and back (on a Zen 5
+ * about a cycle a pair where one of the two is an add) */
+CHAIN(pair_add_min, "vaddpd %%" W "1, %%" W "0, %%" W "0\n vminpd %%" W "1, %%" W "0, %%" W "0\n")
+CHAIN(pair_add_mul, "vaddpd %%" W "1, %%" W "0, %%" W "0\n vmulpd %%" W "1, %%" W "0, %%" W "0\n")
+CHAIN(pair_fma_add, "vfmadd231pd %%" W "1, %%" W "1, %%" W "0\n vaddpd %%" W "1, %%" W "0, %%" W "0\n")
+CHAIN(pair_min_max, "vminpd %%" W "1, %%" W "0, %%" W "0\n vmaxpd %%" W "1, %%" W "0, %%" W "0\n")
+CHAIN(pair_max_fma, "vmaxpd %%" W "1, %%" W "0, %%" W "0\n vfmadd231pd %%" W "1, %%" W "1, %%" W "0\n")
+CHAIN(pair_perm_add, "vperm2f128 $1, %%ymm0, %%ymm0, %%ymm0\n vaddpd %%ymm1, %%ymm0, %%ymm0\n")
+
 /* Twelve independent chains of `a` and `b` alternating, each op's
  * latency hidden by the other eleven: operations per cycle. */
 #define RATE(name, a, b)                                                               \
@@ -99,11 +109,14 @@ int main(void) {
 #endif
         {"vextractf128", extract128}, {"vshufpd xmm", shuffle}, {"vperm2f128 ymm", perm2f128},
         {"vmovshdup xmm", movshdup}, {"vbroadcastss ymm, xmm", broadcastss},
-        {"store, then load (sd)", store_load}};
+        {"store, then load (sd)", store_load},
+        {"vaddpd + vminpd, a pair", pair_add_min}, {"vaddpd + vmulpd, a pair", pair_add_mul},
+        {"vfmadd231pd + vaddpd, a pair", pair_fma_add}, {"vminpd + vmaxpd, a pair", pair_min_max},
+        {"vmaxpd + vfmadd231pd, a pair", pair_max_fma}, {"vperm2f128 + vaddpd, a pair", pair_perm_add}};
     for (unsigned i = 0; i < sizeof chains / sizeof chains[0]; i++) {
         t0 = __rdtsc();
         chains[i].f(N / 4);
-        printf("%-24s %5.2f cycles\n", chains[i].name, (double)(__rdtsc() - t0) / N / tsc_per_cycle);
+        printf("%-29s %5.2f cycles\n", chains[i].name, (double)(__rdtsc() - t0) / N / tsc_per_cycle);
     }
     struct { const char *name; void (*f)(long); } rates[] = {
         {"vaddpd", rate_add}, {"vminpd", rate_min}, {"vmulpd", rate_mul},

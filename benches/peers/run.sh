@@ -12,7 +12,8 @@
 # it: a heap handle, and storage the caller owns in f64 and f32), numba
 # (numba_compensator.py, if numba is installed) and this crate's criterion
 # benches (step/compensator_step: the heap compensator, and the fixed f64
-# and f32 cores). Checks first that the peers compute what mfcbeam does.
+# and f32 cores), and on a CPU with AVX-512F the step's chain alone
+# (chain.c). Checks first that the peers compute what mfcbeam does.
 #
 #   benches/peers/run.sh            # three processes of interleaved rounds,
 #                                   # then criterion (--measurement-time 3)
@@ -54,6 +55,11 @@ if grep -qw avx2 /proc/cpuinfo && grep -qw fma /proc/cpuinfo &&
 else
   echo "this CPU has no AVX2 + FMA: the strongest C peer is skipped"
 fi
+# the step's dependency chain alone, in assembly (chain.c), and the
+# latencies it is made of (latencies.c): built here so that they keep
+# compiling; the chain runs after the rounds where the CPU has AVX-512F
+cc -O2 -march="$march" -Wall -Wextra -Werror -o "$out/chain" benches/peers/chain.c
+cc -O2 -march="$march" -Wall -Wextra -Werror -o "$out/latencies" benches/peers/latencies.c
 # MFCBEAM_CLI: a built program to check against (CI passes the debug one)
 if [[ -z "${MFCBEAM_CLI:-}" ]]; then
   cargo build --quiet --release --bin mfcbeam
@@ -209,6 +215,10 @@ for i, name in enumerate(["one call per sample, mfcbeam f64 / the strongest C's"
                           "caller-owned storage, a run in f32 / the strongest C's f32 loop"]):
     print(f"{name}: {' '.join(f'{r[1][i]:.3f}' for r in runs)}")
 EOF
+if grep -qw avx512f /proc/cpuinfo; then
+  echo "the step's chain alone (benches/peers/chain.c):"
+  "$out/chain"
+fi
 c_ns=$("$out/compensator" time)
 nb_ns=$([[ $numba == yes ]] && python3 benches/peers/numba_compensator.py time || echo nan)
 cargo bench --quiet --bench operators -- 'step/compensator_step$' \
