@@ -2,8 +2,9 @@
 //! (`__m512d`, with `__m256d` halves) and both sets' `f32` (`__m256`, with
 //! `__m128` halves), written once over [`Eight`]. `H⁻¹`'s plays and the
 //! creep pass in blocks of eight, then a block of four and a scalar tail
-//! (the AVX-512 set's `H⁻¹` in blocks of four only, `hysteresis_halves`:
-//! see `Avx512Step`); each sum of four partial sums ended in a butterfly.
+//! (the AVX-512 set's `H⁻¹` in blocks of four only, `hysteresis_eight`'s
+//! `HALVES`: see `Avx512Step`); each sum of four partial sums ended in a
+//! butterfly.
 use core::arch::x86_64::*;
 
 use super::four::all_lanes_sum;
@@ -29,39 +30,11 @@ fn broadcast_low_f64(h: __m256d) -> __m512d {
     _mm512_broadcastsd_pd(_mm256_castpd256_pd128(h))
 }
 
-/// [`hysteresis_step_eight`], as [`hysteresis_four`](super::four::hysteresis_four).
+/// [`hysteresis_step_eight`], as [`hysteresis_four`](super::four::hysteresis_four);
+/// `HALVES`: every block of four on the 4-lane halves, none on 8 lanes
+/// (`H⁻¹` of the AVX-512 set's `f32` step, see `Avx512Step`).
 #[inline(always)]
-pub(super) unsafe fn hysteresis_eight<E: Eight>(
-    state: &mut [E::T],
-    saved: &mut [E::T],
-    thresholds: &[E::T],
-    weights: &[E::T],
-    t: E::T,
-    c: E::Half,
-) -> E::Half {
-    // SAFETY: the caller's.
-    unsafe { hysteresis_by_split::<E, false>(state, saved, thresholds, weights, t, c) }
-}
-
-/// [`hysteresis_step_eight`] with every block of four on the 4-lane
-/// halves, none on 8 lanes: `H⁻¹` of the AVX-512 set's `f32` step (see
-/// `Avx512Step`).
-#[inline(always)]
-pub(super) unsafe fn hysteresis_halves<E: Eight>(
-    state: &mut [E::T],
-    saved: &mut [E::T],
-    thresholds: &[E::T],
-    weights: &[E::T],
-    t: E::T,
-    c: E::Half,
-) -> E::Half {
-    // SAFETY: the caller's.
-    unsafe { hysteresis_by_split::<E, true>(state, saved, thresholds, weights, t, c) }
-}
-
-/// [`hysteresis_step_eight`], `SPLIT` asked once for both arrays.
-#[inline(always)]
-unsafe fn hysteresis_by_split<E: Eight, const HALVES: bool>(
+pub(super) unsafe fn hysteresis_eight<E: Eight, const HALVES: bool>(
     state: &mut [E::T],
     saved: &mut [E::T],
     thresholds: &[E::T],

@@ -40,7 +40,7 @@ use core::arch::x86_64::*;
 use core::any::TypeId;
 
 use crate::realtime::real::Real;
-use eight::{creep_eight, hysteresis_eight, hysteresis_halves, F32x8, F64x8};
+use eight::{creep_eight, hysteresis_eight, F32x8, F64x8};
 use four::{creep_four, hysteresis_four};
 
 /// Whether `bytes` bytes from `p` straddle a 4 KiB page.
@@ -230,14 +230,14 @@ step_kernels!(
     Avx2Step,
     hysteresis_four,
     creep_four,
-    hysteresis_eight::<F32x8>,
+    hysteresis_eight::<F32x8, false>,
     creep_eight::<F32x8>
 );
 step_kernels!(
     Avx512Step,
     hysteresis_four,
     creep_eight::<F64x8>,
-    hysteresis_halves::<F32x8>,
+    hysteresis_eight::<F32x8, true>,
     creep_eight::<F32x8>
 );
 
