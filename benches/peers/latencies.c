@@ -1,7 +1,10 @@
 /* The latencies the step's dependency chain is made of, on the CPU that
  * runs this: each instruction in a dependent chain (its output its next
  * input), in core cycles, calibrated against a chain of integer adds (one
- * cycle each on every x86-64 core this project has met). Then how many
+ * cycle each on every x86-64 core this project has met); then pairs of
+ * two kinds alternating in one chain, whose cycles exceed the two
+ * latencies by what a result waits to pass between kinds of pipes (on a
+ * Zen 5 about one where one of the two is an add). Then how many
  * independent 512-bit operations of a kind, or of two kinds alternating,
  * the core starts per cycle: two kinds that share execution pipes start
  * no more together than one alone (the bank's bound rests on this). Used

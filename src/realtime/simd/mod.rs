@@ -354,11 +354,12 @@ pub(crate) const PAPER_CREEP: (usize, usize) = (
 
 /// The two kernels of a compensator step on one instruction set, and how
 /// a value on the step's chain goes from one to the next:
-/// [`StepKernels::Lanes`]. On the vector sets it is the value and, for
-/// `f64`, the value in every lane of a 4-lane register: the `f64` kernels
-/// end their sums in a butterfly that leaves the sum in every lane, so the
-/// creep's output and `H⁻¹`'s output reach the next kernel's 4-lane blocks
-/// without a broadcast (its 8-lane blocks take one from that register).
+/// [`StepKernels::Lanes`]. On the vector sets it is the value and the
+/// value in every lane of a 4-lane register (for `f32` a 128-bit one):
+/// the kernels end their sums in a butterfly that leaves the sum in every
+/// lane, so the creep's output and `H⁻¹`'s output reach the next kernel's
+/// 4-lane blocks without a broadcast (its 8-lane blocks take one from that
+/// register).
 /// `v` and `t − c` are finite.
 trait StepKernels<T: Real> {
     /// A value of `T` on the chain (on the portable set, the value).

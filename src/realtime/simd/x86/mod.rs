@@ -123,10 +123,14 @@ macro_rules! step_kernels {
             #[inline(always)]
             unsafe fn splat(x: T) -> OnChain<T> {
                 // SAFETY (both): the caller's features.
-                if TypeId::of::<T>() == TypeId::of::<f64>() {
-                    unsafe { on_chain(_mm256_set1_pd(x.to_f64())) }
+                let every_lane = if TypeId::of::<T>() == TypeId::of::<f64>() {
+                    unsafe { _mm256_set1_pd(x.to_f64()) }
                 } else {
-                    unsafe { on_chain_f32(_mm_set1_ps(x.to_f64() as f32)) }
+                    unsafe { _mm256_castpd128_pd256(_mm_castps_pd(_mm_set1_ps(x.to_f64() as f32))) }
+                };
+                OnChain {
+                    every_lane,
+                    value: x,
                 }
             }
 
