@@ -126,7 +126,7 @@ macro_rules! step_kernels {
                 let every_lane = if TypeId::of::<T>() == TypeId::of::<f64>() {
                     unsafe { _mm256_set1_pd(x.to_f64()) }
                 } else {
-                    unsafe { _mm256_castpd128_pd256(_mm_castps_pd(_mm_set1_ps(x.to_f64() as f32))) }
+                    unsafe { every_lane_f32(_mm_set1_ps(x.to_f64() as f32)) }
                 };
                 OnChain {
                     every_lane,
@@ -216,11 +216,18 @@ unsafe fn on_chain<T: Real>(v: __m256d) -> OnChain<T> {
 #[inline(always)]
 unsafe fn on_chain_f32<T: Real>(v: __m128) -> OnChain<T> {
     OnChain {
-        // SAFETY: the caller's AVX; the upper half is never read.
-        every_lane: unsafe { _mm256_castpd128_pd256(_mm_castps_pd(v)) },
-        // SAFETY: the caller's AVX.
+        // SAFETY (both): the caller's AVX.
+        every_lane: unsafe { every_lane_f32(v) },
         value: T::from_f64(f64::from(unsafe { _mm_cvtss_f32(v) })),
     }
+}
+
+/// Four `f32` lanes as an [`OnChain`]'s register: the low 128 bits, the
+/// upper half never read.
+#[inline(always)]
+unsafe fn every_lane_f32(v: __m128) -> __m256d {
+    // SAFETY: the caller's AVX.
+    unsafe { _mm256_castpd128_pd256(_mm_castps_pd(v)) }
 }
 
 /// The four `f32` lanes of an `f32` on the chain ([`on_chain_f32`]).
