@@ -722,9 +722,10 @@ fn report<T: Real>(ghz: f64) -> f64 {
     // each vector set's bound on its own registers (the portable set's
     // where the CPU has none), and the CPU's: the fastest of them. On a
     // Zen 4 the 256-bit mix with its state in L1 came out above the
-    // 512-bit one in two runs of three (f64 56.2 against 53.3
-    // lane-operations/ns, f32 112.7 against 106.4): a bank on AVX-512 is
-    // measured against what the CPU does on any of its registers.
+    // 512-bit one in three runs of six in f64 and four in f32 (at best
+    // 56.2 against 53.3 lane-operations/ns, and 112.7 against 106.4): a
+    // bank on AVX-512 is measured against what the CPU does on any of its
+    // registers.
     let own: Vec<(Kernels, Bound)> = {
         let vector: Vec<Kernels> = Kernels::all().filter(|&k| k != Kernels::Portable).collect();
         let sets = if vector.is_empty() {
