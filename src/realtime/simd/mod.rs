@@ -36,7 +36,7 @@ mod cpu;
 #[cfg(feature = "std")]
 pub use cpu::cpu_description;
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
-pub use cpu::full_width_512;
+pub use cpu::f64_step_on_512;
 
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 use core::any::TypeId;
@@ -210,13 +210,13 @@ impl Kernels {
     }
 
     /// The set one compensator step in `T` runs fastest on, of these:
-    /// `self`, except `f64` on AVX-512 where the CPU splits 512-bit
-    /// operations ([`full_width_512`]): there the AVX2 set's blocks of
-    /// four. The same bits either way.
+    /// `self`, except `f64` on AVX-512 where its chain is shorter on the
+    /// AVX2 set's blocks of four ([`f64_step_on_512`]). The same bits
+    /// either way.
     #[inline]
     pub fn for_single_step<T: Real>(self) -> Self {
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
-        if self.is_avx512() && TypeId::of::<T>() == TypeId::of::<f64>() && !full_width_512() {
+        if self.is_avx512() && TypeId::of::<T>() == TypeId::of::<f64>() && !f64_step_on_512() {
             return Kernels::Avx2(Avx2(()));
         }
         self
@@ -666,10 +666,10 @@ mod x86;
 #[cfg(all(test, feature = "std", target_arch = "x86_64", target_os = "linux"))]
 mod tests {
     /// The vendor and family read by CPUID are the ones Linux reports: the
-    /// rule of [`super::full_width_512`] (AMD family 25 splits 512-bit
-    /// operations) asks the CPU it runs on.
+    /// rule of [`super::f64_step_on_512`] (AMD family 26 and later) asks
+    /// the CPU it runs on.
     #[test]
-    fn full_width_512_reads_the_vendor_and_family_linux_reports() {
+    fn f64_step_on_512_reads_the_vendor_and_family_linux_reports() {
         let info = std::fs::read_to_string("/proc/cpuinfo").unwrap();
         let field = |name: &str| {
             info.lines()
@@ -678,7 +678,9 @@ mod tests {
                 .map(|(_, v)| v.trim().to_string())
                 .unwrap()
         };
-        let split = field("vendor_id") == "AuthenticAMD" && field("cpu family") == "25";
-        assert_eq!(super::full_width_512(), !split);
+        let family: u32 = field("cpu family").parse().unwrap();
+        let amd = field("vendor_id") == "AuthenticAMD";
+        assert_eq!(super::cpu::vendor_is_amd_and_family(), (amd, family));
+        assert_eq!(super::f64_step_on_512(), amd && family >= 26);
     }
 }
