@@ -5,9 +5,11 @@
 //! hand-over, and on a virtual machine that cost and the worker's speed
 //! depend on where the host puts the virtual CPUs, so the same bank can be
 //! faster split at one moment and slower the next. Every 64th step is
-//! timed the way in use, the other way is probed now and then (less often
-//! while it stays the slower, and once confirmed at most every 20 ms), and
-//! the steps run split where that was faster by more than a sixteenth.
+//! timed the way in use, the other way is probed now and then (the mean
+//! of at least 100 µs of its steps, after two that wake the workers; less
+//! often while it stays the slower, and once confirmed at most every
+//! 20 ms), and the steps run split where that was faster by more than a
+//! sixteenth.
 //! Here are the rules, as functions of the times so far, and the counters
 //! they read ([`Choice`]); `Workers` times the steps and updates them.
 
@@ -21,6 +23,25 @@ pub(crate) const PROBE_EVERY: u64 = 64;
 /// than [`PROBE_SPACING_PS`] / 1024: a probe that confirms the choice
 /// doubles the interval up to this or [`longest_interval`].
 pub(crate) const LONGEST_PROBE_INTERVAL: u64 = 1024;
+
+/// Steps a probe of the way not in use runs before those it counts: a
+/// parked worker wakes in the first, and the second is still slow.
+/// On a 2-vCPU Sapphire Rapids guest, 32 blocks of `f64` (3.0 µs a step
+/// alone, 2.2–2.5 split while the worker is awake), the first split step
+/// after a park took 35–73 µs and the second 4.2–4.5; timing the second
+/// step alone, the choice never split there.
+pub(crate) const PROBE_WARM_UP: u64 = 2;
+
+/// Steps a probe counts at least, after its warm-up, each timed, over
+/// [`PROBE_LENGTH_PS`] at least: their mean is its sample (the fastest
+/// of them, tried, chose a split 4 % slower than one thread at 16
+/// blocks, where a split gains 4 %).
+pub(crate) const PROBE_STEPS: u64 = 4;
+
+/// The least time a probe runs (100 µs, in picoseconds): about 0.5 % of
+/// [`PROBE_SPACING_PS`], the most a probe of a way that does not pay can
+/// cost where its steps take twice as long.
+pub(crate) const PROBE_LENGTH_PS: u64 = 100_000_000;
 
 /// The time that confirmed probes keep between them at least (20 ms, in
 /// picoseconds). A probe of the split wakes a parked worker, which took
@@ -45,9 +66,10 @@ pub(crate) struct Plan {
 /// step alone and split (0: not timed yet) and the step of the next probe.
 /// Each way is timed first (the split after one step that wakes the
 /// workers); then the faster way runs (the split only if [`split_pays`]),
-/// timed every `PROBE_EVERY` steps,
-/// and at `next_probe` the other way runs twice, the second time timed (a
-/// parked worker's wake-up is not the split's cost).
+/// timed every `PROBE_EVERY` steps, and from `next_probe` on the other
+/// way, every step timed, until its probe is recorded ([`PROBE_WARM_UP`],
+/// [`PROBE_STEPS`], [`PROBE_LENGTH_PS`]: a parked worker's wake-up is not
+/// the split's cost).
 pub(crate) fn plan(step: u64, alone: u64, split: u64, next_probe: u64) -> Plan {
     if split == 0 {
         return Plan {
@@ -67,11 +89,10 @@ pub(crate) fn plan(step: u64, alone: u64, split: u64, next_probe: u64) -> Plan {
     // from `next_probe` on until a probe is recorded (a step that panicked
     // records nothing)
     if step >= next_probe {
-        let timed = step > next_probe;
         return Plan {
             split: !faster_split,
-            timed,
-            probe: timed,
+            timed: true,
+            probe: true,
         };
     }
     Plan {
@@ -145,6 +166,12 @@ pub(crate) struct Choice {
     pub next_probe: AtomicU64,
     /// Steps from the last probe to the next ([`next_interval`]).
     pub interval: AtomicU64,
+    /// The sum of the probe's counted steps, picoseconds per block.
+    pub probe_sum: AtomicU64,
+    /// The probe's steps so far, its warm-up included.
+    pub probe_steps: AtomicU64,
+    /// The probe's time so far, its warm-up included, picoseconds.
+    pub probe_ps: AtomicU64,
 }
 
 impl Default for Choice {
@@ -155,6 +182,9 @@ impl Default for Choice {
             split: AtomicU64::new(0),
             next_probe: AtomicU64::new(PROBE_EVERY),
             interval: AtomicU64::new(PROBE_EVERY),
+            probe_sum: AtomicU64::new(0),
+            probe_steps: AtomicU64::new(0),
+            probe_ps: AtomicU64::new(0),
         }
     }
 }
@@ -175,13 +205,12 @@ mod tests {
         assert_eq!(plan(0, 0, 0, 64), no(true, false));
         assert_eq!(plan(1, 0, 0, 64), no(true, true));
         assert_eq!(plan(2, 0, 500, 64), no(false, true));
-        // split slower: alone, timed every PROBE_EVERY steps; the probe at
-        // 64 runs split twice, the second timed
-        for step in 3..66 {
+        // split slower: alone, timed every PROBE_EVERY steps; from 64 the
+        // probe, split, each step timed until it is recorded
+        for step in 3..70 {
             let p = plan(step, 100, 300, 64);
             match step {
-                64 => assert_eq!(p, no(true, false)),
-                65 => assert_eq!(
+                64..=69 => assert_eq!(
                     p,
                     Plan {
                         split: true,
@@ -206,9 +235,9 @@ mod tests {
             }
         );
         // split faster: the other way round
-        assert_eq!(plan(70, 300, 100, 70), no(false, false));
+        assert_eq!(plan(69, 300, 100, 70), no(true, false));
         assert_eq!(
-            plan(71, 300, 100, 70),
+            plan(70, 300, 100, 70),
             Plan {
                 split: false,
                 timed: true,
