@@ -6,7 +6,7 @@
 //! depend on where the host puts the virtual CPUs, so the same bank can be
 //! faster split at one moment and slower the next. Every 64th step is
 //! timed the way in use, the other way is probed now and then (the mean
-//! of at least 100 µs of its steps, after two that wake the workers; less
+//! of at least 100 µs of its steps, after 100 µs that wake the workers; less
 //! often while it stays the slower, and once confirmed at most every
 //! 20 ms), and the steps run split where that was faster by more than a
 //! sixteenth.
@@ -24,13 +24,18 @@ pub(crate) const PROBE_EVERY: u64 = 64;
 /// doubles the interval up to this or [`longest_interval`].
 pub(crate) const LONGEST_PROBE_INTERVAL: u64 = 1024;
 
-/// Steps a probe of the way not in use runs before those it counts: a
-/// parked worker wakes in the first, and the second is still slow.
-/// On a 2-vCPU Sapphire Rapids guest, 32 blocks of `f64` (3.0 µs a step
-/// alone, 2.2–2.5 split while the worker is awake), the first split step
-/// after a park took 35–73 µs and the second 4.2–4.5; timing the second
-/// step alone, the choice never split there.
+/// Steps a probe of the way not in use runs before those it counts, at
+/// least, and over [`PROBE_WARM_UP_PS`] at least: a parked worker wakes in
+/// the first, and the next ones can still be slow. On a 2-vCPU Sapphire
+/// Rapids guest, 32 blocks of `f64` (3.0 µs a step alone, 2.2–2.5 split
+/// while the worker is awake), the first split step after a park took
+/// 35–73 µs and the second 4.2–4.5; most of the time the third ran at the
+/// split's speed, but once the steps took 4–7 µs for 130 µs more. Timing
+/// the second step alone, the choice never split there.
 pub(crate) const PROBE_WARM_UP: u64 = 2;
+
+/// The least time a probe's warm-up takes (100 µs, in picoseconds).
+pub(crate) const PROBE_WARM_UP_PS: u64 = 100_000_000;
 
 /// Steps a probe counts at least, after its warm-up, each timed, over
 /// [`PROBE_LENGTH_PS`] at least: their mean is its sample (the fastest
@@ -38,9 +43,9 @@ pub(crate) const PROBE_WARM_UP: u64 = 2;
 /// blocks, where a split gains 4 %).
 pub(crate) const PROBE_STEPS: u64 = 4;
 
-/// The least time a probe runs (100 µs, in picoseconds): about 0.5 % of
-/// [`PROBE_SPACING_PS`], the most a probe of a way that does not pay can
-/// cost where its steps take twice as long.
+/// The least time a probe counts (100 µs, in picoseconds). With its
+/// warm-up about 1 % of [`PROBE_SPACING_PS`]: where the way probed does
+/// not pay and its steps take, say, a fifth longer, a probe costs 0.2 %.
 pub(crate) const PROBE_LENGTH_PS: u64 = 100_000_000;
 
 /// The time that confirmed probes keep between them at least (20 ms, in
@@ -68,8 +73,8 @@ pub(crate) struct Plan {
 /// workers); then the faster way runs (the split only if [`split_pays`]),
 /// timed every `PROBE_EVERY` steps, and from `next_probe` on the other
 /// way, every step timed, until its probe is recorded ([`PROBE_WARM_UP`],
-/// [`PROBE_STEPS`], [`PROBE_LENGTH_PS`]: a parked worker's wake-up is not
-/// the split's cost).
+/// [`PROBE_WARM_UP_PS`], [`PROBE_STEPS`], [`PROBE_LENGTH_PS`]: a parked
+/// worker's wake-up is not the split's cost).
 pub(crate) fn plan(step: u64, alone: u64, split: u64, next_probe: u64) -> Plan {
     if split == 0 {
         return Plan {
@@ -113,14 +118,32 @@ pub(crate) fn split_pays(split: u64, alone: u64) -> bool {
 }
 
 /// The interval to the next probe after one that changed the choice
-/// (`changed`: back to `PROBE_EVERY`) or confirmed it (doubled, up to
-/// `longest`).
-pub(crate) fn next_interval(interval: u64, changed: bool, longest: u64) -> u64 {
+/// (`changed`: back to `shortest`) or confirmed it (doubled, from
+/// `shortest` up to `longest`).
+pub(crate) fn next_interval(interval: u64, changed: bool, shortest: u64, longest: u64) -> u64 {
     if changed {
-        PROBE_EVERY
+        shortest
     } else {
-        (2 * interval).clamp(PROBE_EVERY, longest.max(PROBE_EVERY))
+        (2 * interval).clamp(shortest, longest.max(shortest))
     }
+}
+
+/// Probes keep at least this many times their least length between them
+/// ([`shortest_interval`]).
+pub(crate) const PROBE_QUIET: u64 = 10;
+
+/// The shortest interval between probes for steps of `step_ps`
+/// picoseconds the way in use: [`PROBE_EVERY`] steps, or as many as keep
+/// [`PROBE_QUIET`] times a probe's least length ([`PROBE_WARM_UP_PS`] and
+/// [`PROBE_LENGTH_PS`]) between two, so that probing takes a tenth of the
+/// steps at most. Where the two ways are about as fast, each change moves
+/// half the bank's state between the cores' caches and makes the way
+/// changed to look slower for a while, and the choice changed back and
+/// forth: on a Sapphire Rapids guest, at 16 blocks of `f64` (a split
+/// 0.96–1.06 of one thread), probes every 64 steps took half of them and
+/// `compensate_on` ran 1.05–1.07 times one thread.
+pub(crate) fn shortest_interval(step_ps: u64) -> u64 {
+    PROBE_EVERY.max(PROBE_QUIET * (PROBE_WARM_UP_PS + PROBE_LENGTH_PS) / step_ps.max(1))
 }
 
 /// The longest interval between probes for steps of `step_ps` picoseconds
@@ -168,10 +191,13 @@ pub(crate) struct Choice {
     pub interval: AtomicU64,
     /// The sum of the probe's counted steps, picoseconds per block.
     pub probe_sum: AtomicU64,
-    /// The probe's steps so far, its warm-up included.
+    /// The probe's steps so far: of its warm-up while `probe_counted` is
+    /// 0, then counted.
     pub probe_steps: AtomicU64,
-    /// The probe's time so far, its warm-up included, picoseconds.
+    /// The probe's time so far, picoseconds: of its warm-up, then counted.
     pub probe_ps: AtomicU64,
+    /// Whether the probe's warm-up is over (1) or not (0).
+    pub probe_counted: AtomicU64,
 }
 
 impl Default for Choice {
@@ -185,6 +211,7 @@ impl Default for Choice {
             probe_sum: AtomicU64::new(0),
             probe_steps: AtomicU64::new(0),
             probe_ps: AtomicU64::new(0),
+            probe_counted: AtomicU64::new(0),
         }
     }
 }
@@ -261,11 +288,21 @@ mod tests {
 
     #[test]
     fn a_probe_that_confirms_the_choice_doubles_the_interval() {
-        assert_eq!(next_interval(64, false, 1024), 128);
-        assert_eq!(next_interval(4096, false, 1024), 1024);
-        assert_eq!(next_interval(4096, false, 20_000), 8192);
-        assert_eq!(next_interval(16_384, false, 20_000), 20_000);
-        assert_eq!(next_interval(1024, true, 20_000), PROBE_EVERY);
+        assert_eq!(next_interval(64, false, 64, 1024), 128);
+        assert_eq!(next_interval(4096, false, 64, 1024), 1024);
+        assert_eq!(next_interval(4096, false, 64, 20_000), 8192);
+        assert_eq!(next_interval(16_384, false, 64, 20_000), 20_000);
+        assert_eq!(next_interval(1024, true, 64, 20_000), PROBE_EVERY);
+        // a change goes back to the shortest, a confirmation doubles from it
+        assert_eq!(next_interval(1024, true, 400, 20_000), 400);
+        assert_eq!(next_interval(64, false, 400, 20_000), 400);
+        assert_eq!(next_interval(400, false, 400, 20_000), 800);
+        // probes a tenth of the time at most: 2 ms between two for their
+        // least 200 µs; 64 steps at least
+        assert_eq!(shortest_interval(1_000_000), 2000);
+        assert_eq!(shortest_interval(5_000_000), 400);
+        assert_eq!(shortest_interval(100_000_000), PROBE_EVERY);
+        assert_eq!(shortest_interval(0), PROBE_QUIET * 200_000_000);
         // at least every 1024 steps, and never closer than 20 ms once
         // confirmed: 1024 steps of 50 µs, 20 000 of 1 µs
         assert_eq!(longest_interval(50_000_000), LONGEST_PROBE_INTERVAL);

@@ -22,8 +22,8 @@ use std::time::Duration;
 
 use super::shares::Shares;
 use super::split_choice::{
-    capped, fold, longest_interval, next_interval, plan, split_pays, Choice, Plan, PROBE_LENGTH_PS,
-    PROBE_STEPS, PROBE_WARM_UP,
+    capped, fold, longest_interval, next_interval, plan, shortest_interval, split_pays, Choice,
+    Plan, PROBE_LENGTH_PS, PROBE_STEPS, PROBE_WARM_UP, PROBE_WARM_UP_PS,
 };
 
 /// A job: called with the part index `1..=workers` on each worker.
@@ -196,21 +196,27 @@ impl Workers {
                 .probe_ps
                 .fetch_add(step_ps, Ordering::Relaxed)
                 .saturating_add(step_ps);
-            if steps <= PROBE_WARM_UP {
+            if c.probe_counted.load(Ordering::Relaxed) == 0 {
+                if steps >= PROBE_WARM_UP && probed >= PROBE_WARM_UP_PS {
+                    // warm: count from the next step
+                    c.probe_steps.store(0, Ordering::Relaxed);
+                    c.probe_ps.store(0, Ordering::Relaxed);
+                    c.probe_counted.store(1, Ordering::Relaxed);
+                }
                 return;
             }
             let sum = c
                 .probe_sum
                 .fetch_add(ps, Ordering::Relaxed)
                 .saturating_add(ps);
-            let counted = steps - PROBE_WARM_UP;
-            if counted < PROBE_STEPS || probed < PROBE_LENGTH_PS {
+            if steps < PROBE_STEPS || probed < PROBE_LENGTH_PS {
                 return;
             }
             c.probe_sum.store(0, Ordering::Relaxed);
             c.probe_steps.store(0, Ordering::Relaxed);
             c.probe_ps.store(0, Ordering::Relaxed);
-            ps = sum / counted;
+            c.probe_counted.store(0, Ordering::Relaxed);
+            ps = sum / steps;
         }
         let was_split_faster = split_pays(
             c.split.load(Ordering::Relaxed),
@@ -234,8 +240,13 @@ impl Workers {
             let split_now = split_pays(split, alone);
             let changed = split_now != was_split_faster;
             let in_use = if split_now { split } else { alone };
-            let longest = longest_interval(in_use.saturating_mul(blocks.max(1) as u64));
-            let interval = next_interval(c.interval.load(Ordering::Relaxed), changed, longest);
+            let step_ps = in_use.saturating_mul(blocks.max(1) as u64);
+            let interval = next_interval(
+                c.interval.load(Ordering::Relaxed),
+                changed,
+                shortest_interval(step_ps),
+                longest_interval(step_ps),
+            );
             c.interval.store(interval, Ordering::Relaxed);
             c.next_probe.store(
                 c.steps.load(Ordering::Relaxed) + interval,
@@ -499,27 +510,29 @@ mod tests {
             }
         }
         // two to start, then six per probe (two to wake the workers and
-        // four counted, 300 µs: longer than PROBE_LENGTH_PS) at 64, 198,
-        // 460, … the interval doubling to every 4000 steps (20 ms of 5 µs
-        // steps)
+        // four counted, 300 µs: longer than PROBE_LENGTH_PS) at 64, 470,
+        // 1276, … the interval from 400 steps (2 ms of 5 µs steps) doubling
+        // to every 4000 (20 ms)
         let runs = runs(&split_steps);
         let probe = PROBE_WARM_UP + PROBE_STEPS;
         assert_eq!(runs[0], (0, 2));
         assert!(runs[1..].iter().all(|&(_, len)| len == probe), "{runs:?}");
         let longest = longest_interval(5_000_000);
         assert_eq!(longest, 4000);
+        let shortest = shortest_interval(5_000_000);
+        assert_eq!(shortest, 400);
         let mut expected = vec![64u64];
         let mut interval = PROBE_EVERY;
         while expected.len() < runs.len() - 1 {
-            interval = (2 * interval).min(longest);
+            interval = (2 * interval).clamp(shortest, longest);
             let last = *expected.last().unwrap();
             expected.push(last + probe + interval);
         }
         let starts: Vec<u64> = runs[1..].iter().map(|r| r.0).collect();
-        assert_eq!(&starts[..6], &[64, 198, 460, 978, 2008, 4062]);
+        assert_eq!(&starts[..6], &[64, 470, 1276, 2882, 6088, 10_094]);
         assert_eq!(starts, expected);
-        // 20 000 steps: probes at 4062, 8068, 12 074 and 16 080
-        assert_eq!(starts.len(), 9);
+        // 20 000 steps: then probes at 14 100 and 18 106
+        assert_eq!(starts.len(), 8);
         let fixed = Workers::new(1).unwrap().with_adaptive(false);
         assert!((0..100).all(|_| fixed.plan()
             == Plan {
@@ -562,7 +575,7 @@ mod tests {
         // (a mean 3 % faster): the fastest step of a probe would pay, its
         // mean does not
         let w = Workers::new(1).unwrap();
-        let (mut run, mut split_late) = (0, 0);
+        let (mut run, mut split_late) = (0, Vec::new());
         for step in 0..20_000u64 {
             let p = w.plan();
             run = if p.split { run + 1 } else { 0 };
@@ -576,11 +589,14 @@ mod tests {
                 w.record(p, Duration::from_nanos(ns), 16);
             }
             if step >= 10_000 && p.split {
-                split_late += 1;
+                split_late.push(step);
             }
         }
-        // the second half: only its probes split
-        assert!(split_late < 100, "{split_late}");
+        // the second half (30 ms of steps): only its probes split, at
+        // most two (20 ms apart), each some 200 µs of steps
+        let probes = runs(&split_late);
+        assert!(probes.len() <= 2, "{probes:?}");
+        assert!(probes.iter().all(|&(_, len)| len <= 60), "{probes:?}");
     }
 
     #[test]
