@@ -44,7 +44,12 @@
 //! median time of each and the median and 10–90 % of two's time over one's
 //! in the same round; printed with the CPU, its
 //! bound, the ratio, the cycles per channel-step at the clock measured here,
-//! and the share of a core a 4000-actuator mirror at 10 kHz needs. Then each
+//! and the share of a core a 4000-actuator mirror at 10 kHz needs; each
+//! one-thread row also as a share of the state's traffic bound at its size
+//! (`common::state_stream`: a pass that loads and stores the state's rows
+//! as a step does, with one add per lane), marked where that is the lower
+//! of the two bounds: a bank whose state has left L1 may be bound by the
+//! cache, not by the arithmetic. Then each
 //! kernel set on one thread (the vector sets at 64 and 1024 channels, the
 //! portable one at 64), in batches alternating with the dispatched set's
 //! and over its time in the same rounds, against the bound measured on its
@@ -62,9 +67,12 @@ use std::time::Instant;
 
 mod common;
 
-use common::{bank_rows, nominal_bank};
+use common::{bank_rows, nominal_bank, state_stream};
 use mfcbeam::operators::bank::{CompensatorBank, Workers};
 use mfcbeam::realtime::{simd::Kernels, Compensated, Real};
+
+/// State rows of a block at the paper's orders (`2 n + n_C m + 3`).
+const STATE_ROWS: usize = 2 * 12 + 12 * 5 + 3;
 
 /// Vector-lane operations per channel-step of the bank's block step.
 fn lane_operations(n: usize, nc: usize, m: usize) -> usize {
@@ -777,14 +785,15 @@ fn report<T: Real>(ghz: f64) -> f64 {
         ops as f64 / peak * ghz
     );
     println!(
-        "{:>8} {:>8} {:>14} {:>12} {:>14} {:>16} {:>10}",
+        "{:>8} {:>8} {:>14} {:>12} {:>14} {:>16} {:>10} {:>22}",
         "channels",
         "threads",
         "ns per step",
         "M ch-steps/s",
         "cycles/ch-step",
         "bound (per core)",
-        "state in L1"
+        "state in L1",
+        "state's traffic (M)"
     );
     let two = Workers::new(1).unwrap();
     // the crossover: one thread against a forced split, by blocks
@@ -824,8 +833,18 @@ fn report<T: Real>(ghz: f64) -> f64 {
             );
             if threads == 2 {
                 print!("   two / one {ratio:.3} ({low:.3}-{high:.3})");
-            } else if channels == 4096 {
-                at_4096 = rate;
+            } else {
+                // the memory side: where the state's traffic is the lower
+                // bound, the row's share of it
+                let traffic = state_stream::bound(channels, lanes, STATE_ROWS, 12);
+                print!(
+                    " {:>5} of {traffic:>7.1}{}",
+                    share(rate, traffic),
+                    if traffic < bound { " (the lower)" } else { "" }
+                );
+                if channels == 4096 {
+                    at_4096 = rate;
+                }
             }
             println!();
         }

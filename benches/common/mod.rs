@@ -1,5 +1,8 @@
 //! The input every operator bench uses.
 
+#[allow(dead_code)] // only bank_limit uses it
+pub mod state_stream;
+
 /// A seeded random walk of `len` samples in [-600, 600] V with frequent
 /// reversals, so that branch predictors see realistic play switching.
 pub fn test_input(len: usize) -> Vec<f64> {
