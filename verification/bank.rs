@@ -767,16 +767,14 @@ fn channels_with_dynamics_give_the_bits_of_their_own_compensator() {
 /// either way.
 #[test]
 fn small_banks_step_on_the_calling_thread_alone() {
-    use mfcbeam::operators::bank::{Workers, DEFAULT_MIN_BLOCKS};
+    use mfcbeam::operators::bank::{default_min_blocks, Workers};
     let p = mfcbeam::realtime::nominal::PARAMETERS;
     let settings = CompensatorSettings::default();
     let workers = Workers::new(1).unwrap();
-    assert_eq!(workers.min_blocks(), DEFAULT_MIN_BLOCKS);
+    let crossover = default_min_blocks();
+    assert_eq!(workers.min_blocks(), crossover);
     let lanes = 8; // f64 lanes per block
-    for (channels, split) in [
-        (lanes * (DEFAULT_MIN_BLOCKS - 1), false),
-        (lanes * DEFAULT_MIN_BLOCKS, true),
-    ] {
+    for (channels, split) in [(lanes * (crossover - 1), false), (lanes * crossover, true)] {
         let mut bank = CompensatorBank::<f64>::uniform(&p, channels, settings).unwrap();
         let mut alone = bank.clone();
         let (mut out, mut out_alone) = (

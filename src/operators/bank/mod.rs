@@ -43,7 +43,9 @@ use crate::realtime::CompensatorSettings;
 
 use crate::operators::shares::Division;
 use crate::operators::workers::SharedMut;
-pub use crate::operators::workers::{Workers, DEFAULT_MIN_BLOCKS};
+pub use crate::operators::workers::{
+    default_min_blocks, Workers, DEFAULT_MIN_BLOCKS, INTEL_MIN_BLOCKS,
+};
 
 mod lane_by_lane;
 mod step;

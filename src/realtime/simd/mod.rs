@@ -37,6 +37,8 @@ mod cpu;
 pub use cpu::cpu_description;
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 pub use cpu::f64_step_on_512;
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+pub use cpu::vendor_is_intel;
 
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 use core::any::TypeId;
@@ -681,6 +683,10 @@ mod tests {
         let family: u32 = field("cpu family").parse().unwrap();
         let amd = field("vendor_id") == "AuthenticAMD";
         assert_eq!(super::cpu::vendor_is_amd_and_family(), (amd, family));
+        assert_eq!(
+            super::vendor_is_intel(),
+            field("vendor_id") == "GenuineIntel"
+        );
         assert_eq!(super::f64_step_on_512(), amd && family >= 26);
     }
 }
