@@ -5,11 +5,12 @@
 //! hand-over, and on a virtual machine that cost and the worker's speed
 //! depend on where the host puts the virtual CPUs, so the same bank can be
 //! faster split at one moment and slower the next. Every 64th step is
-//! timed the way in use, the other way is probed now and then (the mean
-//! of at least 100 µs of its steps, after 100 µs that wake the workers; less
-//! often while it stays the slower, and once confirmed at most every
-//! 20 ms), and the steps run split where that was faster by more than a
-//! sixteenth.
+//! timed the way in use (a slow one counted as twice its estimate at
+//! most), the other way is probed now and then (the mean of at least
+//! 100 µs of its steps, after 100 µs that wake the workers; at least ten
+//! times that apart, less often while it stays the slower, and once
+//! confirmed at most every 20 ms), and the steps run split where that was
+//! faster by more than a sixteenth.
 //! Here are the rules, as functions of the times so far, and the counters
 //! they read ([`Choice`]); `Workers` times the steps and updates them.
 
@@ -162,6 +163,20 @@ pub(crate) fn fold(old: u64, sample: u64) -> u64 {
         capped(old, sample)
     } else {
         ((3 * old + capped(old, sample)) / 4).max(1)
+    }
+}
+
+/// A time per block of the way in use folded into its estimate: as
+/// [`fold`], but a sample counted as at most twice the estimate. Where a
+/// split is 0.65 of one thread, one slow split step counted four times
+/// raised its estimate by 75 % and changed the choice to one thread until
+/// the next probe (20 ms of steps at most); counted twice, it takes two
+/// slow samples in a row.
+pub(crate) fn fold_in_use(old: u64, sample: u64) -> u64 {
+    if old == 0 {
+        capped(old, sample)
+    } else {
+        ((3 * old + sample.clamp(1, 2 * old)) / 4).max(1)
     }
 }
 
@@ -323,6 +338,18 @@ mod tests {
         }
         assert!(e <= 201, "{e}");
         assert_eq!(fold(0, 0), 1);
+        // the way in use: one slow step counts twice the estimate at most
+        assert_eq!(fold_in_use(0, 800), 800);
+        assert_eq!(fold_in_use(800, 400), 700);
+        assert_eq!(fold_in_use(800, 800_000), 1000);
+        // a split at 0.65 of one thread stays split after one slow step,
+        // not after two in a row (counted four times: not after one)
+        let (alone, mut split) = (1000, 650);
+        assert!(!split_pays(fold(split, 100_000), alone));
+        for slow in 1..=2 {
+            split = fold_in_use(split, 100_000);
+            assert_eq!(split_pays(split, alone), slow < 2, "{slow}: {split}");
+        }
         // a probe's sample replaces the estimate, capped the same way
         assert_eq!(capped(800, 300), 300);
         assert_eq!(capped(800, 800_000), 3200);

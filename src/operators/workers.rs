@@ -22,8 +22,8 @@ use std::time::Duration;
 
 use super::shares::Shares;
 use super::split_choice::{
-    capped, fold, longest_interval, next_interval, plan, shortest_interval, split_pays, Choice,
-    Plan, PROBE_LENGTH_PS, PROBE_STEPS, PROBE_WARM_UP, PROBE_WARM_UP_PS,
+    capped, fold_in_use, longest_interval, next_interval, plan, shortest_interval, split_pays,
+    Choice, Plan, PROBE_LENGTH_PS, PROBE_STEPS, PROBE_WARM_UP, PROBE_WARM_UP_PS,
 };
 
 /// A job: called with the part index `1..=workers` on each worker.
@@ -248,7 +248,7 @@ impl Workers {
         let new = if plan.probe {
             capped(old, ps)
         } else {
-            fold(old, ps)
+            fold_in_use(old, ps)
         };
         estimate.store(new, Ordering::Relaxed);
         if plan.probe {
