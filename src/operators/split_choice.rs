@@ -215,6 +215,39 @@ pub(crate) struct Choice {
     pub probe_counted: AtomicU64,
 }
 
+impl Choice {
+    /// A probe's step of `step_ps` picoseconds, `ps` per block, counted:
+    /// the probe's sample (the mean per block of the steps after its
+    /// warm-up) once it has run long enough, `None` before. Then it starts
+    /// over for the next probe.
+    pub(crate) fn probe_sample(&self, step_ps: u64, ps: u64) -> Option<u64> {
+        use std::sync::atomic::Ordering::Relaxed;
+        let steps = self.probe_steps.fetch_add(1, Relaxed) + 1;
+        let probed = self
+            .probe_ps
+            .fetch_add(step_ps, Relaxed)
+            .saturating_add(step_ps);
+        if self.probe_counted.load(Relaxed) == 0 {
+            if steps >= PROBE_WARM_UP && probed >= PROBE_WARM_UP_PS {
+                // warm: count from the next step
+                self.probe_steps.store(0, Relaxed);
+                self.probe_ps.store(0, Relaxed);
+                self.probe_counted.store(1, Relaxed);
+            }
+            return None;
+        }
+        let sum = self.probe_sum.fetch_add(ps, Relaxed).saturating_add(ps);
+        if steps < PROBE_STEPS || probed < PROBE_LENGTH_PS {
+            return None;
+        }
+        self.probe_sum.store(0, Relaxed);
+        self.probe_steps.store(0, Relaxed);
+        self.probe_ps.store(0, Relaxed);
+        self.probe_counted.store(0, Relaxed);
+        Some(sum / steps)
+    }
+}
+
 impl Default for Choice {
     fn default() -> Self {
         Self {
@@ -287,6 +320,39 @@ mod tests {
             }
         );
         assert_eq!(plan(75, 300, 100, 200), no(true, false));
+    }
+
+    #[test]
+    fn a_probe_counts_the_mean_of_its_steps_after_its_warm_up() {
+        let c = Choice::default();
+        let us = 1_000_000; // a microsecond, in picoseconds
+                            // warm-up: two steps and 100 µs (a 60 µs wake-up, then 4.3 µs and
+                            // 2.3 µs steps), none counted
+        assert_eq!(c.probe_sample(60 * us, 6000), None);
+        assert_eq!(c.probe_sample(43 * us / 10, 430), None);
+        let mut warm = 64 * us + 3 * us / 10;
+        while warm < PROBE_WARM_UP_PS {
+            assert_eq!(c.probe_sample(23 * us / 10, 230), None);
+            warm += 23 * us / 10;
+        }
+        // then 100 µs and four steps at least, their mean per block
+        let mut counted = 0;
+        let sample = loop {
+            counted += 1;
+            let ps = if counted % 2 == 0 { 200 } else { 260 };
+            if let Some(mean) = c.probe_sample(23 * us / 10, ps) {
+                break mean;
+            }
+        };
+        assert_eq!(counted, 44); // 44 steps of 2.3 µs: 101.2 µs
+        assert_eq!(sample, 230);
+        // and the next probe starts over with its warm-up
+        assert_eq!(c.probe_sample(200 * us, 100), None);
+        assert_eq!(c.probe_sample(200 * us, 100), None);
+        for _ in 0..3 {
+            assert_eq!(c.probe_sample(200 * us, 100), None);
+        }
+        assert_eq!(c.probe_sample(200 * us, 100), Some(100));
     }
 
     #[test]

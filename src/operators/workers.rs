@@ -23,7 +23,7 @@ use std::time::Duration;
 use super::shares::Shares;
 use super::split_choice::{
     capped, fold_in_use, longest_interval, next_interval, plan, shortest_interval, split_pays,
-    Choice, Plan, PROBE_LENGTH_PS, PROBE_STEPS, PROBE_WARM_UP, PROBE_WARM_UP_PS,
+    Choice, Plan,
 };
 
 /// A job: called with the part index `1..=workers` on each worker.
@@ -207,35 +207,11 @@ impl Workers {
         let mut ps =
             (time.as_nanos() * 1000 / blocks.max(1) as u128).min(u64::MAX as u128 / 8) as u64;
         if plan.probe {
-            // a probe's sample is the mean of its steps after the warm-up,
-            // once it has run long enough
-            let steps = c.probe_steps.fetch_add(1, Ordering::Relaxed) + 1;
             let step_ps = u64::try_from(time.as_nanos().saturating_mul(1000)).unwrap_or(u64::MAX);
-            let probed = c
-                .probe_ps
-                .fetch_add(step_ps, Ordering::Relaxed)
-                .saturating_add(step_ps);
-            if c.probe_counted.load(Ordering::Relaxed) == 0 {
-                if steps >= PROBE_WARM_UP && probed >= PROBE_WARM_UP_PS {
-                    // warm: count from the next step
-                    c.probe_steps.store(0, Ordering::Relaxed);
-                    c.probe_ps.store(0, Ordering::Relaxed);
-                    c.probe_counted.store(1, Ordering::Relaxed);
-                }
-                return;
+            match c.probe_sample(step_ps, ps) {
+                Some(mean) => ps = mean,
+                None => return,
             }
-            let sum = c
-                .probe_sum
-                .fetch_add(ps, Ordering::Relaxed)
-                .saturating_add(ps);
-            if steps < PROBE_STEPS || probed < PROBE_LENGTH_PS {
-                return;
-            }
-            c.probe_sum.store(0, Ordering::Relaxed);
-            c.probe_steps.store(0, Ordering::Relaxed);
-            c.probe_ps.store(0, Ordering::Relaxed);
-            c.probe_counted.store(0, Ordering::Relaxed);
-            ps = sum / steps;
         }
         let was_split_faster = split_pays(
             c.split.load(Ordering::Relaxed),
@@ -453,7 +429,7 @@ impl<T> SharedMut<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::operators::split_choice::PROBE_EVERY;
+    use crate::operators::split_choice::{PROBE_EVERY, PROBE_STEPS, PROBE_WARM_UP};
     use std::panic::{catch_unwind, AssertUnwindSafe};
 
     #[test]
