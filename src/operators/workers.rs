@@ -492,18 +492,8 @@ mod tests {
     #[test]
     fn the_adaptive_choice_leaves_a_split_that_is_slower_and_probes_it_less_often() {
         let w = Workers::new(1).unwrap();
-        let mut split_steps = Vec::new();
-        for step in 0..20_000u64 {
-            let p = w.plan();
-            if p.split {
-                split_steps.push(step);
-            }
-            // a split takes 50 µs for 10 blocks, a step alone 5 µs
-            let time = Duration::from_micros(if p.split { 50 } else { 5 });
-            if p.timed {
-                w.record(p, time, 10);
-            }
-        }
+        // a split takes 50 µs for 10 blocks, a step alone 5 µs
+        let split_steps = split_steps(&w, 10, |split, _| if split { 50_000 } else { 5000 });
         // two to start, then six per probe (two to wake the workers and
         // four counted, 300 µs: longer than PROBE_LENGTH_PS) at 64, 470,
         // 1276, … the interval from 400 steps (2 ms of 5 µs steps) doubling
@@ -537,31 +527,40 @@ mod tests {
             }));
     }
 
+    /// The steps of 20 000 planned by the adaptive choice of `w` that ran
+    /// split, each step of `blocks` blocks taking `ns(split, run)`
+    /// nanoseconds, `run` counting the split steps in a row so far.
+    fn split_steps(w: &Workers, blocks: usize, ns: impl Fn(bool, u64) -> u64) -> Vec<u64> {
+        let mut run = 0;
+        let mut split = Vec::new();
+        for step in 0..20_000u64 {
+            let p = w.plan();
+            run = if p.split { run + 1 } else { 0 };
+            if p.timed {
+                w.record(p, Duration::from_nanos(ns(p.split, run)), blocks);
+            }
+            if p.split {
+                split.push(step);
+            }
+        }
+        split
+    }
+
     #[test]
     fn a_split_that_pays_once_its_worker_is_awake_is_chosen() {
         // as measured on a Sapphire Rapids guest, 32 blocks of `f64`: a
         // step alone 3.0 µs, split 2.3 µs while the worker is awake, but
         // the first split step after steps alone 60 µs, the second 4.3
         let w = Workers::new(1).unwrap();
-        let (mut run, mut split_late) = (0, 0);
-        for step in 0..20_000u64 {
-            let p = w.plan();
-            run = if p.split { run + 1 } else { 0 };
-            let ns = match (p.split, run) {
-                (false, _) => 3000,
-                (true, 1) => 60_000,
-                (true, 2) => 4300,
-                (true, _) => 2300,
-            };
-            if p.timed {
-                w.record(p, Duration::from_nanos(ns), 32);
-            }
-            if step >= 10_000 && p.split {
-                split_late += 1;
-            }
-        }
+        let split = split_steps(&w, 32, |split, run| match (split, run) {
+            (false, _) => 3000,
+            (true, 1) => 60_000,
+            (true, 2) => 4300,
+            (true, _) => 2300,
+        });
         // every step of the second half split but its probes of the way alone
-        assert!(split_late > 9_900, "{split_late}");
+        let late = split.iter().filter(|&&s| s >= 10_000).count();
+        assert!(late > 9_900, "{late}");
     }
 
     #[test]
@@ -570,26 +569,16 @@ mod tests {
         // (a mean 3 % faster): the fastest step of a probe would pay, its
         // mean does not
         let w = Workers::new(1).unwrap();
-        let (mut run, mut split_late) = (0, Vec::new());
-        for step in 0..20_000u64 {
-            let p = w.plan();
-            run = if p.split { run + 1 } else { 0 };
-            let ns = match (p.split, run) {
-                (false, _) => 3000,
-                (true, 1) => 60_000,
-                (true, r) if r % 2 == 0 => 2500,
-                (true, _) => 3300,
-            };
-            if p.timed {
-                w.record(p, Duration::from_nanos(ns), 16);
-            }
-            if step >= 10_000 && p.split {
-                split_late.push(step);
-            }
-        }
+        let split = split_steps(&w, 16, |split, run| match (split, run) {
+            (false, _) => 3000,
+            (true, 1) => 60_000,
+            (true, r) if r % 2 == 0 => 2500,
+            (true, _) => 3300,
+        });
         // the second half (30 ms of steps): only its probes split, at
         // most two (20 ms apart), each some 200 µs of steps
-        let probes = runs(&split_late);
+        let late: Vec<u64> = split.into_iter().filter(|&s| s >= 10_000).collect();
+        let probes = runs(&late);
         assert!(probes.len() <= 2, "{probes:?}");
         assert!(probes.iter().all(|&(_, len)| len <= 60), "{probes:?}");
     }
