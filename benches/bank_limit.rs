@@ -49,7 +49,13 @@
 //! (`common::state_stream`: a pass that loads and stores the state's rows
 //! as a step does, with one add per lane), marked where that is the lower
 //! of the two bounds: a bank whose state has left L1 may be bound by the
-//! cache, not by the arithmetic. Then each
+//! cache, not by the arithmetic. Then the bank at 64 and 1024 channels
+//! on one thread against its bound measured in the same rounds: batches of
+//! the bank alternating with runs of the mix that gave the bound, and the
+//! median of the bank's rate over the bound's in each round. The bound
+//! above is the best of seven runs; on a shared machine a core has slow
+//! stretches, and a row that falls into one is a share of a rate the core
+//! did not have then. Then each
 //! kernel set on one thread (the vector sets at 64 and 1024 channels, the
 //! portable one at 64), in batches alternating with the dispatched set's
 //! and over its time in the same rounds, against the bound measured on its
@@ -154,9 +160,24 @@ impl Form {
     }
 }
 
+/// A mix that was measured: its rate (lane operations per ns), form and
+/// chain count, and whether each update's state was in L1.
+#[derive(Clone, Copy)]
+struct Mix {
+    rate: f64,
+    form: Form,
+    chains: usize,
+    streamed: bool,
+}
+
 /// The fastest of `rates` (a chain count and its rate, `None` where not
-/// measured), printed with the others as `what` on `k`'s registers.
-fn fastest<T: Real>(k: Kernels, what: &str, rates: &[(usize, Option<f64>)]) -> Option<f64> {
+/// measured) and its chain count, printed with the others as `what` on
+/// `k`'s registers.
+fn fastest<T: Real>(
+    k: Kernels,
+    what: &str,
+    rates: &[(usize, Option<f64>)],
+) -> Option<(f64, usize)> {
     let (chains, rate) = rates
         .iter()
         .filter_map(|&(c, r)| Some((c, r?)))
@@ -171,7 +192,7 @@ fn fastest<T: Real>(k: Kernels, what: &str, rates: &[(usize, Option<f64>)]) -> O
         k.name(),
         each.join(", ")
     );
-    Some(rate)
+    Some((rate, chains))
 }
 
 /// Lane operations per nanosecond of the creep-element update on the
@@ -179,28 +200,38 @@ fn fastest<T: Real>(k: Kernels, what: &str, rates: &[(usize, Option<f64>)]) -> O
 /// chain count the best of seven runs — the CPU can do at least that; a
 /// slower run is a neighbour's on a shared machine, and a median once came
 /// out 18 % low on a Zen 4 — and the best over them, [`mix::run`]).
-fn peak_lane_operations_per_ns<T: Real>(k: Kernels) -> f64 {
-    fastest_form::<T>(k, "the creep mix with ", |form| {
+fn peak_lane_operations_per_ns<T: Real>(k: Kernels) -> Option<Mix> {
+    fastest_form::<T>(k, "the creep mix with ", false, |form| {
         [
             (4, peak_with_chains::<T, 4>(k, form)),
             (8, peak_with_chains::<T, 8>(k, form)),
             (16, peak_with_chains::<T, 16>(k, form)),
         ]
     })
-    .unwrap_or(0.0)
 }
 
 /// The fastest over the forms of a mix, each form's rates at 4, 8 and 16
-/// chains from `rates` and printed as `what` followed by the form.
+/// chains from `rates` (with their state in L1 if `streamed`) and printed
+/// as `what` followed by the form.
 fn fastest_form<T: Real>(
     k: Kernels,
     what: &str,
+    streamed: bool,
     rates: impl Fn(Form) -> [(usize, Option<f64>); 3],
-) -> Option<f64> {
+) -> Option<Mix> {
     Form::ALL
         .into_iter()
-        .filter_map(|form| fastest::<T>(k, &format!("{what}{}", form.describe()), &rates(form)))
-        .max_by(f64::total_cmp)
+        .filter_map(|form| {
+            let what = format!("{what}{}", form.describe());
+            let (rate, chains) = fastest::<T>(k, &what, &rates(form))?;
+            Some(Mix {
+                rate,
+                form,
+                chains,
+                streamed,
+            })
+        })
+        .max_by(|a, b| a.rate.total_cmp(&b.rate))
 }
 
 /// [`peak_lane_operations_per_ns`] for one chain count and form.
@@ -226,8 +257,8 @@ fn best_of_seven(mut rate: impl FnMut() -> Option<f64>) -> Option<f64> {
 /// state loaded from and stored to L1 (for each form and chain count the
 /// best of seven runs, and the best over them; `None` where the bank's
 /// kernels `k` have no vector registers).
-fn streamed_lane_operations_per_ns<T: Real>(k: Kernels) -> Option<f64> {
-    fastest_form::<T>(k, "the creep mix with its state in L1, ", |form| {
+fn streamed_lane_operations_per_ns<T: Real>(k: Kernels) -> Option<Mix> {
+    fastest_form::<T>(k, "the creep mix with its state in L1, ", true, |form| {
         [
             (4, streamed_with_chains::<T, 4>(k, form)),
             (8, streamed_with_chains::<T, 8>(k, form)),
@@ -675,6 +706,100 @@ fn time_pair<T: Real>(channels: usize, a: Mode<'_>, b: Mode<'_>) -> (f64, f64, [
     (ta[30], tb[30], [ratio[30], ratio[6], ratio[54]])
 }
 
+/// One run of the mix `m` on `k`'s registers for `T`, about `ns`
+/// nanoseconds long at its measured rate: its rate now, lane operations
+/// per ns (`None` where `k` cannot run it).
+fn mix_rate<T: Real>(k: Kernels, m: Mix, rows: &mut mix::Rows, ns: f64) -> Option<f64> {
+    let operations = m.rate * ns;
+    if m.streamed {
+        // a pass: every row's values updated once, five operations each
+        let per_pass = mix::STREAMED_ROWS * 64 / std::mem::size_of::<T>() * 5;
+        let passes = ((operations / per_pass as f64) as usize).max(1);
+        let t0 = Instant::now();
+        match m.chains {
+            4 => mix::streamed::<T, 4>(k, rows, passes, m.form)?,
+            8 => mix::streamed::<T, 8>(k, rows, passes, m.form)?,
+            _ => mix::streamed::<T, 16>(k, rows, passes, m.form)?,
+        };
+        return Some((passes * per_pass) as f64 / t0.elapsed().as_nanos() as f64);
+    }
+    fn timed<T: Real, const CHAINS: usize>(k: Kernels, form: Form, operations: f64) -> Option<f64> {
+        let lanes = mix::run::<T, CHAINS>(k, 1, form)?;
+        let per_iteration = CHAINS * 5 * lanes;
+        let iterations = ((operations / per_iteration as f64) as usize).max(1);
+        let t0 = Instant::now();
+        mix::run::<T, CHAINS>(k, iterations, form)?;
+        Some((iterations * per_iteration) as f64 / t0.elapsed().as_nanos() as f64)
+    }
+    match m.chains {
+        4 => timed::<T, 4>(k, m.form, operations),
+        8 => timed::<T, 8>(k, m.form, operations),
+        _ => timed::<T, 16>(k, m.form, operations),
+    }
+}
+
+/// The bank of `channels` channels on one thread against its bound
+/// measured in the same rounds: batches of the bank (as [`time_pair`]'s,
+/// the banks of [`PLACEMENTS`] in turn) alternating with runs of the
+/// bound's mix `m` on `k`'s registers of the same length, the order swapped
+/// every round, 61 rounds after 60 ms of warm-up. The median rate of each
+/// in M channel-steps/s (the mix's as the bound of `ops` lane operations a
+/// channel-step) and the median, 10 % and 90 % of the bank's rate over the
+/// bound's in the same round. The bound above is the best of seven runs at
+/// the start; on a shared machine the core is slower in some stretches
+/// than in others (on a Sapphire Rapids guest, a third of the 2 ms batches
+/// of a 64-channel bank 12 % slower, at 32 to 128 channels alike, in
+/// stretches of tens of milliseconds, its clock as measured unchanged):
+/// where a row of the table falls into one, it is a share of a bound the
+/// core did not have then. Here both see the same stretch.
+fn against_bound_in_same_rounds<T: Real>(
+    channels: usize,
+    k: Kernels,
+    m: Mix,
+    ops: usize,
+) -> Option<(f64, f64, [f64; 3])> {
+    let rows = bank_rows::<T>(channels, Timed::<T>::ROWS);
+    let mut banks: Vec<Timed<T>> = (0..PLACEMENTS).map(|_| Timed::new(channels)).collect();
+    let mut state = mix::Rows::new::<T>();
+    let bound_of = |rate: f64| rate * 1e3 / ops as f64;
+    let mut round = |bank: &mut Timed<T>, bank_first: bool| -> Option<(f64, f64)> {
+        let mut bank_rate = 0.0;
+        let mut take_bank = |bank: &mut Timed<T>| {
+            let ns = bank.batch(&rows, Mode::Alone);
+            bank_rate = channels as f64 / ns * 1e3;
+            ns * Timed::<T>::steps(channels) as f64
+        };
+        let mix = if bank_first {
+            let ns = take_bank(bank);
+            mix_rate::<T>(k, m, &mut state, ns)?
+        } else {
+            let ns = 2e6;
+            let mix = mix_rate::<T>(k, m, &mut state, ns)?;
+            take_bank(bank);
+            mix
+        };
+        Some((bank_rate, bound_of(mix)))
+    };
+    let warm = Instant::now();
+    while warm.elapsed().as_millis() < 60 {
+        for bank in &mut banks {
+            round(bank, true)?;
+        }
+    }
+    let (mut tb, mut tm, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
+    for r in 0..61 {
+        let (b, m) = round(&mut banks[r % PLACEMENTS], r % 2 == 0)?;
+        tb.push(b);
+        tm.push(m);
+        ratio.push(b / m);
+    }
+    black_box(&state);
+    for v in [&mut tb, &mut tm, &mut ratio] {
+        v.sort_by(f64::total_cmp);
+    }
+    Some((tb[30], tm[30], [ratio[30], ratio[6], ratio[54]]))
+}
+
 /// `rate` as a percentage of `of`, or "n/a" where there is no `of` (no
 /// state-in-L1 rate on a CPU whose bank kernels have no vector registers).
 fn share(rate: f64, of: f64) -> String {
@@ -700,6 +825,8 @@ struct Bound {
     per_core: f64,
     /// `streamed` in M channel-steps/s on one core (NaN if `None`).
     in_l1: f64,
+    /// The mix that gave `peak` (`None` if none was measured).
+    mix: Option<Mix>,
 }
 
 /// The bound: the register mix's rate, or the streamed mix's where that is
@@ -709,9 +836,14 @@ struct Bound {
 /// `f64` on a Zen 4): a rate the CPU reached is no bound if it can go faster.
 fn bound_on<T: Real>(k: Kernels, ops: usize) -> Bound {
     let in_registers = peak_lane_operations_per_ns::<T>(k);
-    let streamed = streamed_lane_operations_per_ns::<T>(k);
-    let peak = streamed.map_or(in_registers, |s| s.max(in_registers));
-    if peak > in_registers {
+    let streamed_mix = streamed_lane_operations_per_ns::<T>(k);
+    let mix = [in_registers, streamed_mix]
+        .into_iter()
+        .flatten()
+        .max_by(|a, b| a.rate.total_cmp(&b.rate));
+    let peak = mix.map_or(0.0, |m| m.rate);
+    let streamed = streamed_mix.map(|m| m.rate);
+    if mix.is_some_and(|m| m.streamed) {
         println!(
             "{} on {}'s registers: the mix with its state in L1 ran faster ({peak:.1} lane-operations/ns): it is the bound",
             T::NAME,
@@ -724,6 +856,7 @@ fn bound_on<T: Real>(k: Kernels, ops: usize) -> Bound {
         streamed,
         per_core: per_core(peak),
         in_l1: streamed.map_or(f64::NAN, per_core),
+        mix,
     }
 }
 
@@ -847,6 +980,28 @@ fn report<T: Real>(ghz: f64) -> f64 {
                 }
             }
             println!();
+        }
+    }
+    // the bank against its bound with both in the same stretch of time
+    if let Some(m) = fastest.mix {
+        for channels in [64usize, 1024] {
+            let Some((rate, of, [ratio, low, high])) =
+                against_bound_in_same_rounds::<T>(channels, *fastest_set, m, ops)
+            else {
+                continue;
+            };
+            println!(
+                "{channels} channels, one thread, in the same rounds as the bound's mix ({}'s registers, {}{}, {} chains): \
+                 the bank {rate:.1} M channel-steps/s, the bound {of:.1} M (the best at the start {bound:.1} M); \
+                 the bank / the bound in the same round {:.1} % ({:.1}-{:.1} %)",
+                fastest_set.name(),
+                if m.streamed { "state in L1, " } else { "" },
+                m.form.describe(),
+                m.chains,
+                100.0 * ratio,
+                100.0 * low,
+                100.0 * high
+            );
         }
     }
     // every kernel set against the mix on its own registers (a CPU with
