@@ -741,8 +741,9 @@ fn mix_rate<T: Real>(k: Kernels, m: Mix, rows: &mut mix::Rows, ns: f64) -> Optio
 /// The bank of `channels` channels on one thread against its bound
 /// measured in the same rounds: batches of the bank (as [`time_pair`]'s,
 /// the banks of [`PLACEMENTS`] in turn) alternating with runs of the
-/// bound's mix `m` on `k`'s registers of the same length, the order swapped
-/// every round, 61 rounds after 60 ms of warm-up. The median rate of each
+/// bound's mix `m` on `k`'s registers (as long as the batch before them,
+/// or 2 ms where the mix runs first), the order swapped every round, 61
+/// rounds after 60 ms of warm-up. The median rate of each
 /// in M channel-steps/s (the mix's as the bound of `ops` lane operations a
 /// channel-step) and the median, 10 % and 90 % of the bank's rate over the
 /// bound's in the same round. The bound above is the best of seven runs at
