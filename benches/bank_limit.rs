@@ -669,32 +669,42 @@ const PLACEMENTS: usize = 3;
 
 /// Two ways of stepping `channels` channels, timed in alternating batches
 /// on the same bank (both give the same bits and leave the same state, and
-/// on one bank they share its placement), the order swapped every round,
-/// 61 rounds after 60 ms of warm-up, the round's bank one of
-/// [`PLACEMENTS`] in turn: the median nanoseconds per step of each, and the
-/// median, 10 % and 90 % of `b`'s time over `a`'s in the same round. Timed
-/// one after the other, a busy minute would fall on one way only.
+/// on one bank they share its placement), in [`alternating`] rounds, the
+/// round's bank one of [`PLACEMENTS`] in turn: the median nanoseconds per
+/// step of each, and the median, 10 % and 90 % of `b`'s time over `a`'s in
+/// the same round.
 fn time_pair<T: Real>(channels: usize, a: Mode<'_>, b: Mode<'_>) -> (f64, f64, [f64; 3]) {
     let rows = bank_rows::<T>(channels, Timed::<T>::ROWS);
     let mut banks: Vec<Timed<T>> = (0..PLACEMENTS).map(|_| Timed::new(channels)).collect();
-    // the adaptive choice's first probes come closer together (64, 194,
-    // 452, … steps) until they are 20 ms apart: timed from then on
+    alternating(|round, second| {
+        let mode = if second { b } else { a };
+        banks[round % PLACEMENTS].batch(&rows, mode)
+    })
+}
+
+/// Two figures timed in alternating order, `run(round, second)` giving the
+/// first (`second` false) or the second, the order swapped every round, 61
+/// rounds after 60 ms of warm-up (the adaptive choice's first probes come
+/// closer together, 64, 194, 452, … steps, until they are 20 ms apart):
+/// the median of each, and the median, 10 % and 90 % of the second over
+/// the first in the same round. Timed one after the other, a busy minute
+/// would fall on one of them only.
+fn alternating(mut run: impl FnMut(usize, bool) -> f64) -> (f64, f64, [f64; 3]) {
     let warm = Instant::now();
+    let mut round = 0;
     while warm.elapsed().as_millis() < 60 {
-        for bank in &mut banks {
-            bank.batch(&rows, a);
-            bank.batch(&rows, b);
-        }
+        run(round, false);
+        run(round, true);
+        round += 1;
     }
     let (mut ta, mut tb, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
     for round in 0..61 {
-        let bank = &mut banks[round % PLACEMENTS];
         let (x, y) = if round % 2 == 0 {
-            let x = bank.batch(&rows, a);
-            (x, bank.batch(&rows, b))
+            let x = run(round, false);
+            (x, run(round, true))
         } else {
-            let y = bank.batch(&rows, b);
-            (bank.batch(&rows, a), y)
+            let y = run(round, true);
+            (run(round, false), y)
         };
         ta.push(x);
         tb.push(y);
@@ -740,19 +750,19 @@ fn mix_rate<T: Real>(k: Kernels, m: Mix, rows: &mut mix::Rows, ns: f64) -> Optio
 
 /// The bank of `channels` channels on one thread against its bound
 /// measured in the same rounds: batches of the bank (as [`time_pair`]'s,
-/// the banks of [`PLACEMENTS`] in turn) alternating with runs of the
-/// bound's mix `m` on `k`'s registers (as long as the batch before them,
-/// or 2 ms where the mix runs first), the order swapped every round, 61
-/// rounds after 60 ms of warm-up. The median rate of each
-/// in M channel-steps/s (the mix's as the bound of `ops` lane operations a
+/// the banks of [`PLACEMENTS`] in turn) in [`alternating`] rounds with runs
+/// of the bound's mix `m` on `k`'s registers (each as long as the bank's
+/// last batch; 2 ms before the first). The median rate of each in M
+/// channel-steps/s (the mix's as the bound of `ops` lane operations a
 /// channel-step) and the median, 10 % and 90 % of the bank's rate over the
-/// bound's in the same round. The bound above is the best of seven runs at
-/// the start; on a shared machine the core is slower in some stretches
-/// than in others (on a Sapphire Rapids guest, a third of the 2 ms batches
-/// of a 64-channel bank 12 % slower, at 32 to 128 channels alike, in
-/// stretches of tens of milliseconds, its clock as measured unchanged):
-/// where a row of the table falls into one, it is a share of a bound the
-/// core did not have then. Here both see the same stretch.
+/// bound's in the same round (`None` where `k` cannot run the mix). The
+/// bound above is the best of seven runs at the start; on a shared machine
+/// the core is slower in some stretches than in others (on a Sapphire
+/// Rapids guest, a third of the 2 ms batches of a 64-channel bank 12 %
+/// slower, at 32 to 128 channels alike, in stretches of tens of
+/// milliseconds, its clock as measured unchanged): where a row of the
+/// table falls into one, it is a share of a bound the core did not have
+/// then. Here both see the same stretch.
 fn against_bound_in_same_rounds<T: Real>(
     channels: usize,
     k: Kernels,
@@ -762,43 +772,20 @@ fn against_bound_in_same_rounds<T: Real>(
     let rows = bank_rows::<T>(channels, Timed::<T>::ROWS);
     let mut banks: Vec<Timed<T>> = (0..PLACEMENTS).map(|_| Timed::new(channels)).collect();
     let mut state = mix::Rows::new::<T>();
-    let bound_of = |rate: f64| rate * 1e3 / ops as f64;
-    let mut round = |bank: &mut Timed<T>, bank_first: bool| -> Option<(f64, f64)> {
-        let mut bank_rate = 0.0;
-        let mut take_bank = |bank: &mut Timed<T>| {
-            let ns = bank.batch(&rows, Mode::Alone);
-            bank_rate = channels as f64 / ns * 1e3;
-            ns * Timed::<T>::steps(channels) as f64
-        };
-        let mix = if bank_first {
-            let ns = take_bank(bank);
-            mix_rate::<T>(k, m, &mut state, ns)?
+    mix_rate::<T>(k, m, &mut state, 1e3)?;
+    let mut batch_ns = 2e6;
+    let (bound, bank, ratio) = alternating(|round, bank_now| {
+        if bank_now {
+            let ns = banks[round % PLACEMENTS].batch(&rows, Mode::Alone);
+            batch_ns = ns * Timed::<T>::steps(channels) as f64;
+            channels as f64 / ns * 1e3
         } else {
-            let ns = 2e6;
-            let mix = mix_rate::<T>(k, m, &mut state, ns)?;
-            take_bank(bank);
-            mix
-        };
-        Some((bank_rate, bound_of(mix)))
-    };
-    let warm = Instant::now();
-    while warm.elapsed().as_millis() < 60 {
-        for bank in &mut banks {
-            round(bank, true)?;
+            let rate = mix_rate::<T>(k, m, &mut state, batch_ns).unwrap_or(f64::NAN);
+            rate * 1e3 / ops as f64
         }
-    }
-    let (mut tb, mut tm, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
-    for r in 0..61 {
-        let (b, m) = round(&mut banks[r % PLACEMENTS], r % 2 == 0)?;
-        tb.push(b);
-        tm.push(m);
-        ratio.push(b / m);
-    }
+    });
     black_box(&state);
-    for v in [&mut tb, &mut tm, &mut ratio] {
-        v.sort_by(f64::total_cmp);
-    }
-    Some((tb[30], tm[30], [ratio[30], ratio[6], ratio[54]]))
+    Some((bank, bound, ratio))
 }
 
 /// `rate` as a percentage of `of`, or "n/a" where there is no `of` (no
