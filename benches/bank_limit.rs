@@ -238,12 +238,39 @@ fn fastest_form<T: Real>(
 fn peak_with_chains<T: Real, const CHAINS: usize>(k: Kernels, form: Form) -> Option<f64> {
     // the same number of updates for every count
     let iterations = 32_000_000 / CHAINS;
-    best_of_seven(|| {
-        let t0 = Instant::now();
-        let lanes = mix::run::<T, CHAINS>(k, iterations, form)?;
-        let ns = t0.elapsed().as_nanos() as f64;
-        Some((iterations * CHAINS * 5 * lanes) as f64 / ns)
-    })
+    best_of_seven(|| registers_rate::<T, CHAINS>(k, form, iterations))
+}
+
+/// One timed run of `iterations` of [`mix::run`]: lane operations per ns.
+fn registers_rate<T: Real, const CHAINS: usize>(
+    k: Kernels,
+    form: Form,
+    iterations: usize,
+) -> Option<f64> {
+    let t0 = Instant::now();
+    let lanes = mix::run::<T, CHAINS>(k, iterations, form)?;
+    let ns = t0.elapsed().as_nanos() as f64;
+    Some((iterations * CHAINS * 5 * lanes) as f64 / ns)
+}
+
+/// One timed run of `passes` of [`mix::streamed`] over `rows`: lane
+/// operations per ns (a pass updates every value of the rows once, five
+/// operations each).
+fn streamed_rate<T: Real, const CHAINS: usize>(
+    k: Kernels,
+    form: Form,
+    rows: &mut mix::Rows,
+    passes: usize,
+) -> Option<f64> {
+    let t0 = Instant::now();
+    mix::streamed::<T, CHAINS>(k, rows, passes, form)?;
+    let ns = t0.elapsed().as_nanos() as f64;
+    Some((passes * streamed_pass_operations::<T>()) as f64 / ns)
+}
+
+/// Lane operations of one pass of [`mix::streamed`].
+fn streamed_pass_operations<T: Real>() -> usize {
+    mix::STREAMED_ROWS * 64 / std::mem::size_of::<T>() * 5
 }
 
 /// The highest of seven rates `rate` measures (`None` if it gives none).
@@ -271,13 +298,7 @@ fn streamed_lane_operations_per_ns<T: Real>(k: Kernels) -> Option<Mix> {
 fn streamed_with_chains<T: Real, const CHAINS: usize>(k: Kernels, form: Form) -> Option<f64> {
     const ITERATIONS: usize = 200_000;
     let mut rows = mix::Rows::new::<T>();
-    let best = best_of_seven(|| {
-        let t0 = Instant::now();
-        let lanes = mix::streamed::<T, CHAINS>(k, &mut rows, ITERATIONS, form)?;
-        let ns = t0.elapsed().as_nanos() as f64;
-        let updates = ITERATIONS * mix::STREAMED_ROWS * 64 / (std::mem::size_of::<T>() * lanes);
-        Some((updates * 5 * lanes) as f64 / ns)
-    });
+    let best = best_of_seven(|| streamed_rate::<T, CHAINS>(k, form, &mut rows, ITERATIONS));
     black_box(&rows);
     best
 }
@@ -722,24 +743,17 @@ fn alternating(mut run: impl FnMut(usize, bool) -> f64) -> (f64, f64, [f64; 3]) 
 fn mix_rate<T: Real>(k: Kernels, m: Mix, rows: &mut mix::Rows, ns: f64) -> Option<f64> {
     let operations = m.rate * ns;
     if m.streamed {
-        // a pass: every row's values updated once, five operations each
-        let per_pass = mix::STREAMED_ROWS * 64 / std::mem::size_of::<T>() * 5;
-        let passes = ((operations / per_pass as f64) as usize).max(1);
-        let t0 = Instant::now();
-        match m.chains {
-            4 => mix::streamed::<T, 4>(k, rows, passes, m.form)?,
-            8 => mix::streamed::<T, 8>(k, rows, passes, m.form)?,
-            _ => mix::streamed::<T, 16>(k, rows, passes, m.form)?,
+        let passes = ((operations / streamed_pass_operations::<T>() as f64) as usize).max(1);
+        return match m.chains {
+            4 => streamed_rate::<T, 4>(k, m.form, rows, passes),
+            8 => streamed_rate::<T, 8>(k, m.form, rows, passes),
+            _ => streamed_rate::<T, 16>(k, m.form, rows, passes),
         };
-        return Some((passes * per_pass) as f64 / t0.elapsed().as_nanos() as f64);
     }
     fn timed<T: Real, const CHAINS: usize>(k: Kernels, form: Form, operations: f64) -> Option<f64> {
         let lanes = mix::run::<T, CHAINS>(k, 1, form)?;
-        let per_iteration = CHAINS * 5 * lanes;
-        let iterations = ((operations / per_iteration as f64) as usize).max(1);
-        let t0 = Instant::now();
-        mix::run::<T, CHAINS>(k, iterations, form)?;
-        Some((iterations * per_iteration) as f64 / t0.elapsed().as_nanos() as f64)
+        let iterations = ((operations / (CHAINS * 5 * lanes) as f64) as usize).max(1);
+        registers_rate::<T, CHAINS>(k, form, iterations)
     }
     match m.chains {
         4 => timed::<T, 4>(k, m.form, operations),
