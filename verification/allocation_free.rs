@@ -118,6 +118,14 @@ fn steps_and_in_place_runs_allocate_nothing() {
     let mut targets = [0.0f32; 19];
     let mut bank_out = [mfcbeam::realtime::Compensated::<f32>::default(); 19];
 
+    // a planned signal of 40 frames in one call (several runs of frames)
+    let frame_targets: Vec<f32> = (0..40 * 19)
+        .map(|i| (i % 97) as f32 * 7.0 - 300.0)
+        .collect();
+    let mut frame_out = vec![mfcbeam::realtime::Compensated::<f32>::default(); 40 * 19];
+    let frame_targets_s = vec![120.0f64; 40 * 5];
+    let mut frame_out_s = vec![mfcbeam::realtime::Compensated::<f64>::default(); 40 * 5];
+
     let n = allocations_during(|| {
         for &v in &input {
             std::hint::black_box(play.step(v));
@@ -147,6 +155,11 @@ fn steps_and_in_place_runs_allocate_nothing() {
         std::hint::black_box(comp.compensate(f64::NAN));
         std::hint::black_box(w.step(f64::INFINITY));
         w.run_into(&input, &mut out).unwrap();
+        bank.compensate_frames(&frame_targets, &mut frame_out)
+            .unwrap();
+        bank_s
+            .compensate_frames(&frame_targets_s, &mut frame_out_s)
+            .unwrap();
         let (saturated, faults) = comp
             .compensate_into(&input, &mut out, &mut sat, &mut fault)
             .unwrap();

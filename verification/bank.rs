@@ -795,3 +795,158 @@ fn small_banks_step_on_the_calling_thread_alone() {
     bank.compensate_on(&everything, &[5.0], &mut out).unwrap();
     assert!(everything.jobs_handed() > before);
 }
+
+/// `compensate_frames` gives the bits of one `compensate` per frame, in
+/// order, and leaves the same state: one model or one per channel (some
+/// with `S`, some with dynamics), `f32` and `f64`, on every kernel set,
+/// with runs of one block and one frame, of two blocks and three frames,
+/// and the default tiling, over
+/// calls of 0 to 31 frames (odd counts too, so that a call starts on
+/// either copy of the plays), through saturation and non-finite targets.
+#[test]
+fn frames_give_the_bits_of_one_step_per_frame() {
+    use mfcbeam::operators::bank::FrameTiling;
+    use mfcbeam::operators::model::{DynamicsData, ResonanceData};
+    use mfcbeam::suite::conformance::random_superposition;
+    fn check<T: Real>(seed: u64, channels: usize, shared: bool) {
+        let mut rng = Rng::new(seed);
+        let mut files = models(
+            &mut rng,
+            if shared { 1 } else { channels },
+            seed.is_multiple_of(3),
+        );
+        if !shared {
+            for (c, f) in files.iter_mut().enumerate() {
+                if c % 5 == 2 {
+                    f.superposition = Some(random_superposition(&mut rng, 300.0));
+                }
+                if c % 7 == 3 {
+                    f.dynamics = Some(DynamicsData {
+                        low_pass: None,
+                        resonance: Some(ResonanceData {
+                            frequency: 0.1 / f.sample_time,
+                            damping: 0.05,
+                        }),
+                        delay_fraction: None,
+                        state: None,
+                    });
+                }
+            }
+        }
+        let params: Vec<_> = files.iter().map(ModelFile::parameters).collect();
+        let limit = rng.uniform(100.0, 600.0);
+        let settings = CompensatorSettings::with_limits(-limit, limit);
+        let mut stepped = if shared {
+            CompensatorBank::<T>::uniform(&params[0], channels, settings).unwrap()
+        } else {
+            CompensatorBank::<T>::new(&params, settings).unwrap()
+        };
+        // a block of the paper's model is 87 rows of 64 bytes
+        // runs of one frame, of three, and of the default length
+        let tilings = [
+            FrameTiling {
+                tile_bytes: 1,
+                run_frames: 1,
+                prefetch: false,
+            },
+            FrameTiling {
+                tile_bytes: 2 * 87 * 64,
+                run_frames: 3,
+                prefetch: true,
+            },
+            FrameTiling::default(),
+        ];
+        let mut framed: Vec<_> = simd::Kernels::all()
+            .flat_map(|k| tilings.map(|t| (k, t)))
+            .map(|kt| (kt, stepped.clone()))
+            .collect();
+        let rows: Vec<Vec<T>> = targets(&mut rng, channels, 300, limit)
+            .iter()
+            .map(|row| row.iter().map(|&t| T::from_f64(t)).collect())
+            .collect();
+        let mut expected = vec![Default::default(); channels];
+        let mut got = Vec::new();
+        let mut rows = rows.as_slice();
+        let (mut saturated, mut faults) = (0, 0);
+        for frames in [0usize, 1, 2, 5, 31, 7, 16].into_iter().cycle() {
+            if rows.is_empty() {
+                break;
+            }
+            let (call, rest) = rows.split_at(frames.min(rows.len()));
+            rows = rest;
+            let flat: Vec<T> = call.iter().flatten().copied().collect();
+            let mut want = Vec::new();
+            for row in call {
+                stepped.compensate(row, &mut expected).unwrap();
+                want.extend_from_slice(&expected);
+                saturated += expected.iter().filter(|c| c.saturated).count();
+                faults += expected.iter().filter(|c| c.fault).count();
+            }
+            for ((k, tile), bank) in &mut framed {
+                got.clear();
+                got.resize(flat.len(), Default::default());
+                bank.compensate_frames_using(*k, *tile, &flat, &mut got)
+                    .unwrap();
+                assert_eq!(
+                    got,
+                    want,
+                    "seed {seed}, {channels} channels, {k:?}, {tile:?}, {frames} frames, {}",
+                    T::NAME
+                );
+                assert_eq!(*bank, stepped, "seed {seed}, {k:?}, {tile:?}: the state");
+            }
+        }
+        assert!(
+            saturated > 0 && faults > 0,
+            "seed {seed}: {saturated} saturated, {faults} faults"
+        );
+        // the default call is one of those checked
+        let mut bank = framed[0].1.clone();
+        let flat = vec![T::from_f64(0.25 * limit); 3 * channels];
+        let mut got = vec![Default::default(); flat.len()];
+        bank.compensate_frames(&flat, &mut got).unwrap();
+        for f in 0..3 {
+            stepped
+                .compensate(&flat[f * channels..][..channels], &mut expected)
+                .unwrap();
+            assert_eq!(got[f * channels..][..channels], expected[..]);
+        }
+    }
+    for seed in 0..6 {
+        for channels in [1, 3, 8, 13, 17, 40, 70] {
+            check::<f64>(seed, channels, seed % 2 == 0);
+            check::<f32>(seed, channels, seed % 2 == 1);
+        }
+    }
+}
+
+/// A call of frames that are not whole, or whose outputs do not match its
+/// targets, is refused with the field named, and the bank is unchanged.
+#[test]
+fn frames_that_are_not_whole_are_refused() {
+    let p = mfcbeam::realtime::nominal::PARAMETERS;
+    let settings = CompensatorSettings::with_limits(-400.0, 400.0);
+    let mut bank = CompensatorBank::<f64>::uniform(&p, 3, settings).unwrap();
+    let fresh = bank.clone();
+    let mut out = vec![Default::default(); 7];
+    assert_eq!(
+        bank.compensate_frames(&[1.0; 7], &mut out).unwrap_err(),
+        ParameterError::LengthMismatch {
+            field: "bank.targets",
+            expected: 9,
+            found: 7
+        }
+    );
+    assert_eq!(
+        bank.compensate_frames(&[1.0; 6], &mut out).unwrap_err(),
+        ParameterError::LengthMismatch {
+            field: "bank.out",
+            expected: 6,
+            found: 7
+        }
+    );
+    assert_eq!(bank, fresh);
+    // no frames: nothing to do
+    bank.compensate_frames(&[], &mut []).unwrap();
+    assert_eq!(bank, fresh);
+}
