@@ -628,6 +628,9 @@ enum Mode<'a> {
     Kernels(Kernels),
     /// Split over the workers and the calling thread.
     Workers(&'a Workers),
+    /// On the calling thread, all the rows in one call:
+    /// `CompensatorBank::compensate_frames`.
+    Frames,
 }
 
 /// One bank of `channels` channels stepped in batches of about 2 ms.
@@ -635,6 +638,9 @@ struct Timed<T: Real> {
     bank: CompensatorBank<T>,
     out: Vec<Compensated<T>>,
     k: usize,
+    /// [`Mode::Frames`]'s targets (the rows one after the other) and
+    /// outputs, made at its first batch.
+    frames: Option<(Vec<T>, Vec<Compensated<T>>)>,
 }
 
 impl<T: Real> Timed<T> {
@@ -645,6 +651,7 @@ impl<T: Real> Timed<T> {
             bank: nominal_bank::<T>(channels),
             out: vec![Compensated::<T>::default(); channels],
             k: 0,
+            frames: None,
         }
     }
 
@@ -659,6 +666,7 @@ impl<T: Real> Timed<T> {
             Mode::Alone => self.bank.compensate(row, &mut self.out),
             Mode::Kernels(kernels) => self.bank.compensate_using(kernels, row, &mut self.out),
             Mode::Workers(workers) => self.bank.compensate_on(workers, row, &mut self.out),
+            Mode::Frames => unreachable!("a batch of frames steps in `frames_batch`"),
         }
         .unwrap();
     }
@@ -667,6 +675,9 @@ impl<T: Real> Timed<T> {
     /// timed: after the other way's batch a parked worker wakes in them,
     /// which a bank stepped every sample does not pay.
     fn batch(&mut self, rows: &[Vec<T>], mode: Mode<'_>) -> f64 {
+        if let Mode::Frames = mode {
+            return self.frames_batch(rows);
+        }
         let steps = Self::steps(self.out.len());
         self.step(rows, mode);
         self.step(rows, mode);
@@ -676,6 +687,30 @@ impl<T: Real> Timed<T> {
         }
         black_box(&self.out);
         t0.elapsed().as_nanos() as f64 / steps as f64
+    }
+}
+
+impl<T: Real> Timed<T> {
+    /// [`Timed::batch`] of [`Mode::Frames`]: as many steps (at least one
+    /// call), in calls of all the rows, the first call not timed.
+    fn frames_batch(&mut self, rows: &[Vec<T>]) -> f64 {
+        let channels = self.out.len();
+        let (targets, out) = self.frames.get_or_insert_with(|| {
+            let targets: Vec<T> = rows.iter().flatten().copied().collect();
+            let out = vec![Compensated::<T>::default(); targets.len()];
+            (targets, out)
+        });
+        let calls = Self::steps(channels).div_ceil(rows.len());
+        let mut call = |bank: &mut CompensatorBank<T>| {
+            bank.compensate_frames(black_box(targets), out).unwrap();
+        };
+        call(&mut self.bank);
+        let t0 = Instant::now();
+        for _ in 0..calls {
+            call(&mut self.bank);
+        }
+        black_box(&*out);
+        t0.elapsed().as_nanos() as f64 / (calls * rows.len()) as f64
     }
 }
 
@@ -779,19 +814,20 @@ fn mix_rate<T: Real>(k: Kernels, m: Mix, rows: &mut mix::Rows, ns: f64) -> Optio
 /// then. Here both see the same stretch.
 fn against_bound_in_same_rounds<T: Real>(
     channels: usize,
+    (mode, frames): (Mode<'_>, usize),
     k: Kernels,
     m: Mix,
     ops: usize,
 ) -> Option<(f64, f64, [f64; 3])> {
-    let rows = bank_rows::<T>(channels, Timed::<T>::ROWS);
+    let rows = bank_rows::<T>(channels, frames);
     let mut banks: Vec<Timed<T>> = (0..PLACEMENTS).map(|_| Timed::new(channels)).collect();
     let mut state = mix::Rows::new::<T>();
     mix_rate::<T>(k, m, &mut state, 1e3)?;
     let mut batch_ns = 2e6;
     let (bound, bank, ratio) = alternating(|round, bank_now| {
         if bank_now {
-            let ns = banks[round % PLACEMENTS].batch(&rows, Mode::Alone);
-            batch_ns = ns * Timed::<T>::steps(channels) as f64;
+            let ns = banks[round % PLACEMENTS].batch(&rows, mode);
+            batch_ns = ns * Timed::<T>::steps(channels).max(frames) as f64;
             channels as f64 / ns * 1e3
         } else {
             let rate = mix_rate::<T>(k, m, &mut state, batch_ns).unwrap_or(f64::NAN);
@@ -986,14 +1022,31 @@ fn report<T: Real>(ghz: f64) -> f64 {
     }
     // the bank against its bound with both in the same stretch of time
     if let Some(m) = fastest.mix {
-        for channels in [64usize, 1024] {
-            let Some((rate, of, [ratio, low, high])) =
-                against_bound_in_same_rounds::<T>(channels, *fastest_set, m, ops)
-            else {
-                continue;
-            };
-            println!(
-                "{channels} channels, one thread, in the same rounds as the bound's mix ({}'s registers, {}{}, {} chains): \
+        // a frame a call, and a planned signal: 64 frames (in cache), and
+        // at 1024 channels 2048 frames (in `f64` 48 MB, far beyond L2)
+        let rows = Timed::<T>::ROWS;
+        let ways = [
+            ((Mode::Alone, rows), &[64usize, 1024][..], String::new()),
+            (
+                (Mode::Frames, rows),
+                &[64, 1024],
+                format!(", {rows} frames a call (compensate_frames)"),
+            ),
+            (
+                (Mode::Frames, 2048),
+                &[1024],
+                ", 2048 frames a call (compensate_frames, beyond L2)".to_string(),
+            ),
+        ];
+        for (mode, sizes, calls) in &ways {
+            for &channels in *sizes {
+                let Some((rate, of, [ratio, low, high])) =
+                    against_bound_in_same_rounds::<T>(channels, *mode, *fastest_set, m, ops)
+                else {
+                    continue;
+                };
+                println!(
+                "{channels} channels, one thread{calls}, in the same rounds as the bound's mix ({}'s registers, {}{}, {} chains): \
                  the bank {rate:.1} M channel-steps/s, the bound {of:.1} M (the best at the start {bound:.1} M); \
                  the bank / the bound in the same round {:.1} % ({:.1}-{:.1} %)",
                 fastest_set.name(),
@@ -1004,6 +1057,7 @@ fn report<T: Real>(ghz: f64) -> f64 {
                 100.0 * low,
                 100.0 * high
             );
+            }
         }
     }
     // every kernel set against the mix on its own registers (a CPU with
