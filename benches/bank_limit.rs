@@ -671,14 +671,20 @@ impl<T: Real> Timed<T> {
         .unwrap();
     }
 
-    /// Nanoseconds per step of one batch. Its first two steps are not
-    /// timed: after the other way's batch a parked worker wakes in them,
-    /// which a bank stepped every sample does not pay.
+    /// Nanoseconds per step of one batch of about 2 ms.
     fn batch(&mut self, rows: &[Vec<T>], mode: Mode<'_>) -> f64 {
+        self.batch_of(rows, mode, Self::steps(self.out.len())).0
+    }
+
+    /// Nanoseconds per step of one batch of `steps` steps, and the steps
+    /// timed (for [`Mode::Frames`] whole calls of all the rows, at least
+    /// one). Its first two steps are not timed: after the other way's
+    /// batch a parked worker wakes in them, which a bank stepped every
+    /// sample does not pay.
+    fn batch_of(&mut self, rows: &[Vec<T>], mode: Mode<'_>, steps: usize) -> (f64, usize) {
         if let Mode::Frames = mode {
-            return self.frames_batch(rows);
+            return self.frames_batch(rows, steps);
         }
-        let steps = Self::steps(self.out.len());
         self.step(rows, mode);
         self.step(rows, mode);
         let t0 = Instant::now();
@@ -686,21 +692,20 @@ impl<T: Real> Timed<T> {
             self.step(rows, mode);
         }
         black_box(&self.out);
-        t0.elapsed().as_nanos() as f64 / steps as f64
+        (t0.elapsed().as_nanos() as f64 / steps as f64, steps)
     }
 }
 
 impl<T: Real> Timed<T> {
-    /// [`Timed::batch`] of [`Mode::Frames`]: as many steps (at least one
-    /// call), in calls of all the rows, the first call not timed.
-    fn frames_batch(&mut self, rows: &[Vec<T>]) -> f64 {
-        let channels = self.out.len();
+    /// [`Timed::batch_of`] of [`Mode::Frames`]: `steps` steps or more (at
+    /// least one call), in calls of all the rows, the first call not timed.
+    fn frames_batch(&mut self, rows: &[Vec<T>], steps: usize) -> (f64, usize) {
         let (targets, out) = self.frames.get_or_insert_with(|| {
             let targets: Vec<T> = rows.iter().flatten().copied().collect();
             let out = vec![Compensated::<T>::default(); targets.len()];
             (targets, out)
         });
-        let calls = Self::steps(channels).div_ceil(rows.len());
+        let calls = steps.div_ceil(rows.len());
         let mut call = |bank: &mut CompensatorBank<T>| {
             bank.compensate_frames(black_box(targets), out).unwrap();
         };
@@ -710,7 +715,8 @@ impl<T: Real> Timed<T> {
             call(&mut self.bank);
         }
         black_box(&*out);
-        t0.elapsed().as_nanos() as f64 / (calls * rows.len()) as f64
+        let steps = calls * rows.len();
+        (t0.elapsed().as_nanos() as f64 / steps as f64, steps)
     }
 }
 
@@ -797,11 +803,22 @@ fn mix_rate<T: Real>(k: Kernels, m: Mix, rows: &mut mix::Rows, ns: f64) -> Optio
     }
 }
 
+/// How many times a batch of [`Timed::steps`] (about 2 ms) a batch of the
+/// bank against its bound in the same rounds is. On a Sapphire Rapids
+/// guest, in rounds of 2 ms batches and runs of the mix, the mix ran
+/// at 108–110 M channel-steps/s and a 64-channel `f64` bank at 86 % of it;
+/// in rounds of 8 ms at 124, the bank at 79 %; of 32 ms at 124–126, the
+/// bank at 78 %, the mix's best of seven at the start 132: a run of the
+/// mix right after the bank is slow for a while, the bank after the mix
+/// much less so, and short rounds favoured the bank.
+const SAME_ROUNDS_BATCHES: usize = 16;
+
 /// The bank of `channels` channels on one thread against its bound
 /// measured in the same rounds: batches of the bank (as [`time_pair`]'s,
-/// the banks of [`PLACEMENTS`] in turn) in [`alternating`] rounds with runs
-/// of the bound's mix `m` on `k`'s registers (each as long as the bank's
-/// last batch; 2 ms before the first). The median rate of each in M
+/// [`SAME_ROUNDS_BATCHES`] times as long, about 32 ms; the banks of
+/// [`PLACEMENTS`] in turn) in [`alternating`] rounds with runs of the
+/// bound's mix `m` on `k`'s registers (each as long as the bank's last
+/// batch; 32 ms before the first). The median rate of each in M
 /// channel-steps/s (the mix's as the bound of `ops` lane operations a
 /// channel-step) and the median, 10 % and 90 % of the bank's rate over the
 /// bound's in the same round (`None` where `k` cannot run the mix). The
@@ -823,11 +840,12 @@ fn against_bound_in_same_rounds<T: Real>(
     let mut banks: Vec<Timed<T>> = (0..PLACEMENTS).map(|_| Timed::new(channels)).collect();
     let mut state = mix::Rows::new::<T>();
     mix_rate::<T>(k, m, &mut state, 1e3)?;
-    let mut batch_ns = 2e6;
+    let steps = SAME_ROUNDS_BATCHES * Timed::<T>::steps(channels);
+    let mut batch_ns = 2e6 * SAME_ROUNDS_BATCHES as f64;
     let (bound, bank, ratio) = alternating(|round, bank_now| {
         if bank_now {
-            let ns = banks[round % PLACEMENTS].batch(&rows, mode);
-            batch_ns = ns * Timed::<T>::steps(channels).max(frames) as f64;
+            let (ns, steps) = banks[round % PLACEMENTS].batch_of(&rows, mode, steps);
+            batch_ns = ns * steps as f64;
             channels as f64 / ns * 1e3
         } else {
             let rate = mix_rate::<T>(k, m, &mut state, batch_ns).unwrap_or(f64::NAN);
