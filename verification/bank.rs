@@ -44,6 +44,24 @@ fn models(rng: &mut Rng, count: usize, paper_order: bool) -> Vec<ModelFile> {
         .collect()
 }
 
+/// Linear dynamics for the model file `f`: a resonance at a tenth of its
+/// sample rate, lightly damped, with a fractional delay `delay_fraction`.
+fn resonance(
+    f: &ModelFile,
+    delay_fraction: Option<f64>,
+) -> mfcbeam::operators::model::DynamicsData {
+    use mfcbeam::operators::model::{DynamicsData, ResonanceData};
+    DynamicsData {
+        low_pass: None,
+        resonance: Some(ResonanceData {
+            frequency: 0.1 / f.sample_time,
+            damping: 0.05,
+        }),
+        delay_fraction,
+        state: None,
+    }
+}
+
 /// Targets for `channels` channels over `len` samples: random walks that
 /// overshoot the limits now and then, with a non-finite target every so often.
 fn targets(rng: &mut Rng, channels: usize, len: usize, limit: f64) -> Vec<Vec<f64>> {
@@ -713,20 +731,11 @@ fn a_bank_on_worker_threads_gives_the_bits_of_one_thread() {
 #[test]
 fn channels_with_dynamics_give_the_bits_of_their_own_compensator() {
     use mfcbeam::operators::bank::Workers;
-    use mfcbeam::operators::model::{DynamicsData, ResonanceData};
     let mut rng = Rng::new(11);
     let mut files = models(&mut rng, 19, false);
     for (i, f) in files.iter_mut().enumerate() {
         if i % 3 == 1 {
-            f.dynamics = Some(DynamicsData {
-                low_pass: None,
-                resonance: Some(ResonanceData {
-                    frequency: 0.1 / f.sample_time,
-                    damping: 0.05,
-                }),
-                delay_fraction: Some(0.2),
-                state: None,
-            });
+            f.dynamics = Some(resonance(f, Some(0.2)));
         }
     }
     let params: Vec<_> = files.iter().map(ModelFile::parameters).collect();
@@ -806,7 +815,6 @@ fn small_banks_step_on_the_calling_thread_alone() {
 #[test]
 fn frames_give_the_bits_of_one_step_per_frame() {
     use mfcbeam::operators::bank::FrameTiling;
-    use mfcbeam::operators::model::{DynamicsData, ResonanceData};
     use mfcbeam::suite::conformance::random_superposition;
     fn check<T: Real>(seed: u64, channels: usize, shared: bool) {
         let mut rng = Rng::new(seed);
@@ -821,15 +829,7 @@ fn frames_give_the_bits_of_one_step_per_frame() {
                     f.superposition = Some(random_superposition(&mut rng, 300.0));
                 }
                 if c % 7 == 3 {
-                    f.dynamics = Some(DynamicsData {
-                        low_pass: None,
-                        resonance: Some(ResonanceData {
-                            frequency: 0.1 / f.sample_time,
-                            damping: 0.05,
-                        }),
-                        delay_fraction: None,
-                        state: None,
-                    });
+                    f.dynamics = Some(resonance(f, None));
                 }
             }
         }
