@@ -51,11 +51,13 @@
 //! of the two bounds: a bank whose state has left L1 may be bound by the
 //! cache, not by the arithmetic. Then the bank at 64 and 1024 channels
 //! on one thread against its bound measured in the same rounds: batches of
-//! the bank alternating with runs of the mix that gave the bound, and the
-//! median of the bank's rate over the bound's in each round. The bound
-//! above is the best of seven runs; on a shared machine a core has slow
-//! stretches, and a row that falls into one is a share of a rate the core
-//! did not have then. Then each
+//! the bank of about 32 ms alternating with runs of the mix that gave the
+//! bound, as long, and the median of the bank's rate over the bound's in
+//! each round; the same for a planned signal in one call
+//! (`compensate_frames`: 64 frames at 64 and 1024 channels, 2048 frames at
+//! 1024, beyond L2). The bound above is the best of seven runs; on a
+//! shared machine a core has slow stretches, and a row that falls into
+//! one is a share of a rate the core did not have then. Then each
 //! kernel set on one thread (the vector sets at 64 and 1024 channels, the
 //! portable one at 64), in batches alternating with the dispatched set's
 //! and over its time in the same rounds, against the bound measured on its
