@@ -770,6 +770,43 @@ fn channels_with_dynamics_give_the_bits_of_their_own_compensator() {
     }
 }
 
+/// Wakes `workers` and waits until none is parked (a worker spins for a
+/// while after a wake before it parks again); panics after a second.
+fn awake(workers: &mfcbeam::operators::bank::Workers) {
+    let start = std::time::Instant::now();
+    while !workers.all_awake() {
+        assert!(start.elapsed().as_secs() < 1, "the worker did not wake");
+        workers.wake();
+        std::thread::yield_now();
+    }
+}
+
+/// Steps `bank` and `alone` (its copy) with `targets` until a step of
+/// `bank` on `workers` hands the workers a job, the workers woken before
+/// each try (a worker can park between the wait and the step on a busy
+/// machine); the bits of each step equal to the one-thread step. Whether
+/// a job was handed within twenty tries.
+fn split_a_step(
+    workers: &mfcbeam::operators::bank::Workers,
+    bank: &mut CompensatorBank<f64>,
+    alone: &mut CompensatorBank<f64>,
+    targets: &[f64],
+) -> bool {
+    let mut out = vec![Default::default(); targets.len()];
+    let mut out_alone = out.clone();
+    for _ in 0..20 {
+        awake(workers);
+        let before = workers.jobs_handed();
+        bank.compensate_on(workers, targets, &mut out).unwrap();
+        alone.compensate(targets, &mut out_alone).unwrap();
+        assert_eq!(out, out_alone);
+        if workers.jobs_handed() > before {
+            return true;
+        }
+    }
+    false
+}
+
 /// The crossover: a bank of fewer blocks than `Workers::min_blocks` steps on
 /// the calling thread alone (no job handed to the workers), a larger one is
 /// split, and `with_min_blocks(0)` splits every bank; the bits are the same
@@ -783,26 +820,82 @@ fn small_banks_step_on_the_calling_thread_alone() {
     let crossover = default_min_blocks();
     assert_eq!(workers.min_blocks(), crossover);
     let lanes = 8; // f64 lanes per block
-    for (channels, split) in [(lanes * (crossover - 1), false), (lanes * crossover, true)] {
-        let mut bank = CompensatorBank::<f64>::uniform(&p, channels, settings).unwrap();
-        let mut alone = bank.clone();
-        let (mut out, mut out_alone) = (
-            vec![Default::default(); channels],
-            vec![Default::default(); channels],
-        );
-        let targets: Vec<f64> = (0..channels).map(|c| 3.0 * c as f64).collect();
-        let before = workers.jobs_handed();
-        bank.compensate_on(&workers, &targets, &mut out).unwrap();
-        alone.compensate(&targets, &mut out_alone).unwrap();
-        assert_eq!(workers.jobs_handed() > before, split, "{channels} channels");
-        assert_eq!(out, out_alone);
-    }
+    let below = lanes * (crossover - 1);
+    let mut bank = CompensatorBank::<f64>::uniform(&p, below, settings).unwrap();
+    let mut alone = bank.clone();
+    let (mut out, mut out_alone) = (
+        vec![Default::default(); below],
+        vec![Default::default(); below],
+    );
+    let targets: Vec<f64> = (0..below).map(|c| 3.0 * c as f64).collect();
+    awake(&workers);
+    let before = workers.jobs_handed();
+    bank.compensate_on(&workers, &targets, &mut out).unwrap();
+    alone.compensate(&targets, &mut out_alone).unwrap();
+    assert_eq!(workers.jobs_handed(), before, "{below} channels");
+    assert_eq!(out, out_alone);
+    let at = lanes * crossover;
+    let mut bank = CompensatorBank::<f64>::uniform(&p, at, settings).unwrap();
+    let mut alone = bank.clone();
+    let targets: Vec<f64> = (0..at).map(|c| 3.0 * c as f64).collect();
+    assert!(
+        split_a_step(&workers, &mut bank, &mut alone, &targets),
+        "{at} channels"
+    );
     let everything = Workers::new(1).unwrap().with_min_blocks(0);
     let mut bank = CompensatorBank::<f64>::uniform(&p, 1, settings).unwrap();
-    let mut out = vec![Default::default(); 1];
-    let before = everything.jobs_handed();
-    bank.compensate_on(&everything, &[5.0], &mut out).unwrap();
-    assert!(everything.jobs_handed() > before);
+    let mut alone = bank.clone();
+    assert!(split_a_step(&everything, &mut bank, &mut alone, &[5.0]));
+}
+
+/// A step that a split would serve runs on the calling thread alone while
+/// a worker is parked (a job handed to a parked worker waits until the OS
+/// runs it again: milliseconds on a virtual machine), with the same bits;
+/// it wakes the workers, and once they are awake the steps are split again.
+#[test]
+fn a_parked_worker_is_not_handed_a_step() {
+    use mfcbeam::operators::bank::{default_min_blocks, Workers};
+    let p = mfcbeam::realtime::nominal::PARAMETERS;
+    let settings = CompensatorSettings::default();
+    let workers = Workers::new(1).unwrap();
+    let channels = 8 * (default_min_blocks() + 8);
+    let mut bank = CompensatorBank::<f64>::uniform(&p, channels, settings).unwrap();
+    let mut alone = bank.clone();
+    let targets: Vec<f64> = (0..channels).map(|c| 2.0 * c as f64).collect();
+    let (mut out, mut out_alone) = (
+        vec![Default::default(); channels],
+        vec![Default::default(); channels],
+    );
+    // the worker parks once it has spun without a job
+    let start = std::time::Instant::now();
+    while workers.all_awake() {
+        assert!(start.elapsed().as_secs() < 10, "the worker never parked");
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    let before = workers.jobs_handed();
+    bank.compensate_on(&workers, &targets, &mut out).unwrap();
+    alone.compensate(&targets, &mut out_alone).unwrap();
+    assert_eq!(workers.jobs_handed(), before, "a job for a parked worker");
+    assert_eq!(out, out_alone);
+    assert!(split_a_step(&workers, &mut bank, &mut alone, &targets));
+    // a worker woken without a job spins before it parks again (else a
+    // wake would not keep it for the steps that follow): still awake 20 µs
+    // after it woke, in one try of a hundred at least
+    let kept = (0..100)
+        .filter(|_| {
+            awake(&workers);
+            let woke = std::time::Instant::now();
+            while woke.elapsed() < std::time::Duration::from_micros(20) {
+                std::hint::spin_loop();
+            }
+            workers.all_awake()
+        })
+        .count();
+    assert!(
+        kept >= 50,
+        "a woken worker parked again at once in {} tries of 100",
+        100 - kept
+    );
 }
 
 /// `compensate_frames` gives the bits of one `compensate` per frame, in

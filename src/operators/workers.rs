@@ -46,6 +46,9 @@ struct Shared {
     done: OwnLine<AtomicU64>,
     /// A worker's job panicked.
     panicked: AtomicBool,
+    /// Workers parked now (a worker counts itself before it parks and
+    /// after it wakes). Its own line: the caller only reads it.
+    parked: OwnLine<AtomicUsize>,
 }
 
 /// A value on cache lines of its own (128 bytes: the pair of lines the
@@ -78,7 +81,10 @@ impl AtomicJob {
 
 /// Spins before a waiting thread parks: 50–100 µs where a `pause` takes
 /// 1–2 ns, about 1.3 ms on a Zen 4 guest where it took 26–28 ns (there a
-/// worker stepped every 0.2 ms sample does not park between samples).
+/// worker stepped every 0.2 ms sample does not park between samples),
+/// about 0.5 ms on a Sapphire Rapids guest. A worker spins as long again
+/// after every time it wakes, with a job or without (the token a job's
+/// unpark left while it spun wakes it once more at its next park).
 const SPINS: usize = 50_000;
 
 /// Banks of fewer blocks than this step on the calling thread alone
@@ -128,7 +134,23 @@ pub struct Workers {
     /// measurement (else even shares).
     shares: Shares,
     measured_shares: bool,
+    /// Waking parked workers: see [`Workers::awake_for_a_split`].
+    wakes: Wakes,
 }
+
+/// When [`Workers::awake_for_a_split`] wakes parked workers: after `after`
+/// steps planned split that found one parked, doubled after each wake
+/// that no split followed before they parked again.
+#[derive(Debug)]
+struct Wakes {
+    after: AtomicUsize,
+    skipped: AtomicUsize,
+    /// A job was handed since the last wake.
+    handed: AtomicBool,
+}
+
+/// The most steps between two wakes of parked workers.
+const MOST_STEPS_BETWEEN_WAKES: usize = 1024;
 
 impl std::fmt::Debug for Workers {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -151,6 +173,7 @@ impl Workers {
             job: AtomicJob([AtomicUsize::new(0), AtomicUsize::new(0)]),
             done: OwnLine(AtomicU64::new(0)),
             panicked: AtomicBool::new(false),
+            parked: OwnLine(AtomicUsize::new(0)),
         });
         let mut threads = Vec::with_capacity(extra);
         for part in 1..=extra {
@@ -172,6 +195,11 @@ impl Workers {
             busy: AtomicBool::new(false),
             shares: Shares::default(),
             measured_shares: true,
+            wakes: Wakes {
+                after: AtomicUsize::new(1),
+                skipped: AtomicUsize::new(0),
+                handed: AtomicBool::new(true),
+            },
         })
     }
 
@@ -182,7 +210,15 @@ impl Workers {
         self
     }
 
-    /// How the next step of a bank above the crossover runs.
+    /// How the next step of a bank above the crossover runs. A step the
+    /// adaptive choice would split runs on the calling thread alone (not
+    /// timed) while a worker is parked: a job handed to a parked worker
+    /// waits until the OS runs it again, on a 2-vCPU Sapphire Rapids guest
+    /// 36–70 µs after the wake and now and then more than 50 ms. There a
+    /// 256-channel `f64` bank stepped about every 0.6 ms (a loop that
+    /// sleeps between samples; the worker parks after 0.5 ms) took 2.5–2.9
+    /// times one thread on average with every parked worker handed its
+    /// part, single steps up to 1.3 ms; without, 0.99–1.07.
     pub(crate) fn plan(&self) -> Plan {
         if !self.adaptive {
             return Plan {
@@ -192,12 +228,63 @@ impl Workers {
             };
         }
         let c = &self.choice;
-        plan(
+        let plan = plan(
             c.steps.fetch_add(1, Ordering::Relaxed),
             c.alone.load(Ordering::Relaxed),
             c.split.load(Ordering::Relaxed),
             c.next_probe.load(Ordering::Relaxed),
-        )
+        );
+        if plan.split && !self.awake_for_a_split() {
+            return Plan {
+                split: false,
+                timed: false,
+                probe: false,
+            };
+        }
+        plan
+    }
+
+    /// Whether no worker is parked. Where one is, wakes them now and
+    /// then, so that the steps that follow find them spinning: at once if
+    /// the last wake was followed by a split, else after twice as many
+    /// such steps as the last time (a bank stepped slower than a worker
+    /// spins: each wake would find it parked again), up to
+    /// [`MOST_STEPS_BETWEEN_WAKES`]. A wake costs the caller an unpark
+    /// (13–20 µs on the Sapphire Rapids guest).
+    fn awake_for_a_split(&self) -> bool {
+        if self.all_awake() {
+            return true;
+        }
+        let w = &self.wakes;
+        let skipped = w.skipped.fetch_add(1, Ordering::Relaxed) + 1;
+        let after = w.after.load(Ordering::Relaxed);
+        if skipped >= after {
+            w.skipped.store(0, Ordering::Relaxed);
+            let paid = w.handed.swap(false, Ordering::Relaxed);
+            let next = if paid {
+                1
+            } else {
+                (2 * after).min(MOST_STEPS_BETWEEN_WAKES)
+            };
+            w.after.store(next, Ordering::Relaxed);
+            self.wake();
+        }
+        false
+    }
+
+    /// Whether every worker is awake (spinning or at work), none parked.
+    #[doc(hidden)]
+    pub fn all_awake(&self) -> bool {
+        self.shared.parked.0.load(Ordering::Relaxed) == 0
+    }
+
+    /// Wakes the parked workers without a job (they spin, then park
+    /// again).
+    #[doc(hidden)]
+    pub fn wake(&self) {
+        for h in &self.handles {
+            h.unpark();
+        }
     }
 
     /// Records the time `time` of a step of `blocks` blocks run as `plan`
@@ -314,6 +401,9 @@ impl Workers {
             }
         }
         let _idle = Idle(&self.busy);
+        if !self.wakes.handed.load(Ordering::Relaxed) {
+            self.wakes.handed.store(true, Ordering::Relaxed);
+        }
         // SAFETY: only the lifetime is erased; the job is not used after
         // this call returns (every worker is done with it then).
         s.job.set(unsafe {
@@ -376,7 +466,13 @@ fn work(s: &Shared, part: usize) {
                 spins += 1;
                 std::hint::spin_loop();
             } else {
+                s.parked.0.fetch_add(1, Ordering::Relaxed);
                 thread::park();
+                s.parked.0.fetch_sub(1, Ordering::Relaxed);
+                // woken (by a job, a wake without one, or the token a job
+                // left while this spun): spin again before parking, so
+                // that a wake keeps it awake for the steps that follow
+                spins = 0;
             }
         };
         seen = generation;
