@@ -63,6 +63,10 @@
 //! and over its time in the same rounds, against the bound measured on its
 //! own registers: on a CPU with AVX-512 the AVX2 set is measured against a
 //! 256-bit mix, which is what a CPU with AVX2 only would give it.
+//! Then a loop that sleeps between samples (256 and 1024 `f64` channels,
+//! pauses of 0.3 and 1 ms): one-thread and `compensate_on` steps in turn,
+//! the mean of two's over one's and each one's median and 99th percentile
+//! (a step handed to a parked worker would wait for the OS to run it).
 //! Last, with `MFCBEAM_C_BANK` naming the library of the hand-written C bank
 //! (`benches/peers/bank.c`, built by `benches/peers/run.sh`), the bank
 //! against it in alternating batches at 8, 64, 1024 and 4096 channels
@@ -1237,6 +1241,57 @@ fn against_c_bank(path: &str, ghz: f64, bound: f64) {
     }
 }
 
+/// A loop that sleeps between samples, so that a worker parks between
+/// steps (it spins about 0.5 ms): a one-thread step and a
+/// `compensate_on` step in turn, each after a pause, 1000 of each, a new
+/// `Workers` per case. Two threads must not be slower on average, nor in
+/// the 99th percentile by more than the noise: a step handed to a parked
+/// worker waits until the OS runs it again.
+fn sleeping_loop() {
+    use std::time::Duration;
+    println!("\na loop that sleeps between samples (f64; one-thread and compensate_on steps in turn, each after the pause; 1000 of each):");
+    println!(
+        "channels  pause   one thread: median   p99   compensate_on: median   p99   mean two / one"
+    );
+    for channels in [256usize, 1024] {
+        for pause in [300u64, 1000] {
+            let workers = Workers::new(1).expect("a worker thread");
+            let rows = bank_rows::<f64>(channels, 64);
+            let mut out = vec![Compensated::<f64>::default(); channels];
+            let mut one = nominal_bank::<f64>(channels);
+            let mut two = one.clone();
+            let mut times = [Vec::new(), Vec::new()];
+            for k in 0..1000 {
+                for (i, bank) in [&mut one, &mut two].into_iter().enumerate() {
+                    std::thread::sleep(Duration::from_micros(pause));
+                    let row = black_box(&rows[k % rows.len()]);
+                    let t0 = Instant::now();
+                    if i == 0 {
+                        bank.compensate(row, &mut out)
+                    } else {
+                        bank.compensate_on(&workers, row, &mut out)
+                    }
+                    .unwrap();
+                    times[i].push(t0.elapsed().as_nanos() as f64);
+                }
+            }
+            let mean = |t: &[f64]| t.iter().sum::<f64>() / t.len() as f64;
+            let ratio = mean(&times[1]) / mean(&times[0]);
+            for t in &mut times {
+                t.sort_by(f64::total_cmp);
+            }
+            let at = |t: &[f64], q: f64| t[((t.len() - 1) as f64 * q) as usize] / 1e3;
+            println!(
+                "{channels:>8} {pause:>4} µs {:>17.1} µs {:>5.1} {:>20.1} µs {:>5.1}   {ratio:.3}",
+                at(&times[0], 0.5),
+                at(&times[0], 0.99),
+                at(&times[1], 0.5),
+                at(&times[1], 0.99),
+            );
+        }
+    }
+}
+
 fn main() {
     if std::env::args().any(|a| a == "--list") {
         return; // nothing for `cargo test --benches` to list
@@ -1249,6 +1304,7 @@ fn main() {
     );
     let bound = report::<f64>(ghz);
     report::<f32>(ghz);
+    sleeping_loop();
     match std::env::var("MFCBEAM_C_BANK") {
         #[cfg(target_os = "linux")]
         Ok(path) => against_c_bank(&path, ghz, bound),

@@ -46,9 +46,18 @@ struct Shared {
     done: OwnLine<AtomicU64>,
     /// A worker's job panicked.
     panicked: AtomicBool,
-    /// Workers parked now (a worker counts itself before it parks and
-    /// after it wakes). Its own line: the caller only reads it.
-    parked: OwnLine<AtomicUsize>,
+    /// Each worker's earliest time to park ([`Shared::now_ns`]; 0 while
+    /// parked): it spins at least until then.
+    awake_until: Box<[OwnLine<AtomicU64>]>,
+    /// What [`Shared::now_ns`] counts from.
+    epoch: std::time::Instant,
+}
+
+impl Shared {
+    /// Nanoseconds since the workers were made.
+    fn now_ns(&self) -> u64 {
+        u64::try_from(self.epoch.elapsed().as_nanos()).unwrap_or(u64::MAX)
+    }
 }
 
 /// A value on cache lines of its own (128 bytes: the pair of lines the
@@ -152,6 +161,17 @@ struct Wakes {
 /// The most steps between two wakes of parked workers.
 const MOST_STEPS_BETWEEN_WAKES: usize = 1024;
 
+/// A worker spins at least this long after a job or a wake before it
+/// parks (0.5 ms, in ns), and publishes when that ends.
+const SPIN_NS: u64 = 500_000;
+
+/// A step is handed to the workers only if each will spin at least this
+/// much longer (50 µs, in ns): one about to park could otherwise park just
+/// before the job arrives, and the job would wait for the OS to run it
+/// again (with steps about 0.6 ms apart, 1024 `f64` channels took 1.17
+/// times one thread in two runs of three on a Sapphire Rapids guest).
+const HANDOVER_NS: u64 = 50_000;
+
 impl std::fmt::Debug for Workers {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Workers")
@@ -173,7 +193,8 @@ impl Workers {
             job: AtomicJob([AtomicUsize::new(0), AtomicUsize::new(0)]),
             done: OwnLine(AtomicU64::new(0)),
             panicked: AtomicBool::new(false),
-            parked: OwnLine(AtomicUsize::new(0)),
+            awake_until: (0..extra).map(|_| OwnLine(AtomicU64::new(0))).collect(),
+            epoch: std::time::Instant::now(),
         });
         let mut threads = Vec::with_capacity(extra);
         for part in 1..=extra {
@@ -212,13 +233,30 @@ impl Workers {
 
     /// How the next step of a bank above the crossover runs. A step the
     /// adaptive choice would split runs on the calling thread alone (not
-    /// timed) while a worker is parked: a job handed to a parked worker
-    /// waits until the OS runs it again, on a 2-vCPU Sapphire Rapids guest
-    /// 36–70 µs after the wake and now and then more than 50 ms. There a
-    /// 256-channel `f64` bank stepped about every 0.6 ms (a loop that
-    /// sleeps between samples; the worker parks after 0.5 ms) took 2.5–2.9
-    /// times one thread on average with every parked worker handed its
-    /// part, single steps up to 1.3 ms; without, 0.99–1.07.
+    /// timed) unless every worker will spin [`HANDOVER_NS`] longer at
+    /// least: a job handed to a parked worker waits until the OS runs it
+    /// again, on a 2-vCPU Sapphire Rapids guest 36–70 µs after the wake
+    /// and now and then more than 50 ms. There a 256-channel `f64` bank
+    /// stepped about every 0.6 ms (a loop that sleeps between samples; the
+    /// worker parks after 0.5 ms) took 2.5–2.9 times one thread on average
+    /// with every parked worker handed its part, single steps up to
+    /// 1.3 ms; with this check 0.87–1.10 of one thread (256 and 1024
+    /// channels, pauses of 0.3 and 1 ms, three runs), the medians within
+    /// 4 %.
+    pub(crate) fn plan_now(&self) -> Plan {
+        let plan = self.plan();
+        if self.adaptive && plan.split && !self.awake_for_a_split() {
+            return Plan {
+                split: false,
+                timed: false,
+                probe: false,
+            };
+        }
+        plan
+    }
+
+    /// The adaptive choice's plan for the next step, whatever the workers
+    /// are doing ([`Workers::plan_now`] is the step's).
     pub(crate) fn plan(&self) -> Plan {
         if !self.adaptive {
             return Plan {
@@ -228,20 +266,12 @@ impl Workers {
             };
         }
         let c = &self.choice;
-        let plan = plan(
+        plan(
             c.steps.fetch_add(1, Ordering::Relaxed),
             c.alone.load(Ordering::Relaxed),
             c.split.load(Ordering::Relaxed),
             c.next_probe.load(Ordering::Relaxed),
-        );
-        if plan.split && !self.awake_for_a_split() {
-            return Plan {
-                split: false,
-                timed: false,
-                probe: false,
-            };
-        }
-        plan
+        )
     }
 
     /// Whether no worker is parked. Where one is, wakes them now and
@@ -272,10 +302,15 @@ impl Workers {
         false
     }
 
-    /// Whether every worker is awake (spinning or at work), none parked.
+    /// Whether every worker will spin [`HANDOVER_NS`] longer at least
+    /// (or is at work): none parked, none about to.
     #[doc(hidden)]
     pub fn all_awake(&self) -> bool {
-        self.shared.parked.0.load(Ordering::Relaxed) == 0
+        let s = &*self.shared;
+        let soon = s.now_ns().saturating_add(HANDOVER_NS);
+        s.awake_until
+            .iter()
+            .all(|u| u.0.load(Ordering::Relaxed) > soon)
     }
 
     /// Wakes the parked workers without a job (they spin, then park
@@ -455,8 +490,16 @@ impl Drop for Workers {
 /// A worker: wait for a new generation, run its part, count it done.
 fn work(s: &Shared, part: usize) {
     let mut seen = 0u64;
+    let awake_until = &s.awake_until[part - 1].0;
+    // spin at least SPIN_NS from now, and say so
+    let spin_from_now = || {
+        let until = s.now_ns().saturating_add(SPIN_NS);
+        awake_until.store(until, Ordering::Relaxed);
+        until
+    };
     loop {
         let mut spins = 0;
+        let mut until = spin_from_now();
         let generation = loop {
             let g = s.generation.load(Ordering::Acquire);
             if g != seen {
@@ -465,14 +508,18 @@ fn work(s: &Shared, part: usize) {
             if spins < SPINS {
                 spins += 1;
                 std::hint::spin_loop();
+            } else if s.now_ns() < until {
+                // past SPINS, the clock read every 64 spins
+                spins = SPINS - 64;
+                std::hint::spin_loop();
             } else {
-                s.parked.0.fetch_add(1, Ordering::Relaxed);
+                awake_until.store(0, Ordering::Relaxed);
                 thread::park();
-                s.parked.0.fetch_sub(1, Ordering::Relaxed);
                 // woken (by a job, a wake without one, or the token a job
                 // left while this spun): spin again before parking, so
                 // that a wake keeps it awake for the steps that follow
                 spins = 0;
+                until = spin_from_now();
             }
         };
         seen = generation;

@@ -398,7 +398,7 @@ impl<T: Real> CompensatorBank<T> {
         targets: &[T],
         out: &mut [Compensated<T>],
     ) -> Result<(), ParameterError> {
-        let plan = workers.plan();
+        let plan = workers.plan_now();
         let start = plan.timed.then(std::time::Instant::now);
         let stepped = if plan.split {
             self.compensate_split(workers, targets, out)
