@@ -51,6 +51,8 @@ struct Shared {
     awake_until: Box<[OwnLine<AtomicU64>]>,
     /// What [`Shared::now_ns`] counts from.
     epoch: std::time::Instant,
+    /// Workers that have started running.
+    started: AtomicUsize,
 }
 
 impl Shared {
@@ -91,9 +93,10 @@ impl AtomicJob {
 /// Spins before a waiting thread parks: 50–100 µs where a `pause` takes
 /// 1–2 ns, about 1.3 ms on a Zen 4 guest where it took 26–28 ns (there a
 /// worker stepped every 0.2 ms sample does not park between samples),
-/// about 0.5 ms on a Sapphire Rapids guest. A worker spins as long again
-/// after every time it wakes, with a job or without (the token a job's
-/// unpark left while it spun wakes it once more at its next park).
+/// about 0.5 ms on a Sapphire Rapids guest; and at least [`SPIN_NS`]. A
+/// worker spins as long again after every time it wakes, with a job or
+/// without (the token a job's unpark left while it spun wakes it once
+/// more at its next park).
 const SPINS: usize = 50_000;
 
 /// Banks of fewer blocks than this step on the calling thread alone
@@ -195,6 +198,7 @@ impl Workers {
             panicked: AtomicBool::new(false),
             awake_until: (0..extra).map(|_| OwnLine(AtomicU64::new(0))).collect(),
             epoch: std::time::Instant::now(),
+            started: AtomicUsize::new(0),
         });
         let mut threads = Vec::with_capacity(extra);
         for part in 1..=extra {
@@ -204,6 +208,12 @@ impl Workers {
                     .name(format!("mfcbeam-bank-{part}"))
                     .spawn(move || work(&shared, part))?,
             );
+        }
+        // every worker running before the first step: a thread that starts
+        // late starts in some step (the start allocates, and until it runs
+        // no step is handed to it)
+        while shared.started.load(Ordering::Acquire) < extra {
+            thread::yield_now();
         }
         let handles = threads.iter().map(|t| t.thread().clone()).collect();
         Ok(Self {
@@ -274,7 +284,8 @@ impl Workers {
         )
     }
 
-    /// Whether no worker is parked. Where one is, wakes them now and
+    /// Whether every worker will spin [`HANDOVER_NS`] longer at least.
+    /// Where one will not (parked, or about to park), wakes them now and
     /// then, so that the steps that follow find them spinning: at once if
     /// the last wake was followed by a split, else after twice as many
     /// such steps as the last time (a bank stepped slower than a worker
@@ -489,6 +500,7 @@ impl Drop for Workers {
 
 /// A worker: wait for a new generation, run its part, count it done.
 fn work(s: &Shared, part: usize) {
+    s.started.fetch_add(1, Ordering::Release);
     let mut seen = 0u64;
     let awake_until = &s.awake_until[part - 1].0;
     // spin at least SPIN_NS from now, and say so
@@ -497,9 +509,9 @@ fn work(s: &Shared, part: usize) {
         awake_until.store(until, Ordering::Relaxed);
         until
     };
+    let mut until = spin_from_now();
     loop {
         let mut spins = 0;
-        let mut until = spin_from_now();
         let generation = loop {
             let g = s.generation.load(Ordering::Acquire);
             if g != seen {
@@ -532,6 +544,10 @@ fn work(s: &Shared, part: usize) {
         if std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(part))).is_err() {
             s.panicked.store(true, Ordering::Relaxed);
         }
+        // the next wait's spin, said before the caller can see this part
+        // done: its next step reads it (a long job would leave the last
+        // one past)
+        until = spin_from_now();
         s.done.0.fetch_add(1, Ordering::Release);
     }
 }

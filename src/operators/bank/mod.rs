@@ -371,10 +371,10 @@ impl<T: Real> CompensatorBank<T> {
     /// step now and then each way and runs the others split only where that
     /// was faster by more than a sixteenth, so that two threads are not
     /// slower than one even when the split's worth changes while the bank
-    /// runs. A step is not handed to a parked worker (one that has waited
-    /// longer than it spins, as in a loop that sleeps between samples):
-    /// it runs on the calling thread alone and wakes the workers for the
-    /// steps that follow. The same bits either way;
+    /// runs. A step is not handed to a worker that is parked (it has
+    /// waited longer than it spins, as in a loop that sleeps between
+    /// samples) or about to park: it runs on the calling thread alone and
+    /// wakes the workers for the steps that follow. The same bits either way;
     /// allocation-free and without locks.
     #[inline]
     pub fn compensate_on(
