@@ -10,7 +10,11 @@
 //! 100 µs of its steps, after 100 µs that wake the workers; at least ten
 //! times that apart, less often while it stays the slower, and once
 //! confirmed at most every 20 ms), and the steps run split where that was
-//! faster by more than a sixteenth.
+//! faster by more than a sixteenth. A step planned split is handed to the
+//! workers only while each will spin a while longer
+//! (`Workers::plan_now`): else it runs alone, untimed, so a probe of the
+//! split waits until they are awake, and its warm-up steps no longer pay
+//! a parked worker's wake-up.
 //! Here are the rules, as functions of the times so far, and the counters
 //! they read ([`Choice`]); `Workers` times the steps and updates them.
 

@@ -93,8 +93,9 @@ impl AtomicJob {
 /// Spins before a waiting thread parks: 50–100 µs where a `pause` takes
 /// 1–2 ns, about 1.3 ms on a Zen 4 guest where it took 26–28 ns (there a
 /// worker stepped every 0.2 ms sample does not park between samples),
-/// about 0.5 ms on a Sapphire Rapids guest; and at least [`SPIN_NS`]. A
-/// worker spins as long again after every time it wakes, with a job or
+/// about 0.5 ms on a Sapphire Rapids guest; and for [`SPIN_NS`] at least,
+/// the time it publishes (where pauses are fast, the time is the longer).
+/// A worker spins as long again after every time it wakes, with a job or
 /// without (the token a job's unpark left while it spun wakes it once
 /// more at its next park).
 const SPINS: usize = 50_000;
@@ -150,12 +151,14 @@ pub struct Workers {
     wakes: Wakes,
 }
 
-/// When [`Workers::awake_for_a_split`] wakes parked workers: after `after`
-/// steps planned split that found one parked, doubled after each wake
-/// that no split followed before they parked again.
+/// When [`Workers::awake_for_a_split`] wakes the workers: after `after`
+/// steps planned split that found one not spinning, doubled after each
+/// wake that no split followed.
 #[derive(Debug)]
 struct Wakes {
+    /// Such steps from one wake to the next.
     after: AtomicUsize,
+    /// Such steps since the last wake.
     skipped: AtomicUsize,
     /// A job was handed since the last wake.
     handed: AtomicBool,
@@ -189,6 +192,7 @@ impl std::fmt::Debug for Workers {
 impl Workers {
     /// `extra` worker threads (the calling thread is the first part: a
     /// step on `extra + 1` cores). 0 is allowed: every step on the caller.
+    /// Returns once every worker runs.
     pub fn new(extra: usize) -> std::io::Result<Self> {
         let shared = Arc::new(Shared {
             generation: AtomicU64::new(0),
