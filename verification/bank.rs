@@ -771,14 +771,20 @@ fn channels_with_dynamics_give_the_bits_of_their_own_compensator() {
 }
 
 /// Wakes `workers` and waits until each will spin a while longer
-/// (`Workers::all_awake`: none parked, none about to park); panics after a
-/// second.
+/// (`Workers::all_awake`: none parked, none about to park); panics after
+/// ten seconds.
+///
+/// It sleeps between looks, not `yield_now`: with the other cores busy
+/// (tests in parallel on two cores) the worker shares this one, and a
+/// caller that yields runs again only after the worker's whole spin, when
+/// it has parked; a sleeping caller lets it run, and its timer brings it
+/// back within the spin.
 fn awake(workers: &mfcbeam::operators::bank::Workers) {
     let start = std::time::Instant::now();
     while !workers.all_awake() {
-        assert!(start.elapsed().as_secs() < 1, "the worker did not wake");
+        assert!(start.elapsed().as_secs() < 10, "the worker did not wake");
         workers.wake();
-        std::thread::yield_now();
+        std::thread::sleep(std::time::Duration::from_micros(100));
     }
 }
 
