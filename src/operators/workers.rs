@@ -6,8 +6,13 @@
 //! only, no allocation and no lock. An idle worker spins for a while
 //! (a control loop's next sample is close) and then parks; the step wakes
 //! it. The job borrows the caller's stack: `Workers::run` returns only
-//! when every worker has finished it (and a worker's panic is re-raised),
-//! the scoped-thread rule kept by hand.
+//! when every part is done (and a worker's panic is re-raised), the
+//! scoped-thread rule kept by hand. A worker claims its part before it
+//! reads the job; a part still unclaimed a little after the caller's own
+//! part ended the caller claims and runs itself, so that a worker the OS
+//! has not run yet holds no step. A part claimed is its claimer's to
+//! finish: a worker preempted in the middle of its part still holds the
+//! step until it runs again.
 //!
 //! Whether a split pays is measured while the bank runs, by the rules of
 //! the `split_choice` module: a split costs a hand-over (the job's cache
@@ -49,6 +54,15 @@ struct Shared {
     /// Each worker's earliest time to park ([`Shared::now_ns`]; 0 while
     /// parked): it spins at least until then.
     awake_until: Box<[OwnLine<AtomicU64>]>,
+    /// Each worker's part: the last generation whose part was claimed, by
+    /// the worker (which then runs it) or by the caller (which runs it
+    /// itself: the worker was late). Raised by `fetch_max`, so that exactly
+    /// one of them wins a part.
+    claimed: Box<[OwnLine<AtomicU64>]>,
+    /// Tests only: a worker waits while this is set before it claims its
+    /// part (a worker late by as long as a test needs).
+    #[cfg(test)]
+    hold: AtomicBool,
     /// What [`Shared::now_ns`] counts from.
     epoch: std::time::Instant,
     /// Workers that have started running.
@@ -99,6 +113,18 @@ impl AtomicJob {
 /// without (the token a job's unpark left while it spun wakes it once
 /// more at its next park).
 const SPINS: usize = 50_000;
+
+/// Spins of the calling thread, after its own part, before it takes the
+/// parts no worker has claimed yet (0.3–0.5 µs where a `pause` takes
+/// 1–2 ns, about 7 µs on a Zen 4 guest, 2.6 µs on a Sapphire Rapids
+/// guest, by [`SPINS`]' figures): a worker
+/// spinning for the job claims it within a hand-over (0.15–0.35 µs), one
+/// that has not by then is not running, and its part run here costs one
+/// part's time where waiting costs its wake (36–70 µs after an unpark on
+/// a Sapphire Rapids guest) or the rest of a time slice. Checked late, not
+/// at once, so that the caller does not read a claim's line while its
+/// worker is at work in the common case.
+const TAKE_AFTER_SPINS: usize = 256;
 
 /// Banks of fewer blocks than this step on the calling thread alone
 /// (`CompensatorBank::compensate_on`): handing a step to a worker costs
@@ -201,6 +227,9 @@ impl Workers {
             done: OwnLine(AtomicU64::new(0)),
             panicked: AtomicBool::new(false),
             awake_until: (0..extra).map(|_| OwnLine(AtomicU64::new(0))).collect(),
+            claimed: (0..extra).map(|_| OwnLine(AtomicU64::new(0))).collect(),
+            #[cfg(test)]
+            hold: AtomicBool::new(false),
             epoch: std::time::Instant::now(),
             started: AtomicUsize::new(0),
         });
@@ -431,7 +460,10 @@ impl Workers {
 
     /// `job(0)` here and `job(p)` on worker `p`, returning when all are
     /// done; every part here if the workers are busy with another caller's
-    /// job (then it returns `false`). Allocation-free.
+    /// job. A part its worker has not claimed [`TAKE_AFTER_SPINS`] spins
+    /// after this thread's own part ended runs here as well (its worker is
+    /// late: not scheduled, or just woken). Returns whether every worker
+    /// ran its own part (`false`: some or all ran here). Allocation-free.
     pub(crate) fn run(&self, job: &(dyn Fn(usize) + Sync + '_)) -> bool {
         let workers = self.threads.len();
         let s = &*self.shared;
@@ -471,7 +503,11 @@ impl Workers {
         let mine = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(0)));
         let mut spins = 0;
         let all_done = generation * workers as u64;
+        let mut taken = None;
         while s.done.0.load(Ordering::Acquire) < all_done {
+            if spins == TAKE_AFTER_SPINS && taken.is_none() {
+                taken = Some(self.take_late_parts(generation, job));
+            }
             if spins < SPINS {
                 spins += 1;
                 std::hint::spin_loop();
@@ -482,10 +518,47 @@ impl Workers {
         if let Err(payload) = mine {
             std::panic::resume_unwind(payload);
         }
+        let took_any = match taken {
+            Some(Err(payload)) => std::panic::resume_unwind(payload),
+            Some(Ok(took_any)) => took_any,
+            None => false,
+        };
         if s.panicked.swap(false, Ordering::Relaxed) {
             panic!("a bank worker panicked");
         }
-        true
+        !took_any
+    }
+
+    /// Runs here the parts of `generation` that no worker has claimed, and
+    /// counts them done; whether there were any (a panic in one is
+    /// returned after the rest have run).
+    fn take_late_parts(
+        &self,
+        generation: u64,
+        job: &(dyn Fn(usize) + Sync + '_),
+    ) -> std::thread::Result<bool> {
+        let s = &*self.shared;
+        let mut took = 0;
+        let mut panicked = None;
+        for (i, claimed) in s.claimed.iter().enumerate() {
+            // the load first: a claimed part's line stays the worker's
+            if claimed.0.load(Ordering::Relaxed) < generation
+                && claimed.0.fetch_max(generation, Ordering::AcqRel) < generation
+            {
+                took += 1;
+                let part = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(i + 1)));
+                if let (Err(payload), None) = (part, &panicked) {
+                    panicked = Some(payload);
+                }
+            }
+        }
+        if took > 0 {
+            s.done.0.fetch_add(took, Ordering::Release);
+        }
+        match panicked {
+            Some(payload) => Err(payload),
+            None => Ok(took > 0),
+        }
     }
 }
 
@@ -507,6 +580,7 @@ fn work(s: &Shared, part: usize) {
     s.started.fetch_add(1, Ordering::Release);
     let mut seen = 0u64;
     let awake_until = &s.awake_until[part - 1].0;
+    let claimed = &s.claimed[part - 1].0;
     // spin at least SPIN_NS from now, and say so
     let spin_from_now = || {
         let until = s.now_ns().saturating_add(SPIN_NS);
@@ -542,8 +616,23 @@ fn work(s: &Shared, part: usize) {
         if s.stop.load(Ordering::Acquire) {
             return;
         }
-        // SAFETY: `run` stored a job that lives until every worker has
-        // counted itself done, which this one has not yet.
+        // (five seconds at most: a caller that does not take the part
+        // then fails its test instead of waiting for ever)
+        #[cfg(test)]
+        {
+            let held = std::time::Instant::now();
+            while s.hold.load(Ordering::Acquire) && held.elapsed() < Duration::from_secs(5) {
+                thread::sleep(Duration::from_micros(100));
+            }
+        }
+        // the part is this worker's only if the caller has not taken it
+        // (then the job may be gone: not read)
+        if claimed.fetch_max(generation, Ordering::AcqRel) >= generation {
+            until = spin_from_now();
+            continue;
+        }
+        // SAFETY: `run` stored a job that lives until every part is
+        // counted done, which this one, claimed here, is not yet.
         let job = unsafe { &*s.job.get() };
         if std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(part))).is_err() {
             s.panicked.store(true, Ordering::Relaxed);
@@ -637,6 +726,101 @@ mod tests {
             after.fetch_add(1, Ordering::Relaxed);
         });
         assert_eq!(after.load(Ordering::Relaxed), 3);
+    }
+
+    /// Waits (at most ten seconds) until `done` holds.
+    fn wait_for(what: &str, done: impl Fn() -> bool) {
+        let start = std::time::Instant::now();
+        while !done() {
+            assert!(start.elapsed() < Duration::from_secs(10), "{what}");
+            thread::sleep(Duration::from_micros(100));
+        }
+    }
+
+    #[test]
+    fn a_part_its_late_worker_has_not_claimed_runs_once_on_the_caller() {
+        let w = Workers::new(2).unwrap();
+        let s = &*w.shared;
+        let me = thread::current().id();
+        // both workers held before they claim: the caller runs every part
+        s.hold.store(true, Ordering::Release);
+        let ran: [AtomicUsize; 3] = Default::default();
+        let here: [AtomicBool; 3] = Default::default();
+        let job = |p: usize| {
+            ran[p].fetch_add(1, Ordering::Relaxed);
+            here[p].store(thread::current().id() == me, Ordering::Relaxed);
+        };
+        assert!(!w.run(&job));
+        assert!(ran.iter().all(|n| n.load(Ordering::Relaxed) == 1));
+        assert!(here.iter().all(|h| h.load(Ordering::Relaxed)));
+        // released, the workers find their parts taken and leave the job
+        // alone (it is still alive below: a part run twice would count 2)
+        s.hold.store(false, Ordering::Release);
+        // the workers run their own parts of the next jobs (so they are
+        // past the taken one): part 0 waits for theirs to start
+        for _ in 0..20 {
+            let started = AtomicUsize::new(0);
+            let ran: [AtomicUsize; 3] = Default::default();
+            let on_workers = w.run(&|p| {
+                ran[p].fetch_add(1, Ordering::Relaxed);
+                if p == 0 {
+                    wait_for("the workers started", || {
+                        started.load(Ordering::Acquire) == 2
+                    });
+                } else {
+                    assert_ne!(thread::current().id(), me);
+                    started.fetch_add(1, Ordering::Release);
+                }
+            });
+            assert!(on_workers);
+            assert!(ran.iter().all(|n| n.load(Ordering::Relaxed) == 1));
+        }
+        assert!(ran.iter().all(|n| n.load(Ordering::Relaxed) == 1));
+        // a taken part's panic is raised on the caller, and the pool goes on
+        s.hold.store(true, Ordering::Release);
+        let r = catch_unwind(AssertUnwindSafe(|| {
+            w.run(&|p| {
+                if p == 1 {
+                    panic!("part 1 fails");
+                }
+            })
+        }));
+        assert!(r.is_err());
+        s.hold.store(false, Ordering::Release);
+        let after = AtomicUsize::new(0);
+        w.run(&|_| {
+            after.fetch_add(1, Ordering::Relaxed);
+        });
+        assert_eq!(after.load(Ordering::Relaxed), 3);
+    }
+
+    #[test]
+    fn workers_late_at_random_leave_every_part_run_once() {
+        // a worker still held for a taken job when the next one comes must
+        // skip the old one and run the new one's part
+        let w = Workers::new(2).unwrap();
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut taken = 0;
+        for _ in 0..300 {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            w.shared
+                .hold
+                .store(seed.is_multiple_of(3), Ordering::Release);
+            let ran: [AtomicUsize; 3] = Default::default();
+            let all_on_workers = w.run(&|p| {
+                ran[p].fetch_add(1, Ordering::Relaxed);
+                if seed.is_multiple_of(5) {
+                    thread::sleep(Duration::from_micros(50));
+                }
+            });
+            taken += usize::from(!all_on_workers);
+            assert!(ran.iter().all(|n| n.load(Ordering::Relaxed) == 1));
+        }
+        w.shared.hold.store(false, Ordering::Release);
+        // about a third of the jobs had both workers held
+        assert!((60..=300).contains(&taken), "{taken}");
     }
 
     /// The runs of consecutive steps in `steps` (ascending): their first
@@ -780,16 +964,19 @@ mod tests {
         });
         // and a job started while another holds the workers runs on its
         // own thread
-        let release = AtomicBool::new(false);
+        let (release, started) = (AtomicBool::new(false), AtomicBool::new(false));
         thread::scope(|scope| {
             let first = scope.spawn(|| {
-                w.run(&|_| {
+                w.run(&|p| {
+                    started.fetch_or(p == 1, Ordering::Release);
                     while !release.load(Ordering::Acquire) {
                         thread::yield_now();
                     }
                 })
             });
-            while !w.busy.load(Ordering::Acquire) {
+            // the worker at work on the first job (so that its caller does
+            // not take the part: a worker late on a loaded machine)
+            while !(w.busy.load(Ordering::Acquire) && started.load(Ordering::Acquire)) {
                 thread::yield_now();
             }
             let me = thread::current().id();
