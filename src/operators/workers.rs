@@ -117,13 +117,13 @@ const SPINS: usize = 50_000;
 /// Spins of the calling thread, after its own part, before it takes the
 /// parts no worker has claimed yet (0.3–0.5 µs where a `pause` takes
 /// 1–2 ns, about 7 µs on a Zen 4 guest, 2.6 µs on a Sapphire Rapids
-/// guest, by [`SPINS`]' figures): a worker
-/// spinning for the job claims it within a hand-over (0.15–0.35 µs), one
-/// that has not by then is not running, and its part run here costs one
-/// part's time where waiting costs its wake (36–70 µs after an unpark on
-/// a Sapphire Rapids guest) or the rest of a time slice. Checked late, not
-/// at once, so that the caller does not read a claim's line while its
-/// worker is at work in the common case.
+/// guest, by [`SPINS`]' figures): a worker spinning for the job claims it
+/// within a hand-over (0.15–0.35 µs), one that has not by then is not
+/// running, and its part run here costs one part's time where waiting
+/// costs its wake (36–70 µs after an unpark on a Sapphire Rapids guest) or
+/// the rest of a time slice. Checked late, not at once, so that the caller
+/// does not read a claim's line while its worker is at work in the common
+/// case.
 const TAKE_AFTER_SPINS: usize = 256;
 
 /// Banks of fewer blocks than this step on the calling thread alone
@@ -522,7 +522,7 @@ impl Workers {
         let all_done = generation * workers as u64;
         let mut taken = None;
         while s.done.0.load(Ordering::Acquire) < all_done {
-            if spins == TAKE_AFTER_SPINS && taken.is_none() {
+            if spins == TAKE_AFTER_SPINS {
                 taken = Some(self.take_late_parts(generation, job));
             }
             if spins < SPINS {
@@ -816,10 +816,9 @@ mod tests {
         let w = Workers::new(1).unwrap();
         let parked = || w.shared.awake_until[0].0.load(Ordering::Relaxed) == 0;
         wait_for("the worker parked", parked);
-        // steps planned split 1 ms apart: a woken worker would park again
-        // before the next, and none is woken
-        // (a woken worker would say so within 200 µs on a quiet machine and
-        // stay awake 0.5 ms)
+        // steps planned split 1.2 ms apart: a woken worker would park again
+        // before the next, and none is woken (one woken would say so within
+        // 200 µs on a quiet machine and stay awake 0.5 ms)
         for _ in 0..4 {
             thread::sleep(Duration::from_millis(1));
             assert!(!w.awake_for_a_split());
