@@ -858,7 +858,9 @@ fn small_banks_step_on_the_calling_thread_alone() {
 /// A step that a split would serve runs on the calling thread alone while
 /// a worker is parked (a job handed to a parked worker waits until the OS
 /// runs it again: milliseconds on a virtual machine), with the same bits;
-/// it wakes the workers, and once they are awake the steps are split again.
+/// once the workers are awake (woken here by hand: the steps themselves
+/// wake them only when they come close enough together to keep them) the
+/// steps are split again.
 #[test]
 fn a_parked_worker_is_not_handed_a_step() {
     use mfcbeam::operators::bank::{default_min_blocks, Workers};

@@ -190,6 +190,9 @@ struct Wakes {
     handed: AtomicBool,
     /// When the last step planned split was planned ([`Shared::now_ns`]).
     last_split_plan: AtomicU64,
+    /// Tests only: the wakes issued.
+    #[cfg(test)]
+    issued: AtomicUsize,
 }
 
 /// The most steps between two wakes of parked workers.
@@ -266,6 +269,8 @@ impl Workers {
                 skipped: AtomicUsize::new(0),
                 handed: AtomicBool::new(true),
                 last_split_plan: AtomicU64::new(0),
+                #[cfg(test)]
+                issued: AtomicUsize::new(0),
             },
         })
     }
@@ -353,6 +358,8 @@ impl Workers {
                 (2 * after).min(MOST_STEPS_BETWEEN_WAKES)
             };
             w.after.store(next, Ordering::Relaxed);
+            #[cfg(test)]
+            w.issued.fetch_add(1, Ordering::Relaxed);
             self.wake();
         }
         false
@@ -814,21 +821,29 @@ mod tests {
     #[test]
     fn a_parked_worker_is_woken_only_for_steps_close_enough_to_keep_it() {
         let w = Workers::new(1).unwrap();
-        let parked = || w.shared.awake_until[0].0.load(Ordering::Relaxed) == 0;
-        wait_for("the worker parked", parked);
-        // steps planned split 1.2 ms apart: a woken worker would park again
-        // before the next, and none is woken (one woken would say so within
-        // 200 µs on a quiet machine and stay awake 0.5 ms)
+        let issued = || w.wakes.issued.load(Ordering::Relaxed);
+        wait_for("the worker parked", || {
+            w.shared.awake_until[0].0.load(Ordering::Relaxed) == 0
+        });
+        // steps planned split at least 1 ms apart: a woken worker would
+        // park again before the next, and none is woken (else each would
+        // find it parked again and wake it)
         for _ in 0..4 {
             thread::sleep(Duration::from_millis(1));
             assert!(!w.awake_for_a_split());
-            thread::sleep(Duration::from_micros(200));
-            assert!(parked(), "woken for steps 1.2 ms apart");
         }
-        // two steps close together: the second wakes it
-        assert!(!w.awake_for_a_split());
-        assert!(!w.awake_for_a_split());
-        wait_for("the worker woke", || !parked());
+        assert_eq!(issued(), 0, "wakes for steps 1 ms apart");
+        // two steps close together: the second wakes it (tried again where
+        // this thread did not run for 450 µs between the two)
+        for _ in 0..100 {
+            thread::sleep(Duration::from_millis(1));
+            assert!(!w.awake_for_a_split());
+            assert!(!w.awake_for_a_split());
+            if issued() > 0 {
+                break;
+            }
+        }
+        assert_eq!(issued(), 1);
     }
 
     #[test]

@@ -437,7 +437,7 @@ impl<T: Real> CompensatorBank<T> {
         // when the caller's part and the last worker's end (timed steps)
         let start = timed.map(|_| std::time::Instant::now());
         let (caller_end, workers_end) = (AtomicU64::new(0), AtomicU64::new(0));
-        let split = workers.run(&|part: usize| {
+        let on_workers = workers.run(&|part: usize| {
             let blocks = division.part(part);
             if blocks.is_empty() {
                 return;
@@ -471,7 +471,9 @@ impl<T: Real> CompensatorBank<T> {
         });
         let (caller_ns, workers_ns) = (caller_end.into_inner(), workers_end.into_inner());
         if let (Some(shares), Some(step)) = (shares, timed) {
-            if split && caller_ns > 0 && workers_ns > 0 {
+            // a part run on the calling thread (the workers busy, or one
+            // late and its part taken) says nothing of the shares
+            if on_workers && caller_ns > 0 && workers_ns > 0 {
                 shares.record(step, caller_ns, workers_ns, division.part(0).len(), even);
             }
         }
