@@ -67,6 +67,9 @@
 //! pauses of 0.3 and 1 ms): one-thread and `compensate_on` steps in turn,
 //! the mean of two's over one's and each one's median and 99th percentile
 //! (a step handed to a parked worker would wait for the OS to run it).
+//! Then two threads where the cores are all busy (a third thread spinning
+//! throughout): 256 and 1024 `f64` channels, one-thread and
+//! `compensate_on` steps back to back in turn, two's time over one's.
 //! Last, with `MFCBEAM_C_BANK` naming the library of the hand-written C bank
 //! (`benches/peers/bank.c`, built by `benches/peers/run.sh`), the bank
 //! against it in alternating batches at 8, 64, 1024 and 4096 channels
@@ -1292,6 +1295,57 @@ fn sleeping_loop() {
     }
 }
 
+/// Two threads where the cores are all busy: a third thread spins on
+/// one of them throughout (another program's, say), and one-thread and
+/// `compensate_on` steps run back to back in turn, 20 000 of each, six
+/// times, a new `Workers` per case. A worker that spins for steps it is
+/// not handed takes a core the calling thread may be waiting for.
+fn busy_cores() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    println!("\ntwo threads with a third busy thread (f64; 20 000 one-thread and compensate_on steps back to back in turn, six times):");
+    println!("channels   two / one, each time                          mean");
+    for channels in [256usize, 1024] {
+        let stop = AtomicBool::new(false);
+        std::thread::scope(|scope| {
+            scope.spawn(|| {
+                while !stop.load(Ordering::Relaxed) {
+                    std::hint::spin_loop();
+                }
+            });
+            let workers = Workers::new(1).expect("a worker thread");
+            let rows = bank_rows::<f64>(channels, 64);
+            let mut out = vec![Compensated::<f64>::default(); channels];
+            let mut one = nominal_bank::<f64>(channels);
+            let mut two = one.clone();
+            let mut ratios = Vec::new();
+            for _ in 0..6 {
+                let mut t = [0.0f64; 2];
+                for (i, bank) in [&mut one, &mut two].into_iter().enumerate() {
+                    let t0 = Instant::now();
+                    for k in 0..20_000 {
+                        let row = black_box(&rows[k % rows.len()]);
+                        if i == 0 {
+                            bank.compensate(row, &mut out)
+                        } else {
+                            bank.compensate_on(&workers, row, &mut out)
+                        }
+                        .unwrap();
+                    }
+                    t[i] = t0.elapsed().as_secs_f64();
+                }
+                ratios.push(t[1] / t[0]);
+            }
+            stop.store(true, Ordering::Relaxed);
+            let each: Vec<String> = ratios.iter().map(|r| format!("{r:.3}")).collect();
+            println!(
+                "{channels:>8}   {:<44} {:.3}",
+                each.join(" "),
+                ratios.iter().sum::<f64>() / ratios.len() as f64
+            );
+        });
+    }
+}
+
 fn main() {
     if std::env::args().any(|a| a == "--list") {
         return; // nothing for `cargo test --benches` to list
@@ -1305,6 +1359,7 @@ fn main() {
     let bound = report::<f64>(ghz);
     report::<f32>(ghz);
     sleeping_loop();
+    busy_cores();
     match std::env::var("MFCBEAM_C_BANK") {
         #[cfg(target_os = "linux")]
         Ok(path) => against_c_bank(&path, ghz, bound),
