@@ -661,7 +661,7 @@ fn work(s: &Shared, part: usize) {
             }
             spins += 1;
             // the clock read every 64 spins
-            if spins % 64 != 0 {
+            if !spins.is_multiple_of(64) {
                 std::hint::spin_loop();
                 continue;
             }
