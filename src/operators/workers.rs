@@ -6,8 +6,8 @@
 //! only, no allocation and no lock. An idle worker spins for a while
 //! (a control loop's next sample is close), yielding its core now and then
 //! to any thread the OS has waiting for it, and then parks; the step wakes
-//! it, less often in time while no split follows a wake. The job borrows the caller's stack: `Workers::run` returns only
-//! when every part is done (and a worker's panic is re-raised), the
+//! it, less often in time while no split follows a wake. The job borrows
+//! the caller's stack: `Workers::run` returns only when every part is done (and a worker's panic is re-raised), the
 //! scoped-thread rule kept by hand. A worker claims its part before it
 //! reads the job; a part still unclaimed a little after the caller's own
 //! part ended the caller claims and runs itself, so that a worker the OS
@@ -362,8 +362,9 @@ impl Workers {
     /// such steps as the last time (a bank stepped slower than a worker
     /// spins: each wake would find it parked again), up to
     /// [`MOST_STEPS_BETWEEN_WAKES`], and twice as long after the last wake,
-    /// from [`SPIN_NS`] up to [`MOST_NS_BETWEEN_WAKES`]; never where this step comes more than
-    /// [`SPIN_NS`] less [`HANDOVER_NS`] after the last one planned split
+    /// from [`SPIN_NS`] up to [`MOST_NS_BETWEEN_WAKES`]; never where this
+    /// step comes more than [`SPIN_NS`] less [`HANDOVER_NS`] after the last
+    /// one planned split
     /// (the woken worker would park again before the next such step). A
     /// wake costs the caller an unpark (13–20 µs on the Sapphire Rapids
     /// guest): with steps 0.6 ms apart, the wakes that never paid took the
@@ -866,13 +867,19 @@ mod tests {
         assert_eq!(after.load(Ordering::Relaxed), 3);
     }
 
-    #[test]
-    fn a_parked_worker_is_woken_only_for_steps_close_enough_to_keep_it() {
+    /// A pool of one worker, once it has parked.
+    fn parked_workers() -> Workers {
         let w = Workers::new(1).unwrap();
-        let issued = || w.wakes.issued.load(Ordering::Relaxed);
         wait_for("the worker parked", || {
             w.shared.awake_until[0].0.load(Ordering::Relaxed) == 0
         });
+        w
+    }
+
+    #[test]
+    fn a_parked_worker_is_woken_only_for_steps_close_enough_to_keep_it() {
+        let w = parked_workers();
+        let issued = || w.wakes.issued.load(Ordering::Relaxed);
         // steps planned split at least 1 ms apart: a woken worker would
         // park again before the next, and none is woken (else each would
         // find it parked again and wake it)
@@ -896,18 +903,18 @@ mod tests {
 
     #[test]
     fn wakes_that_no_split_follows_come_further_apart_in_time() {
-        let w = Workers::new(1).unwrap();
+        let w = parked_workers();
         let issued = || w.wakes.issued.load(Ordering::Relaxed);
-        wait_for("the worker parked", || {
-            w.shared.awake_until[0].0.load(Ordering::Relaxed) == 0
-        });
-        // steps planned split back to back for 20 ms, none handed: each
+        // steps planned split back to back for 20 ms (and until a second
+        // wake, should this thread not run for a while), none handed: each
         // wake finds the worker parked again 0.5 ms later. Spaced by steps
         // alone (at most 1024 apart, some 0.1 ms here) it was woken each
-        // time, some 40 wakes; with the least time between two doubled
+        // time, about 200 wakes; with the least time between two doubled
         // from 0.5 ms, at 0, 0.5, 1.5, 3.5, 7.5 and 15.5 ms
         let start = std::time::Instant::now();
-        while start.elapsed() < Duration::from_millis(20) {
+        while start.elapsed() < Duration::from_millis(20)
+            || (issued() < 2 && start.elapsed() < Duration::from_secs(10))
+        {
             w.awake_for_a_split();
         }
         assert!(
