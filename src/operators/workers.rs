@@ -7,8 +7,9 @@
 //! (a control loop's next sample is close), yielding its core now and then
 //! to any thread the OS has waiting for it, and then parks; the step wakes
 //! it, less often in time while no split follows a wake. The job borrows
-//! the caller's stack: `Workers::run` returns only when every part is done (and a worker's panic is re-raised), the
-//! scoped-thread rule kept by hand. A worker claims its part before it
+//! the caller's stack: `Workers::run` returns only when every part is done
+//! (and a worker's panic is re-raised), the scoped-thread rule kept by
+//! hand. A worker claims its part before it
 //! reads the job; a part still unclaimed a little after the caller's own
 //! part ended the caller claims and runs itself, so that a worker the OS
 //! has not run yet holds no step. A part claimed is its claimer's to
@@ -208,9 +209,11 @@ const MOST_STEPS_BETWEEN_WAKES: usize = 1024;
 
 /// The longest least time between two wakes of parked workers (32 ms, in
 /// ns). A wake that no split follows costs an unpark and the worker's
-/// spin: where the cores are all busy, 1024 steps (1.5 ms of a
-/// 256-channel `f64` bank on a Zen 5) apart cost `compensate_on` about 4 %
-/// of one thread's time even with a worker that yields ([`YIELD_NS`]).
+/// spin: where the cores are all busy, with wakes 1024 steps (1.5 ms of a
+/// 256-channel `f64` bank on a Zen 5) apart and a worker that yields
+/// ([`YIELD_NS`]), `compensate_on` there took 1.02–1.05 times one thread
+/// in seven of twelve batches (0.86–1.29 in all); spaced by time as well,
+/// about one thread's time (0.81–1.26, the mean about 1.01).
 const MOST_NS_BETWEEN_WAKES: u64 = 32_000_000;
 
 /// A worker spins at least this long after a job or a wake before it
@@ -364,8 +367,8 @@ impl Workers {
     /// [`MOST_STEPS_BETWEEN_WAKES`], and twice as long after the last wake,
     /// from [`SPIN_NS`] up to [`MOST_NS_BETWEEN_WAKES`]; never where this
     /// step comes more than [`SPIN_NS`] less [`HANDOVER_NS`] after the last
-    /// one planned split
-    /// (the woken worker would park again before the next such step). A
+    /// one planned split (the woken worker would park again before the
+    /// next such step). A
     /// wake costs the caller an unpark (13–20 µs on the Sapphire Rapids
     /// guest): with steps 0.6 ms apart, the wakes that never paid took the
     /// 99th percentile of a 256-channel `f64` step from 10 to 19 µs there.
