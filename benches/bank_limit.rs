@@ -32,12 +32,12 @@
 //! the work faster on its 256-bit registers than on its 512-bit ones (a
 //! Zen 4, in some runs) can do it that fast, whichever set the bank runs.
 //!
-//! First a crossover scan: 2 to 64 blocks on one thread against a forced
-//! split over two (`Workers::with_min_blocks(0).with_adaptive(false)`), and the smallest block
-//! count where the split is faster, next to `Workers::min_blocks`. Then the
-//! bank at 1, 8, 64, 128, 256, 1024 and 4096 channels, `f64` and `f32`, on one thread
-//! and on two (`CompensatorBank::compensate_on` with one worker, the
-//! default crossover and the adaptive choice between one thread and a split).
+//! Everything runs inside a rayon pool of two threads. First a crossover
+//! scan: 2 to 64 blocks on one thread against a split over two
+//! (`compensate_on(Par::rayon(2), …)`), and the smallest block count where
+//! the split is faster: the figure a caller needs to choose its `Par`. Then
+//! the bank at 1, 8, 64, 128, 256, 1024 and 4096 channels, `f64` and `f32`,
+//! on one thread and split over two.
 //! One thread and two (and, in the scan, one and the split) are timed in
 //! alternating batches of steps on the same banks, so that a busy minute
 //! and a bank's placement in memory fall on both: the
@@ -63,13 +63,6 @@
 //! and over its time in the same rounds, against the bound measured on its
 //! own registers: on a CPU with AVX-512 the AVX2 set is measured against a
 //! 256-bit mix, which is what a CPU with AVX2 only would give it.
-//! Then a loop that sleeps between samples (256 and 1024 `f64` channels,
-//! pauses of 0.3 and 1 ms): one-thread and `compensate_on` steps in turn,
-//! the mean of two's over one's and each one's median and 99th percentile
-//! (a step handed to a parked worker would wait for the OS to run it).
-//! Then two threads where the cores are all busy (a third thread spinning
-//! throughout): 256 and 1024 `f64` channels, one-thread and
-//! `compensate_on` steps back to back in turn, two's time over one's.
 //! Last, with `MFCBEAM_C_BANK` naming the library of the hand-written C bank
 //! (`benches/peers/bank.c`, built by `benches/peers/run.sh`), the bank
 //! against it in alternating batches at 8, 64, 1024 and 4096 channels
@@ -83,7 +76,7 @@ use std::time::Instant;
 mod common;
 
 use common::{bank_rows, nominal_bank, state_stream};
-use mfcbeam::operators::bank::{CompensatorBank, Workers};
+use mfcbeam::operators::bank::{CompensatorBank, Par};
 use mfcbeam::realtime::{simd::Kernels, Compensated, Real};
 
 /// State rows of a block at the paper's orders (`2 n + n_C m + 3`).
@@ -630,13 +623,13 @@ mod mix {
 
 /// How a timed step runs.
 #[derive(Clone, Copy)]
-enum Mode<'a> {
+enum Mode {
     /// On the calling thread: `CompensatorBank::compensate`.
     Alone,
     /// On the calling thread and these kernels.
     Kernels(Kernels),
-    /// Split over the workers and the calling thread.
-    Workers(&'a Workers),
+    /// Split over the threads of the pool the bench runs in.
+    Split(Par),
     /// On the calling thread, all the rows in one call:
     /// `CompensatorBank::compensate_frames`.
     Frames,
@@ -668,29 +661,29 @@ impl<T: Real> Timed<T> {
         (2_000_000 / (channels * 8).max(1)).clamp(20, 200_000)
     }
 
-    fn step(&mut self, rows: &[Vec<T>], mode: Mode<'_>) {
+    fn step(&mut self, rows: &[Vec<T>], mode: Mode) {
         self.k = (self.k + 1) % Self::ROWS;
         let row = black_box(&rows[self.k]);
         match mode {
             Mode::Alone => self.bank.compensate(row, &mut self.out),
             Mode::Kernels(kernels) => self.bank.compensate_using(kernels, row, &mut self.out),
-            Mode::Workers(workers) => self.bank.compensate_on(workers, row, &mut self.out),
+            Mode::Split(par) => self.bank.compensate_on(par, row, &mut self.out),
             Mode::Frames => unreachable!("a batch of frames steps in `frames_batch`"),
         }
         .unwrap();
     }
 
     /// Nanoseconds per step of one batch of about 2 ms.
-    fn batch(&mut self, rows: &[Vec<T>], mode: Mode<'_>) -> f64 {
+    fn batch(&mut self, rows: &[Vec<T>], mode: Mode) -> f64 {
         self.batch_of(rows, mode, Self::steps(self.out.len())).0
     }
 
     /// Nanoseconds per step of one batch of `steps` steps, and the steps
     /// timed (for [`Mode::Frames`] whole calls of all the rows, at least
     /// one). Its first two steps are not timed: after the other way's
-    /// batch a parked worker wakes in them, which a bank stepped every
-    /// sample does not pay.
-    fn batch_of(&mut self, rows: &[Vec<T>], mode: Mode<'_>, steps: usize) -> (f64, usize) {
+    /// batch a sleeping thread of the pool wakes in them, which a bank
+    /// stepped every sample does not pay.
+    fn batch_of(&mut self, rows: &[Vec<T>], mode: Mode, steps: usize) -> (f64, usize) {
         if let Mode::Frames = mode {
             return self.frames_batch(rows, steps);
         }
@@ -744,7 +737,7 @@ const PLACEMENTS: usize = 3;
 /// round's bank one of [`PLACEMENTS`] in turn: the median nanoseconds per
 /// step of each, and the median, 10 % and 90 % of `b`'s time over `a`'s in
 /// the same round.
-fn time_pair<T: Real>(channels: usize, a: Mode<'_>, b: Mode<'_>) -> (f64, f64, [f64; 3]) {
+fn time_pair<T: Real>(channels: usize, a: Mode, b: Mode) -> (f64, f64, [f64; 3]) {
     let rows = bank_rows::<T>(channels, Timed::<T>::ROWS);
     let mut banks: Vec<Timed<T>> = (0..PLACEMENTS).map(|_| Timed::new(channels)).collect();
     alternating(|round, second| {
@@ -755,9 +748,7 @@ fn time_pair<T: Real>(channels: usize, a: Mode<'_>, b: Mode<'_>) -> (f64, f64, [
 
 /// Two figures timed in alternating order, `run(round, second)` giving the
 /// first (`second` false) or the second, the order swapped every round, 61
-/// rounds after 60 ms of warm-up (the adaptive choice's first probes come
-/// closer together, 64, 194, 452, … steps, until they are 20 ms apart):
-/// the median of each, and the median, 10 % and 90 % of the second over
+/// rounds after 60 ms of warm-up: the median of each, and the median, 10 % and 90 % of the second over
 /// the first in the same round. Timed one after the other, a busy minute
 /// would fall on one of them only.
 fn alternating(mut run: impl FnMut(usize, bool) -> f64) -> (f64, f64, [f64; 3]) {
@@ -840,7 +831,7 @@ const SAME_ROUNDS_BATCHES: usize = 16;
 /// then. Here both see the same stretch.
 fn against_bound_in_same_rounds<T: Real>(
     channels: usize,
-    (mode, frames): (Mode<'_>, usize),
+    (mode, frames): (Mode, usize),
     k: Kernels,
     m: Mix,
     ops: usize,
@@ -993,17 +984,13 @@ fn report<T: Real>(ghz: f64) -> f64 {
         "state in L1",
         "state's traffic (M)"
     );
-    let two = Workers::new(1).unwrap();
-    // the crossover: one thread against a forced split, by blocks
-    let split = Workers::new(1)
-        .unwrap()
-        .with_min_blocks(0)
-        .with_adaptive(false);
+    // the crossover: one thread against a split in two, by blocks
+    let two = Par::rayon(2);
     let lanes = 64 / std::mem::size_of::<T>(); // a block: one cache line of lanes
     let mut crossover = None;
     for blocks in [2usize, 4, 8, 12, 16, 24, 32, 64] {
         let (one, both, [ratio, low, high]) =
-            time_pair::<T>(blocks * lanes, Mode::Alone, Mode::Workers(&split));
+            time_pair::<T>(blocks * lanes, Mode::Alone, Mode::Split(two));
         println!(
             "crossover scan: {blocks:>3} blocks ({:>4} channels): one thread {one:>9.1} ns, split {both:>9.1} ns, split / one {ratio:.3} ({low:.3}-{high:.3})",
             blocks * lanes
@@ -1013,14 +1000,13 @@ fn report<T: Real>(ghz: f64) -> f64 {
         }
     }
     println!(
-        "two threads pay from {} blocks here; compensate_on splits from {} (Workers::min_blocks)",
+        "two threads pay from {} blocks here",
         crossover.map_or("more than 64".to_string(), |b| b.to_string()),
-        two.min_blocks()
     );
     let mut at_4096 = f64::NAN;
     for channels in [1usize, 8, 64, 128, 256, 1024, 4096] {
         let (one, two_ns, [ratio, low, high]) =
-            time_pair::<T>(channels, Mode::Alone, Mode::Workers(&two));
+            time_pair::<T>(channels, Mode::Alone, Mode::Split(two));
         for (threads, ns) in [(1, one), (2, two_ns)] {
             let rate = channels as f64 / ns * 1e3;
             print!(
@@ -1244,108 +1230,6 @@ fn against_c_bank(path: &str, ghz: f64, bound: f64) {
     }
 }
 
-/// A loop that sleeps between samples, so that a worker parks between
-/// steps (it spins about 0.5 ms): a one-thread step and a
-/// `compensate_on` step in turn, each after a pause, 1000 of each, a new
-/// `Workers` per case. Two threads must not be slower on average, nor in
-/// the 99th percentile by more than the noise: a step handed to a parked
-/// worker waits until the OS runs it again.
-fn sleeping_loop() {
-    use std::time::Duration;
-    println!("\na loop that sleeps between samples (f64; one-thread and compensate_on steps in turn, each after the pause; 1000 of each):");
-    println!(
-        "channels  pause   one thread: median   p99   compensate_on: median   p99   mean two / one"
-    );
-    for channels in [256usize, 1024] {
-        for pause in [300u64, 1000] {
-            let workers = Workers::new(1).expect("a worker thread");
-            let rows = bank_rows::<f64>(channels, 64);
-            let mut out = vec![Compensated::<f64>::default(); channels];
-            let mut one = nominal_bank::<f64>(channels);
-            let mut two = one.clone();
-            let mut times = [Vec::new(), Vec::new()];
-            for k in 0..1000 {
-                for (i, bank) in [&mut one, &mut two].into_iter().enumerate() {
-                    std::thread::sleep(Duration::from_micros(pause));
-                    let row = black_box(&rows[k % rows.len()]);
-                    let t0 = Instant::now();
-                    if i == 0 {
-                        bank.compensate(row, &mut out)
-                    } else {
-                        bank.compensate_on(&workers, row, &mut out)
-                    }
-                    .unwrap();
-                    times[i].push(t0.elapsed().as_nanos() as f64);
-                }
-            }
-            let mean = |t: &[f64]| t.iter().sum::<f64>() / t.len() as f64;
-            let ratio = mean(&times[1]) / mean(&times[0]);
-            for t in &mut times {
-                t.sort_by(f64::total_cmp);
-            }
-            let at = |t: &[f64], q: f64| t[((t.len() - 1) as f64 * q) as usize] / 1e3;
-            println!(
-                "{channels:>8} {pause:>4} µs {:>17.1} µs {:>5.1} {:>20.1} µs {:>5.1}   {ratio:.3}",
-                at(&times[0], 0.5),
-                at(&times[0], 0.99),
-                at(&times[1], 0.5),
-                at(&times[1], 0.99),
-            );
-        }
-    }
-}
-
-/// Two threads where the cores are all busy: a third thread spins on
-/// one of them throughout (another program's, say), and one-thread and
-/// `compensate_on` steps run back to back in turn, 20 000 of each, six
-/// times, a new `Workers` per case. A worker that spins for steps it is
-/// not handed takes a core the calling thread may be waiting for.
-fn busy_cores() {
-    use std::sync::atomic::{AtomicBool, Ordering};
-    println!("\ntwo threads with a third busy thread (f64; 20 000 one-thread and compensate_on steps back to back in turn, six times):");
-    println!("channels   two / one, each time                          mean");
-    for channels in [256usize, 1024] {
-        let stop = AtomicBool::new(false);
-        std::thread::scope(|scope| {
-            scope.spawn(|| {
-                while !stop.load(Ordering::Relaxed) {
-                    std::hint::spin_loop();
-                }
-            });
-            let workers = Workers::new(1).expect("a worker thread");
-            let rows = bank_rows::<f64>(channels, 64);
-            let mut out = vec![Compensated::<f64>::default(); channels];
-            let mut one = nominal_bank::<f64>(channels);
-            let mut two = one.clone();
-            let mut ratios = Vec::new();
-            for _ in 0..6 {
-                let mut t = [0.0f64; 2];
-                for (i, bank) in [&mut one, &mut two].into_iter().enumerate() {
-                    let t0 = Instant::now();
-                    for k in 0..20_000 {
-                        let row = black_box(&rows[k % rows.len()]);
-                        if i == 0 {
-                            bank.compensate(row, &mut out)
-                        } else {
-                            bank.compensate_on(&workers, row, &mut out)
-                        }
-                        .unwrap();
-                    }
-                    t[i] = t0.elapsed().as_secs_f64();
-                }
-                ratios.push(t[1] / t[0]);
-            }
-            stop.store(true, Ordering::Relaxed);
-            let each: Vec<String> = ratios.iter().map(|r| format!("{r:.3}")).collect();
-            println!(
-                "{channels:>8}   {:<44} {:.3}",
-                each.join(" "),
-                ratios.iter().sum::<f64>() / ratios.len() as f64
-            );
-        });
-    }
-}
-
 fn main() {
     if std::env::args().any(|a| a == "--list") {
         return; // nothing for `cargo test --benches` to list
@@ -1356,10 +1240,18 @@ fn main() {
         mfcbeam::realtime::simd::cpu_description(),
         Kernels::detect().name()
     );
-    let bound = report::<f64>(ghz);
-    report::<f32>(ghz);
-    sleeping_loop();
-    busy_cores();
+    // every row runs on a thread of a pool of two, the one-thread rows on
+    // one of them, so that a split step hands its part to the pool's other
+    // thread as a control loop run in `install` would
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .expect("a pool of two threads");
+    let bound = pool.install(|| {
+        let bound = report::<f64>(ghz);
+        report::<f32>(ghz);
+        bound
+    });
     match std::env::var("MFCBEAM_C_BANK") {
         #[cfg(target_os = "linux")]
         Ok(path) => against_c_bank(&path, ghz, bound),

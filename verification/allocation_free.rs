@@ -167,15 +167,12 @@ fn steps_and_in_place_runs_allocate_nothing() {
     });
     assert_eq!(n, 0, "{n} allocations in the per-sample path");
 
-    // a bank stepped on two threads: no allocation in either, split
-    // whatever its size (below the crossover it would step on the caller
-    // alone), with the adaptive choice timing steps both ways and the
-    // split's shares set by timing its parts
-    let workers = mfcbeam::operators::bank::Workers::new(1)
-        .unwrap()
-        .with_min_blocks(0);
-    assert!(format!("{workers:?}").contains("adaptive: true"));
-    assert!(format!("{workers:?}").contains("measured_shares: true"));
+    // a bank stepped on two threads from a control loop that runs inside
+    // their pool (the documented way): no allocation in either
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
     let mut big = mfcbeam::operators::bank::CompensatorBank::<f64>::uniform(
         &nominal::PARAMETERS,
         100,
@@ -188,12 +185,15 @@ fn steps_and_in_place_runs_allocate_nothing() {
         .take(2000)
         .map(|&v| (0..100).map(|c| v * (1.0 + c as f64 / 99.0)).collect())
         .collect();
-    big.compensate_on(&workers, &rows[0], &mut big_out).unwrap(); // workers started
-    let before = ALL_THREADS.load(std::sync::atomic::Ordering::SeqCst);
-    for row in &rows {
-        big.compensate_on(&workers, row, &mut big_out).unwrap();
-    }
-    let n = ALL_THREADS.load(std::sync::atomic::Ordering::SeqCst) - before;
+    let par = mfcbeam::operators::bank::Par::rayon(2);
+    let n = pool.install(|| {
+        big.compensate_on(par, &rows[0], &mut big_out).unwrap(); // the threads started
+        let before = ALL_THREADS.load(std::sync::atomic::Ordering::SeqCst);
+        for row in &rows {
+            big.compensate_on(par, row, &mut big_out).unwrap();
+        }
+        ALL_THREADS.load(std::sync::atomic::Ordering::SeqCst) - before
+    });
     assert_eq!(
         n, 0,
         "{n} allocations in 2000 steps of a bank on two threads"

@@ -5,7 +5,7 @@
 //! and wherever the state lies in memory), and bad parameters and slices
 //! are refused with the field named.
 
-use mfcbeam::operators::bank::CompensatorBank;
+use mfcbeam::operators::bank::{CompensatorBank, Par};
 use mfcbeam::operators::model::ModelFile;
 use mfcbeam::operators::nominal::nominal_model_file;
 use mfcbeam::realtime::{simd, Compensator, CompensatorSettings, Inline, ParameterError, Real};
@@ -664,23 +664,24 @@ fn bad_banks_and_slices_are_refused_with_the_field_named() {
     assert_eq!(out, out2);
 }
 
-/// A bank stepped with its blocks split over worker threads gives the bits
-/// of the same bank on one thread, whatever the split (more parts than
-/// blocks, a last block partly filled, per-channel models with saturation
-/// and faults), over many steps.
+/// A bank stepped with its blocks split over threads (`Par::Rayon`) gives
+/// the bits of the same bank on one thread, whatever the split (more parts
+/// than blocks, a last block partly filled, per-channel models with
+/// saturation and faults), over many steps, inside a pool of its own and
+/// from outside any pool.
 #[test]
-fn a_bank_on_worker_threads_gives_the_bits_of_one_thread() {
-    use mfcbeam::operators::bank::Workers;
-    // every bank split, whatever its size (below the crossover a bank would
-    // step on the caller alone)
-    let pools: Vec<Workers> = [0, 1, 3]
-        .map(|extra| {
-            Workers::new(extra)
-                .unwrap()
-                .with_min_blocks(0)
-                .with_adaptive(false)
-        })
-        .into();
+fn a_bank_on_threads_gives_the_bits_of_one_thread() {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(3)
+        .build()
+        .unwrap();
+    let pars = [
+        Par::Seq,
+        Par::rayon(1),
+        Par::rayon(2),
+        Par::rayon(3),
+        Par::rayon(7),
+    ];
     for (seed, channels) in [(1u64, 5usize), (2, 16), (3, 37), (4, 130)] {
         let mut rng = Rng::new(seed);
         // the paper's order (its own compiled step) in every other
@@ -690,47 +691,93 @@ fn a_bank_on_worker_threads_gives_the_bits_of_one_thread() {
         let settings = CompensatorSettings::with_limits(-limit, limit);
         let mut one = CompensatorBank::<f64>::new(&params, settings).unwrap();
         let mut one32 = CompensatorBank::<f32>::new(&params, settings).unwrap();
-        let mut split: Vec<_> = pools
+        let mut split: Vec<_> = pars
             .iter()
-            .map(|w| (w, one.clone(), one32.clone()))
+            .map(|&par| (par, one.clone(), one32.clone()))
             .collect();
         let mut out = vec![Default::default(); channels];
         let mut out32 = vec![Default::default(); channels];
         let mut out_split = out.clone();
         let mut out_split32 = out32.clone();
-        for row in targets(&mut rng, channels, 300, limit) {
+        for (k, row) in targets(&mut rng, channels, 300, limit)
+            .into_iter()
+            .enumerate()
+        {
             let row32: Vec<f32> = row.iter().map(|&t| t as f32).collect();
             one.compensate(&row, &mut out).unwrap();
             one32.compensate(&row32, &mut out32).unwrap();
-            for (workers, bank, bank32) in &mut split {
-                bank.compensate_on(workers, &row, &mut out_split).unwrap();
-                bank32
-                    .compensate_on(workers, &row32, &mut out_split32)
-                    .unwrap();
-                assert_eq!(
-                    out_split,
-                    out,
-                    "{} parts, {channels} channels",
-                    workers.parts()
-                );
-                assert_eq!(
-                    out_split32,
-                    out32,
-                    "{} parts, {channels} channels",
-                    workers.parts()
-                );
+            for (par, bank, bank32) in &mut split {
+                let mut step = || {
+                    bank.compensate_on(*par, &row, &mut out_split).unwrap();
+                    bank32
+                        .compensate_on(*par, &row32, &mut out_split32)
+                        .unwrap();
+                };
+                if k % 2 == 0 {
+                    pool.install(step);
+                } else {
+                    step();
+                }
+                assert_eq!(out_split, out, "{par:?}, {channels} channels");
+                assert_eq!(out_split32, out32, "{par:?}, {channels} channels");
             }
+        }
+        for (par, bank, bank32) in &split {
+            assert_eq!(*bank, one, "{par:?}");
+            assert_eq!(*bank32, one32, "{par:?}");
         }
     }
 }
 
+/// The caller's spawn hook makes the threads the bank's parts run on
+/// (where a real-time caller pins them and sets their priority): a step
+/// in that pool runs its parts on those threads and nowhere else.
+#[test]
+fn a_split_step_runs_on_the_threads_of_the_callers_spawn_hook() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::Arc;
+    let spawned = Arc::new(AtomicUsize::new(0));
+    let counted = Arc::clone(&spawned);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .spawn_handler(move |thread| {
+            counted.fetch_add(1, Ordering::SeqCst);
+            std::thread::Builder::new()
+                .name(format!("pinned-{}", thread.index()))
+                .spawn(move || thread.run())?;
+            Ok(())
+        })
+        .build()
+        .unwrap();
+    assert_eq!(spawned.load(Ordering::SeqCst), 2);
+    let p = mfcbeam::realtime::nominal::PARAMETERS;
+    let channels = 8 * 64;
+    let mut bank =
+        CompensatorBank::<f64>::uniform(&p, channels, CompensatorSettings::default()).unwrap();
+    let mut alone = bank.clone();
+    let targets: Vec<f64> = (0..channels).map(|c| 2.0 * c as f64).collect();
+    let (mut out, mut out_alone) = (
+        vec![Default::default(); channels],
+        vec![Default::default(); channels],
+    );
+    let names = pool.install(|| {
+        bank.compensate_on(Par::rayon(2), &targets, &mut out)
+            .unwrap();
+        std::thread::current().name().map(str::to_owned)
+    });
+    alone.compensate(&targets, &mut out_alone).unwrap();
+    assert_eq!(out, out_alone);
+    assert!(names.is_some_and(|n| n.starts_with("pinned-")));
+    // no thread was made for the step
+    assert_eq!(spawned.load(Ordering::SeqCst), 2);
+}
+
 /// Channels whose models have linear dynamics run on their own compensator
 /// inside the bank: the bits of a single compensator of that model, the
-/// preview with the resonance's lag, on one thread and on workers, and a
+/// preview with the resonance's lag, on one thread and on three, and a
 /// reset back to the virgin state.
 #[test]
 fn channels_with_dynamics_give_the_bits_of_their_own_compensator() {
-    use mfcbeam::operators::bank::Workers;
     let mut rng = Rng::new(11);
     let mut files = models(&mut rng, 19, false);
     for (i, f) in files.iter_mut().enumerate() {
@@ -742,10 +789,6 @@ fn channels_with_dynamics_give_the_bits_of_their_own_compensator() {
     let settings = CompensatorSettings::with_limits(-400.0, 400.0);
     let mut bank = CompensatorBank::<f64>::new(&params, settings).unwrap();
     let mut split = bank.clone();
-    let workers = Workers::new(2)
-        .unwrap()
-        .with_min_blocks(0)
-        .with_adaptive(false);
     let mut single: Vec<_> = params
         .iter()
         .map(|p| Compensator::<f64, Inline<12, 72, 9, 4>>::new(p, settings).unwrap())
@@ -756,7 +799,9 @@ fn channels_with_dynamics_give_the_bits_of_their_own_compensator() {
     let (mut out, mut out_split) = (vec![Default::default(); 19], vec![Default::default(); 19]);
     for (step, row) in targets(&mut rng, 19, 200, 400.0).into_iter().enumerate() {
         bank.compensate(&row, &mut out).unwrap();
-        split.compensate_on(&workers, &row, &mut out_split).unwrap();
+        split
+            .compensate_on(Par::rayon(3), &row, &mut out_split)
+            .unwrap();
         assert_eq!(out, out_split);
         for (c, comp) in single.iter_mut().enumerate() {
             let expected = comp.compensate(row[c]);
@@ -768,144 +813,6 @@ fn channels_with_dynamics_give_the_bits_of_their_own_compensator() {
             single.iter_mut().for_each(|c| c.reset());
         }
     }
-}
-
-/// Wakes `workers` and waits until each will spin a while longer
-/// (`Workers::all_awake`: none parked, none about to park); panics after
-/// ten seconds.
-///
-/// It sleeps between looks, not `yield_now`: with the other cores busy
-/// (tests in parallel on two cores) the worker shares this one, and a
-/// caller that yields runs again only after the worker's whole spin, when
-/// it has parked; a sleeping caller lets it run, and its timer brings it
-/// back within the spin.
-fn awake(workers: &mfcbeam::operators::bank::Workers) {
-    let start = std::time::Instant::now();
-    while !workers.all_awake() {
-        assert!(start.elapsed().as_secs() < 10, "the worker did not wake");
-        workers.wake();
-        std::thread::sleep(std::time::Duration::from_micros(100));
-    }
-}
-
-/// Steps `bank` and `alone` (its copy) with `targets` until a step of
-/// `bank` on `workers` hands the workers a job, the workers woken before
-/// each try (a worker can park between the wait and the step on a busy
-/// machine); the bits of each step equal to the one-thread step. Whether
-/// a job was handed within twenty tries.
-fn split_a_step(
-    workers: &mfcbeam::operators::bank::Workers,
-    bank: &mut CompensatorBank<f64>,
-    alone: &mut CompensatorBank<f64>,
-    targets: &[f64],
-) -> bool {
-    let mut out = vec![Default::default(); targets.len()];
-    let mut out_alone = out.clone();
-    for _ in 0..20 {
-        awake(workers);
-        let before = workers.jobs_handed();
-        bank.compensate_on(workers, targets, &mut out).unwrap();
-        alone.compensate(targets, &mut out_alone).unwrap();
-        assert_eq!(out, out_alone);
-        if workers.jobs_handed() > before {
-            return true;
-        }
-    }
-    false
-}
-
-/// The crossover: a bank of fewer blocks than `Workers::min_blocks` steps on
-/// the calling thread alone (no job handed to the workers), a larger one is
-/// split, and `with_min_blocks(0)` splits every bank; the bits are the same
-/// either way.
-#[test]
-fn small_banks_step_on_the_calling_thread_alone() {
-    use mfcbeam::operators::bank::{default_min_blocks, Workers};
-    let p = mfcbeam::realtime::nominal::PARAMETERS;
-    let settings = CompensatorSettings::default();
-    let workers = Workers::new(1).unwrap();
-    let crossover = default_min_blocks();
-    assert_eq!(workers.min_blocks(), crossover);
-    let lanes = 8; // f64 lanes per block
-    let below = lanes * (crossover - 1);
-    let mut bank = CompensatorBank::<f64>::uniform(&p, below, settings).unwrap();
-    let mut alone = bank.clone();
-    let (mut out, mut out_alone) = (
-        vec![Default::default(); below],
-        vec![Default::default(); below],
-    );
-    let targets: Vec<f64> = (0..below).map(|c| 3.0 * c as f64).collect();
-    awake(&workers);
-    let before = workers.jobs_handed();
-    bank.compensate_on(&workers, &targets, &mut out).unwrap();
-    alone.compensate(&targets, &mut out_alone).unwrap();
-    assert_eq!(workers.jobs_handed(), before, "{below} channels");
-    assert_eq!(out, out_alone);
-    let at = lanes * crossover;
-    let mut bank = CompensatorBank::<f64>::uniform(&p, at, settings).unwrap();
-    let mut alone = bank.clone();
-    let targets: Vec<f64> = (0..at).map(|c| 3.0 * c as f64).collect();
-    assert!(
-        split_a_step(&workers, &mut bank, &mut alone, &targets),
-        "{at} channels"
-    );
-    let everything = Workers::new(1).unwrap().with_min_blocks(0);
-    let mut bank = CompensatorBank::<f64>::uniform(&p, 1, settings).unwrap();
-    let mut alone = bank.clone();
-    assert!(split_a_step(&everything, &mut bank, &mut alone, &[5.0]));
-}
-
-/// A step that a split would serve runs on the calling thread alone while
-/// a worker is parked (a job handed to a parked worker waits until the OS
-/// runs it again: milliseconds on a virtual machine), with the same bits;
-/// once the workers are awake (woken here by hand: the steps themselves
-/// wake them only when they come close enough together to keep them) the
-/// steps are split again.
-#[test]
-fn a_parked_worker_is_not_handed_a_step() {
-    use mfcbeam::operators::bank::{default_min_blocks, Workers};
-    let p = mfcbeam::realtime::nominal::PARAMETERS;
-    let settings = CompensatorSettings::default();
-    let workers = Workers::new(1).unwrap();
-    let channels = 8 * (default_min_blocks() + 8);
-    let mut bank = CompensatorBank::<f64>::uniform(&p, channels, settings).unwrap();
-    let mut alone = bank.clone();
-    let targets: Vec<f64> = (0..channels).map(|c| 2.0 * c as f64).collect();
-    let (mut out, mut out_alone) = (
-        vec![Default::default(); channels],
-        vec![Default::default(); channels],
-    );
-    // the worker parks (or is about to) once it has spun without a job
-    let start = std::time::Instant::now();
-    while workers.all_awake() {
-        assert!(start.elapsed().as_secs() < 10, "the worker never parked");
-        std::thread::sleep(std::time::Duration::from_millis(1));
-    }
-    let before = workers.jobs_handed();
-    bank.compensate_on(&workers, &targets, &mut out).unwrap();
-    alone.compensate(&targets, &mut out_alone).unwrap();
-    assert_eq!(workers.jobs_handed(), before, "a job for a parked worker");
-    assert_eq!(out, out_alone);
-    assert!(split_a_step(&workers, &mut bank, &mut alone, &targets));
-    // a worker woken without a job spins before it parks again (else a
-    // wake would not keep it for the steps that follow): still awake 20 µs
-    // after it woke, in half of a hundred tries at least (99 of 100 here;
-    // without the renewed spin it never was)
-    let kept = (0..100)
-        .filter(|_| {
-            awake(&workers);
-            let woke = std::time::Instant::now();
-            while woke.elapsed() < std::time::Duration::from_micros(20) {
-                std::hint::spin_loop();
-            }
-            workers.all_awake()
-        })
-        .count();
-    assert!(
-        kept >= 50,
-        "a woken worker parked again at once in {} tries of 100",
-        100 - kept
-    );
 }
 
 /// `compensate_frames` gives the bits of one `compensate` per frame, in

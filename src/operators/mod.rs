@@ -19,8 +19,5 @@ pub mod inverse;
 pub mod model;
 pub mod nominal;
 pub mod play;
-pub(crate) mod shares;
-pub(crate) mod split_choice;
 pub mod supply;
 pub mod traits;
-pub mod workers;

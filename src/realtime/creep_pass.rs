@@ -87,9 +87,8 @@ pub(crate) fn advance<T: Real>(
 /// input, so after the clamp a single fused multiply-add stands between the
 /// input and the new state, where the literal form has three operations (a
 /// subtraction, a product, a sum). A compensator step is bound less by its
-/// chain than by how many operations wait for the input: on a Zen 4 this
-/// took the step in the C harness of the peers bench from 33.0 to 27.4 ns,
-/// and mfcbeam's from 1.18 to 1.01 times the strongest C.
+/// chain than by how many operations wait for the input, so this shortens
+/// the step (by about a sixth in the peers bench where measured).
 ///
 /// It rounds twice, as the literal form does (there `c − χ` and the product
 /// are rounded, and the sum). Where `c = χ` (the input within `r` of the

@@ -5,8 +5,8 @@
 //! registers of 4 or 8 values along each eigenvalue's row of `n` values
 //! (`χ[j * n + i]`, `i` the threshold). A load or store split across two
 //! pages costs the CPU a second access, and one that also matches stack
-//! slots the step has just written waits for them: on a Zen 4 a compensator
-//! whose `χ` straddled a page stepped 1–22 % slower, with the same bits.
+//! slots the step has just written waits for them: a compensator whose `χ`
+//! straddled a page stepped up to a fifth slower, with the same bits.
 //!
 //! So `χ`'s buffer holds [`SLACK`] values more than it needs, and `χ`
 //! starts where the page boundary inside it (if any) falls between two

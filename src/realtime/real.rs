@@ -98,7 +98,7 @@ pub(crate) fn add_product<T: Real>(acc: T, w: T, x: T) -> T {
 /// product `w · x` alone, each later one [`add_product`]. Every partial
 /// sum of a step starts so, in every copy. From its first product rather
 /// than from `+0`, a sum starts with a multiply instead of a fused
-/// multiply-add (3 cycles against 4 on a Zen 4, at the head of the step's
+/// multiply-add (a cycle shorter on common cores, at the head of the step's
 /// two sums on its chain). The values are the same; only the sign of a
 /// zero can differ: the product's sign, where `+0 + w·x` made every zero
 /// `+0`.

@@ -36,13 +36,10 @@ impl Default for FrameTiling {
     /// model in `f64` or `f32`), so that the frames' targets and outputs
     /// and the parameters stay in L1 beside it; runs of 16 frames; the
     /// next tile's prefetched. `benches/frame_tiling.rs` times the others
-    /// on the CPU at hand. On a Sapphire Rapids core, 1024 channels, M
-    /// channel-steps/s `f64` / `f32`: 64 frames in cache 89 / 188 against
-    /// 68 / 150 a frame a call (the best other tiling 92 / 193); 2048
-    /// frames beyond L2 87 / 179 against 70 / 121 (the best other 84 /
-    /// 175), where without the prefetch runs of 64 frames fell to 51 /
-    /// 138: a tile's slice of each frame is a page of its own there, and
-    /// the hardware prefetcher does not run ahead of that many.
+    /// on the CPU at hand. The prefetch matters beyond L2: a tile's slice
+    /// of each frame is a page of its own there, and the hardware
+    /// prefetcher does not run ahead of that many pages (without it, runs
+    /// of 64 frames fell below a frame a call where measured).
     fn default() -> Self {
         FrameTiling {
             tile_bytes: 24 * 1024,

@@ -31,7 +31,6 @@
 //! bank (its lane's result is not used): the same bits, none of the
 //! bank's speed, until the lanes carry `G`'s state.
 
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::vec;
 use std::vec::Vec;
 
@@ -47,17 +46,12 @@ use crate::realtime::simd::Kernels;
 use crate::realtime::superposition::Superposition;
 use crate::realtime::CompensatorSettings;
 
-use crate::operators::shares::Division;
-use crate::operators::workers::SharedMut;
-pub use crate::operators::workers::{
-    default_min_blocks, Workers, DEFAULT_MIN_BLOCKS, INTEL_MIN_BLOCKS,
-};
-
 mod frames;
-mod lane_by_lane;
+mod par;
 mod step;
 mod walk;
 pub use frames::FrameTiling;
+pub use par::Par;
 use step::{step_blocks, Fixed};
 use walk::Walk;
 
@@ -360,126 +354,50 @@ impl<T: Real> CompensatorBank<T> {
         }
     }
 
-    /// [`CompensatorBank::compensate`] with the blocks split over `workers`
-    /// and the calling thread (each part is at least one block; the
-    /// calling thread's share is set from when the parts end, so that a
-    /// worker's late start or a slower core does not leave one thread
-    /// waiting for the other). A bank of
-    /// fewer blocks than [`Workers::min_blocks`] (the measured crossover,
-    /// overridable) steps on the calling thread alone; above it the
-    /// workers' adaptive choice (see [`Workers::with_adaptive`]) times a
-    /// step now and then each way and runs the others split only where that
-    /// was faster by more than a sixteenth, so that two threads are not
-    /// slower than one even when the split's worth changes while the bank
-    /// runs. A step is not handed to a worker that is parked (it has
-    /// waited longer than it spins, as in a loop that sleeps between
-    /// samples) or about to park: it runs on the calling thread alone and
-    /// wakes the workers for the steps that follow. The same bits either way;
-    /// allocation-free and without locks.
-    #[inline]
+    /// [`CompensatorBank::compensate`] with the threading `par`: the same
+    /// bits on any. [`Par::Seq`] is `compensate`; [`Par::Rayon`]`(n)` splits
+    /// the blocks into `n` even parts (at most one per block) and steps
+    /// them by fork-join in the current rayon pool. Whether a split pays
+    /// depends on the bank's size, the cores and what else runs on them:
+    /// the caller decides, from `cargo bench --bench bank_limit` on its
+    /// machine (the guide's library chapter).
     pub fn compensate_on(
         &mut self,
-        workers: &Workers,
+        par: Par,
         targets: &[T],
         out: &mut [Compensated<T>],
     ) -> Result<(), ParameterError> {
-        if self.blocks < workers.min_blocks() || workers.parts() == 1 {
-            return self.compensate(targets, out);
-        }
-        self.compensate_planned(workers, targets, out)
-    }
-
-    /// A step above the crossover: split or on the calling thread alone, as
-    /// the workers' adaptive choice plans it (timed when it asks).
-    #[inline(never)]
-    fn compensate_planned(
-        &mut self,
-        workers: &Workers,
-        targets: &[T],
-        out: &mut [Compensated<T>],
-    ) -> Result<(), ParameterError> {
-        let plan = workers.plan_now();
-        let start = plan.timed.then(std::time::Instant::now);
-        let stepped = if plan.split {
-            self.compensate_split(workers, targets, out)
-        } else {
-            self.compensate(targets, out)
-        };
-        if let Some(start) = start {
-            workers.record(plan, start.elapsed(), self.blocks);
-        }
-        stepped
-    }
-
-    /// The split step, inside [`CompensatorBank::compensate_planned`], out
-    /// of line: `compensate_on`'s path below the crossover stays the
-    /// one-thread step's code (inline, it ran 4–9 % slower than that at 1–8
-    /// channels on a Zen 4).
-    #[inline(always)]
-    fn compensate_split(
-        &mut self,
-        workers: &Workers,
-        targets: &[T],
-        out: &mut [Compensated<T>],
-    ) -> Result<(), ParameterError> {
-        check_length("bank.targets", self.channels, targets.len())?;
-        check_length("bank.out", self.channels, out.len())?;
-        let k = Kernels::detect();
-        let parts = workers.parts().min(self.blocks);
-        let shares = workers.shares();
-        let even = Division::even(self.blocks, parts);
-        let (lead, timed) = shares.map_or((0, None), |s| s.next(even));
-        let division = Division::new(self.blocks, parts, lead);
-        let (fixed, state) = self.split();
-        let state = SharedMut::new(state);
-        let shared_out = SharedMut::new(&mut *out);
-        let (sr, width) = (fixed.layout.state_rows(), lanes::<T>());
-        // when the caller's part and the last worker's end (timed steps)
-        let start = timed.map(|_| std::time::Instant::now());
-        let (caller_end, workers_end) = (AtomicU64::new(0), AtomicU64::new(0));
-        let on_workers = workers.run(&|part: usize| {
-            let blocks = division.part(part);
-            if blocks.is_empty() {
-                return;
+        match par.parts().min(self.blocks) {
+            0 | 1 => self.compensate(targets, out),
+            #[cfg(feature = "rayon")]
+            parts => {
+                check_length("bank.targets", self.channels, targets.len())?;
+                check_length("bank.out", self.channels, out.len())?;
+                let k = Kernels::detect();
+                let blocks = self.blocks;
+                let (fixed, state) = self.split();
+                par::fork(
+                    &|part, first, state, targets, out| {
+                        step_blocks(k, &fixed, first, state, targets, out, Walk::of_part(part));
+                    },
+                    par::Division {
+                        parts,
+                        blocks,
+                        rows: fixed.layout.state_rows(),
+                        lanes: lanes::<T>(),
+                    },
+                    state,
+                    targets,
+                    out,
+                );
+                self.parity ^= 1;
+                self.dynamic_channels(targets, out);
+                Ok(())
             }
-            let channels = blocks.start * width..(blocks.end * width).min(targets.len());
-            // SAFETY: the parts' block ranges are disjoint, so are their
-            // rows of the state and their channels of `out`.
-            let (state, out) = unsafe {
-                (
-                    state.slice(blocks.start * sr..blocks.end * sr),
-                    shared_out.slice(channels.clone()),
-                )
-            };
-            step_blocks(
-                k,
-                &fixed,
-                blocks.start,
-                state,
-                &targets[channels],
-                out,
-                Walk::of_part(part),
-            );
-            if let Some(start) = start {
-                let ns = u64::try_from(start.elapsed().as_nanos()).unwrap_or(u64::MAX);
-                if part == 0 {
-                    caller_end.store(ns, Ordering::Relaxed);
-                } else {
-                    workers_end.fetch_max(ns, Ordering::Relaxed);
-                }
-            }
-        });
-        let (caller_ns, workers_ns) = (caller_end.into_inner(), workers_end.into_inner());
-        if let (Some(shares), Some(step)) = (shares, timed) {
-            // a part run on the calling thread (the workers busy, or one
-            // late and its part taken) says nothing of the shares
-            if on_workers && caller_ns > 0 && workers_ns > 0 {
-                shares.record(step, caller_ns, workers_ns, division.part(0).len(), even);
-            }
+            // without rayon every `Par` is sequential
+            #[cfg(not(feature = "rayon"))]
+            _ => self.compensate(targets, out),
         }
-        self.parity ^= 1;
-        self.dynamic_channels(targets, out);
-        Ok(())
     }
 
     /// What a step reads, and the state it writes.
@@ -507,61 +425,5 @@ impl<T: Real> CompensatorBank<T> {
         for (_, comp) in &mut self.dynamic {
             comp.reset();
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::realtime::nominal::PARAMETERS;
-
-    /// A split step gives the bits of the one-thread step whatever share of
-    /// the blocks the calling thread takes (every lead within half an even
-    /// share; the leads past it are held there), with one worker and with
-    /// two, a last partial block included.
-    fn check_every_division<T: Real>() {
-        let settings = CompensatorSettings::with_limits(-150.0, 150.0);
-        let channels = 13 * lanes::<T>() + 3;
-        let rows: Vec<Vec<T>> = (0..30)
-            .map(|k| {
-                (0..channels)
-                    .map(|c| T::from_f64(250.0 * ((k + 5 * c) as f64 * 0.3).sin()))
-                    .collect()
-            })
-            .collect();
-        for extra in [1, 2] {
-            let workers = Workers::new(extra)
-                .unwrap()
-                .with_min_blocks(0)
-                .with_adaptive(false);
-            for lead in -9..=9 {
-                let mut alone =
-                    CompensatorBank::<T>::uniform(&PARAMETERS, channels, settings).unwrap();
-                let mut split = alone.clone();
-                let (mut out_alone, mut out_split) = (
-                    vec![Compensated::default(); channels],
-                    vec![Compensated::default(); channels],
-                );
-                for row in &rows {
-                    workers.shares().unwrap().set_lead(lead);
-                    alone.compensate(row, &mut out_alone).unwrap();
-                    split.compensate_on(&workers, row, &mut out_split).unwrap();
-                    assert_eq!(
-                        out_alone,
-                        out_split,
-                        "lead {lead}, {extra} workers, {}",
-                        T::NAME
-                    );
-                }
-                assert_eq!(alone, split, "lead {lead}, {extra} workers");
-                assert!(out_alone.iter().any(|c| c.saturated));
-            }
-        }
-    }
-
-    #[test]
-    fn every_division_of_a_split_gives_the_bits_of_one_thread() {
-        check_every_division::<f64>();
-        check_every_division::<f32>();
     }
 }

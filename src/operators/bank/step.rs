@@ -5,12 +5,12 @@
 
 use crate::operators::heap::Heap;
 use crate::realtime::compensator::Compensated;
+use crate::realtime::play::play;
 use crate::realtime::real::Real;
 use crate::realtime::simd::block::{lanes, run_blocks, Block, BlockWork, Ops, Row};
 use crate::realtime::simd::{Kernels, PAPER_CREEP, PAPER_PLAYS};
 use crate::realtime::superposition::Superposition;
 
-use super::lane_by_lane::{inverse_superposition, reseat};
 use super::walk::Walk;
 use super::Layout;
 
@@ -90,7 +90,7 @@ impl<T: Real, const DOWN: bool> BlockWork<T> for Step<'_, '_, T, DOWN> {
         // every block, it was read back from the stack at the head of each
         // block's chain (a store-to-load forwarding); with the superposed
         // path's spill (see `inverse_sum`), `H⁻¹` and the clip alone took
-        // 36 instead of 26 ns per block on a Zen 4.
+        // 1.4 times as long.
         let one = o.splat(core::hint::black_box(T::ONE));
         let (first, state, targets, out) = (self.first_block, self.state, self.targets, self.out);
         if f.layout == PAPER {
@@ -103,8 +103,7 @@ impl<T: Real, const DOWN: bool> BlockWork<T> for Step<'_, '_, T, DOWN> {
 
 /// [`Step::run`] with the layout `a`: [`PAPER`], a constant, or the
 /// bank's; a bank of one model and no `S` (the common case) apart, with
-/// nothing to test per block (on a Zen 4 that left one vector spill per
-/// block instead of five, and made 4–6 % more channel-steps).
+/// nothing to test per block (one vector spill per block instead of five).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn run_blocks_of<T: Real, V: Block<T>, const DOWN: bool>(
@@ -198,11 +197,7 @@ fn pipeline<'p, T: Real, V: Block<T>, const DOWN: bool>(
 /// reductions), the next block's [`head`], the creep pass of the block
 /// before (independent rows), this block's clip. The chains' latency runs
 /// out under the creep pass, and their input `y` is ready when they are
-/// issued. (On a Zen 4, `H⁻¹` with the clip and the creep pass took about
-/// 95 and 210 cycles a block of `f64` alone, 310 together in the order
-/// `H⁻¹`, clip, creep; the clip after the creep pass made 3–4 % more
-/// channel-steps at 1024 channels on the AVX-512 set, the head a block
-/// ahead 2–3 % more again, no change on the AVX2 set.) One loop, the creep
+/// issued. One loop, the creep
 /// pass due held in an `Option`: with a first and a last block written
 /// out, the AVX2 set's extra creep passes made its 64-channel bank 20–35 %
 /// slower. The vector work is in plain functions, not closures (see
@@ -419,17 +414,14 @@ fn clip<T: Real, V: Block<T>>(
 /// [`clip`] returned, as `creep_pass::advance` sums it: each threshold's
 /// rows summed over the eigenvalues in order, the weighted rows into the
 /// partial sum `i mod 4` (each sum from its first product), each
-/// threshold's rows from its first row, as there. (Summed from zero, one
-/// addition more per threshold, the bank gave the same bits but made 2–5 %
-/// fewer channel-steps on a Zen 4's AVX2 set and 0–2 % fewer on its
-/// AVX-512 set.)
+/// threshold's rows from its first row, as there (summed from zero, one
+/// addition more per threshold, for the same bits).
 /// Each update is two fused operations ([`creep_update`]); of the four
 /// rows' additions two are adds and two go through `add_on_multiplier`
-/// (the same bits; on AVX-512 a fused `b · 1 + a`). A Zen core runs fused
+/// (the same bits; on AVX-512 a fused `b · 1 + a`). A core that runs fused
 /// multiply-adds on one pair of pipes and adds, `min` and `max` on the
-/// other, so this split, with the plays' bounds on the multiplier
-/// ([`inverse_play`]), feeds both: the bank made 2–4 % more channel-steps
-/// on a Zen 4 than with every row's addition fused (alternating processes).
+/// other gets work on both from this split, with the plays' bounds on the
+/// multiplier ([`inverse_play`]).
 /// Four thresholds go together, eigenvalue by eigenvalue, so that four
 /// independent update chains stand next to each other in the
 /// instruction stream (one threshold's chain — five updates and their sum —
@@ -597,6 +589,80 @@ fn creep_update<T: Real, V: Block<T>>(o: Ops<T, V>, x: &mut Row, g: V, lower: V,
     let v = o.mul_add(g, o.clamp(v, lower, upper), o.neg_mul_add(g, v, v));
     o.store(v, x);
     v
+}
+
+// The lane-by-lane paths, taken only where a block needs them: `S⁻¹` for
+// the channels with a superposition, and the re-seat of a saturated lane's
+// plays from the voltage applied (22), both as the single compensator
+// computes them.
+
+/// `S⁻¹[t − offset]` lane by lane on a block some of whose channels have
+/// `S`, from its `targets` (its lanes past them are zero).
+#[cold]
+#[inline(never)]
+fn inverse_superposition<T: Real, V: Block<T>>(
+    o: Ops<T, V>,
+    f: &Fixed<'_, T>,
+    block: usize,
+    targets: &[T],
+    p: &[Row],
+) -> V {
+    let mut row = Row::default();
+    row.lanes_mut()[..targets.len()].copy_from_slice(targets);
+    let y = o.sub(o.load(&row), o.load(&p[f.layout.offset()]));
+    o.store(y, &mut row);
+    let width = lanes::<T>();
+    for (l, x) in row.lanes_mut::<T>().iter_mut().enumerate() {
+        let c = if f.shared { 0 } else { block * width + l };
+        if let Some(Some(s)) = f.inverse_superposition.get(c) {
+            *x = s.apply(*x);
+        }
+    }
+    o.load(&row)
+}
+
+/// The saturated lanes as the single compensator re-seats: the plays of
+/// `H` from the inverse plays before the step (copy `cur`), advanced with
+/// the applied `u`, and the inverse plays from them (22) into copy `next`.
+#[cold]
+#[inline(never)]
+fn reseat<T: Real>(
+    f: &Fixed<'_, T>,
+    s: &mut [Row],
+    p: &[Row],
+    saturated: u32,
+    cur: usize,
+    next: usize,
+) {
+    let a = f.layout;
+    let n = a.n;
+    let u = s[a.last_u()];
+    for l in (0..lanes::<T>()).filter(|l| saturated & (1 << l) != 0) {
+        let u = u.lanes::<T>()[l];
+        let par = |row: usize| p[row].lanes::<T>()[l];
+        let old = |s: &[Row], i: usize| s[a.inv_x(cur, i)].lanes::<T>()[l];
+        // forward_state_in_place, into copy `next`
+        let mut next_inv = old(s, n - 1);
+        s[a.inv_x(next, n - 1)].lanes_mut::<T>()[l] = next_inv / par(a.s(n - 1));
+        for j in (0..n - 1).rev() {
+            let inv = old(s, j);
+            let x = s[a.inv_x(next, j + 1)].lanes::<T>()[l] + (inv - next_inv) / par(a.s(j));
+            s[a.inv_x(next, j)].lanes_mut::<T>()[l] = x;
+            next_inv = inv;
+        }
+        for j in 0..n {
+            let x = &mut s[a.inv_x(next, j)].lanes_mut::<T>()[l];
+            *x = play(u, par(a.r(j)), *x);
+        }
+        // inverse_state_into, in place
+        let mut tail = T::ZERO;
+        for j in (0..n).rev() {
+            let x = &mut s[a.inv_x(next, j)].lanes_mut::<T>()[l];
+            let forward = *x;
+            *x = par(a.s(j)) * forward + tail;
+            tail += par(a.w(j)) * forward;
+        }
+    }
 }
 
 #[cfg(test)]

@@ -8,13 +8,10 @@
 /// A core that walks its blocks up the memory has its hardware prefetcher
 /// run on past its last block, into the blocks after it. When another core
 /// steps those (the next part of a split step), it finds their lines taken
-/// from its cache at every step. On a Zen 4 (split in two, 32 blocks of
-/// `f64`) the second half took 1.3–1.5× the first's time per block,
-/// whichever thread stepped it, where one thread stepping both took the
-/// same for each; with eight blocks left out between the halves, or the
-/// first half walked down, the second was no longer the slower. So a
-/// split walks its even parts down and its odd parts up: with two parts
-/// both run off the ends of the bank.
+/// from its cache at every step (where measured, the second half of a
+/// bank split in two then took 1.3–1.5× the first's time per block,
+/// whichever thread stepped it). So a split walks its even parts down and
+/// its odd parts up: with two parts both run off the ends of the bank.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Walk {
     Up,
@@ -27,9 +24,8 @@ impl Walk {
     /// than a cache holds finds none of it there: a cache that keeps the
     /// lines used last has evicted each just before it is needed again.
     /// Walked back, a step starts on the lines the step before left in the
-    /// cache. On a Zen 4 (1 MiB L2) that took 2048 and 4096 channels of
-    /// `f64` and 4096 of `f32` 5–10 % less time, and changed nothing
-    /// measurable where the state fits. A split keeps its parts' fixed
+    /// cache (5–10 % less time where the state is about twice L2, where
+    /// measured; nothing where it fits). A split keeps its parts' fixed
     /// walks ([`Walk::of_part`]): turned, its two parts would walk towards
     /// each other every other step, one core's prefetcher into the other's
     /// blocks.

@@ -32,16 +32,6 @@ pub fn f64_step_on_512() -> bool {
     on_512
 }
 
-/// Whether CPUID names Intel ("GenuineIntel").
-#[cfg(all(feature = "std", target_arch = "x86_64"))]
-pub fn vendor_is_intel() -> bool {
-    // SAFETY: as in `vendor_is_amd_and_family`
-    #[allow(unused_unsafe)]
-    let v = unsafe { core::arch::x86_64::__cpuid(0) };
-    // "GenuineIntel", four bytes a register
-    [v.ebx, v.edx, v.ecx] == [0x756e_6547, 0x4965_6e69, 0x6c65_746e]
-}
-
 /// Whether CPUID names AMD, and the family it gives (base plus extended
 /// where the base is 15), as `/proc/cpuinfo` reports them.
 #[cfg(all(feature = "std", target_arch = "x86_64"))]

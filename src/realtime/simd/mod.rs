@@ -37,8 +37,6 @@ mod cpu;
 pub use cpu::cpu_description;
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 pub use cpu::f64_step_on_512;
-#[cfg(all(feature = "std", target_arch = "x86_64"))]
-pub use cpu::vendor_is_intel;
 
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 use core::any::TypeId;
@@ -651,8 +649,7 @@ pub(crate) fn compensator_run<T: Real, C: RunSource<T>>(
 
 /// [`step_body`] on the portable kernels: out of line where vector
 /// kernels exist, so that its scalar loops take no registers or stack in
-/// the callers of the vector steps (on a Zen 4 the caller's frame went
-/// from 0x228 to 0x58 bytes).
+/// the callers of the vector steps (their frames a quarter the size).
 #[cfg_attr(all(feature = "std", target_arch = "x86_64"), inline(never))]
 #[cfg_attr(not(all(feature = "std", target_arch = "x86_64")), inline(always))]
 fn step_portable<T: Real, C: StepSource<T>>(c: &mut C, t: T, lower: T, upper: T) -> (T, bool) {
@@ -683,10 +680,6 @@ mod tests {
         let family: u32 = field("cpu family").parse().unwrap();
         let amd = field("vendor_id") == "AuthenticAMD";
         assert_eq!(super::cpu::vendor_is_amd_and_family(), (amd, family));
-        assert_eq!(
-            super::vendor_is_intel(),
-            field("vendor_id") == "GenuineIntel"
-        );
         assert_eq!(super::f64_step_on_512(), amd && family >= 26);
     }
 }

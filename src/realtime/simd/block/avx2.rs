@@ -43,9 +43,8 @@ macro_rules! half_cmp {
 impl<T: Real, const H: usize> Block<T> for Avx2Half<H> {
     /// All ones in a lane for true.
     type Mask = Self;
-    /// On a Zen 4, 64 channels, halves four thresholds at a time made 4 %
-    /// fewer `f64` channel-steps than the whole blocks' paired pass, and
-    /// halves in pairs 6 % more.
+    /// Halves in pairs: four thresholds at a time spill on sixteen
+    /// registers.
     const PAIRED_CREEP: bool = true;
     super::whole_block_halves!();
 
@@ -197,10 +196,9 @@ impl<T: Real, const H: usize> Block<T> for Avx2Half<H> {
 
     /// The row's old lanes pass through an empty `asm!` before the
     /// select. Seeing a row's own lanes selected and stored back to it, the
-    /// compiler made masked stores (`vmaskmovpd`) of them: AMD's cores run
-    /// them as microcode, which holds up the front end. Without them the
-    /// bank made 3–6 % more `f64` and 8–9 % more `f32` channel-steps on a
-    /// Zen 4.
+    /// compiler made masked stores (`vmaskmovpd`) of them, which some
+    /// cores run as microcode, holding up the front end
+    /// (`benches/kernel_choice/no_masked_stores.sh` checks they stay out).
     #[target_feature(enable = "avx2,fma")]
     #[inline]
     unsafe fn store_except(self, m: Self, row: &mut Row) -> Self {
@@ -309,9 +307,7 @@ impl<T: Real> Block<T> for Avx2 {
     type Mask = Avx2;
     /// The creep pass's live values (each pair of thresholds' bounds and
     /// rows, the gains, the sums) spilled from sixteen registers where each
-    /// took two; on one register each they fit. On a Zen 4, the medians of
-    /// five alternations: 6 % more `f64` and 8 % more `f32` channel-steps at
-    /// 64 channels, 4 % more of each at 1024.
+    /// took two; on one register each they fit.
     const CREEP_IN_HALVES: bool = true;
     type Lo = Avx2Half<0>;
     type Hi = Avx2Half<1>;

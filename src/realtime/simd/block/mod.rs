@@ -77,9 +77,7 @@ pub(crate) trait Block<T: Real>: Copy {
     /// All of `values` (at most a block's worth; unaligned) in the first
     /// lanes, zero in the others: a bank's last, partial block. Through a
     /// padded row by default; the vector sets load it masked (copied into
-    /// a row, the vector load waited on the copy's narrower stores: on a
-    /// Zen 4, 6–7.5 % of the AVX-512 kernel's samples at 8 `f32` channels
-    /// fell on the instruction after that load).
+    /// a row, the vector load waited on the copy's narrower stores).
     unsafe fn load_first(values: &[T]) -> Self {
         let mut row = Row::default();
         row.lanes_mut()[..values.len()].copy_from_slice(values);

@@ -12,7 +12,7 @@ use crate::realtime::hysteresis::{reduce, step_tail};
 /// lanes add the same pairs with their operands swapped, which leaves
 /// an IEEE sum as it is. The swap of the halves is `vperm2f128`,
 /// written out: LLVM emits `_mm256_permute2f128_pd(a, a, 1)` as
-/// `vpermpd`, a cycle slower on a Zen 4 (4 against 3).
+/// `vpermpd`, a cycle slower on some cores.
 #[target_feature(enable = "avx2,fma")]
 #[inline]
 pub(super) fn all_lanes_sum(a: __m256d) -> __m256d {

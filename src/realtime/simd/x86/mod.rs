@@ -7,26 +7,20 @@
 //!
 //! The plays' states and their saved copy, which a step loads and
 //! stores again, go through `*_unsplit`: a register's worth that would
-//! straddle a 4 KiB page is moved one value at a time. On a Zen 5 a
-//! step whose creep row straddled a page, at an offset that matched
-//! stack slots the step had just written, took 13–21 % longer (a
-//! compensator on the stack, in 6 of 256 stack offsets), and the
-//! plays' arrays are kept from the same. Whether an array can straddle
+//! straddle a 4 KiB page is moved one value at a time: a step whose
+//! creep row straddled a page, at an offset that matched stack slots the
+//! step had just written, took up to a fifth longer, and the plays'
+//! arrays are kept from the same. Whether an array can straddle
 //! at all is asked once per array and step (`SPLIT`): most never do,
 //! and their accesses carry no test. The creep state needs neither:
 //! the operator places it so that no register's worth straddles a page
-//! (`crate::realtime::placement`; on a Zen 4 the per-access tests had
-//! cost more than the split).
+//! (`crate::realtime::placement`; per-access tests had cost more than
+//! the split).
 //!
 //! The kernels end each sum of four partial sums in a butterfly
 //! ([`four::all_lanes_sum`], and its `f32` twin in the 8-lane kernels): the
-//! same bits as `hysteresis::reduce`, in every lane. On a Zen 4 a run
-//! of the AVX2 set took 0.976–0.982 of the strongest C's loop with it,
-//! 0.993–0.996 with the scalar sum and a broadcast; the AVX-512 set's
-//! `f64` step went from 27.2–27.3 to 26.9–27.0 ns (a broadcast fewer
-//! between the two kernels). Zen 1's instruction tables list `vperm2f128` as
-//! eight micro-operations (its latency 3, as on later cores); that CPU
-//! was not measured with it.
+//! same bits as `hysteresis::reduce`, in every lane, a broadcast fewer
+//! on the chain than a scalar sum.
 //!
 //! [`four`] holds the `f64` kernels on 4-lane registers (the AVX2 set's),
 //! [`eight`] the 8-lane ones (the AVX-512 set's `f64` creep pass, both
@@ -99,10 +93,7 @@ struct Avx2Step;
 /// the step's chain waited for the creep's output to be broadcast to 8
 /// lanes and for the upper half of the plays' sum to be extracted, where
 /// on 4 lanes it waits for neither; the creep pass's sixty updates are
-/// enough, and 8 lanes halve its operations. On a Zen 5 a run went from
-/// 1.037 to 1.000 of the strongest C's loop with it in `f64`, from 1.085
-/// to 1.047 of the strongest C in `f32` (the guide's performance
-/// chapter). The same bits either way.
+/// enough, and 8 lanes halve its operations. The same bits either way.
 struct Avx512Step;
 
 /// A value on a vector set's chain (its `Lanes`): the value, and the
