@@ -26,8 +26,8 @@ SRC = ROOT / "src"
 LAYERS = [
     ["realtime"],
     ["error", "operators"],
-    ["io"],
     ["identification", "beam", "feedforward", "control"],
+    ["io"],
     ["suite"],
     ["fmi"],
     ["cli", "main", "lib"],
@@ -50,10 +50,33 @@ def strip_comments(text: str) -> str:
     return re.sub(r"//[^\n]*", "", text)
 
 
+def inline_depth(text: str) -> list[tuple[int, int]]:
+    """The spans of the inline modules (`mod tests { … }`) of a file."""
+    spans = []
+    for m in re.finditer(r"\bmod\s+\w+\s*\{", text):
+        depth, i = 0, m.end() - 1
+        while i < len(text):
+            if text[i] == "{":
+                depth += 1
+            elif text[i] == "}":
+                depth -= 1
+                if depth == 0:
+                    break
+            i += 1
+        spans.append((m.end(), i))
+    return spans
+
+
 def use_paths(text: str) -> list[list[str]]:
     """Every path a file names: the trees of its `use` items flattened, and
-    the `crate::`, `super::` and `self::` paths elsewhere in its code."""
+    the `crate::`, `super::` and `self::` paths elsewhere in its code. A
+    path inside an inline module starts with one `self` per module, so
+    that its `super` means the file's module."""
     paths: list[list[str]] = []
+    spans = inline_depth(text)
+
+    def inside(pos: int) -> int:
+        return sum(1 for a, b in spans if a <= pos < b)
 
     def expand(prefix: list[str], tree: str) -> None:
         tree = tree.strip()
@@ -81,10 +104,29 @@ def use_paths(text: str) -> list[list[str]]:
         paths.append(prefix + [p for p in tree.split("::") if p])
 
     for m in re.finditer(r"\buse\s+([^;]+);", text):
+        before = len(paths)
         expand([], m.group(1))
+        depth = inside(m.start())
+        for i in range(before, len(paths)):
+            paths[i] = nest(paths[i], depth)
     for m in re.finditer(r"\b((?:crate|super|self)(?:::\w+)+)", text):
-        paths.append(m.group(1).split("::"))
+        paths.append(nest(m.group(1).split("::"), inside(m.start())))
     return paths
+
+
+def nest(path: list[str], depth: int) -> list[str]:
+    """`path` as written `depth` inline modules deep, from the file's
+    module: each leading `super` leaves one inline module; a path that
+    stays inside one names its own items."""
+    if depth == 0 or path[:1] == ["crate"]:
+        return path
+    rest = list(path)
+    while depth and rest[:1] == ["super"]:
+        rest = rest[1:]
+        depth -= 1
+    if depth:
+        return []
+    return ["self"] + rest
 
 
 def resolve(here: tuple[str, ...], is_dir_module: bool, path: list[str],

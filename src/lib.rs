@@ -85,7 +85,6 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(unsafe_op_in_unsafe_fn)]
 
-pub mod limits;
 pub mod realtime;
 
 #[cfg(feature = "std")]

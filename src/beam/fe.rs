@@ -53,12 +53,11 @@ impl FiniteElementModel {
                 reason: format!("at least 3 elements are needed, found {elements}"),
             });
         }
-        crate::limits::check("elements", crate::limits::MAX_ELEMENTS, elements).map_err(|e| {
-            BeamError::InvalidSetting {
+        crate::realtime::limits::check("elements", crate::realtime::limits::MAX_ELEMENTS, elements)
+            .map_err(|e| BeamError::InvalidSetting {
                 field: "elements",
                 reason: e.reason(),
-            }
-        })?;
+            })?;
         let mut nodes = vec![0.0];
         let mut coefficients = Vec::new();
         let mut patch_nodes = (0, 0);

@@ -192,9 +192,9 @@ impl BeamParameters {
                 reason: "must be at least 1".into(),
             });
         }
-        crate::limits::check(
+        crate::realtime::limits::check(
             "basis_functions",
-            crate::limits::MAX_BASIS_FUNCTIONS,
+            crate::realtime::limits::MAX_BASIS_FUNCTIONS,
             self.basis_functions,
         )
         .map_err(|e| BeamError::InvalidSetting {

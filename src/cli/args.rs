@@ -667,9 +667,9 @@ pub struct SignalArgs {
     pub sample_time: f64,
 }
 
-/// `--elements`: from 3 to [`mfcbeam::limits::MAX_ELEMENTS`].
+/// `--elements`: from 3 to [`mfcbeam::realtime::limits::MAX_ELEMENTS`].
 fn parse_elements(s: &str) -> std::result::Result<usize, String> {
-    let most = mfcbeam::limits::MAX_ELEMENTS;
+    let most = mfcbeam::realtime::limits::MAX_ELEMENTS;
     match s.parse::<usize>() {
         Ok(n) if (3..=most).contains(&n) => Ok(n),
         _ => Err(format!(

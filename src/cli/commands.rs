@@ -16,6 +16,7 @@ use mfcbeam::operators::traits::Operator;
 use mfcbeam::suite::signal::{time_axis, Staircase};
 
 use super::args::*;
+use super::trace_sample_time;
 
 /// Run the command `cli` names.
 pub fn run(cli: Cli) -> Result<()> {
@@ -31,7 +32,13 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Reproduce(a) => reproduce(&a),
         Command::Scenario(a) => scenario(&a),
         Command::Golden(a) => golden(&a),
-        Command::Conform(a) => super::conform::conform(&a),
+        Command::Conform(a) => {
+            let settings = super::conform::settings(&a)?;
+            match &a.fmu {
+                Some(fmu) => super::fmu::conform_fmu(&a, fmu, settings),
+                None => super::conform::conform_program(&a, settings),
+            }
+        }
         Command::Verify(a) => verify(&a),
         Command::Fmu(a) => super::fmu::fmu(&a),
         Command::Nominal(a) => nominal(&a),
@@ -320,32 +327,6 @@ fn print_stdout(text: &str) -> Result<()> {
     match writeln!(out, "{text}").and_then(|_| out.flush()) {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
         other => Ok(other?),
-    }
-}
-
-/// Sample time: the `t` column if present (uniform), else the flag.
-/// The sample time of a trace: `--sample-time` if given (checked against the
-/// `t` column, if any), else from the `t` column, else `fallback` (an error
-/// when there is none).
-pub(super) fn trace_sample_time(
-    trace: &Trace,
-    flag: Option<f64>,
-    fallback: Option<f64>,
-) -> Result<f64> {
-    match flag {
-        Some(ts) => {
-            if !(ts.is_finite() && ts > 0.0) {
-                bail!("--sample-time: must be a finite number > 0, found {ts}");
-            }
-            trace.check_time_column(ts)?;
-            Ok(ts)
-        }
-        None if trace.has_column("t") => Ok(trace.sample_time_from_t()?),
-        None => match fallback {
-            Some(ts) => Ok(ts),
-            // names the missing column
-            None => Ok(trace.sample_time_from_t()?),
-        },
     }
 }
 

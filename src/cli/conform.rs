@@ -21,7 +21,7 @@ use mfcbeam::suite::conformance::external::{
 use mfcbeam::suite::conformance::{
     compensator_properties, fixed, inverse_hysteresis_properties, model_properties, Case,
     CompensatorFactory, ConformanceReport, ConformanceSettings, Counterexample,
-    InverseHysteresisFactory, ModelFactory, Outcome,
+    InverseHysteresisFactory, ModelFactory, Outcome, PropertyResult,
 };
 
 use super::args::{ConformArgs, ConformKind};
@@ -30,7 +30,10 @@ use super::args::{ConformArgs, ConformKind};
 /// starts it a few times).
 const EXTERNAL_SHRINK_BUDGET: usize = 300;
 
-pub fn conform(a: &ConformArgs) -> Result<()> {
+/// The settings of `conform` from its arguments, each checked: the fixed
+/// model (read and built), the library's conditions named as the options
+/// are, the timeout.
+pub fn settings(a: &ConformArgs) -> Result<ConformanceSettings> {
     // the fixed mode: the model the candidate claims to be (for the kinds
     // of H and H⁻¹ its hysteresis part)
     let hysteresis_kind = matches!(
@@ -71,16 +74,19 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
         // checked before, with its path)
         Err(e) => bail!("--{e}"),
     }
-    let longest = mfcbeam::limits::MAX_CANDIDATE_TIMEOUT;
+    let longest = mfcbeam::realtime::limits::MAX_CANDIDATE_TIMEOUT;
     if !(a.timeout.is_finite() && a.timeout > 0.0 && a.timeout <= longest) {
         bail!(
             "--timeout: must be a number of seconds in (0, {longest}], found {}",
             a.timeout
         );
     }
-    if let Some(fmu) = &a.fmu {
-        return super::fmu::conform_fmu(a, fmu, settings);
-    }
+    Ok(settings)
+}
+
+/// `conform --exec`: a program through the file contract.
+pub fn conform_program(a: &ConformArgs, settings: ConformanceSettings) -> Result<()> {
+    let fixed_model = settings.fixed_model.clone();
     let exec = a.exec.as_deref().unwrap_or_default();
     let mut candidate = ExternalCandidate::new(exec, Duration::from_secs_f64(a.timeout))
         .with_context(|| format!("--exec '{exec}'"))?;
@@ -92,87 +98,180 @@ pub fn conform(a: &ConformArgs) -> Result<()> {
         format!("--exec '{exec}': the candidate is unusable on a first, simple case")
     })?;
 
-    let settings = settings.spread(a.cases, properties_count(a.kind));
-    let start = Instant::now();
     let progress = Progress::start(&candidate);
     // a fixed candidate is built for its model only; every other is declined
-    let fixed_ok = |f: &ModelFile| match &fixed_model {
+    let fixed_ok = move |f: &ModelFile| match &fixed_model {
         Some(m) => fixed::accepts(m, f),
         None => Ok(()),
     };
-    let cand = candidate.clone();
-    let model_factory = move |f: &ModelFile| -> Result<Box<dyn ActuatorModel>, ModelError> {
-        fixed_ok(f)?;
+    let (cand, ok) = (candidate.clone(), fixed_ok.clone());
+    let model = move |f: &ModelFile| -> Result<Box<dyn ActuatorModel>, ModelError> {
+        ok(f)?;
         Ok(Box::new(ExternalModel::new(cand.clone(), f)))
     };
-    let cand = candidate.clone();
-    let compensator_factory = move |f: &ModelFile,
-                                    s: CompensatorSettings|
+    let (cand, ok) = (candidate.clone(), fixed_ok.clone());
+    let compensator = move |f: &ModelFile,
+                            s: CompensatorSettings|
           -> Result<Box<dyn ActuatorCompensator>, ModelError> {
-        fixed_ok(f)?;
+        ok(f)?;
         Ok(Box::new(ExternalCompensator::new(cand.clone(), f, s)))
     };
     let cand = candidate.clone();
-    let inverse_factory = move |f: &ModelFile| -> Result<Box<dyn InverseHysteresis>, ModelError> {
+    let inverse = move |f: &ModelFile| -> Result<Box<dyn InverseHysteresis>, ModelError> {
         fixed_ok(f)?;
         Ok(Box::new(ExternalInverseHysteresis::new(cand.clone(), f)))
     };
+    let program = Program {
+        candidate,
+        progress,
+    };
+    let factories = Factories {
+        model: &model,
+        compensator: &compensator,
+        inverse: &inverse,
+    };
+    run(a, &program, &factories, settings)
+    // the candidate's scratch directories are removed as it is dropped
+}
+
+/// The three factories of a candidate: one per kind, the run uses the
+/// kind's.
+pub(super) struct Factories<'a> {
+    pub(super) model: &'a ModelFactory<'a>,
+    pub(super) compensator: &'a CompensatorFactory<'a>,
+    pub(super) inverse: &'a InverseHysteresisFactory<'a>,
+}
+
+/// What the one conformance run needs of a candidate beyond its
+/// factories: a program through the file contract ([`Program`]) or an
+/// FMU (`fmu.rs`).
+pub(super) trait Candidate {
+    /// The properties have been checked (a progress line ends).
+    fn checked(&self) {}
+    /// The line after the report: the cases run and the time taken.
+    fn summary(&self, cases: usize, seconds: f64) -> String;
+    /// The first run that failed, as a line, if any did.
+    fn first_error(&self) -> Option<String>;
+    /// The counterexample of property `p` written to `dir`: the line that
+    /// names it, and the hints.
+    fn write_counterexample(
+        &self,
+        a: &ConformArgs,
+        p: &PropertyResult,
+        c: &Counterexample,
+        dir: &Path,
+        factories: &Factories<'_>,
+        settings: &ConformanceSettings,
+    ) -> Result<(String, Vec<Hint>)>;
+}
+
+/// The conformance run of `a.kind`'s properties on a candidate, and its
+/// report: the table, the summary, the first failed run, and each failed
+/// property's counterexample in `OUT/<property>-<case>/`. Exits 1 (as
+/// [`super::Exit`]) when a property fails.
+pub(super) fn run(
+    a: &ConformArgs,
+    candidate: &dyn Candidate,
+    factories: &Factories<'_>,
+    settings: ConformanceSettings,
+) -> Result<()> {
+    let settings = settings.spread(a.cases, properties_count(a.kind));
+    let start = Instant::now();
     let report = check_kind(
         a.kind,
-        &model_factory,
-        &compensator_factory,
-        &inverse_factory,
+        factories.model,
+        factories.compensator,
+        factories.inverse,
         &settings,
     )?;
-    progress.finish();
-    let runs = candidate.runs.load(Ordering::Relaxed);
-    let total_cases: usize = report.properties.iter().map(|p| p.cases).sum();
+    candidate.checked();
+    let cases: usize = report.properties.iter().map(|p| p.cases).sum();
     println!("{report}");
     println!(
-        "{total_cases} cases, {runs} runs of the candidate in {:.1} s",
-        start.elapsed().as_secs_f64()
+        "{}",
+        candidate.summary(cases, start.elapsed().as_secs_f64())
     );
     if report.passed() {
         return Ok(());
     }
     if let Some(e) = candidate.first_error() {
-        println!("the candidate failed on some run: {e}");
+        println!("{e}");
     }
     for p in report.failed() {
         if let Some(c) = &p.counterexample {
             let dir = a.out.join(format!("{}-{}", p.name, c.case_index));
-            let recheck = |case: &Case| match a.kind {
-                ConformKind::Model | ConformKind::Hysteresis => {
-                    model_properties().recheck(p.name, case, &model_factory, &settings)
-                }
-                ConformKind::Compensator => {
-                    compensator_properties().recheck(p.name, case, &compensator_factory, &settings)
-                }
-                ConformKind::InverseHysteresis => inverse_hysteresis_properties().recheck(
-                    p.name,
-                    case,
-                    &inverse_factory,
-                    &settings,
-                ),
-            };
-            let hints =
-                write_counterexample(&candidate, &dir, a.kind, p.name, p.description, c, recheck)
-                    .with_context(|| dir.display().to_string())?;
-            println!(
-                "{}: counterexample in {} ({} samples, {} plays): cd there and run the command in command.txt",
-                p.name,
-                dir.display(),
-                c.failure.signal.len(),
-                c.case.model.hysteresis.thresholds.len()
-            );
+            let (line, hints) = candidate
+                .write_counterexample(a, p, c, &dir, factories, &settings)
+                .with_context(|| dir.display().to_string())?;
+            println!("{line}");
             for h in hints {
                 println!("  hint: {h}");
             }
         }
     }
-    // returned, not exited here: the candidate's scratch directories are
-    // removed as it is dropped
     Err(super::Exit(1).into())
+}
+
+/// A program through the file contract.
+struct Program {
+    candidate: Arc<ExternalCandidate>,
+    progress: Progress,
+}
+
+impl Candidate for Program {
+    fn checked(&self) {
+        self.progress.finish();
+    }
+
+    fn summary(&self, cases: usize, seconds: f64) -> String {
+        let runs = self.candidate.runs.load(Ordering::Relaxed);
+        format!("{cases} cases, {runs} runs of the candidate in {seconds:.1} s")
+    }
+
+    fn first_error(&self) -> Option<String> {
+        self.candidate
+            .first_error()
+            .map(|e| format!("the candidate failed on some run: {e}"))
+    }
+
+    fn write_counterexample(
+        &self,
+        a: &ConformArgs,
+        p: &PropertyResult,
+        c: &Counterexample,
+        dir: &Path,
+        factories: &Factories<'_>,
+        settings: &ConformanceSettings,
+    ) -> Result<(String, Vec<Hint>)> {
+        let recheck = |case: &Case| match a.kind {
+            ConformKind::Model | ConformKind::Hysteresis => {
+                model_properties().recheck(p.name, case, factories.model, settings)
+            }
+            ConformKind::Compensator => {
+                compensator_properties().recheck(p.name, case, factories.compensator, settings)
+            }
+            ConformKind::InverseHysteresis => {
+                inverse_hysteresis_properties().recheck(p.name, case, factories.inverse, settings)
+            }
+        };
+        let hints = write_counterexample(
+            &self.candidate,
+            dir,
+            a.kind,
+            p.name,
+            p.description,
+            c,
+            recheck,
+        )?;
+        let line = format!(
+            "{}: counterexample in {} ({} samples, {} plays): cd there and run the command in command.txt",
+            p.name,
+            dir.display(),
+            c.failure.signal.len(),
+            c.case.model.hysteresis.thresholds.len()
+        );
+        Ok((line, hints))
+    }
 }
 
 /// The input column of a kind's traces.
@@ -512,7 +611,7 @@ pub(super) fn properties_count(kind: ConformKind) -> usize {
 struct Progress {
     bar: indicatif::ProgressBar,
     stop: Arc<std::sync::atomic::AtomicBool>,
-    thread: Option<std::thread::JoinHandle<()>>,
+    thread: std::sync::Mutex<Option<std::thread::JoinHandle<()>>>,
 }
 
 impl Progress {
@@ -537,15 +636,22 @@ impl Progress {
         Self {
             bar,
             stop,
-            thread: Some(thread),
+            thread: std::sync::Mutex::new(Some(thread)),
         }
     }
 
-    fn finish(mut self) {
+    fn finish(&self) {
         self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
+        let thread = self.thread.lock().map(|mut t| t.take());
+        if let Ok(Some(t)) = thread {
             let _ = t.join();
         }
         self.bar.finish_and_clear();
+    }
+}
+
+impl Drop for Progress {
+    fn drop(&mut self) {
+        self.finish();
     }
 }

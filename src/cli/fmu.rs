@@ -2,7 +2,6 @@
 //! through the conformance properties in the fixed mode).
 
 use std::path::Path;
-use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 
@@ -14,12 +13,13 @@ use mfcbeam::fmi::{FmiVersion, FmuKind};
 use mfcbeam::io::{format_f64, read_beam, read_model_file, write_atomic, Trace};
 use mfcbeam::prelude::*;
 use mfcbeam::suite::conformance::explain::explain;
+use mfcbeam::suite::conformance::explain::Hint;
 use mfcbeam::suite::conformance::external::WIDE_LIMITS;
-use mfcbeam::suite::conformance::{fixed, ConformanceReport, ConformanceSettings};
+use mfcbeam::suite::conformance::{fixed, ConformanceSettings, Counterexample, PropertyResult};
 
 use super::args::{ConformArgs, ConformKind, FmuArgs, FmuKindArg};
 
-use super::conform::{check_kind, explain_kind, input_column, output_column, properties_count};
+use super::conform::{explain_kind, input_column, output_column, run, Candidate, Factories};
 
 pub fn fmu(a: &FmuArgs) -> Result<()> {
     let model = match (&a.model, a.kind) {
@@ -165,15 +165,13 @@ pub fn conform_fmu(a: &ConformArgs, path: &Path, settings: ConformanceSettings) 
     smoke_test(&candidate, import_kind)
         .with_context(|| format!("--fmu {}: unusable on a first, simple case", path.display()))?;
 
-    let settings = settings.spread(a.cases, properties_count(a.kind));
-    let start = Instant::now();
     let c = candidate.clone();
-    let model_factory = fixed::fixed_model_factory(fixed_model.clone(), move || {
+    let model = fixed::fixed_model_factory(fixed_model.clone(), move || {
         let m: Box<dyn ActuatorModel> = Box::new(FmuModel::new(&c).map_err(instance_failed)?);
         Ok(m)
     });
     let c = candidate.clone();
-    let compensator_factory =
+    let compensator =
         fixed::fixed_compensator_factory(fixed_model.clone(), move |s: CompensatorSettings| {
             if let Some((lo, hi)) = own_limits {
                 let unlimited =
@@ -193,39 +191,52 @@ pub fn conform_fmu(a: &ConformArgs, path: &Path, settings: ConformanceSettings) 
             Ok(m)
         });
     let c = candidate.clone();
-    let inverse_factory = fixed::fixed_inverse_hysteresis_factory(fixed_model.clone(), move || {
+    let inverse = fixed::fixed_inverse_hysteresis_factory(fixed_model.clone(), move || {
         let m: Box<dyn InverseHysteresis> =
             Box::new(FmuInverseHysteresis::new(&c).map_err(instance_failed)?);
         Ok(m)
     });
-    let report = check_kind(
-        a.kind,
-        &model_factory,
-        &compensator_factory,
-        &inverse_factory,
-        &settings,
-    )?;
-    let total: usize = report.properties.iter().map(|p| p.cases).sum();
-    println!("{report}");
-    println!(
-        "{total} cases on the FMU in {:.1} s",
-        start.elapsed().as_secs_f64()
-    );
-    if report.passed() {
-        return Ok(());
+    let factories = Factories {
+        model: &model,
+        compensator: &compensator,
+        inverse: &inverse,
+    };
+    run(a, &OneFmu { candidate, delay }, &factories, settings)
+    // the candidate's scratch directories are removed as it is dropped
+}
+
+/// An FMU as `conform`'s candidate, fixed to its model.
+struct OneFmu {
+    candidate: FmuCandidate,
+    /// The preview of its compensator (the model's dead time and lag).
+    delay: usize,
+}
+
+impl Candidate for OneFmu {
+    fn summary(&self, cases: usize, seconds: f64) -> String {
+        format!("{cases} cases on the FMU in {seconds:.1} s")
     }
-    if let Some(e) = candidate
-        .first_error
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .clone()
-    {
-        println!("the FMU failed on some run: {e}");
+
+    fn first_error(&self) -> Option<String> {
+        self.candidate
+            .first_error
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone()
+            .map(|e| format!("the FMU failed on some run: {e}"))
     }
-    write_counterexamples(a, &candidate, &report, delay)?;
-    // returned, not exited here: the candidate's scratch directories are
-    // removed as it is dropped
-    Err(super::Exit(1).into())
+
+    fn write_counterexample(
+        &self,
+        a: &ConformArgs,
+        p: &PropertyResult,
+        c: &Counterexample,
+        dir: &Path,
+        _: &Factories<'_>,
+        _: &ConformanceSettings,
+    ) -> Result<(String, Vec<Hint>)> {
+        write_counterexample(a, &self.candidate, p, c, dir, self.delay)
+    }
 }
 
 /// An instance that could not be made: the case counts as failed (a
@@ -264,100 +275,92 @@ fn smoke_test(candidate: &FmuCandidate, kind: ImportKind) -> Result<()> {
     Ok(())
 }
 
-/// Each failing property's shrunk case in `OUT/<property>-<case>/`: the
-/// model, the input, the FMU's output from its initial state, what the
-/// property expected, and `failure.txt` with the reference by parts and
-/// the hints.
-fn write_counterexamples(
+/// A failing property's shrunk case in `dir`: the model, the input, the
+/// FMU's output from its initial state, what the property expected, and
+/// `failure.txt` with the reference by parts and the hints.
+fn write_counterexample(
     a: &ConformArgs,
     candidate: &FmuCandidate,
-    report: &ConformanceReport,
+    p: &PropertyResult,
+    c: &Counterexample,
+    dir: &Path,
     delay: usize,
-) -> Result<()> {
-    for p in report.failed() {
-        let Some(c) = &p.counterexample else {
-            continue;
-        };
-        let dir = a.out.join(format!("{}-{}", p.name, c.case_index));
-        std::fs::create_dir_all(&dir).with_context(|| dir.display().to_string())?;
-        let f = &c.failure;
-        let signal = &f.signal;
-        // the FMU's whole output on the signal from its initial state
-        let found: Vec<f64> = match a.kind {
-            ConformKind::Model | ConformKind::Hysteresis => FmuModel::new(candidate)?.run(signal),
-            ConformKind::InverseHysteresis => FmuInverseHysteresis::new(candidate)?.run(signal),
-            ConformKind::Compensator => {
-                let limits = c.case.limits.unwrap_or(WIDE_LIMITS);
-                FmuCompensator::new(candidate, Some(limits), delay)?
-                    .compensate_all(signal)
-                    .iter()
-                    .map(|c| c.u)
-                    .collect()
-            }
-        };
-        let model_json = serde_json::to_string_pretty(&c.case.model)?;
-        write_atomic(&dir.join("model.json"), (model_json + "\n").as_bytes())?;
-        let t: Vec<f64> = (0..signal.len())
-            .map(|k| k as f64 * c.case.model.sample_time)
-            .collect();
-        let input_path = dir.join("input.csv");
-        Trace::from_columns(&input_path, &[("t", &t), (input_column(a.kind), signal)])
-            .write(&input_path)?;
-        let out_path = dir.join("candidate.csv");
-        Trace::from_columns(&out_path, &[("t", &t), (output_column(a.kind), &found)])
-            .write(&out_path)?;
-        let n = f.expected.len().min(f.found.len());
-        let exp_path = dir.join("expected.csv");
-        let mut expected = Trace::from_columns(
-            &exp_path,
-            &[("expected", &f.expected[..n]), ("candidate", &f.found[..n])],
-        );
-        expected.push_text_column("compared", (0..n).map(|k| k.to_string()))?;
-        expected.write(&exp_path)?;
-        let explanation = explain(
-            explain_kind(a.kind),
-            &c.case.model,
-            signal,
-            c.case.limits,
-            &found,
-            f.tolerance,
-        );
-        let mut text = vec![
-            format!("property: {}", p.name),
-            p.description.to_string(),
-            f.message.clone(),
-            format!(
-                "compared sample {}: error {}, tolerance {}",
-                f.sample,
-                format_f64(f.error),
-                format_f64(f.tolerance)
-            ),
-            format!(
-                "candidate.csv: the FMU's output on input.csv from its initial state, one doStep of {} s per sample",
-                format_f64(c.case.model.sample_time)
-            ),
-            format!(
-                "before shrinking (case {}): {} samples; sample {}: error {}",
-                c.case_index,
-                c.unshrunk_failure.signal.len(),
-                c.unshrunk_failure.sample,
-                format_f64(c.unshrunk_failure.error)
-            ),
-        ];
-        text.extend(explanation.lines());
-        write_atomic(
-            &dir.join("failure.txt"),
-            (text.join("\n") + "\n").as_bytes(),
-        )?;
-        println!(
-            "{}: counterexample in {} ({} samples)",
-            p.name,
-            dir.display(),
-            signal.len()
-        );
-        for h in &explanation.hints {
-            println!("  hint: {h}");
+) -> Result<(String, Vec<Hint>)> {
+    std::fs::create_dir_all(dir).with_context(|| dir.display().to_string())?;
+    let f = &c.failure;
+    let signal = &f.signal;
+    // the FMU's whole output on the signal from its initial state
+    let found: Vec<f64> = match a.kind {
+        ConformKind::Model | ConformKind::Hysteresis => FmuModel::new(candidate)?.run(signal),
+        ConformKind::InverseHysteresis => FmuInverseHysteresis::new(candidate)?.run(signal),
+        ConformKind::Compensator => {
+            let limits = c.case.limits.unwrap_or(WIDE_LIMITS);
+            FmuCompensator::new(candidate, Some(limits), delay)?
+                .compensate_all(signal)
+                .iter()
+                .map(|c| c.u)
+                .collect()
         }
-    }
-    Ok(())
+    };
+    let model_json = serde_json::to_string_pretty(&c.case.model)?;
+    write_atomic(&dir.join("model.json"), (model_json + "\n").as_bytes())?;
+    let t: Vec<f64> = (0..signal.len())
+        .map(|k| k as f64 * c.case.model.sample_time)
+        .collect();
+    let input_path = dir.join("input.csv");
+    Trace::from_columns(&input_path, &[("t", &t), (input_column(a.kind), signal)])
+        .write(&input_path)?;
+    let out_path = dir.join("candidate.csv");
+    Trace::from_columns(&out_path, &[("t", &t), (output_column(a.kind), &found)])
+        .write(&out_path)?;
+    let n = f.expected.len().min(f.found.len());
+    let exp_path = dir.join("expected.csv");
+    let mut expected = Trace::from_columns(
+        &exp_path,
+        &[("expected", &f.expected[..n]), ("candidate", &f.found[..n])],
+    );
+    expected.push_text_column("compared", (0..n).map(|k| k.to_string()))?;
+    expected.write(&exp_path)?;
+    let explanation = explain(
+        explain_kind(a.kind),
+        &c.case.model,
+        signal,
+        c.case.limits,
+        &found,
+        f.tolerance,
+    );
+    let mut text = vec![
+        format!("property: {}", p.name),
+        p.description.to_string(),
+        f.message.clone(),
+        format!(
+            "compared sample {}: error {}, tolerance {}",
+            f.sample,
+            format_f64(f.error),
+            format_f64(f.tolerance)
+        ),
+        format!(
+            "candidate.csv: the FMU's output on input.csv from its initial state, one doStep of {} s per sample",
+            format_f64(c.case.model.sample_time)
+        ),
+        format!(
+            "before shrinking (case {}): {} samples; sample {}: error {}",
+            c.case_index,
+            c.unshrunk_failure.signal.len(),
+            c.unshrunk_failure.sample,
+            format_f64(c.unshrunk_failure.error)
+        ),
+    ];
+    text.extend(explanation.lines());
+    write_atomic(
+        &dir.join("failure.txt"),
+        (text.join("\n") + "\n").as_bytes(),
+    )?;
+    let line = format!(
+        "{}: counterexample in {} ({} samples)",
+        p.name,
+        dir.display(),
+        signal.len()
+    );
+    Ok((line, explanation.hints))
 }

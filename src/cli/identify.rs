@@ -13,7 +13,7 @@ use mfcbeam::io::{write_json, Trace};
 use mfcbeam::operators::traits::Operator;
 
 use super::args::{IdentifyArgs, OffsetSetting, ThresholdRule};
-use super::commands::trace_sample_time;
+use super::trace_sample_time;
 
 pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
     let first = Trace::read(&a.input[0])?;
@@ -120,8 +120,12 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
         bail!("--{}: {reason}", field.replace('_', "-"));
     }
     if matches!(a.delay, DelaySetting::Auto) {
-        mfcbeam::limits::check("max-delay", mfcbeam::limits::MAX_DELAY_SEARCH, a.max_delay)
-            .map_err(|e| anyhow!("--{e}"))?;
+        mfcbeam::realtime::limits::check(
+            "max-delay",
+            mfcbeam::realtime::limits::MAX_DELAY_SEARCH,
+            a.max_delay,
+        )
+        .map_err(|e| anyhow!("--{e}"))?;
     }
     let names: Vec<String> = validation
         .iter()

@@ -13,6 +13,9 @@ pub mod identify;
 pub use args::Cli;
 pub use commands::run;
 
+use anyhow::{bail, Result};
+use mfcbeam::io::Trace;
+
 /// An exit code without an error message: the command has printed its
 /// report (`conform` exits 1 when a property fails).
 #[derive(Debug)]
@@ -25,3 +28,28 @@ impl std::fmt::Display for Exit {
 }
 
 impl std::error::Error for Exit {}
+
+/// The sample time of a trace: `--sample-time` if given (checked against the
+/// `t` column, if any), else from the `t` column, else `fallback` (an error
+/// when there is none).
+pub(crate) fn trace_sample_time(
+    trace: &Trace,
+    flag: Option<f64>,
+    fallback: Option<f64>,
+) -> Result<f64> {
+    match flag {
+        Some(ts) => {
+            if !(ts.is_finite() && ts > 0.0) {
+                bail!("--sample-time: must be a finite number > 0, found {ts}");
+            }
+            trace.check_time_column(ts)?;
+            Ok(ts)
+        }
+        None if trace.has_column("t") => Ok(trace.sample_time_from_t()?),
+        None => match fallback {
+            Some(ts) => Ok(ts),
+            // names the missing column
+            None => Ok(trace.sample_time_from_t()?),
+        },
+    }
+}

@@ -240,7 +240,7 @@ impl StateFeedbackDesign {
 
 /// The most observer states a design may have (201: 100 modes and the
 /// disturbance).
-pub const MAX_ORDER: usize = 2 * crate::limits::MAX_BASIS_FUNCTIONS + 1;
+pub const MAX_ORDER: usize = 2 * crate::realtime::limits::MAX_BASIS_FUNCTIONS + 1;
 
 /// The observer-based state feedback with its state.
 #[derive(Debug, Clone, PartialEq)]

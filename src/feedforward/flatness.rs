@@ -246,7 +246,7 @@ impl FeedforwardSettings {
                 reason: format!("must be finite, found {}", self.y_final),
             });
         }
-        crate::limits::generated_samples(self.end, self.sample_time).map_err(|e| {
+        crate::realtime::limits::generated_samples(self.end, self.sample_time).map_err(|e| {
             FeedforwardError::Invalid {
                 field: "end",
                 reason: e.to_string(),

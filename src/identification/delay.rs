@@ -169,11 +169,14 @@ pub fn search_delay_records(
     records: &[Record<'_>],
 ) -> Result<(Identification, DelaySearch), IdentificationError> {
     let (u, y) = (fitted[0].u, fitted[0].y);
-    crate::limits::check("max_delay", crate::limits::MAX_DELAY_SEARCH, max_delay).map_err(|e| {
-        IdentificationError::InvalidSetting {
-            field: "max_delay",
-            reason: e.reason(),
-        }
+    crate::realtime::limits::check(
+        "max_delay",
+        crate::realtime::limits::MAX_DELAY_SEARCH,
+        max_delay,
+    )
+    .map_err(|e| IdentificationError::InvalidSetting {
+        field: "max_delay",
+        reason: e.reason(),
     })?;
     let mut fits = Vec::with_capacity(max_delay + 1);
     for d in 0..=max_delay {

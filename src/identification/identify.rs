@@ -7,7 +7,7 @@
 
 use faer::Mat;
 
-use super::plan::FitPlan;
+use super::plan::{in_record, FitPlan, Solution, EPSILON_S};
 use super::regressor::regressor_factor;
 use super::report::check_record_signals;
 use super::report::StartCheck;
@@ -17,10 +17,6 @@ use super::{ActiveConstraint, FitErrors, FitReport, RecordFit, UnexcitedOperator
 use crate::operators::creep::CreepOperator;
 use crate::operators::model::HysteresisCreepModel;
 use crate::operators::traits::Operator;
-
-/// The smallest slope of the fitted `S⁻¹` relative to its slope 1 at the
-/// output's mid-point: `S` is then at most 1000 times steeper there.
-pub const EPSILON_S: f64 = 1e-3;
 
 /// The identified model (virgin state, fitted offset) and its fit report.
 #[derive(Debug, Clone)]
@@ -227,17 +223,6 @@ pub fn identify_records(
     Ok(Identification { model, report })
 }
 
-/// An error about record `index` of `count`, named when there are several.
-pub(super) fn in_record(e: IdentificationError, index: usize, count: usize) -> IdentificationError {
-    if count < 2 {
-        return e;
-    }
-    IdentificationError::InvalidSetting {
-        field: "input",
-        reason: format!("record {}: {e}", index + 1),
-    }
-}
-
 /// Stage 1: the triangular factor of `[1 | Φ | ς]` and what it determines.
 struct Regression {
     /// The factor, offset column first when the offset is fitted.
@@ -412,20 +397,4 @@ impl Regression {
             iterations: solution.iterations,
         })
     }
-}
-
-/// Stage 2's result: every weight (unexcited ones 0), the offset, and how
-/// the solve ended.
-pub(super) struct Solution {
-    pub(super) w_h: Vec<f64>,
-    pub(super) w_c: Vec<f64>,
-    /// The weights of `S⁻¹`'s dead zones, in column order.
-    pub(super) w_s: Vec<f64>,
-    /// The first record's offset (in the domain of `H + C` with `S`).
-    pub(super) offset: f64,
-    /// Every record's (one, or one per record).
-    pub(super) offsets: Vec<f64>,
-    pub(super) active_constraints: Vec<ActiveConstraint>,
-    pub(super) kkt_residual: f64,
-    pub(super) iterations: usize,
 }

@@ -66,7 +66,8 @@ pub use delay::{
     DelaySetting, Record, DEFAULT_MAX_DELAY,
 };
 pub use dynamics::{fit_dynamics, fit_dynamics_and_delay, DynamicsParts};
-pub use identify::{identify, identify_records, FitRecord, Identification, EPSILON_S};
+pub use identify::{identify, identify_records, FitRecord, Identification};
+pub use plan::EPSILON_S;
 pub use report::{
     first_at_max, validate, ActiveConstraint, DynamicsReport, FitErrors, FitReport, RecordFit,
     UnexcitedOperator,

@@ -3,12 +3,12 @@
 //! (23) and eigenvalues (24), the operators the input excites, the margin
 //! of (11), and `S⁻¹`'s kinks about the output's mid-point.
 
-use super::identify::{in_record, Solution, EPSILON_S};
 use super::regressor::Segment;
 use super::report::{check_record_signals, first_at_max, range};
 use super::settings::{
     superposition_kinks, thresholds_23, IdentificationError, IdentificationSettings,
 };
+use super::ActiveConstraint;
 use super::UnexcitedOperator;
 use crate::error::ModelError;
 use crate::operators::creep::{log_spaced_eigenvalues, CreepOperator};
@@ -69,7 +69,7 @@ impl FitPlan {
     ) -> Result<Self, IdentificationError> {
         settings.validate()?;
         check_record_signals(u, y)?;
-        crate::realtime::parameters::check_sample_time(sample_time).map_err(ModelError::from)?;
+        crate::realtime::checks::check_sample_time(sample_time).map_err(ModelError::from)?;
         let r_max = u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         if u.is_empty() || u.iter().all(|&v| v == u[0]) {
             return Err(IdentificationError::ConstantInput {
@@ -355,6 +355,37 @@ pub(super) fn shifted_superposition(
     kinks.push((0.0, slope));
     kinks.sort_by(|a, b| a.0.total_cmp(&b.0));
     Ok(kinks.into_iter().unzip())
+}
+
+/// The smallest slope of the fitted `S⁻¹` relative to its slope 1 at the
+/// output's mid-point: `S` is then at most 1000 times steeper there.
+pub const EPSILON_S: f64 = 1e-3;
+
+/// An error about record `index` of `count`, named when there are several.
+pub(super) fn in_record(e: IdentificationError, index: usize, count: usize) -> IdentificationError {
+    if count < 2 {
+        return e;
+    }
+    IdentificationError::InvalidSetting {
+        field: "input",
+        reason: format!("record {}: {e}", index + 1),
+    }
+}
+
+/// Stage 2's result: every weight (unexcited ones 0), the offset, and how
+/// the solve ended.
+pub(super) struct Solution {
+    pub(super) w_h: Vec<f64>,
+    pub(super) w_c: Vec<f64>,
+    /// The weights of `S⁻¹`'s dead zones, in column order.
+    pub(super) w_s: Vec<f64>,
+    /// The first record's offset (in the domain of `H + C` with `S`).
+    pub(super) offset: f64,
+    /// Every record's (one, or one per record).
+    pub(super) offsets: Vec<f64>,
+    pub(super) active_constraints: Vec<ActiveConstraint>,
+    pub(super) kkt_residual: f64,
+    pub(super) iterations: usize,
 }
 
 #[cfg(test)]

@@ -149,7 +149,7 @@ impl IdentificationSettings {
         let check =
             |field: &'static str, r: &Option<Vec<f64>>| -> Result<(), IdentificationError> {
                 if let Some(r) = r {
-                    crate::realtime::parameters::check_thresholds(field, r).map_err(|e| {
+                    crate::realtime::checks::check_thresholds(field, r).map_err(|e| {
                         IdentificationError::InvalidSetting {
                             field,
                             reason: e.to_string(),
@@ -173,10 +173,10 @@ impl IdentificationSettings {
         self.check_counts()
     }
 
-    /// The counts against [`crate::limits`], before anything is allocated
+    /// The counts against [`crate::realtime::limits`], before anything is allocated
     /// from them.
     fn check_counts(&self) -> Result<(), IdentificationError> {
-        use crate::limits::{self as l, check};
+        use crate::realtime::limits::{self as l, check};
         let plays = self
             .hysteresis_thresholds
             .as_ref()

@@ -117,7 +117,7 @@ impl<T: Real, S: Storage> Snapshot for Compensator<T, S> {
     fn set_state(&mut self, state: &CompensatorState) -> Result<(), ModelError> {
         let n = self.inverse.len();
         let named = |field: &'static str| move |e: ParameterError| e.named(field);
-        crate::realtime::parameters::check_length("", n, state.forward.len())
+        crate::realtime::checks::check_length("", n, state.forward.len())
             .map_err(named("compensator.forward"))?;
         // the plays of H⁻¹ are implied by those of H (22): both must agree
         // to rounding, amplified at most by the ratio of the slopes
@@ -140,9 +140,9 @@ impl<T: Real, S: Storage> Snapshot for Compensator<T, S> {
                 })
             }
         }
-        crate::realtime::parameters::check_length("", n, state.inverse.len())
+        crate::realtime::checks::check_length("", n, state.inverse.len())
             .map_err(named("compensator.inverse"))?;
-        crate::realtime::parameters::check_finite("", &state.inverse)
+        crate::realtime::checks::check_finite("", &state.inverse)
             .map_err(named("compensator.inverse"))?;
         let expected = to_f64(trial.inverse.play_states());
         let sums = to_f64(&self.sums);

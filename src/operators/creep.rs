@@ -23,7 +23,7 @@ use crate::error::ModelError;
 use crate::operators::heap::Heap;
 use crate::operators::play::dead_zone;
 use crate::operators::traits::{Operator, Snapshot};
-use crate::realtime::parameters::{
+use crate::realtime::checks::{
     check_eigenvalues, check_finite, check_length, check_sample_time, check_threshold,
 };
 use crate::realtime::{Creep, Real, Storage};

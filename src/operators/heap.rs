@@ -19,13 +19,13 @@ impl Storage for Heap {
 }
 
 /// The longest list any heap buffer holds: every kind's own limit is
-/// checked with its parameters ([`crate::limits`]); this is the last guard
+/// checked with its parameters ([`crate::realtime::limits`]); this is the last guard
 /// for a caller that skipped them.
-const LONGEST: usize = crate::limits::MAX_DELAY;
+const LONGEST: usize = crate::realtime::limits::MAX_DELAY;
 
 impl<T: Real> Buffer<T> for Vec<T> {
     fn zeroed(field: &'static str, len: usize) -> Result<Self, ParameterError> {
-        crate::limits::check(field, LONGEST, len)?;
+        crate::realtime::limits::check(field, LONGEST, len)?;
         // fallible: an allocation that fails is an error, not an abort
         let mut v = Vec::new();
         v.try_reserve_exact(len)
@@ -47,7 +47,7 @@ pub struct PaddedVec<T>(Vec<T>);
 impl<T: Real> Buffer<T> for PaddedVec<T> {
     fn zeroed(field: &'static str, len: usize) -> Result<Self, ParameterError> {
         // checked for the length asked, so that an error names it
-        crate::limits::check(field, LONGEST, len)?;
+        crate::realtime::limits::check(field, LONGEST, len)?;
         Vec::zeroed(field, len + SLACK).map(PaddedVec)
     }
 }
@@ -64,5 +64,27 @@ impl<T> DerefMut for PaddedVec<T> {
     #[inline(always)]
     fn deref_mut(&mut self) -> &mut [T] {
         &mut self.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The heap's creep-state buffer asked for `len` values holds
+    /// `len + SLACK` zeros, all of them writable (as the inline one does,
+    /// `realtime::storage`'s test), and is refused past the longest.
+    #[test]
+    fn a_padded_vec_holds_the_slack_too() {
+        for len in 0..=6 {
+            let mut b = PaddedVec::<f64>::zeroed("creep", len).unwrap();
+            assert_eq!(b.len(), len + SLACK);
+            assert!(b.iter().all(|&x| x == 0.0));
+            for (i, x) in b.iter_mut().enumerate() {
+                *x = i as f64;
+            }
+            assert_eq!(b[len + SLACK - 1], (len + SLACK - 1) as f64);
+        }
+        assert!(PaddedVec::<f64>::zeroed("creep", LONGEST + 1).is_err());
     }
 }

@@ -226,9 +226,9 @@ impl ModelFile {
             return Ok(None);
         };
         let m = c.eigenvalues.len();
-        crate::realtime::parameters::check_length("creep.state", c.thresholds.len(), rows.len())?;
+        crate::realtime::checks::check_length("creep.state", c.thresholds.len(), rows.len())?;
         for (i, row) in rows.iter().enumerate() {
-            crate::realtime::parameters::check_length("", m, row.len())
+            crate::realtime::checks::check_length("", m, row.len())
                 .map_err(|e| e.named(&format!("creep.state[{i}]")))?;
         }
         Ok(Some(rows.iter().flatten().copied().collect()))

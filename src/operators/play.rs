@@ -33,7 +33,7 @@ pub struct PlayOperator {
 impl PlayOperator {
     /// A play in the virgin state `x = 0`.
     pub fn new(threshold: f64) -> Result<Self, ModelError> {
-        crate::realtime::parameters::check_threshold("threshold", threshold)?;
+        crate::realtime::checks::check_threshold("threshold", threshold)?;
         Ok(Self { threshold, x: 0.0 })
     }
 
@@ -70,7 +70,7 @@ impl Snapshot for PlayOperator {
     }
 
     fn set_state(&mut self, state: &f64) -> Result<(), ModelError> {
-        crate::realtime::parameters::check_finite("state", core::slice::from_ref(state))?;
+        crate::realtime::checks::check_finite("state", core::slice::from_ref(state))?;
         self.x = *state;
         Ok(())
     }

@@ -22,6 +22,7 @@
 //! has a delay `d` ([`Compensator::delay`]) gives it the target `d` samples
 //! ahead ([`preview`]).
 
+use crate::realtime::checks::{check_admissible, check_finite, check_length, check_limits};
 use crate::realtime::creep::Creep;
 #[cfg(doc)]
 use crate::realtime::delay::preview;
@@ -30,9 +31,7 @@ use crate::realtime::error::ParameterError;
 use crate::realtime::hysteresis::{self, Hysteresis};
 use crate::realtime::inverse::{forward_state_in_place, inverse_state_into};
 use crate::realtime::model::Model;
-use crate::realtime::parameters::{
-    check_admissible, check_finite, check_length, check_limits, ModelParameters,
-};
+use crate::realtime::parameters::ModelParameters;
 use crate::realtime::real::Real;
 use crate::realtime::simd::{self, Kernels};
 use crate::realtime::storage::{Buffer, Storage};

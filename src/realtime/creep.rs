@@ -14,9 +14,10 @@
 //! `ε₃₂ |χ| / (2g) ≈ 0.6 %` of `|χ|` short of its f64 value. The conformance
 //! tolerances carry this `1/g` term (see `suite::conformance::tolerance`).
 
+use crate::realtime::checks::{check_finite, check_length};
 use crate::realtime::creep_pass::output;
 use crate::realtime::error::ParameterError;
-use crate::realtime::parameters::{check_finite, check_length, CreepParameters};
+use crate::realtime::parameters::CreepParameters;
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 use crate::realtime::placement::chi_start;
 use crate::realtime::placement::SLACK;

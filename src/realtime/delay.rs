@@ -8,8 +8,8 @@
 //! samples ([`preview`]): `u_k = W⁻¹[y_d]_{k+d}` makes `W[u] = y_d` from
 //! sample `d` on.
 
+use crate::realtime::checks::check_finite;
 use crate::realtime::error::ParameterError;
-use crate::realtime::parameters::check_finite;
 use crate::realtime::real::Real;
 use crate::realtime::storage::{Buffer, Storage};
 
@@ -27,7 +27,7 @@ pub struct DelayLine<T: Real, S: Storage> {
 impl<T: Real, S: Storage> DelayLine<T, S> {
     /// A line of `d` samples, not started.
     pub fn new(d: usize) -> Result<Self, ParameterError> {
-        crate::limits::check("delay", crate::limits::MAX_DELAY, d)?;
+        crate::realtime::limits::check("delay", crate::realtime::limits::MAX_DELAY, d)?;
         Ok(Self {
             line: S::Delay::<T>::zeroed("delay", d)?,
             head: 0,
@@ -87,7 +87,7 @@ impl<T: Real, S: Storage> DelayLine<T, S> {
             self.reset();
             return Ok(());
         };
-        crate::realtime::parameters::check_length("delay_state", self.len(), values.len())?;
+        crate::realtime::checks::check_length("delay_state", self.len(), values.len())?;
         check_finite("delay_state", values)?;
         for (l, &v) in self.line.iter_mut().zip(values) {
             *l = T::from_f64(v);
@@ -116,7 +116,7 @@ pub fn preview<T: Copy>(targets: &[T], d: usize, k: usize) -> T {
 /// `targets` previewed by `d` samples into `out` (same length): what a
 /// compensator is given for a whole planned signal.
 pub fn preview_into<T: Copy>(targets: &[T], d: usize, out: &mut [T]) -> Result<(), ParameterError> {
-    crate::realtime::parameters::check_length("preview", targets.len(), out.len())?;
+    crate::realtime::checks::check_length("preview", targets.len(), out.len())?;
     for (k, o) in out.iter_mut().enumerate() {
         *o = preview(targets, d, k);
     }

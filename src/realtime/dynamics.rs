@@ -36,8 +36,8 @@
 //! first; before the first sample `G` rests on its first input (as the dead
 //! time does), so a constant input passes unchanged.
 
+use crate::realtime::checks::check_finite;
 use crate::realtime::error::ParameterError;
-use crate::realtime::parameters::check_finite;
 use crate::realtime::real::Real;
 
 /// The highest order of `A` (a low-pass and a resonance).
@@ -93,7 +93,7 @@ impl DynamicsParameters {
     /// Frequencies finite and positive, a resonance below the Nyquist
     /// frequency `1/(2T_s)` with `0 < ζ < 1`, `|τ| < 1/2`.
     pub fn validate(&self, sample_time: f64) -> Result<(), ParameterError> {
-        crate::realtime::parameters::check_sample_time(sample_time)?;
+        crate::realtime::checks::check_sample_time(sample_time)?;
         if let Some(f) = self.low_pass {
             let field = "dynamics.low_pass.frequency";
             check_finite(field, &[f])?;
@@ -373,11 +373,7 @@ impl<T: Real> Dynamics<T> {
             self.reset();
             return Ok(());
         };
-        crate::realtime::parameters::check_length(
-            "dynamics.state",
-            self.state_len(),
-            values.len(),
-        )?;
+        crate::realtime::checks::check_length("dynamics.state", self.state_len(), values.len())?;
         check_finite("dynamics.state", values)?;
         for (y, &v) in self.y.iter_mut().zip(&values[..self.order]) {
             *y = T::from_f64(v);

@@ -90,7 +90,7 @@ pub enum ParameterError {
     NonFiniteValue { field: &'static str, value: f64 },
     /// A duration (s) that must be finite and positive.
     InvalidDuration { field: &'static str, value: f64 },
-    /// A count above its documented limit ([`crate::limits`]): refused
+    /// A count above its documented limit ([`crate::realtime::limits`]): refused
     /// before anything is allocated from it.
     ExceedsLimit {
         field: &'static str,

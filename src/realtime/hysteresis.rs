@@ -4,11 +4,10 @@
 //! `s_j = Σ_{i≤j} w_i` on the `j`-th segment, which is why (11) makes `H`
 //! strictly increasing on monotone inputs and invertible.
 
+use crate::realtime::checks::{check_admissible, check_finite, check_length};
 use crate::realtime::error::ParameterError;
 use crate::realtime::inverse::{inverse_parameters_into, inverse_state_into};
-use crate::realtime::parameters::{
-    check_admissible, check_finite, check_length, HysteresisParameters,
-};
+use crate::realtime::parameters::HysteresisParameters;
 use crate::realtime::play::{play, play_of_difference};
 use crate::realtime::real::{add_term, Real};
 use crate::realtime::storage::{Buffer, Storage};

@@ -40,6 +40,7 @@
 //! assert!((y - 250.0).abs() < 1e-3);
 //! ```
 
+pub(crate) mod checks;
 pub mod compensator;
 pub mod creep;
 pub(crate) mod creep_pass;
@@ -48,6 +49,7 @@ pub mod dynamics;
 pub mod error;
 pub mod hysteresis;
 pub(crate) mod inverse;
+pub mod limits;
 pub mod model;
 pub mod nominal;
 pub mod parameters;

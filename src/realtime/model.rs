@@ -7,14 +7,13 @@
 //! delayed by a dead time of `d` whole samples ([`DelayLine`]):
 //! `y_k = G[S[H + C]]_{max(k−d, 0)} + offset`.
 
+use crate::realtime::checks::check_sample_time;
 use crate::realtime::creep::Creep;
 use crate::realtime::delay::DelayLine;
 use crate::realtime::dynamics::Dynamics;
 use crate::realtime::error::ParameterError;
 use crate::realtime::hysteresis::Hysteresis;
-use crate::realtime::parameters::{
-    check_sample_time, CreepParameters, HysteresisParameters, ModelParameters,
-};
+use crate::realtime::parameters::{CreepParameters, HysteresisParameters, ModelParameters};
 use crate::realtime::real::Real;
 use crate::realtime::storage::Storage;
 use crate::realtime::superposition::Superposition;

@@ -97,7 +97,7 @@ pub struct InlineBuffer<T, const N: usize> {
 
 impl<T: Real, const N: usize> Buffer<T> for InlineBuffer<T, N> {
     fn zeroed(field: &'static str, len: usize) -> Result<Self, ParameterError> {
-        crate::realtime::parameters::check_capacity(field, N, len)?;
+        crate::realtime::checks::check_capacity(field, N, len)?;
         Ok(Self {
             len,
             data: [T::ZERO; N],
@@ -178,7 +178,7 @@ impl<T, const N: usize> PaddedBuffer<T, N> {
 
 impl<T: Real, const N: usize> Buffer<T> for PaddedBuffer<T, N> {
     fn zeroed(field: &'static str, len: usize) -> Result<Self, ParameterError> {
-        crate::realtime::parameters::check_capacity(field, N, len)?;
+        crate::realtime::checks::check_capacity(field, N, len)?;
         Ok(Self {
             len: len + SLACK,
             values: Padded {
@@ -271,8 +271,8 @@ mod tests {
 
     /// A creep-state buffer asked for `len` values holds `len + SLACK`
     /// zeros, all of them writable, inline up to its capacity (and refused
-    /// beyond it, naming the capacity in values in use) and on the heap;
-    /// an inline one's prefix reaches into the slack.
+    /// beyond it, naming the capacity in values in use); its prefix
+    /// reaches into the slack (the heap's buffer: `operators::heap`).
     #[test]
     fn a_creep_state_buffer_holds_the_slack_too() {
         fn check<B: Buffer<f64>>(len: usize) {
@@ -286,8 +286,6 @@ mod tests {
         }
         for len in 0..=6 {
             check::<PaddedBuffer<f64, 6>>(len);
-            #[cfg(feature = "std")]
-            check::<crate::operators::heap::PaddedVec<f64>>(len);
         }
         let e = PaddedBuffer::<f64, 6>::zeroed("creep", 7).unwrap_err();
         assert!(matches!(

@@ -1,7 +1,7 @@
 //! Test and excitation signals: smooth staircases (the inputs of the paper's
 //! Figs. 3, 9 and 10 and of the identification in section 4.1).
 
-use crate::limits;
+use crate::realtime::limits;
 use crate::realtime::ParameterError;
 
 /// A staircase of plateaus joined by smooth (raised-cosine) transitions.

@@ -4,9 +4,9 @@
 //! stays in L1 from one frame to the next (each block is independent of
 //! the others, so the order changes no bit).
 
+use crate::realtime::checks::check_length;
 use crate::realtime::compensator::Compensated;
 use crate::realtime::error::ParameterError;
-use crate::realtime::parameters::check_length;
 use crate::realtime::real::Real;
 use crate::realtime::simd::block::{lanes, Row};
 use crate::realtime::simd::Kernels;

@@ -35,11 +35,12 @@ use std::vec;
 use std::vec::Vec;
 
 use crate::operators::heap::Heap;
+use crate::realtime::checks::check_length;
 use crate::realtime::compensator::Compensated;
 use crate::realtime::creep::creep_gain;
 use crate::realtime::error::ParameterError;
 use crate::realtime::inverse::inverse_parameters_into;
-use crate::realtime::parameters::{check_length, ModelParameters};
+use crate::realtime::parameters::ModelParameters;
 use crate::realtime::real::Real;
 use crate::realtime::simd::block::{lanes, Row};
 use crate::realtime::simd::Kernels;

@@ -4,6 +4,7 @@
 //! even parts, so a step's split depends on nothing but the bank's size
 //! and the count asked for.
 
+#[cfg(feature = "rayon")]
 use core::num::NonZeroUsize;
 
 #[cfg(feature = "rayon")]

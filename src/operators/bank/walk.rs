@@ -40,6 +40,7 @@ impl Walk {
     /// The walk of part `part` of a split: even parts down, odd parts up
     /// (with more than two parts, an odd part still runs on into the even
     /// one after it).
+    #[cfg_attr(not(feature = "rayon"), allow(dead_code))]
     pub(super) fn of_part(part: usize) -> Self {
         if part.is_multiple_of(2) {
             Walk::Down

@@ -53,10 +53,10 @@ pub mod tolerance;
 use std::fmt;
 
 use crate::error::ModelError;
-use crate::limits;
 use crate::operators::compensator::CompensatorSettings;
 use crate::operators::model::{HysteresisCreepModel, ModelFile};
 use crate::operators::traits::{ActuatorCompensator, ActuatorModel, InverseHysteresis};
+use crate::realtime::limits;
 
 pub use cases::{
     case_model, delay_of, input_length, nested_extrema, path, random_input, random_model,
