@@ -14,9 +14,9 @@ use std::fs;
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
 
-use mfcbeam::limits;
 use mfcbeam::operators::model::ModelFile;
 use mfcbeam::operators::nominal::nominal_model;
+use mfcbeam::realtime::limits;
 
 /// The most memory any case may take (the bound).
 const MAX_RSS_BYTES: u64 = 100 << 20;
