@@ -17,8 +17,8 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use common::{bank_rows, nominal_bank};
-use mfcbeam::operators::bank::FrameTiling;
-use mfcbeam::realtime::simd::{cpu_description, Kernels};
+use mfcbeam::internals::FrameTiling;
+use mfcbeam::internals::{cpu_description, Kernels};
 use mfcbeam::realtime::{Compensated, Real};
 
 /// A frame a call (`None`), or `compensate_frames` tiled so.

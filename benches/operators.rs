@@ -10,7 +10,7 @@ mod common;
 use common::test_input;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use mfcbeam::prelude::*;
-use mfcbeam::realtime::simd::Kernels;
+use mfcbeam::internals::Kernels;
 
 fn single_steps(c: &mut Criterion) {
     const LEN: usize = 4096;

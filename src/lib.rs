@@ -107,7 +107,10 @@ pub mod fmi;
 #[cfg(feature = "identification")]
 pub mod identification;
 
-/// The types most programs need.
+/// The types most programs need, one name for each concept: the `f64`
+/// operators on the heap (`HysteresisOperator` is `Hysteresis<f64, Heap>`,
+/// and so on); the generic types, for other precisions and fixed storage,
+/// are [`realtime`]'s.
 #[cfg(feature = "std")]
 pub mod prelude {
     pub use crate::error::{ModelError, SupplyError};
@@ -122,9 +125,16 @@ pub mod prelude {
     pub use crate::operators::traits::{
         ActuatorCompensator, ActuatorModel, Compensated, InverseHysteresis, Operator, Snapshot,
     };
-    pub use crate::realtime::{
-        Compensator, CompensatorSettings, Creep, Hysteresis, Inline, Model, ParameterError, Real,
-    };
+    pub use crate::realtime::{Compensator, CompensatorSettings, ParameterError};
+}
+
+/// The project's own benches and tests (feature `internals`, which no
+/// default enables): the kernel sets and the hooks that run an operation on
+/// a chosen one. Not a stable interface.
+#[cfg(feature = "internals")]
+pub mod internals {
+    pub use crate::operators::bank::frames::FrameTiling;
+    pub use crate::realtime::simd::{cpu_description, simd_kernel_calls, Kernels};
 }
 
 /// The Rust examples of the README and the guide (`docs/guide/`), compiled

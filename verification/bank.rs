@@ -8,7 +8,8 @@
 use mfcbeam::operators::bank::{CompensatorBank, Par};
 use mfcbeam::operators::model::ModelFile;
 use mfcbeam::operators::nominal::nominal_model_file;
-use mfcbeam::realtime::{simd, Compensator, CompensatorSettings, Inline, ParameterError, Real};
+use mfcbeam::internals as simd;
+use mfcbeam::realtime::{Compensator, CompensatorSettings, Inline, ParameterError, Real};
 use mfcbeam::suite::conformance::{random_model, ModelShape, Rng};
 
 type Single<T> = Compensator<T, Inline<12, 72>>;
@@ -824,7 +825,7 @@ fn channels_with_dynamics_give_the_bits_of_their_own_compensator() {
 /// either copy of the plays), through saturation and non-finite targets.
 #[test]
 fn frames_give_the_bits_of_one_step_per_frame() {
-    use mfcbeam::operators::bank::FrameTiling;
+    use mfcbeam::internals::FrameTiling;
     use mfcbeam::suite::conformance::random_superposition;
     fn check<T: Real>(seed: u64, channels: usize, shared: bool) {
         let mut rng = Rng::new(seed);

@@ -15,6 +15,7 @@ use mfcbeam::identification::{
 };
 use mfcbeam::operators::model::SuperpositionData;
 use mfcbeam::prelude::*;
+use mfcbeam::realtime::{Model, Real};
 use mfcbeam::realtime::{preview_into, Inline, ParameterError, RoundingBounds};
 
 /// The nominal model with an asymmetric `S`, an offset and dead time `d`.

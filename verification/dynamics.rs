@@ -12,6 +12,7 @@ use mfcbeam::identification::{
 };
 use mfcbeam::operators::model::{DynamicsData, LowPassData, ResonanceData};
 use mfcbeam::prelude::*;
+use mfcbeam::realtime::Model;
 use mfcbeam::realtime::{
     preview, Dynamics, DynamicsParameters, Inline, ParameterError, Resonance, RoundingBounds,
 };

@@ -7,6 +7,7 @@
 use mfcbeam::operators::bank::CompensatorBank;
 use mfcbeam::operators::model::SuperpositionData;
 use mfcbeam::prelude::*;
+use mfcbeam::realtime::{Inline, Model, Real};
 use mfcbeam::realtime::{
     nominal, ModelParameters, RoundingBounds, Superposition, SuperpositionParameters,
 };

@@ -19,7 +19,7 @@ use std::time::Instant;
 
 use mfcbeam::operators::traits::Operator;
 use mfcbeam::realtime::compensator::Compensated;
-use mfcbeam::realtime::simd::{cpu_description, Kernels};
+use mfcbeam::internals::{cpu_description, Kernels};
 use mfcbeam::realtime::{nominal, Compensator, CompensatorSettings, Real};
 
 const ROUNDS: usize = 31;

@@ -350,11 +350,12 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     /// The voltage for the target `target`; allocation-free, O(n + n_C m).
     #[inline]
     pub fn compensate(&mut self, target: T) -> Compensated<T> {
-        self.compensate_using(Kernels::detect_single_step::<T>(), target)
+        self.compensate_with(Kernels::detect_single_step::<T>(), target)
     }
 
     /// [`Compensator::compensate`] on the portable kernels (the same bits;
     /// for tests).
+    #[cfg(feature = "internals")]
     #[inline(always)]
     pub fn compensate_portable(&mut self, target: T) -> Compensated<T> {
         self.compensate_with(Kernels::Portable, target)
@@ -362,7 +363,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
 
     /// [`Compensator::compensate`] on the kernels `k` (any of
     /// [`Kernels::all`]: the same bits on each; for tests and benches).
-    #[doc(hidden)]
+    #[cfg(feature = "internals")]
     #[inline]
     pub fn compensate_using(&mut self, k: Kernels, target: T) -> Compensated<T> {
         self.compensate_with(k, target)
@@ -385,7 +386,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         saturated: &mut [bool],
         fault: &mut [bool],
     ) -> Result<(usize, usize), ParameterError> {
-        self.compensate_into_using(
+        self.compensate_into_on(
             Kernels::detect_single_step::<T>(),
             targets,
             u,
@@ -398,8 +399,20 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     /// [`Kernels::all`]: the same bits on each, and the same as one
     /// [`Compensator::compensate_using`] per sample; for tests and benches).
     /// The samples run in one loop compiled with `k`'s features.
-    #[doc(hidden)]
+    #[cfg(feature = "internals")]
     pub fn compensate_into_using(
+        &mut self,
+        k: Kernels,
+        targets: &[T],
+        u: &mut [T],
+        saturated: &mut [bool],
+        fault: &mut [bool],
+    ) -> Result<(usize, usize), ParameterError> {
+        self.compensate_into_on(k, targets, u, saturated, fault)
+    }
+
+    /// [`Compensator::compensate_into`] on the kernels `k`.
+    fn compensate_into_on(
         &mut self,
         k: Kernels,
         targets: &[T],

@@ -56,8 +56,8 @@ pub mod parameters;
 pub(crate) mod placement;
 pub(crate) mod play;
 pub mod real;
-pub mod rounding;
-pub mod simd;
+pub(crate) mod rounding;
+pub(crate) mod simd;
 pub mod storage;
 pub mod superposition;
 

@@ -20,7 +20,6 @@ use super::CompensatorBank;
 /// most `tile_bytes` of state (at least one block), each stepped through
 /// every frame of the run before the next; with `prefetch`, the next
 /// tile's targets and outputs are asked into L2 while a tile is stepped.
-#[doc(hidden)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FrameTiling {
     /// The most state a tile holds (at least one block).
@@ -93,13 +92,25 @@ impl<T: Real> CompensatorBank<T> {
         out: &mut [Compensated<T>],
     ) -> Result<(), ParameterError> {
         let tiling = FrameTiling::default();
-        self.compensate_frames_using(Kernels::detect(), tiling, targets, out)
+        self.compensate_frames_on(Kernels::detect(), tiling, targets, out)
     }
 
     /// [`CompensatorBank::compensate_frames`] on the kernels `k`, tiled as
     /// `tiling` says (for tests and benches).
-    #[doc(hidden)]
+    #[cfg(feature = "internals")]
     pub fn compensate_frames_using(
+        &mut self,
+        k: Kernels,
+        tiling: FrameTiling,
+        targets: &[T],
+        out: &mut [Compensated<T>],
+    ) -> Result<(), ParameterError> {
+        self.compensate_frames_on(k, tiling, targets, out)
+    }
+
+    /// [`CompensatorBank::compensate_frames`] on the kernels `k`, tiled as
+    /// `tiling` says.
+    fn compensate_frames_on(
         &mut self,
         k: Kernels,
         tiling: FrameTiling,

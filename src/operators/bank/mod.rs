@@ -47,11 +47,11 @@ use crate::realtime::simd::Kernels;
 use crate::realtime::superposition::Superposition;
 use crate::realtime::CompensatorSettings;
 
-mod frames;
+pub(crate) mod frames;
 mod par;
 mod step;
 mod walk;
-pub use frames::FrameTiling;
+
 pub use par::Par;
 use step::{step_blocks, Fixed};
 use walk::Walk;
@@ -315,24 +315,34 @@ impl<T: Real> CompensatorBank<T> {
         targets: &[T],
         out: &mut [Compensated<T>],
     ) -> Result<(), ParameterError> {
-        self.compensate_using(Kernels::detect(), targets, out)
+        self.compensate_on_kernels(Kernels::detect(), targets, out)
     }
 
     /// [`CompensatorBank::compensate`] with the portable kernels only, no
     /// run-time dispatch (the same bits; for tests).
-    #[doc(hidden)]
+    #[cfg(feature = "internals")]
     pub fn compensate_portable(
         &mut self,
         targets: &[T],
         out: &mut [Compensated<T>],
     ) -> Result<(), ParameterError> {
-        self.compensate_using(Kernels::Portable, targets, out)
+        self.compensate_on_kernels(Kernels::Portable, targets, out)
     }
 
     /// [`CompensatorBank::compensate`] on the kernels `k` (any of
-    /// [`Kernels::all`]: the same bits on each; for tests and benches).
-    #[doc(hidden)]
+    /// `Kernels::all`: the same bits on each; for tests and benches).
+    #[cfg(feature = "internals")]
     pub fn compensate_using(
+        &mut self,
+        k: Kernels,
+        targets: &[T],
+        out: &mut [Compensated<T>],
+    ) -> Result<(), ParameterError> {
+        self.compensate_on_kernels(k, targets, out)
+    }
+
+    /// [`CompensatorBank::compensate`] on the kernels `k`.
+    fn compensate_on_kernels(
         &mut self,
         k: Kernels,
         targets: &[T],

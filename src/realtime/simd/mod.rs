@@ -34,6 +34,7 @@ pub(crate) mod block;
 mod cpu;
 
 #[cfg(feature = "std")]
+#[cfg(feature = "internals")]
 pub use cpu::cpu_description;
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 pub use cpu::f64_step_on_512;
@@ -110,6 +111,7 @@ impl Kernels {
     }
 
     /// The set's name: `portable`, `avx2` or `avx512`.
+    #[cfg_attr(not(feature = "internals"), allow(dead_code))]
     pub fn name(self) -> &'static str {
         if self.is_avx512() {
             "avx512"
@@ -121,6 +123,7 @@ impl Kernels {
     }
 
     /// Whether these kernels have AVX2 (the AVX2 or the AVX-512 ones).
+    #[cfg_attr(not(feature = "internals"), allow(dead_code))]
     pub fn is_avx2(self) -> bool {
         self != Kernels::Portable
     }
@@ -242,6 +245,7 @@ std::thread_local! {
 /// How many explicit vector kernel calls (AVX2 or AVX-512) this thread has
 /// made (counted in builds with debug assertions, as the tests run; always
 /// 0 otherwise).
+#[cfg(feature = "internals")]
 pub fn simd_kernel_calls() -> usize {
     #[cfg(all(feature = "std", target_arch = "x86_64", debug_assertions))]
     return SIMD_CALLS.with(|c| c.get());
