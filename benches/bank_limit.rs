@@ -77,7 +77,19 @@ mod common;
 
 use common::{bank_rows, nominal_bank, state_stream};
 use mfcbeam::operators::bank::{CompensatorBank, Par};
-use mfcbeam::realtime::{simd::Kernels, Compensated, Real};
+use mfcbeam::internals::Kernels;
+use mfcbeam::realtime::{Compensated, Real};
+
+/// The figures `benches/results` keeps: name, unit, value.
+static FIGURES: std::sync::Mutex<Vec<(String, &'static str, f64)>> =
+    std::sync::Mutex::new(Vec::new());
+
+/// Keeps a figure for [`common::results::record`].
+fn keep(name: String, unit: &'static str, value: f64) {
+    if let Ok(mut f) = FIGURES.lock() {
+        f.push((name, unit, value));
+    }
+}
 
 /// State rows of a block at the paper's orders (`2 n + n_C m + 3`).
 const STATE_ROWS: usize = 2 * 12 + 12 * 5 + 3;
@@ -309,7 +321,8 @@ mod mix {
     //! Independent chains of the creep-element update, on registers or
     //! with their state in L1.
     use super::Form;
-    use mfcbeam::realtime::{simd::Kernels, Real};
+    use mfcbeam::internals::Kernels;
+use mfcbeam::realtime::{Real};
 
     /// `$kernel::<CHAINS, FORM>($args)` of module `x86` with the form
     /// `$form` made a constant (the kernels take it as a const parameter).
@@ -997,6 +1010,7 @@ fn report<T: Real>(ghz: f64) -> f64 {
         );
         if crossover.is_none() && ratio < 1.0 {
             crossover = Some(blocks);
+            keep(format!("bank_{}_crossover_blocks", T::NAME), "count", blocks as f64);
         }
     }
     println!(
@@ -1007,6 +1021,13 @@ fn report<T: Real>(ghz: f64) -> f64 {
     for channels in [1usize, 8, 64, 128, 256, 1024, 4096] {
         let (one, two_ns, [ratio, low, high]) =
             time_pair::<T>(channels, Mode::Alone, Mode::Split(two));
+        if channels == 256 || channels == 1024 {
+            keep(
+                format!("bank_{}_two_threads_over_one_{channels}", T::NAME),
+                "ratio",
+                ratio,
+            );
+        }
         for (threads, ns) in [(1, one), (2, two_ns)] {
             let rate = channels as f64 / ns * 1e3;
             print!(
@@ -1058,6 +1079,14 @@ fn report<T: Real>(ghz: f64) -> f64 {
                 else {
                     continue;
                 };
+                let frames = if calls.is_empty() { "" } else { "_frames" };
+                if mode.1 == rows {
+                    keep(
+                        format!("bank_{}_{channels}{frames}_of_bound", T::NAME),
+                        "fraction",
+                        ratio,
+                    );
+                }
                 println!(
                 "{channels} channels, one thread{calls}, in the same rounds as the bound's mix ({}'s registers, {}{}, {} chains): \
                  the bank {rate:.1} M channel-steps/s, the bound {of:.1} M (the best at the start {bound:.1} M); \
@@ -1237,7 +1266,7 @@ fn main() {
     let (ghz, how) = clock_ghz();
     println!(
         "CPU: {}, {ghz:.2} GHz ({how}); kernels: {}",
-        mfcbeam::realtime::simd::cpu_description(),
+        mfcbeam::internals::cpu_description(),
         Kernels::detect().name()
     );
     // every row runs on a thread of a pool of two, the one-thread rows on
@@ -1252,6 +1281,16 @@ fn main() {
         report::<f32>(ghz);
         bound
     });
+    let figures = FIGURES.lock().map(|f| f.clone()).unwrap_or_default();
+    let figures: Vec<common::results::Figure> = figures
+        .into_iter()
+        .map(|(name, unit, value)| common::results::Figure {
+            name,
+            unit,
+            values: vec![value],
+        })
+        .collect();
+    common::results::record("bank_limit", &figures);
     match std::env::var("MFCBEAM_C_BANK") {
         #[cfg(target_os = "linux")]
         Ok(path) => against_c_bank(&path, ghz, bound),

@@ -25,7 +25,8 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use mfcbeam::prelude::*;
-use mfcbeam::realtime::{nominal, simd, Compensated, Compensator, CompensatorSettings, Real};
+use mfcbeam::internals as simd;
+use mfcbeam::realtime::{nominal, Compensated, Compensator, CompensatorSettings, Real};
 
 const TS_NS: f64 = 2e5;
 
@@ -213,7 +214,20 @@ fn main() {
         );
     };
     let counts = fixed::<f64>(steps, &targets, &mut samples);
+    let f64_summary = summarize(&mut samples[..steps], ns_per_tick);
     report("Compensator<f64, nominal::Capacity>", counts, &mut samples);
+    let figure = |name: &str, values| common::results::Figure {
+        name: name.to_string(),
+        unit: "ns",
+        values,
+    };
+    common::results::record(
+        "latency",
+        &[
+            figure("latency_f64_median_ns", vec![f64_summary.median]),
+            figure("latency_f64_p999_ns", vec![f64_summary.p999]),
+        ],
+    );
     let counts = fixed::<f32>(steps, &targets, &mut samples);
     report("Compensator<f32, nominal::Capacity>", counts, &mut samples);
     let model = nominal_model();
@@ -224,3 +238,5 @@ fn main() {
     });
     report("Compensator (heap, f64)", counts, &mut samples);
 }
+
+mod common;

@@ -382,8 +382,8 @@ fn main() {
                 .collect()
         })
         .collect();
-    println!("CPU: {}", mfcbeam::realtime::simd::cpu_description());
-    let k = mfcbeam::realtime::simd::Kernels::detect();
+    println!("CPU: {}", mfcbeam::internals::cpu_description());
+    let k = mfcbeam::internals::Kernels::detect();
     println!(
         "kernels: {} (the f64 step on {}, the f32 step on {}); {ROUNDS} rounds of {STEPS} steps each, interleaved",
         k.name(),
@@ -505,6 +505,24 @@ fn main() {
     // median ns / median ratio to the strongest peer, per implementation,
     // then the keyed ratios
     println!("summary: {}", summary.join(" "));
+    let median = |a: usize, b: usize| vec![quantile(&over(a, b), 0.5)];
+    let figure = |name: &str, unit, values| common::results::Figure {
+        name: name.to_string(),
+        unit,
+        values,
+    };
+    common::results::record(
+        "peers",
+        &[
+            figure("step_f64_run_over_strongest_c", "ratio", median(INTO_F64, STRONGEST)),
+            figure("step_f64_call_over_strongest_c", "ratio", median(INLINE_F64, STRONGEST_CALL)),
+            figure("step_f32_over_f64_run", "ratio", median(INTO_F32, INTO_F64)),
+            figure("step_f32_over_f64_call", "ratio", median(INLINE_F32, INLINE_F64)),
+            figure("strongest_c_f32_over_f64", "ratio", median(STRONGEST_F32, STRONGEST)),
+            figure("capi_call_over_strongest_c", "ratio", median(API_CALL, STRONGEST_CALL)),
+            figure("step_f64_run_ns", "ns", vec![quantile(&times[INTO_F64], 0.5)]),
+        ],
+    );
 }
 
 #[cfg(not(target_os = "linux"))]

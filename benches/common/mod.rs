@@ -3,6 +3,9 @@
 #[allow(dead_code)] // only bank_limit uses it
 pub mod state_stream;
 
+#[allow(dead_code)] // not every bench writes results
+pub mod results;
+
 /// A seeded random walk of `len` samples in [-600, 600] V with frequent
 /// reversals, so that branch predictors see realistic play switching.
 pub fn test_input(len: usize) -> Vec<f64> {
