@@ -15,8 +15,8 @@
 //! call per sample (`-DONE_CALL`), from `MFCBEAM_C_PEER_STRONG_CALL`;
 //! `benches/peers/run.sh` builds and passes all seven. `MFCBEAM_C_API`
 //! names mfcbeam's own C library (`libmfcbeam.so` of `capi/`), timed as a C
-//! program calls it: a heap handle, one `mfcbeam_compensate` per sample and
-//! runs of `mfcbeam_compensate_into`; and a compensator in storage the
+//! program calls it: a heap handle, one `mfcbeam_compensator_compensate` per sample and
+//! runs of `mfcbeam_compensator_compensate_into`; and a compensator in storage the
 //! caller owns (`mfcbeam_compensator_f64_init_json`, the microcontroller's
 //! way), `f64` and `f32`, one call per sample and runs.
 //!
@@ -101,8 +101,8 @@ fn main() {
             api_path,
             [
                 "mfcbeam_compensator_from_json",
-                "mfcbeam_compensate",
-                "mfcbeam_compensate_into",
+                "mfcbeam_compensator_compensate",
+                "mfcbeam_compensator_compensate_into",
             ],
         );
         let json = CString::new(include_str!("../golden/nominal_model.json")).unwrap();
@@ -135,11 +135,11 @@ fn main() {
             api_path,
             [
                 "mfcbeam_compensator_f64_init_json",
-                "mfcbeam_compensate_f64",
-                "mfcbeam_compensate_f64_into",
+                "mfcbeam_compensator_f64_compensate",
+                "mfcbeam_compensator_f64_compensate_into",
                 "mfcbeam_compensator_f32_init_json",
-                "mfcbeam_compensate_f32",
-                "mfcbeam_compensate_f32_into",
+                "mfcbeam_compensator_f32_compensate",
+                "mfcbeam_compensator_f32_compensate_into",
             ],
         );
         let json = CString::new(include_str!("../golden/nominal_model.json")).unwrap();
@@ -223,7 +223,7 @@ fn main() {
         "the same f64, a run (compensate_into)",
         "the same f32, a run (compensate_into)",
         "C API f64, one call per sample (heap handle)",
-        "C API f64, a run (mfcbeam_compensate_into)",
+        "C API f64, a run (mfcbeam_compensator_compensate_into)",
         "C API f64, caller-owned storage, one call per sample",
         "C API f64, caller-owned storage, a run",
         "C API f32, caller-owned storage, one call per sample",
@@ -460,25 +460,25 @@ fn main() {
             None,
         ),
         (
-            "C API, one call per sample: mfcbeam_compensate / the strongest C's",
+            "C API, one call per sample: mfcbeam_compensator_compensate / the strongest C's",
             API_CALL,
             STRONGEST_CALL,
             Some("api_call/c_call"),
         ),
         (
-            "C API, a run: mfcbeam_compensate_into / the strongest C's loop",
+            "C API, a run: mfcbeam_compensator_compensate_into / the strongest C's loop",
             API_RUN,
             STRONGEST,
             Some("api_run/c_loop"),
         ),
         (
-            "C API, caller-owned storage, one call per sample: mfcbeam_compensate_f64 / the strongest C's",
+            "C API, caller-owned storage, one call per sample: mfcbeam_compensator_f64_compensate / the strongest C's",
             OWNED_CALL_F64,
             STRONGEST_CALL,
             Some("owned_call/c_call"),
         ),
         (
-            "C API, caller-owned storage, a run: mfcbeam_compensate_f64_into / the strongest C's loop",
+            "C API, caller-owned storage, a run: mfcbeam_compensator_f64_compensate_into / the strongest C's loop",
             OWNED_RUN_F64,
             STRONGEST,
             Some("owned_run/c_loop"),

@@ -200,18 +200,18 @@ int mfcbeam_compensator_f32_init_json(struct MfcbeamCompensatorStorageF32 *stora
 #endif
 
 /**
- * The voltage for `target`, in `f32`; flags as `mfcbeam_compensate`.
+ * The voltage for `target`, in `f32`; flags as `mfcbeam_compensator_compensate`.
  *
  * # Safety
  * `storage` NULL or an `MfcbeamCompensatorStorageF32`; `flags` NULL or writable.
  */
-float mfcbeam_compensate_f32(struct MfcbeamCompensatorStorageF32 *storage,
-                             float target,
-                             int *flags);
+float mfcbeam_compensator_f32_compensate(struct MfcbeamCompensatorStorageF32 *storage,
+                                         float target,
+                                         int *flags);
 
 /**
  * The voltages for `n` targets in turn, in `f32`: the same values and
- * flags as one `mfcbeam_compensate_f32` per sample, in one call and faster
+ * flags as one `mfcbeam_compensator_f32_compensate` per sample, in one call and faster
  * (the samples run in one loop). `u` may be the same array as `targets`;
  * `flags` (may be NULL) gets each sample's flags. Allocation-free. 0; -1
  * with nothing stepped for NULL arrays (`n > 0`); -1 with NaN voltages and
@@ -222,11 +222,11 @@ float mfcbeam_compensate_f32(struct MfcbeamCompensatorStorageF32 *storage,
  * NULL or valid for `n` values; `flags` NULL or valid for `n` ints, apart
  * from both.
  */
-int mfcbeam_compensate_f32_into(struct MfcbeamCompensatorStorageF32 *storage,
-                                const float *targets,
-                                float *u,
-                                int *flags,
-                                size_t n);
+int mfcbeam_compensator_f32_compensate_into(struct MfcbeamCompensatorStorageF32 *storage,
+                                            const float *targets,
+                                            float *u,
+                                            int *flags,
+                                            size_t n);
 
 /**
  * The model's dead time `d` (samples): the compensator inverts the memory
@@ -283,18 +283,18 @@ int mfcbeam_compensator_f64_init_json(struct MfcbeamCompensatorStorageF64 *stora
 #endif
 
 /**
- * The voltage for `target`, in `f64`; flags as `mfcbeam_compensate`.
+ * The voltage for `target`, in `f64`; flags as `mfcbeam_compensator_compensate`.
  *
  * # Safety
  * `storage` NULL or an `MfcbeamCompensatorStorageF64`; `flags` NULL or writable.
  */
-double mfcbeam_compensate_f64(struct MfcbeamCompensatorStorageF64 *storage,
-                              double target,
-                              int *flags);
+double mfcbeam_compensator_f64_compensate(struct MfcbeamCompensatorStorageF64 *storage,
+                                          double target,
+                                          int *flags);
 
 /**
  * The voltages for `n` targets in turn, in `f64`: the same values and
- * flags as one `mfcbeam_compensate_f64` per sample, in one call and faster
+ * flags as one `mfcbeam_compensator_f64_compensate` per sample, in one call and faster
  * (the samples run in one loop). `u` may be the same array as `targets`;
  * `flags` (may be NULL) gets each sample's flags. Allocation-free. 0; -1
  * with nothing stepped for NULL arrays (`n > 0`); -1 with NaN voltages and
@@ -305,11 +305,11 @@ double mfcbeam_compensate_f64(struct MfcbeamCompensatorStorageF64 *storage,
  * NULL or valid for `n` values; `flags` NULL or valid for `n` ints, apart
  * from both.
  */
-int mfcbeam_compensate_f64_into(struct MfcbeamCompensatorStorageF64 *storage,
-                                const double *targets,
-                                double *u,
-                                int *flags,
-                                size_t n);
+int mfcbeam_compensator_f64_compensate_into(struct MfcbeamCompensatorStorageF64 *storage,
+                                            const double *targets,
+                                            double *u,
+                                            int *flags,
+                                            size_t n);
 
 /**
  * Back to the virgin state. Nothing for NULL or uninitialised storage.
@@ -453,13 +453,15 @@ struct MfcbeamCompensatorHandle *mfcbeam_compensator_from_json(const char *json,
  * # Safety
  * `comp` is NULL or a live handle; `flags` is NULL or writable.
  */
-double mfcbeam_compensate(struct MfcbeamCompensatorHandle *comp, double target, int *flags);
+double mfcbeam_compensator_compensate(struct MfcbeamCompensatorHandle *comp,
+                                      double target,
+                                      int *flags);
 #endif
 
 #if defined(MFCBEAM_STD)
 /**
  * The voltages for `n` targets, in turn: the same values and flags as one
- * `mfcbeam_compensate` per sample, in one call and faster (the samples run
+ * `mfcbeam_compensator_compensate` per sample, in one call and faster (the samples run
  * in one loop). `u` may be the same array as `targets`; `flags` (may be
  * NULL) gets each sample's flags. Allocation-free. 0; -1 with nothing
  * stepped for NULL arrays (`n > 0`); -1 with NaN voltages and
@@ -469,11 +471,11 @@ double mfcbeam_compensate(struct MfcbeamCompensatorHandle *comp, double target, 
  * `comp` is NULL or a live handle; `targets` and `u` NULL or valid for `n`
  * values; `flags` NULL or valid for `n` ints, apart from both.
  */
-int mfcbeam_compensate_into(struct MfcbeamCompensatorHandle *comp,
-                            const double *targets,
-                            double *u,
-                            int *flags,
-                            size_t n);
+int mfcbeam_compensator_compensate_into(struct MfcbeamCompensatorHandle *comp,
+                                        const double *targets,
+                                        double *u,
+                                        int *flags,
+                                        size_t n);
 #endif
 
 #if defined(MFCBEAM_STD)
@@ -483,7 +485,7 @@ int mfcbeam_compensate_into(struct MfcbeamCompensatorHandle *comp,
  * (a planned trajectory is known ahead). 0 for NULL.
  *
  * # Safety
- * As [`mfcbeam_compensate`].
+ * As [`mfcbeam_compensator_compensate`].
  */
 size_t mfcbeam_compensator_delay(const struct MfcbeamCompensatorHandle *comp);
 #endif
@@ -494,7 +496,7 @@ size_t mfcbeam_compensator_delay(const struct MfcbeamCompensatorHandle *comp);
  * Nothing for NULL.
  *
  * # Safety
- * As [`mfcbeam_compensate`].
+ * As [`mfcbeam_compensator_compensate`].
  */
 void mfcbeam_compensator_reset(struct MfcbeamCompensatorHandle *comp);
 #endif
@@ -514,3 +516,60 @@ void mfcbeam_compensator_free(struct MfcbeamCompensatorHandle *comp);
 #endif  // __cplusplus
 
 #endif  /* MFCBEAM_H */
+
+/*
+ * The names before 0.2, kept one release as deprecated aliases: every
+ * function is now mfcbeam_<noun>[_<type>]_<verb>. (cbindgen puts this
+ * after the include guard: it has its own.)
+ */
+#ifndef MFCBEAM_H_DEPRECATED
+#define MFCBEAM_H_DEPRECATED
+#if defined(__GNUC__) || defined(__clang__)
+#define MFCBEAM_DEPRECATED(use) __attribute__((deprecated("use " use)))
+#elif defined(_MSC_VER)
+#define MFCBEAM_DEPRECATED(use) __declspec(deprecated("use " use))
+#else
+#define MFCBEAM_DEPRECATED(use)
+#endif
+
+MFCBEAM_DEPRECATED("mfcbeam_compensator_f32_compensate")
+static inline float mfcbeam_compensate_f32(struct MfcbeamCompensatorStorageF32 *storage,
+                                           float target, int *flags) {
+  return mfcbeam_compensator_f32_compensate(storage, target, flags);
+}
+
+MFCBEAM_DEPRECATED("mfcbeam_compensator_f32_compensate_into")
+static inline int mfcbeam_compensate_f32_into(struct MfcbeamCompensatorStorageF32 *storage,
+                                              const float *targets, float *u, int *flags,
+                                              size_t n) {
+  return mfcbeam_compensator_f32_compensate_into(storage, targets, u, flags, n);
+}
+
+MFCBEAM_DEPRECATED("mfcbeam_compensator_f64_compensate")
+static inline double mfcbeam_compensate_f64(struct MfcbeamCompensatorStorageF64 *storage,
+                                            double target, int *flags) {
+  return mfcbeam_compensator_f64_compensate(storage, target, flags);
+}
+
+MFCBEAM_DEPRECATED("mfcbeam_compensator_f64_compensate_into")
+static inline int mfcbeam_compensate_f64_into(struct MfcbeamCompensatorStorageF64 *storage,
+                                              const double *targets, double *u, int *flags,
+                                              size_t n) {
+  return mfcbeam_compensator_f64_compensate_into(storage, targets, u, flags, n);
+}
+
+#if defined(MFCBEAM_STD)
+MFCBEAM_DEPRECATED("mfcbeam_compensator_compensate")
+static inline double mfcbeam_compensate(struct MfcbeamCompensatorHandle *comp, double target,
+                                        int *flags) {
+  return mfcbeam_compensator_compensate(comp, target, flags);
+}
+
+MFCBEAM_DEPRECATED("mfcbeam_compensator_compensate_into")
+static inline int mfcbeam_compensate_into(struct MfcbeamCompensatorHandle *comp,
+                                          const double *targets, double *u, int *flags,
+                                          size_t n) {
+  return mfcbeam_compensator_compensate_into(comp, targets, u, flags, n);
+}
+#endif
+#endif /* MFCBEAM_H_DEPRECATED */

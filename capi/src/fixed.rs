@@ -291,12 +291,12 @@ pub unsafe extern "C" fn mfcbeam_compensator_f32_init_json(
     }
 }
 
-/// The voltage for `target`, in `f32`; flags as `mfcbeam_compensate`.
+/// The voltage for `target`, in `f32`; flags as `mfcbeam_compensator_compensate`.
 ///
 /// # Safety
 /// `storage` NULL or an `MfcbeamCompensatorStorageF32`; `flags` NULL or writable.
 #[no_mangle]
-pub unsafe extern "C" fn mfcbeam_compensate_f32(
+pub unsafe extern "C" fn mfcbeam_compensator_f32_compensate(
     storage: *mut MfcbeamCompensatorStorageF32,
     target: f32,
     flags: *mut c_int,
@@ -306,7 +306,7 @@ pub unsafe extern "C" fn mfcbeam_compensate_f32(
 }
 
 /// The voltages for `n` targets in turn, in `f32`: the same values and
-/// flags as one `mfcbeam_compensate_f32` per sample, in one call and faster
+/// flags as one `mfcbeam_compensator_f32_compensate` per sample, in one call and faster
 /// (the samples run in one loop). `u` may be the same array as `targets`;
 /// `flags` (may be NULL) gets each sample's flags. Allocation-free. 0; -1
 /// with nothing stepped for NULL arrays (`n > 0`); -1 with NaN voltages and
@@ -317,7 +317,7 @@ pub unsafe extern "C" fn mfcbeam_compensate_f32(
 /// NULL or valid for `n` values; `flags` NULL or valid for `n` ints, apart
 /// from both.
 #[no_mangle]
-pub unsafe extern "C" fn mfcbeam_compensate_f32_into(
+pub unsafe extern "C" fn mfcbeam_compensator_f32_compensate_into(
     storage: *mut MfcbeamCompensatorStorageF32,
     targets: *const f32,
     u: *mut f32,
@@ -409,12 +409,12 @@ pub unsafe extern "C" fn mfcbeam_compensator_f64_init_json(
     }
 }
 
-/// The voltage for `target`, in `f64`; flags as `mfcbeam_compensate`.
+/// The voltage for `target`, in `f64`; flags as `mfcbeam_compensator_compensate`.
 ///
 /// # Safety
 /// `storage` NULL or an `MfcbeamCompensatorStorageF64`; `flags` NULL or writable.
 #[no_mangle]
-pub unsafe extern "C" fn mfcbeam_compensate_f64(
+pub unsafe extern "C" fn mfcbeam_compensator_f64_compensate(
     storage: *mut MfcbeamCompensatorStorageF64,
     target: f64,
     flags: *mut c_int,
@@ -424,7 +424,7 @@ pub unsafe extern "C" fn mfcbeam_compensate_f64(
 }
 
 /// The voltages for `n` targets in turn, in `f64`: the same values and
-/// flags as one `mfcbeam_compensate_f64` per sample, in one call and faster
+/// flags as one `mfcbeam_compensator_f64_compensate` per sample, in one call and faster
 /// (the samples run in one loop). `u` may be the same array as `targets`;
 /// `flags` (may be NULL) gets each sample's flags. Allocation-free. 0; -1
 /// with nothing stepped for NULL arrays (`n > 0`); -1 with NaN voltages and
@@ -435,7 +435,7 @@ pub unsafe extern "C" fn mfcbeam_compensate_f64(
 /// NULL or valid for `n` values; `flags` NULL or valid for `n` ints, apart
 /// from both.
 #[no_mangle]
-pub unsafe extern "C" fn mfcbeam_compensate_f64_into(
+pub unsafe extern "C" fn mfcbeam_compensator_f64_compensate_into(
     storage: *mut MfcbeamCompensatorStorageF64,
     targets: *const f64,
     u: *mut f64,

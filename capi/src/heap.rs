@@ -156,7 +156,7 @@ pub unsafe extern "C" fn mfcbeam_compensator_from_json(
 /// # Safety
 /// `comp` is NULL or a live handle; `flags` is NULL or writable.
 #[no_mangle]
-pub unsafe extern "C" fn mfcbeam_compensate(
+pub unsafe extern "C" fn mfcbeam_compensator_compensate(
     comp: *mut MfcbeamCompensatorHandle,
     target: f64,
     flags: *mut c_int,
@@ -178,7 +178,7 @@ pub unsafe extern "C" fn mfcbeam_compensate(
 }
 
 /// The voltages for `n` targets, in turn: the same values and flags as one
-/// `mfcbeam_compensate` per sample, in one call and faster (the samples run
+/// `mfcbeam_compensator_compensate` per sample, in one call and faster (the samples run
 /// in one loop). `u` may be the same array as `targets`; `flags` (may be
 /// NULL) gets each sample's flags. Allocation-free. 0; -1 with nothing
 /// stepped for NULL arrays (`n > 0`); -1 with NaN voltages and
@@ -188,7 +188,7 @@ pub unsafe extern "C" fn mfcbeam_compensate(
 /// `comp` is NULL or a live handle; `targets` and `u` NULL or valid for `n`
 /// values; `flags` NULL or valid for `n` ints, apart from both.
 #[no_mangle]
-pub unsafe extern "C" fn mfcbeam_compensate_into(
+pub unsafe extern "C" fn mfcbeam_compensator_compensate_into(
     comp: *mut MfcbeamCompensatorHandle,
     targets: *const f64,
     u: *mut f64,
@@ -209,7 +209,7 @@ pub unsafe extern "C" fn mfcbeam_compensate_into(
 /// (a planned trajectory is known ahead). 0 for NULL.
 ///
 /// # Safety
-/// As [`mfcbeam_compensate`].
+/// As [`mfcbeam_compensator_compensate`].
 #[no_mangle]
 pub unsafe extern "C" fn mfcbeam_compensator_delay(comp: *const MfcbeamCompensatorHandle) -> usize {
     // SAFETY: as above.
@@ -220,7 +220,7 @@ pub unsafe extern "C" fn mfcbeam_compensator_delay(comp: *const MfcbeamCompensat
 /// Nothing for NULL.
 ///
 /// # Safety
-/// As [`mfcbeam_compensate`].
+/// As [`mfcbeam_compensator_compensate`].
 #[no_mangle]
 pub unsafe extern "C" fn mfcbeam_compensator_reset(comp: *mut MfcbeamCompensatorHandle) {
     // SAFETY: as above.

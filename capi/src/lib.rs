@@ -14,8 +14,8 @@
 //!   operators); `mfcbeam_*_init` fills one from an `MfcbeamParameters` and
 //!   allocates nothing. `*_init_json` does the same from a model file.
 //!
-//! A compensator takes one sample per call (`mfcbeam_compensate`,
-//! `_f32`, `_f64`) or a whole signal (`mfcbeam_compensate_into`,
+//! A compensator takes one sample per call (`mfcbeam_compensator_compensate`,
+//! `_f32`, `_f64`) or a whole signal (`mfcbeam_compensator_compensate_into`,
 //! `_f32_into`, `_f64_into`: the same values and flags, faster).
 //!
 //! Every step allocates nothing. A `NULL` or uninitialised handle is refused

@@ -1,4 +1,4 @@
-//! A whole signal through a compensator in one call (`mfcbeam_compensate_into`,
+//! A whole signal through a compensator in one call (`mfcbeam_compensator_compensate_into`,
 //! `_f32_into`, `_f64_into`): `Compensator::compensate_into`, whose samples
 //! run in one loop with the creep's output kept in a register, behind the
 //! C ABI.

@@ -41,9 +41,10 @@ fn cargo_build(args: &[&str]) {
     );
 }
 
-/// Compile the C examples once: (mfcbeam_run, api_errors, no_heap).
-fn programs() -> &'static (PathBuf, PathBuf, PathBuf) {
-    static BUILT: OnceLock<(PathBuf, PathBuf, PathBuf)> = OnceLock::new();
+/// Compile the C examples once: (mfcbeam_run, api_errors, no_heap,
+/// old_names).
+fn programs() -> &'static (PathBuf, PathBuf, PathBuf, PathBuf) {
+    static BUILT: OnceLock<(PathBuf, PathBuf, PathBuf, PathBuf)> = OnceLock::new();
     BUILT.get_or_init(|| {
         // the program and the static library as `cargo test --workspace`
         // built them: no rebuild. A test's dependencies are built with all
@@ -87,6 +88,8 @@ fn programs() -> &'static (PathBuf, PathBuf, PathBuf) {
             build("api_errors", &[]),
             // only the no_std declarations visible
             build("no_heap", &["-DMFCBEAM_NO_STD"]),
+            // the deprecated names warn, and still build
+            build("old_names", &["-Wno-error=deprecated-declarations"]),
         )
     })
 }
@@ -150,6 +153,39 @@ fn the_c_example_conforms_in_f32_at_f32_tolerances() {
         let out = conform(kind, &format!("{run} {command} --f32"), 80, Some(&scale));
         assert_eq!(out.status.code(), Some(0), "{kind} in f32 should conform");
     }
+}
+
+/// The names before 0.2 are deprecated aliases in the header: each call
+/// warns at compile time, and gives what its new name gives.
+#[test]
+fn the_old_c_names_warn_and_give_what_the_new_ones_give() {
+    let out = Command::new("cc")
+        .args(["-std=c99", "-Wall", "-fsyntax-only", "-I"])
+        .arg(root().join("include"))
+        .arg(root().join("examples/c/old_names.c"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    for old in [
+        "mfcbeam_compensate_f32",
+        "mfcbeam_compensate_f32_into",
+        "mfcbeam_compensate_f64",
+        "mfcbeam_compensate_f64_into",
+        "mfcbeam_compensate",
+        "mfcbeam_compensate_into",
+    ] {
+        assert!(
+            err.contains(&format!("'{old}' is deprecated"))
+                || err.contains(&format!("‘{old}’ is deprecated")),
+            "no deprecation warning for {old}:\n{err}"
+        );
+    }
+    let out = Command::new(&programs().3).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{text}");
+    assert!(text.ends_with("0 failed\n"), "{text}");
+    assert_eq!(text.lines().filter(|l| l.starts_with("ok: ")).count(), 15);
 }
 
 /// The file contract's errors: one line, exit 2, no output file.

@@ -1,4 +1,4 @@
-//! The C API's runs (`mfcbeam_compensate_into`, `_f32_into`, `_f64_into`)
+//! The C API's runs (`mfcbeam_compensator_compensate_into`, `_f32_into`, `_f64_into`)
 //! give the bits and flags of one per-sample call each, across their chunks
 //! and calls, in place, and refuse NULL and uninitialised input as the
 //! per-sample calls do.
@@ -69,9 +69,9 @@ fn the_heap_run_gives_the_bits_of_its_steps_in_pieces_and_in_place() {
             // piece in place (`u` holds the targets there).
             let rc = unsafe {
                 if i % 2 == 0 {
-                    mfcbeam_compensate_into(by_run, out, out, f, len)
+                    mfcbeam_compensator_compensate_into(by_run, out, out, f, len)
                 } else {
-                    mfcbeam_compensate_into(by_run, t, out, f, len)
+                    mfcbeam_compensator_compensate_into(by_run, t, out, f, len)
                 }
             };
             assert_eq!(rc, 0);
@@ -81,7 +81,7 @@ fn the_heap_run_gives_the_bits_of_its_steps_in_pieces_and_in_place() {
         for (k, &target) in all.iter().enumerate() {
             let mut f: c_int = -7;
             // SAFETY: a live handle and a writable int.
-            let v = unsafe { mfcbeam_compensate(stepped, target, &mut f) };
+            let v = unsafe { mfcbeam_compensator_compensate(stepped, target, &mut f) };
             assert_eq!(v.to_bits(), u[k].to_bits(), "sample {k}");
             assert_eq!(f, flags[k], "sample {k}");
             clipped += (f & MFCBEAM_FLAG_SATURATED != 0) as usize;
@@ -167,16 +167,16 @@ fixed_matches_its_steps!(
     MfcbeamCompensatorStorageF64,
     f64,
     mfcbeam_compensator_f64_init_json,
-    mfcbeam_compensate_f64,
-    mfcbeam_compensate_f64_into
+    mfcbeam_compensator_f64_compensate,
+    mfcbeam_compensator_f64_compensate_into
 );
 fixed_matches_its_steps!(
     the_f32_storage_run_gives_the_bits_of_its_steps,
     MfcbeamCompensatorStorageF32,
     f32,
     mfcbeam_compensator_f32_init_json,
-    mfcbeam_compensate_f32,
-    mfcbeam_compensate_f32_into
+    mfcbeam_compensator_f32_compensate,
+    mfcbeam_compensator_f32_compensate_into
 );
 
 #[test]
@@ -185,7 +185,7 @@ fn a_run_refuses_null_and_uninitialised_input_as_its_steps_do() {
     let (mut u, mut flags) = ([0.0; 3], [0 as c_int; 3]);
     // SAFETY: NULL handles; buffers of three.
     unsafe {
-        let rc = mfcbeam_compensate_into(
+        let rc = mfcbeam_compensator_compensate_into(
             std::ptr::null_mut(),
             t.as_ptr(),
             u.as_mut_ptr(),
@@ -197,7 +197,7 @@ fn a_run_refuses_null_and_uninitialised_input_as_its_steps_do() {
         assert!(flags.iter().all(|&f| f == MFCBEAM_FLAG_INVALID_HANDLE));
         // NULL arrays as well: nothing to write, no crash, and no walk
         // over a length that only looks like one
-        let rc = mfcbeam_compensate_into(
+        let rc = mfcbeam_compensator_compensate_into(
             std::ptr::null_mut(),
             std::ptr::null(),
             std::ptr::null_mut(),
@@ -205,7 +205,7 @@ fn a_run_refuses_null_and_uninitialised_input_as_its_steps_do() {
             usize::MAX / 16,
         );
         assert_eq!(rc, -1);
-        let rc = mfcbeam_compensate_into(
+        let rc = mfcbeam_compensator_compensate_into(
             std::ptr::null_mut(),
             std::ptr::null(),
             std::ptr::null_mut(),
@@ -217,7 +217,7 @@ fn a_run_refuses_null_and_uninitialised_input_as_its_steps_do() {
         let mut s: Box<MfcbeamCompensatorStorageF64> = Box::new(std::mem::zeroed());
         flags = [0; 3];
         let rc =
-            mfcbeam_compensate_f64_into(&mut *s, t.as_ptr(), u.as_mut_ptr(), flags.as_mut_ptr(), 3);
+            mfcbeam_compensator_f64_compensate_into(&mut *s, t.as_ptr(), u.as_mut_ptr(), flags.as_mut_ptr(), 3);
         assert_eq!(rc, -1);
         assert!(flags.iter().all(|&f| f == MFCBEAM_FLAG_INVALID_HANDLE));
     }
@@ -228,15 +228,15 @@ fn a_run_refuses_null_and_uninitialised_input_as_its_steps_do() {
     // with n = 0 never read.
     unsafe {
         assert_eq!(
-            mfcbeam_compensate_into(c, std::ptr::null(), u.as_mut_ptr(), std::ptr::null_mut(), 3),
+            mfcbeam_compensator_compensate_into(c, std::ptr::null(), u.as_mut_ptr(), std::ptr::null_mut(), 3),
             -1
         );
         assert_eq!(
-            mfcbeam_compensate_into(c, t.as_ptr(), std::ptr::null_mut(), std::ptr::null_mut(), 3),
+            mfcbeam_compensator_compensate_into(c, t.as_ptr(), std::ptr::null_mut(), std::ptr::null_mut(), 3),
             -1
         );
         assert_eq!(
-            mfcbeam_compensate_into(
+            mfcbeam_compensator_compensate_into(
                 c,
                 std::ptr::null(),
                 std::ptr::null_mut(),
@@ -247,7 +247,7 @@ fn a_run_refuses_null_and_uninitialised_input_as_its_steps_do() {
         );
         // a count no array can have: refused, not read
         assert_eq!(
-            mfcbeam_compensate_into(
+            mfcbeam_compensator_compensate_into(
                 c,
                 t.as_ptr(),
                 u.as_mut_ptr(),
@@ -258,8 +258,8 @@ fn a_run_refuses_null_and_uninitialised_input_as_its_steps_do() {
         );
         for &target in &[250.0, -120.0, 40.0] {
             let (mut fa, mut fb) = (0, 0);
-            let a = mfcbeam_compensate(c, target, &mut fa);
-            let b = mfcbeam_compensate(twin, target, &mut fb);
+            let a = mfcbeam_compensator_compensate(c, target, &mut fa);
+            let b = mfcbeam_compensator_compensate(twin, target, &mut fb);
             assert_eq!(
                 (a.to_bits(), fa),
                 (b.to_bits(), fb),

@@ -83,11 +83,11 @@ int main(void) {
     /* NULL handles are refused, not dereferenced */
     int flags = 0;
     check(isnan(mfcbeam_model_step(NULL, 1.0)), "model step on NULL", NULL);
-    double u = mfcbeam_compensate(NULL, 1.0, &flags);
+    double u = mfcbeam_compensator_compensate(NULL, 1.0, &flags);
     check(isnan(u) && flags == MFCBEAM_FLAG_INVALID_HANDLE, "compensate on NULL", NULL);
     double run_targets[3] = {1.0, 2.0, 3.0}, run_u[3] = {0.0, 0.0, 0.0};
     int run_flags[3] = {0, 0, 0};
-    int refused = mfcbeam_compensate_into(NULL, run_targets, run_u, run_flags, 3);
+    int refused = mfcbeam_compensator_compensate_into(NULL, run_targets, run_u, run_flags, 3);
     check(refused == -1 && isnan(run_u[2]) && run_flags[2] == MFCBEAM_FLAG_INVALID_HANDLE, "a run on NULL", NULL);
     mfcbeam_model_reset(NULL);
     mfcbeam_model_free(NULL);
@@ -97,12 +97,12 @@ int main(void) {
 
     /* caller-owned storage */
     static MfcbeamCompensatorStorageF32 zeroed;
-    float v = mfcbeam_compensate_f32(&zeroed, 1.0f, &flags);
+    float v = mfcbeam_compensator_f32_compensate(&zeroed, 1.0f, &flags);
     check(isnan(v) && flags == MFCBEAM_FLAG_INVALID_HANDLE, "uninitialised storage", NULL);
-    v = mfcbeam_compensate_f32(NULL, 1.0f, &flags);
+    v = mfcbeam_compensator_f32_compensate(NULL, 1.0f, &flags);
     check(isnan(v) && flags == MFCBEAM_FLAG_INVALID_HANDLE, "NULL storage", NULL);
     float run_v[2] = {1.0f, 2.0f};
-    refused = mfcbeam_compensate_f32_into(&zeroed, run_v, run_v, run_flags, 2);
+    refused = mfcbeam_compensator_f32_compensate_into(&zeroed, run_v, run_v, run_flags, 2);
     check(refused == -1 && isnan(run_v[1]) && run_flags[1] == MFCBEAM_FLAG_INVALID_HANDLE, "a run on uninitialised storage", NULL);
 
     const double r[2] = {0.0, 100.0}, w[2] = {0.5, 0.25};
@@ -117,15 +117,15 @@ int main(void) {
     double worst = 0.0;
     for (int k = 0; k < 2000; k++) {
         float y = (float)(60.0 * sin(k * 0.01));
-        float out = mfcbeam_model_f32_step(&plant, mfcbeam_compensate_f32(&comp, y, &flags));
+        float out = mfcbeam_model_f32_step(&plant, mfcbeam_compensator_f32_compensate(&comp, y, &flags));
         if (fabs(out - y) > worst) worst = fabs(out - y);
     }
     char line[64];
     snprintf(line, sizeof line, "max |W[W^-1[y]] - y| = %.3g V", worst);
     check(worst < 1e-3 && flags == 0, "f32 identity", line);
-    mfcbeam_compensate_f32(&comp, NAN, &flags);
+    mfcbeam_compensator_f32_compensate(&comp, NAN, &flags);
     check(flags == MFCBEAM_FLAG_NON_FINITE_TARGET, "NaN target flagged", NULL);
-    mfcbeam_compensate_f32(&comp, 1e6f, &flags);
+    mfcbeam_compensator_f32_compensate(&comp, 1e6f, &flags);
     check(flags == MFCBEAM_FLAG_SATURATED, "unreachable target saturates", NULL);
 
     /* an asymmetric superposition operator S after H + C: slopes 1.3, 1, 0.6 */
@@ -141,7 +141,7 @@ int main(void) {
     worst = 0.0;
     for (int k = 0; k < 2000; k++) {
         float y = (float)(60.0 * sin(k * 0.01));
-        float out = mfcbeam_model_f32_step(&plant, mfcbeam_compensate_f32(&comp, y, &flags));
+        float out = mfcbeam_model_f32_step(&plant, mfcbeam_compensator_f32_compensate(&comp, y, &flags));
         if (fabs(out - y) > worst) worst = fabs(out - y);
     }
     snprintf(line, sizeof line, "max |W[W^-1[y]] - y| = %.3g V", worst);
@@ -169,7 +169,7 @@ int main(void) {
     worst = 0.0;
     for (int k = 0; k < 2000; k++) {
         double ahead = 60.0 * sin((k + 3) * 0.01), y = 60.0 * sin(k * 0.01);
-        double out = mfcbeam_model_f64_step(&plant_d, mfcbeam_compensate_f64(&comp_d, ahead, &flags));
+        double out = mfcbeam_model_f64_step(&plant_d, mfcbeam_compensator_f64_compensate(&comp_d, ahead, &flags));
         if (k >= 3 && fabs(out - y) > worst) worst = fabs(out - y);
     }
     snprintf(line, sizeof line, "max |W[W^-1[y]] - y| from sample 3 = %.3g V", worst);
@@ -195,7 +195,7 @@ int main(void) {
     worst = 0.0;
     for (int k = 0; k < 2000; k++) {
         double ahead = 60.0 * sin((k + 1) * 0.01), y = 60.0 * sin(k * 0.01);
-        double out = mfcbeam_model_f64_step(&plant_d, mfcbeam_compensate_f64(&comp_d, ahead, &flags));
+        double out = mfcbeam_model_f64_step(&plant_d, mfcbeam_compensator_f64_compensate(&comp_d, ahead, &flags));
         if (k >= 1 && fabs(out - y) > worst) worst = fabs(out - y);
     }
     snprintf(line, sizeof line, "max |W[W^-1[y]] - y| through G from sample 1 = %.3g V", worst);
@@ -211,7 +211,7 @@ int main(void) {
     err[0] = 0;
     check(mfcbeam_compensator_f32_init(&comp, &bad, -500.0, 500.0, err, sizeof err) == -1 && strstr(err, "NULL"),
           "NULL array", err);
-    v = mfcbeam_compensate_f32(&comp, 1.0f, &flags);
+    v = mfcbeam_compensator_f32_compensate(&comp, 1.0f, &flags);
     check(isnan(v) && flags == MFCBEAM_FLAG_INVALID_HANDLE, "failed init leaves the storage refused", NULL);
     err[0] = 0;
     check(mfcbeam_compensator_f32_init(&comp, NULL, -500.0, 500.0, err, sizeof err) == -1, "NULL parameters", err);

@@ -9,7 +9,7 @@
  *
  * `simulate` appends y = W[u] to the input's columns, `compensate` appends
  * u = W^-1[y_d] and `saturated` (the whole column in one call,
- * mfcbeam_compensate_into). Without --f32 it uses the heap handles
+ * mfcbeam_compensator_compensate_into). Without --f32 it uses the heap handles
  * (mfcbeam_model_from_json, mfcbeam_compensator_from_json, f64); with --f32
  * the caller-owned storage (MfcbeamModelStorageF32, MfcbeamCompensatorStorageF32) that a
  * target without a heap would use. A model with a dead time of d samples
@@ -130,7 +130,7 @@ int main(int argc, char **argv) {
         size_t d = mfcbeam_compensator_delay(c);
         /* the column previewed by d samples, then the whole signal in one call */
         for (size_t k = 0; k < t.rows; k++) out[k] = t.values[k + d < t.rows ? k + d : t.rows - 1];
-        if (mfcbeam_compensate_into(c, out, out, sat, t.rows) != 0) die(model, "the compensator refused the run");
+        if (mfcbeam_compensator_compensate_into(c, out, out, sat, t.rows) != 0) die(model, "the compensator refused the run");
         for (size_t k = 0; k < t.rows; k++) sat[k] &= MFCBEAM_FLAG_SATURATED;
         mfcbeam_compensator_free(c);
     } else {
@@ -140,7 +140,7 @@ int main(int argc, char **argv) {
         float *v = malloc(t.rows * sizeof(float) + 1); /* + 1: malloc(0) may be NULL */
         if (!v) die("out of memory", input);
         for (size_t k = 0; k < t.rows; k++) v[k] = (float)t.values[k + d < t.rows ? k + d : t.rows - 1];
-        if (mfcbeam_compensate_f32_into(&c, v, v, sat, t.rows) != 0) die(model, "the compensator refused the run");
+        if (mfcbeam_compensator_f32_compensate_into(&c, v, v, sat, t.rows) != 0) die(model, "the compensator refused the run");
         for (size_t k = 0; k < t.rows; k++) {
             out[k] = v[k];
             sat[k] &= MFCBEAM_FLAG_SATURATED;

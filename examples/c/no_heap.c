@@ -53,7 +53,7 @@ int main(void) {
     for (long k = 0; k < 50000; k++) { /* 10 s at 5 kHz */
         float target = (float)(600.0 * sin(2.0 * 3.141592653589793 * 0.5 * k * 2e-4) * (1.0 - k / 60000.0));
         int flags = 0;
-        float u = mfcbeam_compensate_f32(&compensator, target, &flags);
+        float u = mfcbeam_compensator_f32_compensate(&compensator, target, &flags);
         float y = mfcbeam_model_f32_step(&plant, u);
         saturated += (flags & MFCBEAM_FLAG_SATURATED) != 0;
         if (fabs((double)y - target) > worst) worst = fabs((double)y - target);

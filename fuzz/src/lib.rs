@@ -310,7 +310,7 @@ fn capi_constructors(text: &[u8], inputs: &[f64]) {
         check_refusal(comp.is_null(), &err);
         let mut flags = 0;
         for &v in inputs {
-            capi::mfcbeam_compensate(comp, v, &mut flags);
+            capi::mfcbeam_compensator_compensate(comp, v, &mut flags);
             if !v.is_finite() && !comp.is_null() {
                 assert!(
                     flags & capi::MFCBEAM_FLAG_NON_FINITE_TARGET != 0,
@@ -344,8 +344,8 @@ fn capi_constructors(text: &[u8], inputs: &[f64]) {
         let mut m32 = storage!(capi::MfcbeamModelStorageF32, mfcbeam_model_f32_init_json);
         let mut m64 = storage!(capi::MfcbeamModelStorageF64, mfcbeam_model_f64_init_json);
         for &v in inputs {
-            capi::mfcbeam_compensate_f32(&mut *c32, v as f32, &mut flags);
-            capi::mfcbeam_compensate_f64(&mut *c64, v, &mut flags);
+            capi::mfcbeam_compensator_f32_compensate(&mut *c32, v as f32, &mut flags);
+            capi::mfcbeam_compensator_f64_compensate(&mut *c64, v, &mut flags);
             capi::mfcbeam_model_f32_step(&mut *m32, v as f32);
             capi::mfcbeam_model_f64_step(&mut *m64, v);
         }
