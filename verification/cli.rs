@@ -359,6 +359,18 @@ fn error_contract_bad_inputs() {
         "--limits=5,1",
     ]);
     assert_clean_failure(&out, &["--limits", "must be below"], Some(&output));
+    // no limits has one spelling: --no-limits
+    let out = mfcbeam(&[
+        "compensate",
+        "--model",
+        MODEL,
+        "--input",
+        s(&good_in),
+        "--output",
+        s(&output),
+        "--limits=-inf,inf",
+    ]);
+    assert_clean_failure(&out, &["--limits", "--no-limits"], Some(&output));
     let out = mfcbeam(&[
         "compensate",
         "--model",

@@ -80,7 +80,8 @@ class Compensator:
     def __init__(
         self, model: Model, limits: Optional[Tuple[float, float]] = (-1000.0, 1000.0)
     ) -> None:
-        """`limits=None`: no saturation. Raises ValueError unless lower < upper."""
+        """`limits=None`: no saturation (the one way to say so; both bounds
+        infinite is refused). Raises ValueError unless lower < upper."""
     def compensate(
         self, y_d: ArrayLike, *, preview: bool = False
     ) -> Tuple[FloatArray, BoolArray, BoolArray]:

@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use numpy::{PyArray1, PyArray2};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -211,7 +212,15 @@ impl Compensator {
         text_signature = "(model, limits=(-1000.0, 1000.0))"
     )]
     fn new(model: &Model, limits: Option<(f64, f64)>) -> PyResult<Self> {
-        let settings = CompensatorSettings::from_limits(limits);
+        let settings = match limits {
+            None => CompensatorSettings::unlimited(),
+            Some((lo, hi)) if lo.is_infinite() && hi.is_infinite() => {
+                return Err(PyValueError::new_err(
+                    "limits: no limits at all is limits=None",
+                ))
+            }
+            Some((lo, hi)) => CompensatorSettings::with_limits(lo, hi),
+        };
         let inner = model.inner.compensator(settings).map_err(value_error)?;
         Ok(Self { inner })
     }

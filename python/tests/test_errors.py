@@ -100,6 +100,7 @@ def test_arrays(bad, message):
     ((1000.0, -1000.0), "limits: the lower limit 1000 must be below the upper limit -1000"),
     ((5.0, 5.0), "limits: the lower limit 5 must be below"),
     ((float("nan"), 1.0), "limits: the lower limit NaN"),
+    ((-float("inf"), float("inf")), "limits: no limits at all is limits=None"),
 ])
 def test_compensator_limits(limits, message):
     with pytest.raises(ValueError) as e:

@@ -690,6 +690,9 @@ fn parse_limits(s: &str) -> std::result::Result<(f64, f64), String> {
             .ok_or_else(|| format!("'{p}' is not a number"))
     };
     let (lo, hi) = (parse(parts[0])?, parse(parts[1])?);
+    if lo.is_infinite() && hi.is_infinite() {
+        return Err("no limits at all is --no-limits".into());
+    }
     if lo >= hi {
         return Err(format!("LO = {lo} must be below HI = {hi}"));
     }

@@ -59,7 +59,11 @@ fn simulate(a: &SimulateArgs) -> Result<()> {
 
 fn compensate(a: &CompensateArgs) -> Result<()> {
     let model = read_model(&a.files.model)?;
-    let settings = CompensatorSettings::from_options(a.limits, a.no_limits);
+    let settings = match (a.limits, a.no_limits) {
+        (_, true) => CompensatorSettings::unlimited(),
+        (Some((lo, hi)), false) => CompensatorSettings::with_limits(lo, hi),
+        (None, false) => CompensatorSettings::default(),
+    };
     let mut comp = model.compensator(settings).context("--limits")?;
     let mut trace = Trace::read(&a.files.input)?;
     trace.check_time_column(model.sample_time())?;

@@ -91,35 +91,18 @@ impl Default for CompensatorSettings {
 }
 
 impl CompensatorSettings {
-    /// No saturation at all.
+    /// No saturation at all: the one way to say so in Rust (the command
+    /// line's is `--no-limits`, Python's `limits=None`, C's ±INFINITY).
     pub fn unlimited() -> Self {
         Self::with_limits(f64::NEG_INFINITY, f64::INFINITY)
     }
 
-    /// Limits `[lower, upper]`.
+    /// Limits `[lower, upper]`; one of them may be infinite (a one-sided
+    /// limit; none at all is [`CompensatorSettings::unlimited`]).
     pub fn with_limits(lower_limit: f64, upper_limit: f64) -> Self {
         Self {
             lower_limit,
             upper_limit,
-        }
-    }
-
-    /// Limits as front ends take them: `None` for no limits, else
-    /// `(lower, upper)`.
-    pub fn from_limits(limits: Option<(f64, f64)>) -> Self {
-        match limits {
-            Some((lower, upper)) => Self::with_limits(lower, upper),
-            None => Self::unlimited(),
-        }
-    }
-
-    /// Limits as a command line gives them: `limits` if given, no limits
-    /// if `unlimited`, else the default.
-    pub fn from_options(limits: Option<(f64, f64)>, unlimited: bool) -> Self {
-        match (limits, unlimited) {
-            (_, true) => Self::unlimited(),
-            (Some(l), false) => Self::from_limits(Some(l)),
-            (None, false) => Self::default(),
         }
     }
 
