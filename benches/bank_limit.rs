@@ -76,8 +76,8 @@ use std::time::Instant;
 mod common;
 
 use common::{bank_rows, nominal_bank, state_stream};
-use mfcbeam::operators::bank::{CompensatorBank, Par};
 use mfcbeam::internals::Kernels;
+use mfcbeam::operators::bank::{CompensatorBank, Par};
 use mfcbeam::realtime::{Compensated, Real};
 
 /// The figures `benches/results` keeps: name, unit, value.
@@ -322,7 +322,7 @@ mod mix {
     //! with their state in L1.
     use super::Form;
     use mfcbeam::internals::Kernels;
-use mfcbeam::realtime::{Real};
+    use mfcbeam::realtime::Real;
 
     /// `$kernel::<CHAINS, FORM>($args)` of module `x86` with the form
     /// `$form` made a constant (the kernels take it as a const parameter).
@@ -1010,7 +1010,11 @@ fn report<T: Real>(ghz: f64) -> f64 {
         );
         if crossover.is_none() && ratio < 1.0 {
             crossover = Some(blocks);
-            keep(format!("bank_{}_crossover_blocks", T::NAME), "count", blocks as f64);
+            keep(
+                format!("bank_{}_crossover_blocks", T::NAME),
+                "count",
+                blocks as f64,
+            );
         }
     }
     println!(

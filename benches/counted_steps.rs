@@ -68,7 +68,7 @@ fn run_compensator<T: Real>(
     step: fn(&mut Compensator<T, nominal::Capacity>, T) -> Compensated<T>,
 ) -> f64 {
     let mut c = Compensator::<T, nominal::Capacity>::new(
-        &nominal::PARAMETERS,
+        &nominal::PARAMETERS.validate().unwrap(),
         CompensatorSettings::with_limits(-1000.0, 1000.0),
     )
     .unwrap();
@@ -91,7 +91,7 @@ fn main() {
         Some("run") => {
             let n = args.iter().find_map(|a| a.parse().ok()).unwrap_or(1);
             let mut c = Compensator::<f64, nominal::Capacity>::new(
-                &nominal::PARAMETERS,
+                &nominal::PARAMETERS.validate().unwrap(),
                 CompensatorSettings::with_limits(-1000.0, 1000.0),
             )
             .unwrap();

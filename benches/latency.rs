@@ -24,8 +24,8 @@
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
-use mfcbeam::prelude::*;
 use mfcbeam::internals as simd;
+use mfcbeam::prelude::*;
 use mfcbeam::realtime::{nominal, Compensated, Compensator, CompensatorSettings, Real};
 
 const TS_NS: f64 = 2e5;
@@ -153,7 +153,7 @@ fn measure(
 
 fn fixed<T: Real>(steps: usize, targets: &[f64], samples: &mut [u64]) -> (usize, usize) {
     let mut c = Compensator::<T, nominal::Capacity>::new(
-        &nominal::PARAMETERS,
+        &nominal::PARAMETERS.validate().unwrap(),
         CompensatorSettings::with_limits(-1000.0, 1000.0),
     )
     .unwrap();

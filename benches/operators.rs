@@ -9,8 +9,8 @@ mod common;
 
 use common::test_input;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use mfcbeam::prelude::*;
 use mfcbeam::internals::Kernels;
+use mfcbeam::prelude::*;
 
 fn single_steps(c: &mut Criterion) {
     const LEN: usize = 4096;

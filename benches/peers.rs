@@ -193,12 +193,12 @@ fn main() {
     let model = nominal_model();
     let mut heap = model.compensator(CompensatorSettings::default()).unwrap();
     let mut fixed64 = Compensator::<f64, nominal::Capacity>::new(
-        &nominal::PARAMETERS,
+        &nominal::PARAMETERS.validate().unwrap(),
         CompensatorSettings::with_limits(-1000.0, 1000.0),
     )
     .unwrap();
     let mut fixed32 = Compensator::<f32, nominal::Capacity>::new(
-        &nominal::PARAMETERS,
+        &nominal::PARAMETERS.validate().unwrap(),
         CompensatorSettings::with_limits(-1000.0, 1000.0),
     )
     .unwrap();
@@ -514,13 +514,37 @@ fn main() {
     common::results::record(
         "peers",
         &[
-            figure("step_f64_run_over_strongest_c", "ratio", median(INTO_F64, STRONGEST)),
-            figure("step_f64_call_over_strongest_c", "ratio", median(INLINE_F64, STRONGEST_CALL)),
+            figure(
+                "step_f64_run_over_strongest_c",
+                "ratio",
+                median(INTO_F64, STRONGEST),
+            ),
+            figure(
+                "step_f64_call_over_strongest_c",
+                "ratio",
+                median(INLINE_F64, STRONGEST_CALL),
+            ),
             figure("step_f32_over_f64_run", "ratio", median(INTO_F32, INTO_F64)),
-            figure("step_f32_over_f64_call", "ratio", median(INLINE_F32, INLINE_F64)),
-            figure("strongest_c_f32_over_f64", "ratio", median(STRONGEST_F32, STRONGEST)),
-            figure("capi_call_over_strongest_c", "ratio", median(API_CALL, STRONGEST_CALL)),
-            figure("step_f64_run_ns", "ns", vec![quantile(&times[INTO_F64], 0.5)]),
+            figure(
+                "step_f32_over_f64_call",
+                "ratio",
+                median(INLINE_F32, INLINE_F64),
+            ),
+            figure(
+                "strongest_c_f32_over_f64",
+                "ratio",
+                median(STRONGEST_F32, STRONGEST),
+            ),
+            figure(
+                "capi_call_over_strongest_c",
+                "ratio",
+                median(API_CALL, STRONGEST_CALL),
+            ),
+            figure(
+                "step_f64_run_ns",
+                "ns",
+                vec![quantile(&times[INTO_F64], 0.5)],
+            ),
         ],
     );
 }

@@ -59,22 +59,22 @@
 /**
  * Words of `MfcbeamCompensatorStorageF32`.
  */
-#define MFCBEAM_COMPENSATOR_F32_WORDS 586
+#define MFCBEAM_COMPENSATOR_F32_WORDS 584
 
 /**
  * Words of `MfcbeamCompensatorStorageF64`.
  */
-#define MFCBEAM_COMPENSATOR_F64_WORDS 1131
+#define MFCBEAM_COMPENSATOR_F64_WORDS 1129
 
 /**
  * Words of `MfcbeamModelStorageF32`.
  */
-#define MFCBEAM_MODEL_F32_WORDS 529
+#define MFCBEAM_MODEL_F32_WORDS 527
 
 /**
  * Words of `MfcbeamModelStorageF64`.
  */
-#define MFCBEAM_MODEL_F64_WORDS 1023
+#define MFCBEAM_MODEL_F64_WORDS 1021
 
 #if defined(MFCBEAM_STD)
 /**

@@ -79,18 +79,19 @@ fn steps_and_in_place_runs_allocate_nothing() {
 
     use mfcbeam::realtime::{nominal, Compensator, CompensatorSettings, Model};
     let mut fixed32 = Compensator::<f32, nominal::Capacity>::new(
-        &nominal::PARAMETERS,
+        &nominal::PARAMETERS.validate().unwrap(),
         CompensatorSettings::with_limits(-300.0, 300.0),
     )
     .unwrap();
     let mut fixed64 = Compensator::<f64, nominal::Capacity>::new(
-        &nominal::PARAMETERS,
+        &nominal::PARAMETERS.validate().unwrap(),
         CompensatorSettings::with_limits(-300.0, 300.0),
     )
     .unwrap();
-    let mut plant32 = Model::<f32, nominal::Capacity>::new(&nominal::PARAMETERS).unwrap();
+    let mut plant32 =
+        Model::<f32, nominal::Capacity>::new(&nominal::PARAMETERS.validate().unwrap()).unwrap();
     let mut bank = mfcbeam::operators::bank::CompensatorBank::<f32>::uniform(
-        &nominal::PARAMETERS,
+        &nominal::PARAMETERS.validate().unwrap(),
         19,
         CompensatorSettings::with_limits(-300.0, 300.0),
     )
@@ -174,7 +175,7 @@ fn steps_and_in_place_runs_allocate_nothing() {
         .build()
         .unwrap();
     let mut big = mfcbeam::operators::bank::CompensatorBank::<f64>::uniform(
-        &nominal::PARAMETERS,
+        &nominal::PARAMETERS.validate().unwrap(),
         100,
         CompensatorSettings::with_limits(-300.0, 300.0),
     )

@@ -5,10 +5,10 @@
 //! and wherever the state lies in memory), and bad parameters and slices
 //! are refused with the field named.
 
+use mfcbeam::internals as simd;
 use mfcbeam::operators::bank::{CompensatorBank, Par};
 use mfcbeam::operators::model::ModelFile;
 use mfcbeam::operators::nominal::nominal_model_file;
-use mfcbeam::internals as simd;
 use mfcbeam::realtime::{Compensator, CompensatorSettings, Inline, ParameterError, Real};
 use mfcbeam::suite::conformance::{random_model, ModelShape, Rng};
 
@@ -104,7 +104,7 @@ fn same_as_singles<T: Real>(seed: u64, channels: usize, shared: bool, paper_orde
     let mut singles: Vec<Single<T>> = (0..channels)
         .map(|c| {
             Single::<T>::new(
-                &params[if shared { 0 } else { c }],
+                &params[if shared { 0 } else { c }].validate().unwrap(),
                 CompensatorSettings::with_limits(-limit, limit),
             )
             .unwrap()
@@ -172,11 +172,17 @@ fn every_kernel_set_gives_the_portable_bits() {
     for seed in 0..40u64 {
         let file = random_model(&mut rng, 12, ModelShape::Any);
         let p = file.parameters();
-        let mut a =
-            Single::<f64>::new(&p, CompensatorSettings::with_limits(-700.0, 700.0)).unwrap();
+        let mut a = Single::<f64>::new(
+            &p.validate().unwrap(),
+            CompensatorSettings::with_limits(-700.0, 700.0),
+        )
+        .unwrap();
         let mut b = a.clone();
-        let mut a32 =
-            Single::<f32>::new(&p, CompensatorSettings::with_limits(-700.0, 700.0)).unwrap();
+        let mut a32 = Single::<f32>::new(
+            &p.validate().unwrap(),
+            CompensatorSettings::with_limits(-700.0, 700.0),
+        )
+        .unwrap();
         let mut b32 = a32.clone();
         // every kernel set the CPU has, against the portable one
         let mut each: Vec<_> = simd::Kernels::all()
@@ -215,8 +221,8 @@ fn every_kernel_set_gives_the_portable_bits_at_every_order() {
         } else {
             CompensatorSettings::with_limits(-700.0, 700.0)
         };
-        let mut b = Free::<f64>::new(&p, settings).unwrap();
-        let mut b32 = Free::<f32>::new(&p, settings).unwrap();
+        let mut b = Free::<f64>::new(&p.validate().unwrap(), settings).unwrap();
+        let mut b32 = Free::<f32>::new(&p.validate().unwrap(), settings).unwrap();
         let mut each: Vec<_> = simd::Kernels::all()
             .map(|k| (k, b.clone(), b32.clone()))
             .collect();
@@ -292,12 +298,12 @@ fn the_paper_layouts_step_gives_the_portable_bits() {
             CompensatorSettings::with_limits(-700.0 * w, 700.0 * w)
         };
         let (mut b, mut b32) = (
-            Free::<f64>::new(&p, settings).unwrap(),
-            Free::<f32>::new(&p, settings).unwrap(),
+            Free::<f64>::new(&p.validate().unwrap(), settings).unwrap(),
+            Free::<f32>::new(&p.validate().unwrap(), settings).unwrap(),
         );
         let (inline, inline32) = (
-            Placed::<f64>::new(&p, settings).unwrap(),
-            Placed::<f32>::new(&p, settings).unwrap(),
+            Placed::<f64>::new(&p.validate().unwrap(), settings).unwrap(),
+            Placed::<f32>::new(&p.validate().unwrap(), settings).unwrap(),
         );
         let mut each: Vec<_> = simd::Kernels::all()
             .map(|k| (k, b.clone(), b32.clone(), inline.clone(), inline32.clone()))
@@ -411,8 +417,8 @@ fn a_run_gives_the_bits_of_its_steps_on_every_kernel_set() {
         let signal32: Vec<f32> = signal.iter().map(|&t| t as f32).collect();
 
         // one portable step per sample: the reference
-        let mut reference = Free::<f64>::new(&p, settings).unwrap();
-        let mut reference32 = Free::<f32>::new(&p, settings).unwrap();
+        let mut reference = Free::<f64>::new(&p.validate().unwrap(), settings).unwrap();
+        let mut reference32 = Free::<f32>::new(&p.validate().unwrap(), settings).unwrap();
         let expected: Vec<_> = signal
             .iter()
             .map(|&t| {
@@ -451,16 +457,16 @@ fn a_run_gives_the_bits_of_its_steps_on_every_kernel_set() {
                     .map(|(u, s, f)| (u.to_bits(), s, f))
                     .collect()
             };
-            let mut free = Free::<f64>::new(&p, settings).unwrap();
+            let mut free = Free::<f64>::new(&p.validate().unwrap(), settings).unwrap();
             let (out, total) = run_in_pieces(&mut free, k, &signal, &cuts);
             assert_eq!(bits(out), expected, "{}", at("heap"));
             assert_eq!(total, counts(&expected), "{}", at("heap, counts"));
-            if let Ok(mut placed) = Placed::<f64>::new(&p, settings) {
+            if let Ok(mut placed) = Placed::<f64>::new(&p.validate().unwrap(), settings) {
                 let (out, total) = run_in_pieces(&mut placed, k, &signal, &cuts);
                 assert_eq!(bits(out), expected, "{}", at("inline"));
                 assert_eq!(total, counts(&expected), "{}", at("inline, counts"));
             }
-            let mut free32 = Free::<f32>::new(&p, settings).unwrap();
+            let mut free32 = Free::<f32>::new(&p.validate().unwrap(), settings).unwrap();
             let (out, total) = run_in_pieces(&mut free32, k, &signal32, &cuts);
             let out: Vec<_> = out
                 .into_iter()
@@ -485,7 +491,11 @@ fn every_kernel_set_gives_the_portable_bits_wherever_the_state_lies() {
         // the nominal model's room only (no `S`, no dead time)
         type Nominal<T> = Compensator<T, mfcbeam::realtime::nominal::Capacity>;
         let settings = CompensatorSettings::with_limits(-700.0, 700.0);
-        let proto = Nominal::<T>::new(&mfcbeam::realtime::nominal::PARAMETERS, settings).unwrap();
+        let proto = Nominal::<T>::new(
+            &mfcbeam::realtime::nominal::PARAMETERS.validate().unwrap(),
+            settings,
+        )
+        .unwrap();
         let signal: Vec<T> = targets(&mut Rng::new(3), 1, 48, 900.0)
             .into_iter()
             .map(|row| T::from_f64(row[0]))
@@ -556,7 +566,7 @@ fn the_vector_kernels_run_exactly_where_the_cpu_has_them() {
     let settings = CompensatorSettings::default();
     let p = mfcbeam::realtime::nominal::PARAMETERS;
 
-    let mut c = Single::<f64>::new(&p, settings).unwrap();
+    let mut c = Single::<f64>::new(&p.validate().unwrap(), settings).unwrap();
     let before = calls();
     c.compensate_portable(300.0);
     assert_eq!(calls(), before, "the portable f64 step ran AVX2 kernels");
@@ -565,7 +575,7 @@ fn the_vector_kernels_run_exactly_where_the_cpu_has_them() {
     assert_eq!(calls() - before, if avx2 { 2 } else { 0 });
 
     // f32 too: 8-lane H⁻¹ and creep pass
-    let mut c32 = Single::<f32>::new(&p, settings).unwrap();
+    let mut c32 = Single::<f32>::new(&p.validate().unwrap(), settings).unwrap();
     let before = calls();
     c32.compensate_portable(300.0);
     assert_eq!(calls(), before, "the portable f32 step ran AVX2 kernels");
@@ -792,7 +802,9 @@ fn channels_with_dynamics_give_the_bits_of_their_own_compensator() {
     let mut split = bank.clone();
     let mut single: Vec<_> = params
         .iter()
-        .map(|p| Compensator::<f64, Inline<12, 72, 9, 4>>::new(p, settings).unwrap())
+        .map(|p| {
+            Compensator::<f64, Inline<12, 72, 9, 4>>::new(&p.validate().unwrap(), settings).unwrap()
+        })
         .collect();
     for (c, d) in bank.delays().iter().enumerate() {
         assert_eq!(*d, files[c].delay.unwrap_or(0) + usize::from(c % 3 == 1));

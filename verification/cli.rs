@@ -43,6 +43,14 @@ fn mfcbeam(args: &[&str]) -> Output {
         .unwrap()
 }
 
+/// `mfcbeam CMD --model MODEL --input INPUT --output OUTPUT EXTRA…`: a
+/// command of the file contract on its three files.
+fn on_files(cmd: &str, model: &str, input: &str, output: &str, extra: &[&str]) -> Output {
+    let mut args = vec![cmd, "--model", model, "--input", input, "--output", output];
+    args.extend_from_slice(extra);
+    mfcbeam(&args)
+}
+
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
@@ -83,15 +91,7 @@ fn simulate_appends_y_equal_to_the_library_bit_for_bit() {
         "t,u,note\n0.0,0,a\n0.0002,250.5,b\n0.0004,-1e-7,c\n0.0006,900,d\n",
     );
     let output = d.path("out.csv");
-    let out = mfcbeam(&[
-        "simulate",
-        "--model",
-        MODEL,
-        "--input",
-        s(&input),
-        "--output",
-        s(&output),
-    ]);
+    let out = on_files("simulate", MODEL, s(&input), s(&output), &[]);
     assert!(
         out.status.success(),
         "{}",
@@ -151,16 +151,7 @@ fn compensate_writes_u_and_saturated_and_limits_parse_negative_numbers() {
         assert_eq!(u, expected);
     }
     let output = d.path("free.csv");
-    let out = mfcbeam(&[
-        "compensate",
-        "--model",
-        MODEL,
-        "--input",
-        s(&input),
-        "--output",
-        s(&output),
-        "--no-limits",
-    ]);
+    let out = on_files("compensate", MODEL, s(&input), s(&output), &["--no-limits"]);
     assert!(out.status.success());
     let trace = Trace::read(&output).unwrap();
     assert!(trace.column("u").unwrap()[2] > 1000.0);
@@ -241,17 +232,8 @@ fn error_contract_bad_inputs() {
     let d = TempDir::new("errors");
     let good_in = d.write("in.csv", "t,u\n0,0\n0.0002,1\n");
     let output = d.path("out.csv");
-    let run = |model: &Path, input: &Path| {
-        mfcbeam(&[
-            "simulate",
-            "--model",
-            s(model),
-            "--input",
-            s(input),
-            "--output",
-            s(&output),
-        ])
-    };
+    let run =
+        |model: &Path, input: &Path| on_files("simulate", s(model), s(input), s(&output), &[]);
     let model = |name: &str, text: &str| d.write(name, text);
     let h = |thr: &str, w: &str| {
         format!(
@@ -348,50 +330,32 @@ fn error_contract_bad_inputs() {
     let out = run(m, &d.write("dup.csv", "u,y\n0,0\n"));
     assert_clean_failure(&out, &["dup.csv", "'y'"], Some(&output));
     // compensate: bad limits and missing y_d
-    let out = mfcbeam(&[
+    let out = on_files(
         "compensate",
-        "--model",
         MODEL,
-        "--input",
         s(&good_in),
-        "--output",
         s(&output),
-        "--limits=5,1",
-    ]);
+        &["--limits=5,1"],
+    );
     assert_clean_failure(&out, &["--limits", "must be below"], Some(&output));
     // no limits has one spelling: --no-limits
-    let out = mfcbeam(&[
+    let out = on_files(
         "compensate",
-        "--model",
         MODEL,
-        "--input",
         s(&good_in),
-        "--output",
         s(&output),
-        "--limits=-inf,inf",
-    ]);
+        &["--limits=-inf,inf"],
+    );
     assert_clean_failure(&out, &["--limits", "--no-limits"], Some(&output));
-    let out = mfcbeam(&[
+    let out = on_files(
         "compensate",
-        "--model",
         MODEL,
-        "--input",
         s(&good_in),
-        "--output",
         s(&output),
-        "--limits=-1,1",
-        "--no-limits",
-    ]);
+        &["--limits=-1,1", "--no-limits"],
+    );
     assert_clean_failure(&out, &["--no-limits"], Some(&output));
-    let out = mfcbeam(&[
-        "compensate",
-        "--model",
-        MODEL,
-        "--input",
-        s(&good_in),
-        "--output",
-        s(&output),
-    ]);
+    let out = on_files("compensate", MODEL, s(&good_in), s(&output), &[]);
     assert_clean_failure(&out, &["in.csv", "missing column 'y_d'"], Some(&output));
 }
 
@@ -400,15 +364,7 @@ fn an_existing_output_file_survives_a_failed_run() {
     let d = TempDir::new("keep");
     let output = d.write("out.csv", "previous content\n");
     let input = d.write("nan.csv", "u\n0\ninf\n");
-    let out = mfcbeam(&[
-        "simulate",
-        "--model",
-        MODEL,
-        "--input",
-        s(&input),
-        "--output",
-        s(&output),
-    ]);
+    let out = on_files("simulate", MODEL, s(&input), s(&output), &[]);
     assert_eq!(out.status.code(), Some(2));
     assert_eq!(fs::read_to_string(&output).unwrap(), "previous content\n");
 }
@@ -437,15 +393,7 @@ fn identify_round_trip_recovers_a_model_that_compensates() {
         "--output",
         s(&sig),
     ]));
-    ok(mfcbeam(&[
-        "simulate",
-        "--model",
-        MODEL,
-        "--input",
-        s(&sig),
-        "--output",
-        s(&data),
-    ]));
+    ok(on_files("simulate", MODEL, s(&sig), s(&data), &[]));
     let out = mfcbeam(&["identify", "--input", s(&data), "--output", s(&model)]);
     ok(out.clone());
     let report = String::from_utf8_lossy(&out.stderr);
@@ -1052,15 +1000,7 @@ fn lab_data_inputs_are_accepted_or_refused_with_one_line() {
         .collect::<Vec<_>>()
         .join("\n");
     let input = d.write("jitter.csv", &jittered);
-    let out = mfcbeam(&[
-        "simulate",
-        "--model",
-        MODEL,
-        "--input",
-        s(&input),
-        "--output",
-        s(&output),
-    ]);
+    let out = on_files("simulate", MODEL, s(&input), s(&output), &[]);
     assert!(
         out.status.success(),
         "{}",
@@ -1069,15 +1009,7 @@ fn lab_data_inputs_are_accepted_or_refused_with_one_line() {
     fs::remove_file(&output).unwrap();
     // time going backwards
     let back = d.write("back.csv", "t,u\n0,0\n0.0002,1\n0.0001,2\n0.0003,3\n");
-    let out = mfcbeam(&[
-        "simulate",
-        "--model",
-        MODEL,
-        "--input",
-        s(&back),
-        "--output",
-        s(&output),
-    ]);
+    let out = on_files("simulate", MODEL, s(&back), s(&output), &[]);
     assert_clean_failure(
         &out,
         &["back.csv", "row 3", "'t'", "does not increase"],
@@ -1085,28 +1017,11 @@ fn lab_data_inputs_are_accepted_or_refused_with_one_line() {
     );
     // a repeated column name
     let dup = d.write("dupcol.csv", "u,x,u\n1,2,3\n");
-    let out = mfcbeam(&[
-        "simulate",
-        "--model",
-        MODEL,
-        "--input",
-        s(&dup),
-        "--output",
-        s(&output),
-    ]);
+    let out = on_files("simulate", MODEL, s(&dup), s(&output), &[]);
     assert_clean_failure(&out, &["dupcol.csv", "'u'", "repeats"], Some(&output));
     // targets no voltage can reach without limits: the output would not be finite
     let huge = d.write("huge.csv", "y_d\n0\n1e308\n-1e308\n");
-    let out = mfcbeam(&[
-        "compensate",
-        "--model",
-        MODEL,
-        "--input",
-        s(&huge),
-        "--output",
-        s(&output),
-        "--no-limits",
-    ]);
+    let out = on_files("compensate", MODEL, s(&huge), s(&output), &["--no-limits"]);
     assert_clean_failure(&out, &["row 2", "'u'", "non-finite"], Some(&output));
     // invert shows the model's offset, which the compensator subtracts
     let mut file: ModelFile = serde_json::from_str(&fs::read_to_string(MODEL).unwrap()).unwrap();
@@ -1130,15 +1045,7 @@ fn lab_data_inputs_are_accepted_or_refused_with_one_line() {
     .status
     .success());
     let lab = d.path("lab.csv");
-    let sim = mfcbeam(&[
-        "simulate",
-        "--model",
-        MODEL,
-        "--input",
-        s(&sig),
-        "--output",
-        s(&lab),
-    ]);
+    let sim = on_files("simulate", MODEL, s(&sig), s(&lab), &[]);
     assert!(sim.status.success());
     let model_out = d.path("m.json");
     for (args, needle) in [
@@ -1200,15 +1107,7 @@ fn a_model_with_a_superposition_operator_runs_through_every_command() {
         s(&sig),
     ]));
     let data = d.path("data.csv");
-    ok(mfcbeam(&[
-        "simulate",
-        "--model",
-        s(&model),
-        "--input",
-        s(&sig),
-        "--output",
-        s(&data),
-    ]));
+    ok(on_files("simulate", s(&model), s(&sig), s(&data), &[]));
     let trace = Trace::read(&data).unwrap();
     let (u, y) = (trace.column("u").unwrap(), trace.column("y").unwrap());
     let w = mfcbeam::io::read_model(&model).unwrap();
@@ -1220,16 +1119,13 @@ fn a_model_with_a_superposition_operator_runs_through_every_command() {
         .collect();
     fs::write(&targets, text).unwrap();
     let comp = d.path("comp.csv");
-    ok(mfcbeam(&[
+    ok(on_files(
         "compensate",
-        "--model",
         s(&model),
-        "--input",
         s(&targets),
-        "--output",
         s(&comp),
-        "--no-limits",
-    ]));
+        &["--no-limits"],
+    ));
     let uc = Trace::read(&comp).unwrap().column("u").unwrap();
     let back = w.clone().run(&uc);
     let worst = back
@@ -1316,15 +1212,7 @@ fn a_model_with_a_dead_time_runs_through_every_command() {
     ]));
     let run = |model: &Path, name: &str| {
         let out = d.path(name);
-        ok(mfcbeam(&[
-            "simulate",
-            "--model",
-            s(model),
-            "--input",
-            s(&sig),
-            "--output",
-            s(&out),
-        ]));
+        ok(on_files("simulate", s(model), s(&sig), s(&out), &[]));
         Trace::read(&out).unwrap().column("y").unwrap()
     };
     let (y0, y3) = (run(&m0, "y0.csv"), run(&m3, "y3.csv"));
@@ -1339,16 +1227,13 @@ fn a_model_with_a_dead_time_runs_through_every_command() {
         .write(&targets)
         .unwrap();
     let comp = d.path("comp.csv");
-    ok(mfcbeam(&[
+    ok(on_files(
         "compensate",
-        "--model",
         s(&m3),
-        "--input",
         s(&targets),
-        "--output",
         s(&comp),
-        "--no-limits",
-    ]));
+        &["--no-limits"],
+    ));
     let uc = Trace::read(&comp).unwrap().column("u").unwrap();
     let back = mfcbeam::io::read_model(&m3).unwrap().run(&uc);
     let range = common::range(&t);
@@ -1403,15 +1288,7 @@ fn a_model_with_a_dead_time_runs_through_every_command() {
             s(&sig),
         ]));
         let data = d.path(name);
-        ok(mfcbeam(&[
-            "simulate",
-            "--model",
-            s(&m3),
-            "--input",
-            s(&sig),
-            "--output",
-            s(&data),
-        ]));
+        ok(on_files("simulate", s(&m3), s(&sig), s(&data), &[]));
         data
     };
     let (slow, fast) = (record("0.05", "slow.csv"), record("0.005", "fast.csv"));
@@ -1495,15 +1372,7 @@ fn simulate_refuses(
     let bad_path = d.path("bad.json");
     fs::write(&bad_path, serde_json::to_string(bad).unwrap()).unwrap();
     let never = d.path("never.csv");
-    let out = mfcbeam(&[
-        "simulate",
-        "--model",
-        s(&bad_path),
-        "--input",
-        s(sig),
-        "--output",
-        s(&never),
-    ]);
+    let out = on_files("simulate", s(&bad_path), s(sig), s(&never), &[]);
     assert_clean_failure(&out, &["bad.json", field], Some(&never));
 }
 

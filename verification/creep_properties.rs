@@ -224,7 +224,7 @@ proptest! {
     /// of both signs, and inputs up to `10³⁸`, where `f32` sums overflow.
     #[test]
     fn dispatched_creep_gives_the_portable_bits_at_every_order(
-        c in creep_operator(40),
+        (c, ts) in creep_operator_at(40),
         v in signal(1..30, 4.0),
         zeros in prop::collection::vec(0u8..3, 240),
         huge in prop::collection::vec(prop::sample::select(vec![0.0, 1e30, -1e38, 3e38]), 3),
@@ -237,7 +237,7 @@ proptest! {
         let mut slow = fast.clone();
         let make32 = |c: &CreepOperator| {
             let mut op = mfcbeam::realtime::Creep::<f32, mfcbeam::operators::heap::Heap>::new(
-                c.thresholds(), c.weights(), c.eigenvalues(), c.sample_time(),
+                c.thresholds(), c.weights(), c.eigenvalues(), ts,
             ).unwrap();
             op.set_state_flat(&start).unwrap();
             op
@@ -291,13 +291,13 @@ fn creep_bounds<'a>(
 
 /// `max_k |C₃₂ − C₆₄|` over the first `k` samples of `v`, from virgin
 /// operators: the `f32` real-time operator against the `f64` one.
-fn f32_creep_deviations(c: &CreepOperator, v: &[f64]) -> Vec<f64> {
+fn f32_creep_deviations(c: &CreepOperator, sample_time: f64, v: &[f64]) -> Vec<f64> {
     let mut c64 = c.clone();
     let mut c32 = mfcbeam::realtime::Creep::<f32, mfcbeam::operators::heap::Heap>::new(
         c.thresholds(),
         c.weights(),
         c.eigenvalues(),
-        c.sample_time(),
+        sample_time,
     )
     .unwrap();
     let mut worst = 0.0f64;
@@ -320,7 +320,7 @@ proptest! {
     /// operators by less than an `f32` ulp per sample, where they stall.
     #[test]
     fn f32_creep_stays_within_the_rounding_bound_over_its_samples(
-        c in creep_operator(12),
+        (c, ts) in creep_operator_at(12),
         steps in prop::collection::vec(-0.1f64..0.1, 100..2000),
         amplitude in 0.5f64..50.0,
     ) {
@@ -334,10 +334,10 @@ proptest! {
             .collect();
         let v_max = max_abs(&v);
         let bound = |eps, k| {
-            creep_bounds(c.thresholds(), c.weights(), c.eigenvalues(), c.sample_time(), eps)
+            creep_bounds(c.thresholds(), c.weights(), c.eigenvalues(), ts, eps)
                 .creep_sum_over(v_max, k)
         };
-        for (k, &worst) in f32_creep_deviations(&c, &v).iter().enumerate() {
+        for (k, &worst) in f32_creep_deviations(&c, ts, &v).iter().enumerate() {
             let samples = k as u64 + 1;
             let b = bound(f32::EPSILON as f64, samples) + bound(f64::EPSILON, samples);
             prop_assert!(worst <= b, "after {samples} samples: {worst:e} > {b:e}");
@@ -361,7 +361,7 @@ fn the_creep_bound_over_a_run_is_sharper_and_holds() {
     let ts = nominal::PARAMETERS.sample_time;
     let c = CreepOperator::new(r, w, a, ts).unwrap();
     let v: Vec<f64> = (0..4096).map(|k| 600.0 * (k as f64 * 2e-3).sin()).collect();
-    let worst = *f32_creep_deviations(&c, &v).last().unwrap();
+    let worst = *f32_creep_deviations(&c, ts, &v).last().unwrap();
     let b32 = creep_bounds(r, w, a, ts, f32::EPSILON as f64);
     let b64 = creep_bounds(r, w, a, ts, f64::EPSILON);
     let over = b32.creep_sum_over(600.0, 4096) + b64.creep_sum_over(600.0, 4096);

@@ -15,8 +15,8 @@ use mfcbeam::identification::{
 };
 use mfcbeam::operators::model::SuperpositionData;
 use mfcbeam::prelude::*;
-use mfcbeam::realtime::{Model, Real};
 use mfcbeam::realtime::{preview_into, Inline, ParameterError, RoundingBounds};
+use mfcbeam::realtime::{Model, Real};
 
 /// The nominal model with an asymmetric `S`, an offset and dead time `d`.
 fn delayed_nominal(d: usize) -> ModelFile {
@@ -119,7 +119,8 @@ fn bad_dead_times_are_refused_by_name() {
     let e = HysteresisCreepModel::from_file(&file).unwrap_err();
     assert!(e.to_string().contains("delay_state"), "{e}");
     file.delay_state = None;
-    let e = Model::<f64, Inline<12, 60, 5, 2>>::new(&file.parameters()).unwrap_err();
+    let e = Model::<f64, Inline<12, 60, 5, 2>>::new(&file.parameters().validate().unwrap())
+        .unwrap_err();
     assert_eq!(
         e,
         ParameterError::ExceedsCapacity {
@@ -161,9 +162,10 @@ fn a_previewed_target_is_met_from_sample_d_on() {
         type Size = Inline<12, 60, 5, 4>;
         let d = file.delay.unwrap_or(0);
         let settings = CompensatorSettings::unlimited();
-        let mut comp = Compensator::<T, Size>::new(&file.parameters(), settings).unwrap();
+        let mut comp =
+            Compensator::<T, Size>::new(&file.parameters().validate().unwrap(), settings).unwrap();
         assert_eq!(comp.delay(), d);
-        let mut plant = Model::<T, Size>::new(&file.parameters()).unwrap();
+        let mut plant = Model::<T, Size>::new(&file.parameters().validate().unwrap()).unwrap();
         let mut targets = vec![0.0; y_d.len()];
         preview_into(y_d, d, &mut targets).unwrap();
         let u: Vec<T> = targets
@@ -236,12 +238,19 @@ fn representable() -> HysteresisCreepModel {
     let w = vec![
         0.45, 0.09, 0.08, 0.06, 0.05, 0.04, 0.03, 0.03, 0.02, 0.02, 0.01, -0.01,
     ];
-    let h = HysteresisOperator::new(r, w).unwrap();
-    HysteresisCreepModel::from_parts(TS, h, None)
-        .unwrap()
-        .with_offset(3.0)
-        .with_delay(2)
-        .unwrap()
+    let parameters = mfcbeam::realtime::ModelParameters {
+        sample_time: TS,
+        hysteresis: mfcbeam::realtime::HysteresisParameters {
+            thresholds: &r,
+            weights: &w,
+        },
+        creep: None,
+        superposition: None,
+        dynamics: None,
+        delay: 2,
+        offset: 3.0,
+    };
+    HysteresisCreepModel::new(&parameters.validate().unwrap()).unwrap()
 }
 
 fn measure(model: &HysteresisCreepModel, u: &[f64], sigma: f64, seed: u64) -> Vec<f64> {
@@ -409,7 +418,9 @@ fn a_bank_reports_each_channels_dead_time() {
     assert_eq!(bank.delays(), &[0, 3]);
     let mut singles: Vec<_> = files
         .iter()
-        .map(|f| Compensator::<f64, Heap>::new(&f.parameters(), settings).unwrap())
+        .map(|f| {
+            Compensator::<f64, Heap>::new(&f.parameters().validate().unwrap(), settings).unwrap()
+        })
         .collect();
     let mut out = [mfcbeam::realtime::Compensated::<f64>::default(); 2];
     for k in 0..2000 {

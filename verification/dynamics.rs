@@ -80,7 +80,7 @@ fn a_low_pass_decays_as_its_pole_says_and_passes_a_constant() {
     // 6 ε (g + Σ|c_j| ‖g/A‖₁) |w|, carried on by ‖1/A‖₁
     let (c, g, _) = d.coefficients();
     let c_abs: f64 = c.iter().map(|c| c.abs()).sum();
-    let (g1, a1) = d.gains();
+    let (g1, a1) = d.gains(TS);
     let bound = 4.0 * 8.0 * f64::EPSILON * (2.0 * g + c_abs * g1) * 3.25 * a1;
     for _ in 0..100 {
         assert!((d.step(3.25) - 3.25).abs() <= bound);

@@ -237,7 +237,7 @@ proptest! {
             mfcbeam::operators::creep::log_spaced_eigenvalues(m, ts),
             ts,
         ).unwrap();
-        let truth = HysteresisCreepModel::from_parts(ts, h, Some(c)).unwrap();
+        let truth = model_of(ts, &h, Some(&c));
         let y = truth.clone().run(&u);
         let settings = IdentificationSettings {
             hysteresis_operators: nh,

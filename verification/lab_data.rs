@@ -23,7 +23,7 @@ const OFFSET: f64 = 37.5;
 
 /// The "true" actuator: the nominal model with a sensor offset.
 fn truth() -> HysteresisCreepModel {
-    nominal_model().with_offset(OFFSET)
+    nominal_model().with_offset(OFFSET).unwrap()
 }
 
 /// A lab record: the true model runs a `history` first (not recorded), then
@@ -142,15 +142,15 @@ fn the_identified_compensator_linearizes_the_true_actuator() {
 /// active constraints that are active.
 #[test]
 fn an_off_grid_model_gives_the_exact_constrained_optimum() {
-    let w = HysteresisCreepModel::from_parts(
+    let w = model_of(
         SAMPLE_TIME,
-        HysteresisOperator::new(
+        &HysteresisOperator::new(
             vec![0.0, 37.0, 211.0, 480.0, 733.0],
             vec![0.4, 0.3, -0.2, 0.25, -0.3],
         )
         .unwrap(),
         Some(
-            CreepOperator::new(
+            &CreepOperator::new(
                 vec![0.0, 150.0, 600.0],
                 vec![0.05, -0.05, 0.02],
                 vec![500.0, 5.0, 0.05],
@@ -158,8 +158,7 @@ fn an_off_grid_model_gives_the_exact_constrained_optimum() {
             )
             .unwrap(),
         ),
-    )
-    .unwrap();
+    );
     let u = excitation(0.0);
     let y = w.clone().run(&u);
     let id = identify(&u, &y, SAMPLE_TIME, &IdentificationSettings::default()).unwrap();
@@ -328,6 +327,7 @@ fn an_asymmetric_logger_file_is_fitted_with_and_without_a_superposition_operator
     fs::create_dir_all(&dir).unwrap();
     let mut file = nominal_model()
         .with_offset(OFFSET)
+        .unwrap()
         .to_file()
         .without_state();
     file.superposition = Some(mfcbeam::operators::model::SuperpositionData {

@@ -143,7 +143,7 @@ fn paper_sized_storage_and_its_footprint() {
 #[test]
 fn parameters_beyond_the_capacity_are_refused() {
     let e = Compensator::<f64, Inline<8, 60>>::new(
-        &nominal::PARAMETERS,
+        &nominal::PARAMETERS.validate().unwrap(),
         CompensatorSettings::with_limits(-1e3, 1e3),
     )
     .unwrap_err();
@@ -155,7 +155,8 @@ fn parameters_beyond_the_capacity_are_refused() {
             ..
         }
     ));
-    let e = Model::<f32, Inline<12, 59>>::new(&nominal::PARAMETERS).unwrap_err();
+    let e =
+        Model::<f32, Inline<12, 59>>::new(&nominal::PARAMETERS.validate().unwrap()).unwrap_err();
     assert!(matches!(
         e,
         ParameterError::ExceedsCapacity {
@@ -181,9 +182,9 @@ fn parameters_beyond_the_capacity_are_refused() {
         delay: 0,
         offset: 0.0,
     };
-    let mut w = Model::<f32, nominal::Capacity>::new(&small).unwrap();
+    let mut w = Model::<f32, nominal::Capacity>::new(&small.validate().unwrap()).unwrap();
     let mut c = Compensator::<f32, nominal::Capacity>::new(
-        &small,
+        &small.validate().unwrap(),
         CompensatorSettings::with_limits(-10.0, 10.0),
     )
     .unwrap();
@@ -206,8 +207,8 @@ fn broken_parameters_name_the_field() {
             },
             ..nominal::PARAMETERS
         };
-        Compensator::<f32, nominal::Capacity>::new(&p, CompensatorSettings::with_limits(-1e3, 1e3))
-            .unwrap_err()
+        // refused where they are checked, once: by `validate`
+        p.validate().unwrap_err()
     };
     assert!(matches!(
         bad(|w| w[0] = -1.0),
@@ -222,14 +223,14 @@ fn broken_parameters_name_the_field() {
         }
     ));
     let e = Compensator::<f64, nominal::Capacity>::new(
-        &nominal::PARAMETERS,
+        &nominal::PARAMETERS.validate().unwrap(),
         CompensatorSettings::with_limits(1.0, -1.0),
     )
     .unwrap_err();
     assert!(matches!(e, ParameterError::InvalidLimits { .. }));
     assert!(e.to_string().contains("limits"));
     let e = Compensator::<f64, nominal::Capacity>::new(
-        &nominal::PARAMETERS,
+        &nominal::PARAMETERS.validate().unwrap(),
         CompensatorSettings::with_limits(f64::NAN, 1.0),
     )
     .unwrap_err();
@@ -245,7 +246,7 @@ fn f32_limits_are_rounded_inward_and_faults_hold_the_voltage() {
     let upper = 0.1f64;
     assert!((upper as f32) as f64 > upper);
     let mut c = Compensator::<f32, nominal::Capacity>::new(
-        &nominal::PARAMETERS,
+        &nominal::PARAMETERS.validate().unwrap(),
         CompensatorSettings::with_limits(-upper, upper),
     )
     .unwrap();
@@ -255,11 +256,12 @@ fn f32_limits_are_rounded_inward_and_faults_hold_the_voltage() {
     assert!(out.saturated && (out.u as f64) >= -upper);
 
     let mut c = Compensator::<f32, nominal::Capacity>::new(
-        &nominal::PARAMETERS,
+        &nominal::PARAMETERS.validate().unwrap(),
         CompensatorSettings::with_limits(-1e3, 1e3),
     )
     .unwrap();
-    let mut w = Model::<f32, nominal::Capacity>::new(&nominal::PARAMETERS).unwrap();
+    let mut w =
+        Model::<f32, nominal::Capacity>::new(&nominal::PARAMETERS.validate().unwrap()).unwrap();
     let u = c.compensate(200.0).u;
     w.step(u);
     for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {

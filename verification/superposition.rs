@@ -7,10 +7,10 @@
 use mfcbeam::operators::bank::CompensatorBank;
 use mfcbeam::operators::model::SuperpositionData;
 use mfcbeam::prelude::*;
-use mfcbeam::realtime::{Inline, Model, Real};
 use mfcbeam::realtime::{
     nominal, ModelParameters, RoundingBounds, Superposition, SuperpositionParameters,
 };
+use mfcbeam::realtime::{Inline, Model, Real};
 use mfcbeam::suite::conformance::{
     check_compensator, heap_compensator, random_superposition, CompensatorFactory,
     ConformanceSettings, Rng,
@@ -159,9 +159,12 @@ fn asymmetric_nominal() -> ModelFile {
 fn identity<T: Real>() -> (f64, f64) {
     let file = asymmetric_nominal();
     type Size = Inline<12, 60, 5>;
-    let mut comp =
-        Compensator::<T, Size>::new(&file.parameters(), CompensatorSettings::unlimited()).unwrap();
-    let mut plant = Model::<T, Size>::new(&file.parameters()).unwrap();
+    let mut comp = Compensator::<T, Size>::new(
+        &file.parameters().validate().unwrap(),
+        CompensatorSettings::unlimited(),
+    )
+    .unwrap();
+    let mut plant = Model::<T, Size>::new(&file.parameters().validate().unwrap()).unwrap();
     let targets: Vec<f64> = mfcbeam::suite::scenarios::fig3_staircase(500.0);
     let (mut err, mut u_max) = (0.0f64, 0.0f64);
     for &y in &targets {
@@ -261,7 +264,8 @@ fn an_inadmissible_s_is_refused_naming_the_field_and_the_sum() {
     assert!(e.to_string().contains("superposition.weights"), "{e}");
     // too many terms for an inline capacity
     let file = asymmetric_nominal();
-    let e = Model::<f64, Inline<12, 60, 3>>::new(&file.parameters()).unwrap_err();
+    let e =
+        Model::<f64, Inline<12, 60, 3>>::new(&file.parameters().validate().unwrap()).unwrap_err();
     assert!(
         matches!(
             e,

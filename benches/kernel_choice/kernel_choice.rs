@@ -17,9 +17,9 @@
 use std::hint::black_box;
 use std::time::Instant;
 
+use mfcbeam::internals::{cpu_description, Kernels};
 use mfcbeam::operators::traits::Operator;
 use mfcbeam::realtime::compensator::Compensated;
-use mfcbeam::internals::{cpu_description, Kernels};
 use mfcbeam::realtime::{nominal, Compensator, CompensatorSettings, Real};
 
 const ROUNDS: usize = 31;
@@ -52,7 +52,11 @@ fn rounds<T: Real>(targets: &[f64]) -> Vec<(Kernels, Vec<f64>)> {
     let targets: Vec<T> = targets.iter().map(|&t| T::from_f64(t)).collect();
     let settings = CompensatorSettings::default();
     let sets = Kernels::all().map(|k| {
-        let c = Compensator::<T, nominal::Capacity>::new(&nominal::PARAMETERS, settings).unwrap();
+        let c = Compensator::<T, nominal::Capacity>::new(
+            &nominal::PARAMETERS.validate().unwrap(),
+            settings,
+        )
+        .unwrap();
         (k, (c, 0usize))
     });
     interleaved(sets, STEPS, |k, (c, i), _| {

@@ -33,13 +33,13 @@ pub const MFCBEAM_MAX_SUPERPOSITION: usize = 9;
 pub const MFCBEAM_MAX_DELAY: usize = 16;
 
 /// Words of `MfcbeamCompensatorStorageF32`.
-pub const MFCBEAM_COMPENSATOR_F32_WORDS: usize = 586;
+pub const MFCBEAM_COMPENSATOR_F32_WORDS: usize = 584;
 /// Words of `MfcbeamCompensatorStorageF64`.
-pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 1131;
+pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 1129;
 /// Words of `MfcbeamModelStorageF32`.
-pub const MFCBEAM_MODEL_F32_WORDS: usize = 529;
+pub const MFCBEAM_MODEL_F32_WORDS: usize = 527;
 /// Words of `MfcbeamModelStorageF64`.
-pub const MFCBEAM_MODEL_F64_WORDS: usize = 1023;
+pub const MFCBEAM_MODEL_F64_WORDS: usize = 1021;
 
 /// The capacity of every caller-owned object.
 type Capacity =
@@ -163,7 +163,7 @@ unsafe fn compensator_from<T: Real>(
     // SAFETY: forwarded from the caller.
     let model = unsafe { p.model() }?;
     Ok(Compensator::new(
-        &model,
+        &model.validate()?,
         CompensatorSettings::with_limits(lower, upper),
     )?)
 }
@@ -177,7 +177,7 @@ unsafe fn model_from<T: Real>(
     let p = unsafe { parameters.as_ref() }.ok_or(Failure::Null("parameters"))?;
     // SAFETY: forwarded from the caller.
     let model = unsafe { p.model() }?;
-    Ok(Model::new(&model)?)
+    Ok(Model::new(&model.validate()?)?)
 }
 
 #[cfg(feature = "std")]

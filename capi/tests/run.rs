@@ -216,8 +216,13 @@ fn a_run_refuses_null_and_uninitialised_input_as_its_steps_do() {
         // zeroed storage is uninitialised
         let mut s: Box<MfcbeamCompensatorStorageF64> = Box::new(std::mem::zeroed());
         flags = [0; 3];
-        let rc =
-            mfcbeam_compensator_f64_compensate_into(&mut *s, t.as_ptr(), u.as_mut_ptr(), flags.as_mut_ptr(), 3);
+        let rc = mfcbeam_compensator_f64_compensate_into(
+            &mut *s,
+            t.as_ptr(),
+            u.as_mut_ptr(),
+            flags.as_mut_ptr(),
+            3,
+        );
         assert_eq!(rc, -1);
         assert!(flags.iter().all(|&f| f == MFCBEAM_FLAG_INVALID_HANDLE));
     }
@@ -228,11 +233,23 @@ fn a_run_refuses_null_and_uninitialised_input_as_its_steps_do() {
     // with n = 0 never read.
     unsafe {
         assert_eq!(
-            mfcbeam_compensator_compensate_into(c, std::ptr::null(), u.as_mut_ptr(), std::ptr::null_mut(), 3),
+            mfcbeam_compensator_compensate_into(
+                c,
+                std::ptr::null(),
+                u.as_mut_ptr(),
+                std::ptr::null_mut(),
+                3
+            ),
             -1
         );
         assert_eq!(
-            mfcbeam_compensator_compensate_into(c, t.as_ptr(), std::ptr::null_mut(), std::ptr::null_mut(), 3),
+            mfcbeam_compensator_compensate_into(
+                c,
+                t.as_ptr(),
+                std::ptr::null_mut(),
+                std::ptr::null_mut(),
+                3
+            ),
             -1
         );
         assert_eq!(

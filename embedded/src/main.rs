@@ -148,9 +148,10 @@ struct Outcome {
 }
 
 fn run<T: Real, St: Storage>(counter: &Counter, p: &ModelParameters<'_>) -> Outcome {
-    let mut comp = Compensator::<T, St>::new(p, CompensatorSettings::with_limits(-1000.0, 1000.0))
+    let p = p.validate().expect("valid model");
+    let mut comp = Compensator::<T, St>::new(&p, CompensatorSettings::with_limits(-1000.0, 1000.0))
         .expect("valid model");
-    let mut plant = Model::<T, St>::new(p).expect("valid model");
+    let mut plant = Model::<T, St>::new(&p).expect("valid model");
     let mut o = Outcome {
         identity: 0.0,
         bound: 0.0,

@@ -205,7 +205,7 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
                 .records
                 .get(i)
                 .map_or(id.model.offset(), |r| r.offset);
-            let fit = id.model.clone().with_offset(offset).run(fu);
+            let fit = id.model.clone().with_offset(offset)?.run(fu);
             others.push((
                 format!("{name} (fitted)"),
                 fit.iter().zip(fy).map(|(a, b)| a - b).collect(),

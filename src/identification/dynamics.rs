@@ -132,7 +132,7 @@ fn residual(
             Some(f) => (f.fitted.clone(), f.offset),
             None => (id.report.fitted.clone(), id.model.offset()),
         };
-        let fit = id.model.clone().with_offset(offset).run(rec.u);
+        let fit = id.model.clone().with_offset(offset)?.run(rec.u);
         r.extend(fitted.map(|k| fit[k] - rec.y[k]));
     }
     Ok((id, r))

@@ -11,10 +11,11 @@ use super::settings::{
 use super::ActiveConstraint;
 use super::UnexcitedOperator;
 use crate::error::ModelError;
-use crate::operators::creep::{log_spaced_eigenvalues, CreepOperator};
-use crate::operators::hysteresis::HysteresisOperator;
+use crate::operators::creep::log_spaced_eigenvalues;
 use crate::operators::model::HysteresisCreepModel;
-use crate::realtime::{Superposition, SuperpositionParameters};
+use crate::realtime::{
+    CreepParameters, HysteresisParameters, ModelParameters, Superposition, SuperpositionParameters,
+};
 
 /// What an identification fits: samples, operators and the margin of (11).
 pub(super) struct FitPlan {
@@ -290,20 +291,25 @@ impl FitPlan {
         solution: &Solution,
         offset: f64,
     ) -> Result<HysteresisCreepModel, IdentificationError> {
-        let hysteresis = HysteresisOperator::new(self.r_h.clone(), solution.w_h.clone())?;
-        let creep = if self.r_c.is_empty() {
-            None
-        } else {
-            Some(CreepOperator::new(
-                self.r_c.clone(),
-                solution.w_c.clone(),
-                self.eigenvalues.clone(),
-                self.sample_time,
-            )?)
+        let parameters = ModelParameters {
+            sample_time: self.sample_time,
+            hysteresis: HysteresisParameters {
+                thresholds: &self.r_h,
+                weights: &solution.w_h,
+            },
+            creep: (!self.r_c.is_empty()).then_some(CreepParameters {
+                thresholds: &self.r_c,
+                weights: &solution.w_c,
+                eigenvalues: &self.eigenvalues,
+            }),
+            superposition: None,
+            dynamics: None,
+            delay: 0,
+            offset: 0.0,
         };
-        let model = HysteresisCreepModel::from_parts(self.sample_time, hysteresis, creep)?;
+        let model = HysteresisCreepModel::new(&parameters.validate()?)?;
         if self.r_s.is_empty() {
-            return Ok(model.with_offset(offset));
+            return Ok(model.with_offset(offset)?);
         }
         // H + C + d = S⁻¹[ς − c], so ς = S[H + C + d] + c: S shifted along its
         // input by d, and the constant S(d) + c as the output offset
@@ -319,7 +325,7 @@ impl FitPlan {
         let shifted = Superposition::new(&r, &w)?;
         Ok(model
             .with_superposition(Some(shifted))
-            .with_offset(self.centre + s.apply(d)))
+            .with_offset(self.centre + s.apply(d))?)
     }
 }
 

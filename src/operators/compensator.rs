@@ -28,7 +28,7 @@ impl<S: Storage> Model<f64, S> {
 impl<T: Real, S: Storage> Compensator<T, S> {
     /// `W⁻¹` of a model file, matched to the file's state.
     pub fn from_file(file: &ModelFile, settings: CompensatorSettings) -> Result<Self, ModelError> {
-        let mut comp = Self::new(&file.parameters(), settings)?;
+        let mut comp = Self::new(&file.parameters().validate()?, settings)?;
         let creep = file.creep_state_flat()?;
         if file.hysteresis.state.is_some() || creep.is_some() {
             let zeros = vec![0.0; file.hysteresis.thresholds.len()];

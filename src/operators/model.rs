@@ -238,7 +238,7 @@ impl ModelFile {
 impl<T: Real, S: Storage> Model<T, S> {
     /// Validate a model file and build the model in the file's state.
     pub fn from_file(file: &ModelFile) -> Result<Self, ModelError> {
-        let mut model = Self::new(&file.parameters())?;
+        let mut model = Self::new(&file.parameters().validate()?)?;
         if let Some(x) = &file.hysteresis.state {
             model.hysteresis_mut().set_state(x)?;
         }

@@ -1,8 +1,6 @@
 //! The nominal hysteresis and creep model (`docs/MATHEMATICS.md` §8; reconstructed: the
 //! paper does not print its identified weights).
 
-use crate::operators::creep::CreepOperator;
-use crate::operators::hysteresis::HysteresisOperator;
 use crate::operators::model::{HysteresisCreepModel, ModelFile};
 
 pub use crate::realtime::nominal::{
@@ -16,16 +14,10 @@ pub fn nominal_thresholds() -> Vec<f64> {
 
 /// The nominal model `W = H + C` in the virgin state.
 pub fn nominal_model() -> HysteresisCreepModel {
-    let h = HysteresisOperator::new(nominal_thresholds(), HYSTERESIS_WEIGHTS)
-        .expect("nominal hysteresis satisfies (11), (12)");
-    let c = CreepOperator::new(
-        nominal_thresholds(),
-        CREEP_WEIGHTS,
-        CREEP_EIGENVALUES,
-        SAMPLE_TIME,
-    )
-    .expect("nominal creep satisfies (17), (18)");
-    HysteresisCreepModel::from_parts(SAMPLE_TIME, h, Some(c)).expect("consistent sample time")
+    let parameters = crate::realtime::nominal::PARAMETERS
+        .validate()
+        .expect("the nominal model satisfies (11), (12), (17), (18)");
+    HysteresisCreepModel::new(&parameters).expect("heap storage holds any size")
 }
 
 /// The nominal model as a model file, virgin (no `state` entries).

@@ -31,7 +31,7 @@ use crate::realtime::error::ParameterError;
 use crate::realtime::hysteresis::{self, Hysteresis};
 use crate::realtime::inverse::{forward_state_in_place, inverse_state_into};
 use crate::realtime::model::Model;
-use crate::realtime::parameters::ModelParameters;
+use crate::realtime::parameters::{Checked, ModelParameters};
 use crate::realtime::real::Real;
 use crate::realtime::simd::{self, Kernels};
 use crate::realtime::storage::{Buffer, Storage};
@@ -154,10 +154,10 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     /// gains are computed in `f64`, then rounded; the limits are rounded
     /// inward, so every `u` lies within them.
     pub fn new(
-        parameters: &ModelParameters<'_>,
+        parameters: &Checked<ModelParameters<'_>>,
         settings: CompensatorSettings,
     ) -> Result<Self, ParameterError> {
-        parameters.validate()?;
+        let parameters = parameters.get();
         let (ts, superposition) = (parameters.sample_time, parameters.superposition.as_ref());
         settings.validate()?;
         let h = &parameters.hysteresis;
@@ -165,7 +165,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         let field = "hysteresis.thresholds";
         let zeros = || S::Plays::<T>::zeroed(field, n);
         let mut c = Self {
-            inverse: Hysteresis::inverse_of(h, None)?,
+            inverse: Hysteresis::inverse_built(h, None)?,
             thresholds: zeros()?,
             weights: zeros()?,
             sums: zeros()?,
@@ -174,20 +174,16 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             creep: parameters
                 .creep
                 .as_ref()
-                .map(|c| Creep::from_parameters(c, ts))
+                .map(|c| Creep::build(c, ts))
                 .transpose()?,
-            inverse_superposition: superposition.map(Superposition::inverse_of).transpose()?,
+            inverse_superposition: superposition
+                .map(Superposition::inverse_built)
+                .transpose()?,
             superposition: match parameters.dynamics {
-                Some(_) => superposition
-                    .map(Superposition::from_parameters)
-                    .transpose()?,
+                Some(_) => superposition.map(Superposition::build).transpose()?,
                 None => None,
             },
-            dynamics: parameters
-                .dynamics
-                .as_ref()
-                .map(|g| Dynamics::new(g, ts))
-                .transpose()?,
+            dynamics: parameters.dynamics.as_ref().map(|g| Dynamics::build(g, ts)),
             last_h: T::ZERO,
             offset: T::from_f64(parameters.offset),
             // rounded inward: an f32 limit rounded to nearest can lie outside

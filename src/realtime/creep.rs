@@ -61,7 +61,6 @@ pub struct Creep<T: Real, S: Storage> {
     last_input: T,
     weights: S::Creep<T>,
     eigenvalues: S::Creep<T>,
-    sample_time: f64,
 }
 
 impl<T: Real, S: Storage> Creep<T, S> {
@@ -83,12 +82,21 @@ impl<T: Real, S: Storage> Creep<T, S> {
         )
     }
 
-    /// `C` of checked `parameters`, in the zero state.
+    /// `C` of `parameters` at `sample_time`, checked here, in the zero
+    /// state.
     pub fn from_parameters(
         parameters: &CreepParameters<'_>,
         sample_time: f64,
     ) -> Result<Self, ParameterError> {
         parameters.validate(sample_time)?;
+        Self::build(parameters, sample_time)
+    }
+
+    /// `C` of parameters checked before; only the capacity can refuse.
+    pub(crate) fn build(
+        parameters: &CreepParameters<'_>,
+        sample_time: f64,
+    ) -> Result<Self, ParameterError> {
         let n = parameters.thresholds.len();
         let m = parameters.eigenvalues.len();
         let field = "creep";
@@ -96,7 +104,6 @@ impl<T: Real, S: Storage> Creep<T, S> {
             thresholds: S::Creep::zeroed(field, n)?,
             weights: S::Creep::zeroed(field, n)?,
             eigenvalues: S::Creep::zeroed(field, m)?,
-            sample_time,
             gains: S::Creep::zeroed(field, m)?,
             scaled_weights: S::Creep::zeroed(field, n)?,
             chi: S::CreepState::zeroed(field, n.saturating_mul(m))?,
@@ -135,11 +142,6 @@ impl<T: Real, S: Storage> Creep<T, S> {
     /// Eigenvalues `a_j` (s⁻¹).
     pub fn eigenvalues(&self) -> &[T] {
         &self.eigenvalues
-    }
-
-    /// Sample time `T_s` (s).
-    pub fn sample_time(&self) -> f64 {
-        self.sample_time
     }
 
     /// Set `χ` from `state[i * m + j]` (threshold `i`, eigenvalue `j`: the
@@ -378,6 +380,5 @@ impl<T: Real, S: Storage> PartialEq for Creep<T, S> {
             && self.last_input == other.last_input
             && self.weights == other.weights
             && self.eigenvalues == other.eigenvalues
-            && self.sample_time == other.sample_time
     }
 }

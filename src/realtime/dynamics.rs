@@ -192,19 +192,23 @@ pub struct Dynamics<T: Real> {
     w: [T; INPUTS],
     started: bool,
     parameters: DynamicsParameters,
-    sample_time: f64,
 }
 
 impl<T: Real> Dynamics<T> {
     /// `G` of `parameters` at `sample_time`, not started.
     pub fn new(parameters: &DynamicsParameters, sample_time: f64) -> Result<Self, ParameterError> {
         parameters.validate(sample_time)?;
+        Ok(Self::build(parameters, sample_time))
+    }
+
+    /// `G` of parameters checked before at `sample_time`.
+    pub(crate) fn build(parameters: &DynamicsParameters, sample_time: f64) -> Self {
         let k = parameters.coefficients(sample_time);
         let mut c = [T::ZERO; MAX_ORDER];
         for (ci, &v) in c.iter_mut().zip(&k.c) {
             *ci = T::from_f64(v);
         }
-        Ok(Self {
+        Self {
             c,
             order: k.order,
             gain: T::from_f64(k.gain),
@@ -214,8 +218,7 @@ impl<T: Real> Dynamics<T> {
             w: [T::ZERO; INPUTS],
             started: false,
             parameters: *parameters,
-            sample_time,
-        })
+        }
     }
 
     pub fn parameters(&self) -> &DynamicsParameters {
@@ -392,14 +395,10 @@ impl<T: Real> Dynamics<T> {
         self.started = false;
     }
 
-    /// The sample time the coefficients were built for (s).
-    pub fn sample_time(&self) -> f64 {
-        self.sample_time
-    }
-
-    /// `(‖G‖₁, ‖1/A‖₁)` ([`l1_gains`]).
-    pub fn gains(&self) -> (f64, f64) {
-        l1_gains(&self.parameters, self.sample_time)
+    /// `(‖G‖₁, ‖1/A‖₁)` ([`l1_gains`]) at `sample_time`, the one it was
+    /// built for (its model's).
+    pub fn gains(&self, sample_time: f64) -> (f64, f64) {
+        l1_gains(&self.parameters, sample_time)
     }
 }
 

@@ -78,8 +78,6 @@ pub enum ParameterError {
     /// A channel of a compensator bank whose model differs in shape from the
     /// first channel's.
     ChannelMismatch { field: &'static str, channel: usize },
-    /// A creep operator whose sample time differs from its model's.
-    SampleTimeMismatch { found: f64, expected: f64 },
     /// More values than the compile-time capacity holds.
     ExceedsCapacity {
         field: &'static str,
@@ -130,7 +128,6 @@ impl ParameterError {
             | P::NonFiniteValue { field, .. }
             | P::OutOfRange { field, .. } => field,
             P::NonPositiveSampleTime { .. } => "sample_time",
-            P::SampleTimeMismatch { .. } => "creep",
             P::InvalidLimits { .. } => "limits",
         }
     }
@@ -216,10 +213,6 @@ impl fmt::Display for Message<'_> {
             P::ChannelMismatch { channel, .. } => write!(
                 f,
                 "models[{channel}].{field}: differs from models[0] (every channel of a bank needs the same orders and sample time)"
-            ),
-            P::SampleTimeMismatch { found, expected } => write!(
-                f,
-                "{field}: creep sample time {found} differs from the model's {expected}"
             ),
             P::ExceedsCapacity {
                 capacity, found, ..

@@ -205,6 +205,15 @@ impl<T: Real, S: Storage> Hysteresis<T, S> {
         state: Option<&[f64]>,
     ) -> Result<Self, ParameterError> {
         parameters.validate()?;
+        Self::inverse_built(parameters, state)
+    }
+
+    /// [`Hysteresis::inverse_of`] of parameters checked before (the state,
+    /// an input of its own, is checked here).
+    pub(crate) fn inverse_built(
+        parameters: &HysteresisParameters<'_>,
+        state: Option<&[f64]>,
+    ) -> Result<Self, ParameterError> {
         let n = parameters.thresholds.len();
         let field = "hysteresis.thresholds";
         let mut r = S::Plays::<f64>::zeroed(field, n)?;

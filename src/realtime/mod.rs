@@ -34,8 +34,9 @@
 //!
 //! type Size = nominal::Capacity;
 //! let settings = CompensatorSettings::default();
-//! let mut comp = Compensator::<f32, Size>::new(&nominal::PARAMETERS, settings).unwrap();
-//! let mut plant = Model::<f32, Size>::new(&nominal::PARAMETERS).unwrap();
+//! let parameters = nominal::PARAMETERS.validate().unwrap(); // checked once
+//! let mut comp = Compensator::<f32, Size>::new(&parameters, settings).unwrap();
+//! let mut plant = Model::<f32, Size>::new(&parameters).unwrap();
 //! let y = plant.step(comp.compensate(250.0).u);
 //! assert!((y - 250.0).abs() < 1e-3);
 //! ```

@@ -7,13 +7,15 @@
 //! delayed by a dead time of `d` whole samples ([`DelayLine`]):
 //! `y_k = G[S[H + C]]_{max(k−d, 0)} + offset`.
 
-use crate::realtime::checks::check_sample_time;
+use crate::realtime::checks::check_finite;
 use crate::realtime::creep::Creep;
 use crate::realtime::delay::DelayLine;
 use crate::realtime::dynamics::Dynamics;
 use crate::realtime::error::ParameterError;
 use crate::realtime::hysteresis::Hysteresis;
-use crate::realtime::parameters::{CreepParameters, HysteresisParameters, ModelParameters};
+use crate::realtime::parameters::{
+    Checked, CreepParameters, HysteresisParameters, ModelParameters,
+};
 use crate::realtime::real::Real;
 use crate::realtime::storage::Storage;
 use crate::realtime::superposition::Superposition;
@@ -31,56 +33,27 @@ pub struct Model<T: Real, S: Storage> {
 }
 
 impl<T: Real, S: Storage> Model<T, S> {
-    /// `W` with checked parameters, in the virgin state.
-    pub fn new(parameters: &ModelParameters<'_>) -> Result<Self, ParameterError> {
-        parameters.validate()?;
-        let (ts, superposition) = (parameters.sample_time, parameters.superposition.as_ref());
+    /// `W` of checked parameters ([`ModelParameters::validate`]), in the
+    /// virgin state.
+    pub fn new(parameters: &Checked<ModelParameters<'_>>) -> Result<Self, ParameterError> {
+        let p = parameters.get();
+        let ts = p.sample_time;
         Ok(Self {
-            sample_time: parameters.sample_time,
-            offset: T::from_f64(parameters.offset),
-            hysteresis: Hysteresis::from_parameters(&parameters.hysteresis)?,
-            creep: parameters
-                .creep
+            sample_time: ts,
+            offset: T::from_f64(p.offset),
+            hysteresis: Hysteresis::from_trusted(
+                p.hysteresis.thresholds,
+                p.hysteresis.weights,
+                None,
+            )?,
+            creep: p.creep.as_ref().map(|c| Creep::build(c, ts)).transpose()?,
+            superposition: p
+                .superposition
                 .as_ref()
-                .map(|c| Creep::from_parameters(c, ts))
+                .map(Superposition::build)
                 .transpose()?,
-            superposition: superposition
-                .map(Superposition::from_parameters)
-                .transpose()?,
-            dynamics: parameters
-                .dynamics
-                .as_ref()
-                .map(|g| Dynamics::new(g, ts))
-                .transpose()?,
-            delay: DelayLine::new(parameters.delay)?,
-        })
-    }
-
-    /// `W` of an `H` and an optional `C` (in their states), without `S` and
-    /// offset.
-    /// The creep operator's sample time must equal `sample_time`.
-    pub fn from_parts(
-        sample_time: f64,
-        hysteresis: Hysteresis<T, S>,
-        creep: Option<Creep<T, S>>,
-    ) -> Result<Self, ParameterError> {
-        check_sample_time(sample_time)?;
-        if let Some(c) = &creep {
-            if c.sample_time() != sample_time {
-                return Err(ParameterError::SampleTimeMismatch {
-                    found: c.sample_time(),
-                    expected: sample_time,
-                });
-            }
-        }
-        Ok(Self {
-            sample_time,
-            offset: T::ZERO,
-            hysteresis,
-            creep,
-            superposition: None,
-            dynamics: None,
-            delay: DelayLine::new(0)?,
+            dynamics: p.dynamics.as_ref().map(|g| Dynamics::build(g, ts)),
+            delay: DelayLine::new(p.delay)?,
         })
     }
 
@@ -108,10 +81,12 @@ impl<T: Real, S: Storage> Model<T, S> {
         Ok(self)
     }
 
-    /// The same model with output offset `offset`: `y = W[u] + offset`.
-    pub fn with_offset(mut self, offset: f64) -> Self {
+    /// The same model with output offset `offset` (finite): `y = W[u] +
+    /// offset`.
+    pub fn with_offset(mut self, offset: f64) -> Result<Self, ParameterError> {
+        check_finite("offset", core::slice::from_ref(&offset))?;
         self.offset = T::from_f64(offset);
-        self
+        Ok(self)
     }
 
     /// Sample time `T_s` (s).
@@ -245,9 +220,10 @@ impl<T: Real, S: Storage> Model<T, S> {
 
 impl<S: Storage> Model<f64, S> {
     /// The parameters of the model (its state not included), borrowed: what
-    /// a compensator, a bank or another storage is built from.
-    pub fn parameters(&self) -> ModelParameters<'_> {
-        ModelParameters {
+    /// a compensator, a bank or another storage is built from. A model is
+    /// valid by construction, so they are [`Checked`].
+    pub fn parameters(&self) -> Checked<ModelParameters<'_>> {
+        Checked::trusted(ModelParameters {
             sample_time: self.sample_time,
             hysteresis: HysteresisParameters {
                 thresholds: self.hysteresis.thresholds(),
@@ -262,6 +238,6 @@ impl<S: Storage> Model<f64, S> {
             dynamics: self.dynamics.as_ref().map(|g| *g.parameters()),
             delay: self.delay.len(),
             offset: self.offset,
-        }
+        })
     }
 }

@@ -124,9 +124,42 @@ pub(crate) fn zero_index(thresholds: &[f64]) -> Option<usize> {
     thresholds.iter().position(|&r| r == 0.0)
 }
 
-impl ModelParameters<'_> {
-    /// Every condition on the parameters, the first one broken named.
-    pub fn validate(&self) -> Result<(), ParameterError> {
+/// A value that has passed its `validate()`: what the constructors take,
+/// so that each input is checked once, at the boundary, and nothing built
+/// from it checks it again.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Checked<P>(P);
+
+impl<P> Checked<P> {
+    /// A value checked already: the parameters of something built from
+    /// checked ones.
+    pub(crate) fn trusted(value: P) -> Self {
+        Checked(value)
+    }
+
+    /// The checked value.
+    pub fn get(&self) -> &P {
+        &self.0
+    }
+
+    /// The value, no longer marked as checked.
+    pub fn into_inner(self) -> P {
+        self.0
+    }
+}
+
+impl<P> core::ops::Deref for Checked<P> {
+    type Target = P;
+    fn deref(&self) -> &P {
+        &self.0
+    }
+}
+
+impl<'a> ModelParameters<'a> {
+    /// Every condition on the parameters, the first one broken named; the
+    /// parameters as [`Checked`] if none is, which is what `Model::new`
+    /// and `Compensator::new` take.
+    pub fn validate(&self) -> Result<Checked<ModelParameters<'a>>, ParameterError> {
         check_sample_time(self.sample_time)?;
         limits::check("delay", limits::MAX_DELAY, self.delay)?;
         self.hysteresis.validate()?;
@@ -139,6 +172,7 @@ impl ModelParameters<'_> {
         if let Some(g) = &self.dynamics {
             g.validate(self.sample_time)?;
         }
-        check_finite("offset", core::slice::from_ref(&self.offset))
+        check_finite("offset", core::slice::from_ref(&self.offset))?;
+        Ok(Checked(*self))
     }
 }

@@ -84,11 +84,16 @@ impl<T: Real, St: Storage> Superposition<T, St> {
         })
     }
 
-    /// `S` of checked `parameters`.
+    /// `S` of `parameters`, checked here.
     pub fn from_parameters(
         parameters: &SuperpositionParameters<'_>,
     ) -> Result<Self, ParameterError> {
         parameters.validate()?;
+        Self::build(parameters)
+    }
+
+    /// `S` of parameters checked before; only the capacity can refuse.
+    pub(crate) fn build(parameters: &SuperpositionParameters<'_>) -> Result<Self, ParameterError> {
         let mut s = Self::zeroed(parameters.thresholds)?;
         for (i, (&r, &w)) in parameters
             .thresholds
@@ -106,6 +111,13 @@ impl<T: Real, St: Storage> Superposition<T, St> {
     /// transformed in `f64`, then rounded to `T`.
     pub fn inverse_of(parameters: &SuperpositionParameters<'_>) -> Result<Self, ParameterError> {
         parameters.validate()?;
+        Self::inverse_built(parameters)
+    }
+
+    /// [`Superposition::inverse_of`] of parameters checked before.
+    pub(crate) fn inverse_built(
+        parameters: &SuperpositionParameters<'_>,
+    ) -> Result<Self, ParameterError> {
         let mut s = Self::zeroed(parameters.thresholds)?;
         inverse_parameters_into(
             parameters.thresholds,

@@ -98,6 +98,11 @@ pub fn hysteresis_operator(max_plays: usize) -> impl Strategy<Value = Hysteresis
 /// partial sums (17), 1..=5 eigenvalues log-uniform in [0.01, 1000] s⁻¹ and a
 /// sample time in [1e-4, 1e-2] s.
 pub fn creep_operator(max_thresholds: usize) -> impl Strategy<Value = CreepOperator> {
+    creep_operator_at(max_thresholds).prop_map(|(c, _)| c)
+}
+
+/// [`creep_operator`] with its sample time (the same draws).
+pub fn creep_operator_at(max_thresholds: usize) -> impl Strategy<Value = (CreepOperator, f64)> {
     (1..=max_thresholds, 1usize..=5).prop_flat_map(|(n, m)| {
         (
             prop::collection::vec(0.05f64..1.0, n - 1),
@@ -106,23 +111,51 @@ pub fn creep_operator(max_thresholds: usize) -> impl Strategy<Value = CreepOpera
             -4.0f64..-2.0,
         )
             .prop_map(|(inc, sums, log_a, log_ts)| {
-                CreepOperator::new(
+                let ts = 10f64.powf(log_ts);
+                let c = CreepOperator::new(
                     thresholds_from_increments(&inc),
                     weights_from_partial_sums(&sums),
                     log_a.iter().map(|&l| 10f64.powf(l)).collect::<Vec<_>>(),
-                    10f64.powf(log_ts),
+                    ts,
                 )
-                .expect("generated creep operator satisfies (17), (18)")
+                .expect("generated creep operator satisfies (17), (18)");
+                (c, ts)
             })
     })
 }
 
-/// A random model `W = H + C` sharing the creep operator's sample time.
+/// The model `W = H + C` at `sample_time` of the parameters of `h` and `c`
+/// (virgin).
+#[allow(dead_code)] // not every test target uses it
+pub fn model_of(
+    sample_time: f64,
+    h: &HysteresisOperator,
+    c: Option<&CreepOperator>,
+) -> HysteresisCreepModel {
+    let parameters = mfcbeam::realtime::ModelParameters {
+        sample_time,
+        hysteresis: mfcbeam::realtime::HysteresisParameters {
+            thresholds: h.thresholds(),
+            weights: h.weights(),
+        },
+        creep: c.map(|c| mfcbeam::realtime::CreepParameters {
+            thresholds: c.thresholds(),
+            weights: c.weights(),
+            eigenvalues: c.eigenvalues(),
+        }),
+        superposition: None,
+        dynamics: None,
+        delay: 0,
+        offset: 0.0,
+    };
+    HysteresisCreepModel::new(&parameters.validate().expect("the parts are valid"))
+        .expect("heap storage holds any size")
+}
+
+/// A random model `W = H + C` at the creep operator's sample time.
 pub fn model(max_plays: usize) -> impl Strategy<Value = HysteresisCreepModel> {
-    (hysteresis_operator(max_plays), creep_operator(max_plays)).prop_map(|(h, c)| {
-        let ts = c.sample_time();
-        HysteresisCreepModel::from_parts(ts, h, Some(c)).expect("consistent sample time")
-    })
+    (hysteresis_operator(max_plays), creep_operator_at(max_plays))
+        .prop_map(|(h, (c, ts))| model_of(ts, &h, Some(&c)))
 }
 
 /// A random signal of `len` samples in [-amplitude, amplitude].

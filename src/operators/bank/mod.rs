@@ -188,8 +188,12 @@ impl<T: Real> CompensatorBank<T> {
             .creep
             .as_ref()
             .map_or((0, 0), |c| (c.thresholds.len(), c.eigenvalues.len()));
+        // each model checked once, here; what is built from them is not
+        let checked = models
+            .iter()
+            .map(ModelParameters::validate)
+            .collect::<Result<Vec<_>, _>>()?;
         for (channel, model) in models.iter().enumerate() {
-            model.validate()?;
             let (mc, mm) = model
                 .creep
                 .as_ref()
@@ -219,7 +223,7 @@ impl<T: Real> CompensatorBank<T> {
                 model
                     .superposition
                     .as_ref()
-                    .map(Superposition::inverse_of)
+                    .map(Superposition::inverse_built)
                     .transpose()?,
             );
         }
@@ -264,7 +268,7 @@ impl<T: Real> CompensatorBank<T> {
             })
             .collect::<Vec<_>>();
         let any_superposed = superposed.contains(&true);
-        let model_of = |c: usize| &models[if shared { 0 } else { c }];
+        let model_of = |c: usize| &checked[if shared { 0 } else { c }];
         let delays = (0..channels)
             .map(|c| {
                 let m = model_of(c);

@@ -33,7 +33,9 @@ fn the_paper_layout_is_recognised_exactly() {
             }),
             ..p
         };
-        C::new(&parameters, settings).unwrap().paper_layout()
+        C::new(&parameters.validate().unwrap(), settings)
+            .unwrap()
+            .paper_layout()
     };
     assert!(is_paper(12, Some((12, 5))));
     for (plays, creep) in [

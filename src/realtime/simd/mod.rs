@@ -90,6 +90,7 @@ impl Kernels {
 
     /// Every kernel set this CPU runs, the portable one first and the best
     /// last: what the bit-for-bit tests compare.
+    #[cfg_attr(not(feature = "internals"), allow(dead_code))]
     pub fn all() -> impl Iterator<Item = Kernels> {
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         let (avx2, avx512) = {
@@ -166,6 +167,11 @@ impl Kernels {
     /// `detect().for_single_step::<T>()`, kept after the first call: one
     /// load per step (a compensator step calls it).
     #[inline]
+    // `T` decides only where there are vector kernels to choose from
+    #[cfg_attr(
+        not(all(feature = "std", target_arch = "x86_64")),
+        allow(clippy::extra_unused_type_parameters)
+    )]
     pub fn detect_single_step<T: Real>() -> Self {
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         {
@@ -217,6 +223,11 @@ impl Kernels {
     /// AVX2 set's blocks of four ([`f64_step_on_512`]). The same bits
     /// either way.
     #[inline]
+    #[cfg_attr(not(feature = "internals"), allow(dead_code))]
+    #[cfg_attr(
+        not(all(feature = "std", target_arch = "x86_64")),
+        allow(clippy::extra_unused_type_parameters)
+    )]
     pub fn for_single_step<T: Real>(self) -> Self {
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         if self.is_avx512() && TypeId::of::<T>() == TypeId::of::<f64>() && !f64_step_on_512() {
