@@ -53,9 +53,11 @@
 //! The feature `std` adds heap storage and the traits ([`operators`]), model files
 //! ([`io`]), the naive references and the conformance checks ([`suite`];
 //! `serde`, `serde_json`). `identification` (faer), `beam` (faer, nalgebra,
-//! levenberg-marquardt), `feedforward`, `suite` (scenarios, golden traces,
-//! plots, CSV traces) and `cli` (the binary; the default) add the rest. The C
-//! library is the workspace member `mfcbeam-capi`.
+//! levenberg-marquardt), `feedforward`, `rayon` (the bank's parallel step,
+//! `operators::bank::Par`), `suite` (scenarios, golden traces, plots, CSV
+//! traces) and `cli` (the binary; the default) add the rest. `internals`,
+//! which no default enables, opens the kernel sets to the project's own
+//! benches and tests. The C library is the workspace member `mfcbeam-capi`.
 //!
 //! ## Two tiers
 //!
