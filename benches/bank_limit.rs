@@ -68,7 +68,7 @@
 //! against it in alternating batches at 8, 64, 1024 and 4096 channels
 //! (`f64`).
 //!
-//! `cargo bench --bench bank_limit`
+//! `cargo bench --features internals --bench bank_limit`
 
 use std::hint::black_box;
 use std::time::Instant;

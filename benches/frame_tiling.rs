@@ -8,7 +8,7 @@
 //! where another is faster beyond the rounds' spread, the default
 //! (`FrameTiling::default`) is worth changing for this CPU.
 //!
-//! `cargo bench --bench frame_tiling`
+//! `cargo bench --features internals --bench frame_tiling`
 
 #[path = "common/mod.rs"]
 mod common;

@@ -1,6 +1,6 @@
 //! Worst-case latency of one compensator step: the real-time budget check.
 //!
-//! `cargo bench --bench latency [-- STEPS]` times 10⁷ single steps of the
+//! `cargo bench --features internals --bench latency [-- STEPS]` times 10⁷ single steps of the
 //! paper-order compensator (`Compensator<_, nominal::Capacity>`, f64 and f32, and the heap
 //! `Compensator`) under adversarial targets and prints the median, the 99.9th
 //! percentile and the maximum per step, in ns and as a fraction of the

@@ -159,7 +159,7 @@ cc "${f32_flags[@]}" -DPEER_LIB -shared -fPIC \
   -o "$out/libpeer_strong_f32.so" benches/peers/compensator.c -lm
 cc "${strong_flags[@]}" -DONE_CALL -DPEER_LIB -shared -fPIC \
   -o "$out/libpeer_strong_call.so" benches/peers/compensator.c -lm
-# for bank_limit: MFCBEAM_C_BANK=$PWD/target/peers/libbank.so cargo bench --bench bank_limit
+# for bank_limit: MFCBEAM_C_BANK=$PWD/target/peers/libbank.so cargo bench --features internals --bench bank_limit
 if [[ $bank == yes ]]; then
   cc "${bank_flags[@]}" -DPEER_LIB -shared -fPIC \
     -o "$out/libbank.so" benches/peers/bank.c -lm
@@ -176,7 +176,7 @@ for run in 1 2 3; do
     MFCBEAM_C_PEER_STRONG_F32="$PWD/$out/libpeer_strong_f32.so" \
     MFCBEAM_C_PEER_STRONG_CALL="$PWD/$out/libpeer_strong_call.so" \
     MFCBEAM_C_API="$PWD/target/release/libmfcbeam.so" \
-    cargo bench --quiet --bench peers | tee "$out/peers_$run.txt"
+    cargo bench --quiet --features internals --bench peers | tee "$out/peers_$run.txt"
 done
 python3 - "$out"/peers_{1,2,3}.txt <<'EOF'
 import sys
@@ -221,7 +221,7 @@ if grep -qw avx512f /proc/cpuinfo; then
 fi
 c_ns=$("$out/compensator" time)
 nb_ns=$([[ $numba == yes ]] && python3 benches/peers/numba_compensator.py time || echo nan)
-cargo bench --quiet --bench operators -- 'step/compensator_step$' \
+cargo bench --quiet --features internals --bench operators -- 'step/compensator_step$' \
   --warm-up-time 1 --measurement-time 3 >/dev/null
 median() {
   python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['median']['point_estimate'])" \

@@ -374,7 +374,7 @@ impl<T: Real> CompensatorBank<T> {
     /// the blocks into `n` even parts (at most one per block) and steps
     /// them by fork-join in the current rayon pool. Whether a split pays
     /// depends on the bank's size, the cores and what else runs on them:
-    /// the caller decides, from `cargo bench --bench bank_limit` on its
+    /// the caller decides, from `cargo bench --features internals --bench bank_limit` on its
     /// machine (the guide's library chapter).
     pub fn compensate_on(
         &mut self,
