@@ -3,6 +3,8 @@
 #[allow(dead_code)] // only bank_limit uses it
 pub mod state_stream;
 
+// the CPU's description and the kernel set come from `internals`
+#[cfg(feature = "internals")]
 #[allow(dead_code)] // not every bench writes results
 pub mod results;
 
