@@ -36,10 +36,16 @@ ROWS = [
     ("bank_f64_1024_of_bound", "bank `f64`, 1024 channels, of its bound"),
     ("bank_f32_64_of_bound", "bank `f32`, 64 channels, of its bound"),
     ("bank_f32_1024_of_bound", "bank `f32`, 1024 channels, of its bound"),
+    ("bank_f64_64_frames_of_bound", "bank `f64`, 64 channels, 64 frames a call, of its bound"),
     ("bank_f64_1024_frames_of_bound", "bank `f64`, 1024 channels, 64 frames a call, of its bound"),
-    ("bank_f64_two_threads_over_one_256", "bank `f64`, 256 channels: two threads / one"),
-    ("bank_f64_two_threads_over_one_1024", "bank `f64`, 1024 channels: two threads / one"),
-    ("bank_crossover_blocks", "blocks from which two threads pay"),
+    ("bank_f32_64_frames_of_bound", "bank `f32`, 64 channels, 64 frames a call, of its bound"),
+    ("bank_f32_1024_frames_of_bound", "bank `f32`, 1024 channels, 64 frames a call, of its bound"),
+    ("bank_f64_crossover_blocks", "bank `f64`: blocks from which `Par::rayon(2)` pays"),
+    ("bank_f32_crossover_blocks", "bank `f32`: blocks from which `Par::rayon(2)` pays"),
+    ("bank_f64_two_threads_over_one_256", "bank `f64`, 256 channels: `Par::rayon(2)` / one thread"),
+    ("bank_f64_two_threads_over_one_1024", "bank `f64`, 1024 channels: `Par::rayon(2)` / one thread"),
+    ("bank_f32_two_threads_over_one_256", "bank `f32`, 256 channels: `Par::rayon(2)` / one thread"),
+    ("bank_f32_two_threads_over_one_1024", "bank `f32`, 1024 channels: `Par::rayon(2)` / one thread"),
     ("latency_f64_median_ns", "one `f64` step, adversarial targets: median (ns)"),
     ("latency_f64_p999_ns", "the same, 99.9th percentile (ns)"),
 ]
@@ -66,11 +72,13 @@ def cell(values: list[float], unit: str, runs: int | None = None) -> str:
 def cpu_table(folder: Path) -> str:
     files = sorted(folder.glob("*.json"))
     latest: dict[str, tuple] = {}
-    cpu_name = folder.name
+    cpu_name, title = folder.name, None
     for f in files:
         data = json.loads(f.read_text())
         cpu = data.get("cpu", {})
-        cpu_name = cpu.get("title") or cpu.get("name") or cpu_name
+        # a title given by hand (the guest's own name can be vague) stays
+        title = cpu.get("title") or title
+        cpu_name = title or cpu.get("name") or cpu_name
         family, model = cpu.get("family", "?"), cpu.get("model", "?")
         for bench, entry in data.get("benches", {}).items():
             for fig in entry.get("figures", []):
