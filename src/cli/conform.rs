@@ -274,6 +274,17 @@ impl Candidate for Program {
     }
 }
 
+/// The failure's compared sample, its error and its tolerance, as every
+/// counterexample's `failure.txt` states them.
+pub(super) fn compared_line(f: &mfcbeam::suite::conformance::Failure) -> String {
+    format!(
+        "compared sample {}: error {}, tolerance {}",
+        f.sample,
+        format_f64(f.error),
+        format_f64(f.tolerance)
+    )
+}
+
 /// The input column of a kind's traces.
 pub(super) fn input_column(kind: ConformKind) -> &'static str {
     match kind {
@@ -413,12 +424,7 @@ impl WrittenCase {
     fn lines(&self, f: &mfcbeam::suite::conformance::Failure) -> Vec<String> {
         let mut out = vec![
             f.message.clone(),
-            format!(
-                "compared sample {}: error {}, tolerance {}",
-                f.sample,
-                format_f64(f.error),
-                format_f64(f.tolerance)
-            ),
+            compared_line(f),
             if self.reproduced {
                 "reproduced: the property fails again on this case".into()
             } else {

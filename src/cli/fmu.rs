@@ -19,7 +19,9 @@ use mfcbeam::suite::conformance::{fixed, ConformanceSettings, Counterexample, Pr
 
 use super::args::{ConformArgs, ConformKind, FmuArgs, FmuKindArg};
 
-use super::conform::{explain_kind, input_column, output_column, run, Candidate, Factories};
+use super::conform::{
+    compared_line, explain_kind, input_column, output_column, run, Candidate, Factories,
+};
 
 pub fn fmu(a: &FmuArgs) -> Result<()> {
     let model = match (&a.model, a.kind) {
@@ -333,12 +335,7 @@ fn write_counterexample(
         format!("property: {}", p.name),
         p.description.to_string(),
         f.message.clone(),
-        format!(
-            "compared sample {}: error {}, tolerance {}",
-            f.sample,
-            format_f64(f.error),
-            format_f64(f.tolerance)
-        ),
+        compared_line(f),
         format!(
             "candidate.csv: the FMU's output on input.csv from its initial state, one doStep of {} s per sample",
             format_f64(c.case.model.sample_time)
