@@ -1,6 +1,6 @@
 //! PI creep (13)–(18): the operator with its state and parameters; its
 //! per-sample kernel is `creep_pass` (portable) and
-//! [`simd`] (dispatched).
+//! `simd` (dispatched).
 //!
 //! Each elementary operator `dχ/dt = a d_r(v − χ)` is solved exactly under
 //! zero-order hold (20): `χ_{k+1} = χ_k + g d_r(v_k − χ_k)` with

@@ -1,55 +1,57 @@
-//! Rounding bounds of the operators, from first-order error analysis: how
-//! far two correct implementations (or one and exact arithmetic) can differ.
-//! The conformance checks use them as tolerances; firmware uses them to judge
-//! its own `W[W⁻¹[y]] = y` on the target.
-//!
-//! * A sum of `n` products `Σ w_i x_i` in floating point differs from the
-//!   exact one by at most `n ε Σ|w_i| max|x_i|` (Higham, Thm. 3.1, first
-//!   order); a play output is one of `x`, `v − r`, `v + r`, so
-//!   `|x_i| ≤ max|v| + r_n`. Two implementations that both round that way
-//!   differ by twice that; a constant 4 covers the clamps and a different
-//!   summation order.
-//! * An inverse amplifies an error in its argument by its steepest slope
-//!   `1/s_min` (the partial sums `s_j` of (11) are the forward slopes).
-//! * A creep update `χ ← χ + g d_r(v − χ)`, `g = 1 − e^{−aT_s}`, is
-//!   non-expansive and contracts by `1 − g` where it moves, and where it
-//!   does not move (`d_r = 0`) it adds no error (`creep_pass::update`): a
-//!   rounding error `δ` per moving sample accumulates to at most `δ/g`.
-//!   The literal form rounds by `δ ≤ ε|χ|/2` (its last addition; the
-//!   increment's own roundings are `g` times smaller), the fused form
-//!   `g c + (χ − g χ)` of `std` builds by `δ ≤ ε max(|χ|, |c|)` (two
-//!   roundings of values that large). That is what an implementation
-//!   rounding differently shows, and what `f32` shows when a slow
-//!   operator's increment drops below half an ulp of `χ` and it stalls:
-//!   the bound carries `Σ_j (1/g_j + 2)` per threshold, the fused form's
-//!   `δ/g` with `|χ|, |c| ≤ max|v| + r_n`. Over a run of `K` samples from
-//!   a common state the errors of at most `K` moving samples add:
-//!   `δ Σ_{k<K} (1 − g)^k = δ (1 − e^{−aKT_s})/g`, at most `K δ` and at
-//!   most `δ/g` ([`RoundingBounds::creep_sum_over`]); `1/g` is that sum's
-//!   limit, which a run reaches once `K ≫ 1/(aT_s)` (`10⁵` samples for
-//!   `a = 0.05 s⁻¹` at 5 kHz).
-//!
-//! * The superposition operator `S` is a sum of `k` dead zones, rounded as
-//!   the hysteresis sum is; an error in its argument comes out scaled by its
-//!   steepest slope `σ_max`, and `S⁻¹` (slopes `1/σ`) amplifies by
-//!   `1/σ_min`. Its inverse parameters carry a relative rounding of order
-//!   `k ε` each.
-//!
-//! * The dynamics `G` (all-pole, `y_k = g w_k − Σ c_j y_{k−j}`) carry an
-//!   error at their input to the output amplified by at most `‖g/A‖₁` (the
-//!   sum of `|h_k|` of its impulse response); a rounding made in one output
-//!   step, `(order + 2) ε (g|w| + Σ|c_j| |y|)`, is carried on by `‖1/A‖₁`.
-//!   The inverse step `(y + Σ c_j y_{k−j})/g` makes `|w| ≤ (1 + Σ|c_j|)|y|/g`
-//!   and rounds by `(order + 2) ε` of that.
-//!
-//! Every bound is linear in `ε`: for another precision, pass its `ε`.
+//! The derived rounding bounds of every operator ([`RoundingBounds`]).
 
 use crate::realtime::creep::creep_gain;
 use crate::realtime::dynamics::l1_gains;
 use crate::realtime::parameters::{zero_index, ModelParameters};
 use crate::realtime::superposition::inverse_parameters_into;
 
-/// The bounds of one model at precision `eps`.
+/// Rounding bounds of the operators, from first-order error analysis: how
+/// far two correct implementations (or one and exact arithmetic) can differ.
+/// The conformance checks use them as tolerances; firmware uses them to judge
+/// its own `W[W⁻¹[y]] = y` on the target.
+///
+/// * A sum of `n` products `Σ w_i x_i` in floating point differs from the
+///   exact one by at most `n ε Σ|w_i| max|x_i|` (Higham, Thm. 3.1, first
+///   order); a play output is one of `x`, `v − r`, `v + r`, so
+///   `|x_i| ≤ max|v| + r_n`. Two implementations that both round that way
+///   differ by twice that; a constant 4 covers the clamps and a different
+///   summation order.
+/// * An inverse amplifies an error in its argument by its steepest slope
+///   `1/s_min` (the partial sums `s_j` of (11) are the forward slopes).
+/// * A creep update `χ ← χ + g d_r(v − χ)`, `g = 1 − e^{−aT_s}`, is
+///   non-expansive and contracts by `1 − g` where it moves, and where it
+///   does not move (`d_r = 0`) it adds no error (`creep_pass::update`): a
+///   rounding error `δ` per moving sample accumulates to at most `δ/g`.
+///   The literal form rounds by `δ ≤ ε|χ|/2` (its last addition; the
+///   increment's own roundings are `g` times smaller), the fused form
+///   `g c + (χ − g χ)` of `std` builds by `δ ≤ ε max(|χ|, |c|)` (two
+///   roundings of values that large). That is what an implementation
+///   rounding differently shows, and what `f32` shows when a slow
+///   operator's increment drops below half an ulp of `χ` and it stalls:
+///   the bound carries `Σ_j (1/g_j + 2)` per threshold, the fused form's
+///   `δ/g` with `|χ|, |c| ≤ max|v| + r_n`. Over a run of `K` samples from
+///   a common state the errors of at most `K` moving samples add:
+///   `δ Σ_{k<K} (1 − g)^k = δ (1 − e^{−aKT_s})/g`, at most `K δ` and at
+///   most `δ/g` ([`RoundingBounds::creep_sum_over`]); `1/g` is that sum's
+///   limit, which a run reaches once `K ≫ 1/(aT_s)` (`10⁵` samples for
+///   `a = 0.05 s⁻¹` at 5 kHz).
+///
+/// * The superposition operator `S` is a sum of `k` dead zones, rounded as
+///   the hysteresis sum is; an error in its argument comes out scaled by its
+///   steepest slope `σ_max`, and `S⁻¹` (slopes `1/σ`) amplifies by
+///   `1/σ_min`. Its inverse parameters carry a relative rounding of order
+///   `k ε` each.
+///
+/// * The dynamics `G` (all-pole, `y_k = g w_k − Σ c_j y_{k−j}`) carry an
+///   error at their input to the output amplified by at most `‖g/A‖₁` (the
+///   sum of `|h_k|` of its impulse response); a rounding made in one output
+///   step, `(order + 2) ε (g|w| + Σ|c_j| |y|)`, is carried on by `‖1/A‖₁`.
+///   The inverse step `(y + Σ c_j y_{k−j})/g` makes `|w| ≤ (1 + Σ|c_j|)|y|/g`
+///   and rounds by `(order + 2) ε` of that.
+///
+/// Every bound is linear in `ε`: for another precision, pass its `ε`.
+///
+/// This holds the bounds of one model at precision `eps`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RoundingBounds<'a> {
     pub parameters: ModelParameters<'a>,

@@ -1,5 +1,5 @@
 //! Tolerances of the conformance properties: the rounding bounds of
-//! [`crate::realtime::rounding`] (where the analysis is written out) for a
+//! [`crate::realtime::RoundingBounds`] (where the analysis is written out) for a
 //! model file, at `f64`'s `ε`. A lower precision scales them through
 //! [`super::ConformanceSettings::tolerance_scale`].
 
