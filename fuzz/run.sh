@@ -21,11 +21,22 @@ if [ ${#targets[@]} -eq 0 ]; then
 fi
 host=$(rustc -vV | sed -n 's/^host: //p')
 export CARGO_TARGET_DIR="$PWD/../target"
+# This package's own code (the harness and the targets) is linted as it is
+# built, by clippy's driver (what `cargo clippy` runs it through, here in a
+# build rather than a check), and -D warnings makes a lint or a warning of
+# it or of mfcbeam's a failed build: no second, uninstrumented compile of
+# every dependency just to lint.
+clippy_driver="$(rustc --print sysroot)/bin/clippy-driver"
+if [ -x "$clippy_driver" ]; then
+  export RUSTC_WORKSPACE_WRAPPER="$clippy_driver"
+else
+  echo "clippy-driver not found: the fuzz targets are built without clippy's lints" >&2
+fi
 # --target: the flags then apply to the targets, not to build scripts
 RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
 -Cllvm-args=-sanitizer-coverage-inline-8bit-counters \
 -Cllvm-args=-sanitizer-coverage-pc-table \
--Cllvm-args=-sanitizer-coverage-trace-compares --cfg fuzzing" \
+-Cllvm-args=-sanitizer-coverage-trace-compares --cfg fuzzing -Dwarnings" \
   cargo build --release --locked --target "$host"
 work="$CARGO_TARGET_DIR/fuzz"
 mkdir -p "$work/artifacts"
