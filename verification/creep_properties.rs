@@ -437,3 +437,80 @@ fn creep_gain_is_computed_without_cancellation() {
     let literal = 1.0 - (-x).exp();
     assert!((literal - series).abs() > 1000.0 * EPS * series);
 }
+
+/// `expm1(x)` for `|x| < 1` in double-double arithmetic (about 106 bits):
+/// the Taylor series summed with error-free transformations, returned as
+/// `(hi, lo)` with `hi` the sum rounded to f64.
+fn expm1_double_double(x: f64) -> (f64, f64) {
+    fn two_sum(a: f64, b: f64) -> (f64, f64) {
+        let s = a + b;
+        let v = s - a;
+        (s, (a - (s - v)) + (b - v))
+    }
+    fn add(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
+        let (s, e) = two_sum(a.0, b.0);
+        let (hi, lo) = two_sum(s, e + a.1 + b.1);
+        (hi, lo)
+    }
+    fn mul(a: (f64, f64), b: f64) -> (f64, f64) {
+        let p = a.0 * b;
+        let e = a.0.mul_add(b, -p) + a.1 * b;
+        two_sum(p, e)
+    }
+    fn div(a: (f64, f64), k: f64) -> (f64, f64) {
+        let q = a.0 / k;
+        let r = mul((q, 0.0), k);
+        let rest = add(a, (-r.0, -r.1));
+        add((q, 0.0), (rest.0 / k, 0.0))
+    }
+    let mut term = (x, 0.0);
+    let mut sum = term;
+    for k in 2..60 {
+        term = div(mul(term, x), k as f64);
+        sum = add(sum, term);
+        if term.0.abs() < 1e-40 * sum.0.abs() {
+            break;
+        }
+    }
+    sum
+}
+
+/// The creep gains are computed by one `expm1` on every platform and with
+/// or without `std` (the `libm` crate's), and at the nominal model's five
+/// eigenvalues that one is correctly rounded: the gain is the nearest f64
+/// to `1 − e^{−aT_s}` of the rounded `aT_s`, found here in double-double
+/// arithmetic. A platform's C library that rounds correctly there gives
+/// the same bits; mingw-w64's does not at two of them.
+#[test]
+fn the_nominal_creep_gains_are_correctly_rounded() {
+    let ts = mfcbeam::realtime::nominal::SAMPLE_TIME;
+    for a in mfcbeam::realtime::nominal::CREEP_EIGENVALUES {
+        let x = -a * ts;
+        let (hi, lo) = expm1_double_double(x);
+        let ulp = f64::from_bits(hi.abs().to_bits() + 1) - hi.abs();
+        // far enough from a midpoint between two f64 for `hi` to be the
+        // correctly rounded value despite the reference's own ~2^-100
+        assert!(lo.abs() < 0.49 * ulp, "a = {a}: too near a midpoint to say");
+        assert_eq!(creep_gain(a, ts).to_bits(), (-hi).to_bits(), "a = {a}");
+    }
+}
+
+/// Away from the nominal points the gain is within one ulp of the exact
+/// value (the `libm` crate's `expm1` is not correctly rounded everywhere).
+#[test]
+fn creep_gains_are_within_an_ulp() {
+    for ts in [1e-5, 1e-4, 2e-4, 1e-3] {
+        for k in 0..=140 {
+            let a = 10f64.powf(-3.0 + k as f64 * 0.05);
+            let x = -a * ts;
+            if x.abs() >= 1.0 {
+                continue;
+            }
+            let (hi, lo) = expm1_double_double(x);
+            let g = creep_gain(a, ts);
+            let ulp = f64::from_bits(hi.abs().to_bits() + 1) - hi.abs();
+            let err = ((-g - hi) - lo).abs();
+            assert!(err <= ulp, "a = {a}, T_s = {ts}: {err:e} > {ulp:e}");
+        }
+    }
+}

@@ -139,11 +139,16 @@ pub struct DiscreteBeam {
     z_im: Vec<f64>,
 }
 
-/// `e^{s} − 1` for complex `s` without cancellation.
+/// `e^{s} − 1` for complex `s` without cancellation, with the `libm`
+/// crate's functions: the same bits on every platform (`std`'s call the
+/// platform's C library).
 pub(crate) fn cexpm1(s: c64) -> c64 {
-    let (sin, cos) = s.im.sin_cos();
-    let half = (0.5 * s.im).sin();
-    c64::new(s.re.exp_m1() * cos - 2.0 * half * half, s.re.exp() * sin)
+    let (sin, cos) = libm::sincos(s.im);
+    let half = libm::sin(0.5 * s.im);
+    c64::new(
+        libm::expm1(s.re) * cos - 2.0 * half * half,
+        libm::exp(s.re) * sin,
+    )
 }
 
 impl DiscreteBeam {

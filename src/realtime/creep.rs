@@ -27,13 +27,14 @@ use crate::realtime::storage::{Buffer, Storage};
 
 /// `1 − e^{−a T_s}` without cancellation (`−expm1(−aT_s)`; the literal form
 /// loses five digits at `a = 0.05 s⁻¹`, `T_s = 0.2 ms`).
+///
+/// Always the `libm` crate's `expm1`, with or without `std`: `std`'s calls
+/// the platform's C library, whose results differ in the last bit between
+/// platforms (mingw-w64's from glibc's at two of the nominal five gains),
+/// and a gain that differs in one bit changes every output after it.
 #[inline]
 pub fn creep_gain(eigenvalue: f64, sample_time: f64) -> f64 {
-    #[cfg(feature = "std")]
-    let e = (-eigenvalue * sample_time).exp_m1();
-    #[cfg(not(feature = "std"))]
-    let e = libm::expm1(-eigenvalue * sample_time);
-    -e
+    -libm::expm1(-eigenvalue * sample_time)
 }
 
 /// A PI creep operator `C` (16): `n + 1` log(t)-creep operators (15) of `m`
