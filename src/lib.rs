@@ -98,9 +98,9 @@ pub mod operators;
 #[cfg(feature = "std")]
 pub mod suite;
 
-#[cfg(feature = "beam")]
+#[cfg(any(feature = "beam", feature = "fmi"))]
 pub mod beam;
-#[cfg(feature = "control")]
+#[cfg(any(feature = "control", feature = "fmi"))]
 pub mod control;
 #[cfg(feature = "feedforward")]
 pub mod feedforward;

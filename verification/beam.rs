@@ -9,7 +9,9 @@ use common::*;
 use mfcbeam::beam::fe::FiniteElementModel;
 use mfcbeam::beam::modal::ModalModel;
 use mfcbeam::beam::ritz::{clamped_free_roots, RitzModel};
-use mfcbeam::beam::simulation::{CompensatedPlant, DiscreteBeam, HammersteinPlant};
+use mfcbeam::beam::simulation::{
+    CompensatedPlant, DiscreteBeam, DiscreteBeamFile, HammersteinPlant, MAX_DISCRETE_MODES,
+};
 use mfcbeam::beam::step_response_fit::*;
 use mfcbeam::beam::BeamParameters;
 use mfcbeam::prelude::*;
@@ -161,6 +163,55 @@ fn zoh_step_response_converges_to_the_static_gain_and_is_exact() {
             y[k],
             yf[10 * k]
         );
+    }
+}
+
+/// The discretized beam file (what the plant FMU carries) holds every bit:
+/// the beam read back from its JSON steps exactly as the one computed.
+#[test]
+fn a_discretized_beam_read_from_its_file_steps_with_the_same_bits() {
+    let modal = modal_model(&BeamParameters::nominal(), BeamModelKind::default()).unwrap();
+    let mut computed = DiscreteBeam::new(&modal, 2e-4).unwrap();
+    let json = serde_json::to_string(&computed.file()).unwrap();
+    let file: DiscreteBeamFile = serde_json::from_str(&json).unwrap();
+    assert_eq!(file, computed.file());
+    let mut read = DiscreteBeam::from_file(&file).unwrap();
+    assert_eq!(read.modes(), computed.modes());
+    let u: Vec<f64> = (0..2000).map(|k| 300.0 * (k as f64 * 7e-3).sin()).collect();
+    let (a, b) = (computed.simulate(&u), read.simulate(&u));
+    assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+}
+
+/// A discretized beam file that is inconsistent is refused, naming its
+/// field.
+#[test]
+fn a_bad_discretized_beam_file_is_refused_naming_its_field() {
+    let modal = modal_model(&BeamParameters::nominal(), BeamModelKind::default()).unwrap();
+    let good = DiscreteBeam::new(&modal, 2e-4).unwrap().file();
+    type Spoil = Box<dyn Fn(&mut DiscreteBeamFile)>;
+    let cases: Vec<(&str, Spoil)> = vec![
+        ("sample_time", Box::new(|f| f.sample_time = 0.0)),
+        ("sample_time", Box::new(|f| f.sample_time = f64::NAN)),
+        ("pole", Box::new(|f| f.pole.clear())),
+        ("pole", Box::new(|f| f.pole[1][0] = f64::INFINITY)),
+        (
+            "gain",
+            Box::new(|f| {
+                f.gain.pop();
+            }),
+        ),
+        ("output", Box::new(|f| f.output[0][1] = f64::NAN)),
+        ("equilibrium", Box::new(|f| f.equilibrium.push([0.0, 0.0]))),
+        (
+            "pole",
+            Box::new(|f| f.pole = vec![[0.5, 0.0]; MAX_DISCRETE_MODES + 1]),
+        ),
+    ];
+    for (field, spoil) in cases {
+        let mut bad = good.clone();
+        spoil(&mut bad);
+        let e = DiscreteBeam::from_file(&bad).unwrap_err().to_string();
+        assert!(e.starts_with(field), "{field}: {e}");
     }
 }
 

@@ -18,7 +18,7 @@ use mfcbeam::fmi::import::{
     bind, Fmu, FmuCandidate, FmuCompensator, FmuModel, ImportError, ImportKind,
 };
 use mfcbeam::fmi::package::FmuPackage;
-use mfcbeam::fmi::{FmiVersion, FmuKind};
+use mfcbeam::fmi::{FmiVersion, FmuKind, Platform};
 use mfcbeam::operators::nominal::nominal_model_file;
 use mfcbeam::prelude::*;
 use mfcbeam::suite::conformance::external::WIDE_LIMITS;
@@ -84,7 +84,7 @@ fn package(kind: FmuKind, version: FmiVersion, model: &ModelFile, path: &Path) {
         beam: None,
         beam_model: Default::default(),
         controller: None,
-        library: library().to_path_buf(),
+        libraries: vec![(Platform::host().unwrap(), library().to_path_buf())],
     }
     .write(path)
     .unwrap();
@@ -255,7 +255,50 @@ fn broken_archives_are_refused_with_one_clear_error() {
     .unwrap();
     let no_binary = dir.join("nobinary.fmu");
     zip_with(&no_binary, &[("modelDescription.xml", xml.as_bytes())]);
-    assert!(text(Fmu::load(&no_binary).unwrap_err()).contains("no Linux x86-64 binary"));
+    let e = text(Fmu::load(&no_binary).unwrap_err());
+    assert!(
+        e.contains("no binary for this machine (x86_64-linux)"),
+        "{e}"
+    );
+    assert!(e.contains("it holds no binaries"), "{e}");
+
+    // binaries of other platforms only, or a foreign or broken file where
+    // this machine's should be: refused before it is loaded, saying what
+    // the FMU holds or what the file is
+    let id = "mfcbeam_model";
+    let cases: [(&str, &[u8], &str); 4] = [
+        (
+            "binaries/x86_64-windows/mfcbeam_model.dll",
+            &fake_library(Platform::X86_64Windows),
+            "it holds binaries/x86_64-windows",
+        ),
+        (
+            "binaries/x86_64-linux/mfcbeam_model.so",
+            &fake_library(Platform::X86_64Windows),
+            "a library for x86_64-windows, not for this machine (x86_64-linux)",
+        ),
+        (
+            "binaries/x86_64-linux/mfcbeam_model.so",
+            &fake_library(Platform::Aarch64Linux),
+            "a library for aarch64-linux, not for this machine",
+        ),
+        (
+            "binaries/x86_64-linux/mfcbeam_model.so",
+            b"garbage, not a library",
+            "not a shared library (no ELF, PE or Mach-O header)",
+        ),
+    ];
+    assert!(xml.contains(&format!("modelIdentifier=\"{id}\"")), "{xml}");
+    for (i, (entry, bytes, expected)) in cases.into_iter().enumerate() {
+        let foreign = dir.join(format!("foreign{i}.fmu"));
+        zip_with(
+            &foreign,
+            &[("modelDescription.xml", xml.as_bytes()), (entry, bytes)],
+        );
+        let e = text(Fmu::load(&foreign).unwrap_err());
+        assert!(e.contains(expected), "{entry}: {e}");
+        assert_eq!(e.lines().count(), 1, "{e}");
+    }
 
     // a malformed description
     let bad_xml = dir.join("badxml.fmu");
@@ -280,6 +323,166 @@ fn broken_archives_are_refused_with_one_clear_error() {
         .err()
         .unwrap();
     assert!(text(e).contains("instantiation token"));
+}
+
+/// The first bytes of a shared library for `platform`: enough for its
+/// header to say what it is, not a library that loads.
+fn fake_library(platform: Platform) -> Vec<u8> {
+    let mut b = vec![0u8; 512];
+    match platform {
+        Platform::X86_64Windows => {
+            b[..2].copy_from_slice(b"MZ");
+            b[0x3c] = 0x80;
+            b[0x80..0x84].copy_from_slice(b"PE\0\0");
+            b[0x84..0x86].copy_from_slice(&0x8664u16.to_le_bytes());
+        }
+        Platform::Aarch64Linux | Platform::X86_64Linux => {
+            b[..4].copy_from_slice(b"\x7fELF");
+            b[5] = 1;
+            b[18] = if platform == Platform::Aarch64Linux {
+                0xb7
+            } else {
+                0x3e
+            };
+        }
+        _ => unreachable!("not used"),
+    }
+    b
+}
+
+/// One FMU carries every platform's library under the version's folder
+/// names, with the same description; a library of the wrong platform, a
+/// platform asked for that has no library, or a file that is no library is
+/// refused in one line.
+#[test]
+fn one_fmu_carries_every_platform_under_its_standard_folder() {
+    let dir = scratch("platforms");
+    // a release folder as the cross builds leave it (headers only: the
+    // packing reads what a file is, it does not load it)
+    let target = dir.join("target");
+    let host = target.join("release");
+    std::fs::create_dir_all(&host).unwrap();
+    std::fs::copy(library(), host.join("libmfcbeam_fmu.so")).unwrap();
+    for (p, file) in [
+        (Platform::X86_64Windows, "mfcbeam_fmu.dll"),
+        (Platform::Aarch64Linux, "libmfcbeam_fmu.so"),
+    ] {
+        let d = target.join(p.rust_target()).join("release");
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::write(d.join(file), fake_library(p)).unwrap();
+    }
+    let mut descriptions = Vec::new();
+    for (fmi, folders) in [
+        (
+            "2",
+            [
+                "binaries/linux64/mfcbeam_model.so",
+                "binaries/win64/mfcbeam_model.dll",
+                "binaries/aarch64-linux/mfcbeam_model.so",
+            ],
+        ),
+        (
+            "3",
+            [
+                "binaries/x86_64-linux/mfcbeam_model.so",
+                "binaries/x86_64-windows/mfcbeam_model.dll",
+                "binaries/aarch64-linux/mfcbeam_model.so",
+            ],
+        ),
+    ] {
+        let fmu = dir.join(format!("all{fmi}.fmu"));
+        let out = cli()
+            .args(["fmu", "--kind", "model", "--fmi", fmi, "--model"])
+            .arg(root().join("golden/nominal_model.json"))
+            .arg("--release-folder")
+            .arg(&target)
+            .arg("--output")
+            .arg(&fmu)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{stderr}");
+        assert!(
+            stderr.contains("platforms x86_64-linux, x86_64-windows, aarch64-linux"),
+            "{stderr}"
+        );
+        let mut archive = zip::ZipArchive::new(std::fs::File::open(&fmu).unwrap()).unwrap();
+        let names: Vec<String> = archive
+            .file_names()
+            .map(|n| n.unwrap().into_owned())
+            .collect();
+        let binaries: Vec<&String> = names
+            .iter()
+            .filter(|n| n.starts_with("binaries/"))
+            .collect();
+        assert_eq!(binaries.len(), 3, "{names:?}");
+        for f in folders {
+            assert!(names.iter().any(|n| n == f), "{f} not in {names:?}");
+        }
+        let mut xml = String::new();
+        std::io::Read::read_to_string(
+            &mut archive.by_name("modelDescription.xml").unwrap(),
+            &mut xml,
+        )
+        .unwrap();
+        descriptions.push(xml);
+        // this machine's binary loads from the FMU with the others beside it
+        assert!(Fmu::load(&fmu).is_ok());
+    }
+    assert!(descriptions[1].contains("instantiationToken"));
+
+    let fail = |args: &[&str], expected: &str| {
+        let out = cli()
+            .args(["fmu", "--kind", "model", "--fmi", "3", "--model"])
+            .arg(root().join("golden/nominal_model.json"))
+            .arg("--output")
+            .arg(dir.join("x.fmu"))
+            .args(args)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(expected), "{args:?}: {stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+        assert!(!dir.join("x.fmu").exists());
+    };
+    let t = target.to_str().unwrap();
+    fail(
+        &[
+            "--release-folder",
+            t,
+            "--platforms",
+            "x86_64-linux,x86_64-darwin",
+        ],
+        "no library in",
+    );
+    fail(
+        &["--release-folder", t, "--platforms", "x86_64-darwin"],
+        "x86_64-darwin (`cargo build --release -p mfcbeam-fmu --target x86_64-apple-darwin`)",
+    );
+    fail(
+        &["--release-folder", t, "--platforms", "win32"],
+        "'win32' is none of x86_64-linux",
+    );
+    let empty = dir.join("empty-target");
+    std::fs::create_dir_all(&empty).unwrap();
+    fail(
+        &["--release-folder", empty.to_str().unwrap()],
+        "no mfcbeam-fmu library in",
+    );
+    let junk = dir.join("junk.so");
+    std::fs::write(&junk, b"not a library").unwrap();
+    fail(
+        &["--library", junk.to_str().unwrap()],
+        "not a shared library",
+    );
+    // one platform's library given where another's belongs
+    let misplaced = target.join("x86_64-pc-windows-gnu/release/mfcbeam_fmu.dll");
+    std::fs::write(&misplaced, fake_library(Platform::Aarch64Linux)).unwrap();
+    fail(
+        &["--release-folder", t, "--platforms", "x86_64-windows"],
+        "a library for aarch64-linux, not for x86_64-windows",
+    );
 }
 
 /// The independent C FMU, built by its script.
@@ -463,7 +666,7 @@ fn controller_fmus_are_the_built_in_designs_bit_for_bit() {
                 beam: None,
                 beam_model: Default::default(),
                 controller: Some(bench.controller_file(kind).unwrap()),
-                library: library().to_path_buf(),
+                libraries: vec![(Platform::host().unwrap(), library().to_path_buf())],
             }
             .write(&path)
             .unwrap();

@@ -6,12 +6,21 @@
 //! and the step-response fit of section 4.2
 //! ([`step_response_fit`]).
 
+//! Without the `beam` feature (the FMU library's build) only the parameters
+//! and the discretized beam's step remain: the beam is then discretized
+//! beforehand and read from its coefficients.
+
+#[cfg(feature = "beam")]
 pub mod fe;
+#[cfg(feature = "beam")]
 pub mod modal;
 pub mod parameters;
+#[cfg(feature = "beam")]
 pub mod ritz;
 pub mod simulation;
+#[cfg(feature = "beam")]
 pub mod state_space;
+#[cfg(feature = "beam")]
 pub mod step_response_fit;
 
 pub use parameters::*;

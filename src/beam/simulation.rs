@@ -19,10 +19,19 @@
 //! Conventions (`docs/MATHEMATICS.md` §6): row `k` of a trace holds `u_k` and the output
 //! *before* `u_k` acts, `y_k = C x_k`; a simulation starts at rest in the
 //! equilibrium of its first input.
+//!
+//! The discretization's coefficients are a [`DiscreteBeamFile`]: the plant
+//! FMU carries them rather than the beam, so that it needs no eigensolver
+//! and steps with the same bits on every platform (without the `beam`
+//! feature only that file and the step are compiled).
 
+#[cfg(feature = "beam")]
 use faer::linalg::solvers::Solve;
+#[cfg(feature = "beam")]
 use faer::{c64, Mat};
+use serde::{Deserialize, Serialize};
 
+#[cfg(feature = "beam")]
 use crate::beam::modal::ModalModel;
 use crate::beam::BeamError;
 use crate::operators::model::HysteresisCreepModel;
@@ -31,6 +40,7 @@ use crate::operators::traits::Operator;
 /// The state-space model of a [`ModalModel`] in diagonal (complex modal)
 /// coordinates: `ż_j = λ_j z_j + (V⁻¹B)_j u`, `y = Re Σ w_j (CV)_j z_j`, keeping
 /// one pole of each conjugate pair (`w_j = 2`) and the real poles (`w_j = 1`).
+#[cfg(feature = "beam")]
 #[derive(Debug, Clone)]
 pub struct DiagonalForm {
     /// Poles `λ_j` with `Im λ_j ≥ 0`.
@@ -41,6 +51,7 @@ pub struct DiagonalForm {
     pub output: Vec<c64>,
 }
 
+#[cfg(feature = "beam")]
 impl DiagonalForm {
     /// Diagonalize `A = [[0, I], [−Ω², −D]]`; refuses a (nearly) defective `A`.
     pub fn new(modal: &ModalModel) -> Result<Self, BeamError> {
@@ -139,9 +150,30 @@ pub struct DiscreteBeam {
     z_im: Vec<f64>,
 }
 
+/// The coefficients of a [`DiscreteBeam`] at its sample time, one entry
+/// per kept mode `j`, each complex number as `[re, im]`: the discrete pole
+/// `e^{λ_j T_s}`, the input gain `(e^{λ_j T_s} − 1)/λ_j · (V⁻¹B)_j`, the
+/// output weight `w_j (CV)_j` and the equilibrium per unit input
+/// `−(V⁻¹B)_j/λ_j`. JSON keeps every bit (`docs/FILES.md`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DiscreteBeamFile {
+    /// `T_s` (s).
+    pub sample_time: f64,
+    pub pole: Vec<[f64; 2]>,
+    pub gain: Vec<[f64; 2]>,
+    pub output: Vec<[f64; 2]>,
+    pub equilibrium: Vec<[f64; 2]>,
+}
+
+/// The most modes a discretized beam file may hold: twice the most a beam
+/// model has (the finite elements' two degrees of freedom per node).
+pub const MAX_DISCRETE_MODES: usize = 2 * (crate::realtime::limits::MAX_ELEMENTS + 1);
+
 /// `e^{s} − 1` for complex `s` without cancellation, with the `libm`
 /// crate's functions: the same bits on every platform (`std`'s call the
 /// platform's C library).
+#[cfg(feature = "beam")]
 pub(crate) fn cexpm1(s: c64) -> c64 {
     let (sin, cos) = libm::sincos(s.im);
     let half = libm::sin(0.5 * s.im);
@@ -153,6 +185,7 @@ pub(crate) fn cexpm1(s: c64) -> c64 {
 
 impl DiscreteBeam {
     /// Discretize `modal` at sample time `sample_time`.
+    #[cfg(feature = "beam")]
     pub fn new(modal: &ModalModel, sample_time: f64) -> Result<Self, BeamError> {
         if !(sample_time.is_finite() && sample_time > 0.0) {
             return Err(BeamError::InvalidSetting {
@@ -194,6 +227,75 @@ impl DiscreteBeam {
         beam.z_re = vec![0.0; m];
         beam.z_im = vec![0.0; m];
         Ok(beam)
+    }
+
+    /// The beam from its coefficients, at rest at zero; an error names the
+    /// field that is wrong.
+    pub fn from_file(file: &DiscreteBeamFile) -> Result<Self, BeamError> {
+        let invalid =
+            |field: &'static str, reason: String| BeamError::InvalidSetting { field, reason };
+        let ts = file.sample_time;
+        if !(ts.is_finite() && ts > 0.0) {
+            return Err(invalid(
+                "sample_time",
+                format!("must be a finite number > 0, found {ts}"),
+            ));
+        }
+        let n = file.pole.len();
+        if n == 0 || n > MAX_DISCRETE_MODES {
+            return Err(invalid(
+                "pole",
+                format!("must hold 1 to {MAX_DISCRETE_MODES} modes, found {n}"),
+            ));
+        }
+        let fields = [
+            ("pole", &file.pole),
+            ("gain", &file.gain),
+            ("output", &file.output),
+            ("equilibrium", &file.equilibrium),
+        ];
+        for (field, values) in fields {
+            if values.len() != n {
+                return Err(invalid(
+                    field,
+                    format!("has {} entries, but pole has {n}", values.len()),
+                ));
+            }
+            if let Some(j) = values
+                .iter()
+                .position(|c| !(c[0].is_finite() && c[1].is_finite()))
+            {
+                return Err(invalid(field, format!("entry {j} is not finite")));
+            }
+        }
+        let re = |v: &[[f64; 2]]| v.iter().map(|c| c[0]).collect::<Vec<_>>();
+        let im = |v: &[[f64; 2]]| v.iter().map(|c| c[1]).collect::<Vec<_>>();
+        Ok(Self {
+            sample_time: ts,
+            pole_re: re(&file.pole),
+            pole_im: im(&file.pole),
+            gain_re: re(&file.gain),
+            gain_im: im(&file.gain),
+            out_re: re(&file.output),
+            out_im: im(&file.output),
+            eq_re: re(&file.equilibrium),
+            eq_im: im(&file.equilibrium),
+            z_re: vec![0.0; n],
+            z_im: vec![0.0; n],
+        })
+    }
+
+    /// Its coefficients, which [`from_file`](Self::from_file) reads back to
+    /// the same bits.
+    pub fn file(&self) -> DiscreteBeamFile {
+        let pairs = |re: &[f64], im: &[f64]| re.iter().zip(im).map(|(&r, &i)| [r, i]).collect();
+        DiscreteBeamFile {
+            sample_time: self.sample_time,
+            pole: pairs(&self.pole_re, &self.pole_im),
+            gain: pairs(&self.gain_re, &self.gain_im),
+            output: pairs(&self.out_re, &self.out_im),
+            equilibrium: pairs(&self.eq_re, &self.eq_im),
+        }
     }
 
     /// Sample time (s).

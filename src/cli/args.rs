@@ -484,9 +484,15 @@ pub struct FmuArgs {
     /// The FMU to write.
     #[arg(long)]
     pub output: PathBuf,
-    /// The mfcbeam-fmu shared library (default: libmfcbeam_fmu.so beside this program, as `cargo build -p mfcbeam-fmu` puts it).
+    /// The platforms to pack, comma-separated (x86_64-linux, x86_64-windows, aarch64-linux, x86_64-darwin, aarch64-darwin; FMI 2 folder names too), or `all`; each must have its library in the release folder. Default: every platform whose library is there, naming those that are not.
+    #[arg(long, value_delimiter = ',', conflicts_with = "library")]
+    pub platforms: Vec<String>,
+    /// The cargo target folder holding the libraries: the host's in release/, the others in <rust target>/release/ (default: the one this program runs from).
+    #[arg(long, value_name = "DIR", conflicts_with = "library")]
+    pub release_folder: Option<PathBuf>,
+    /// An mfcbeam-fmu shared library to pack instead, repeatable; its platform is read from its header.
     #[arg(long)]
-    pub library: Option<PathBuf>,
+    pub library: Vec<PathBuf>,
 }
 
 #[derive(Debug, Args)]

@@ -8,7 +8,8 @@ use anyhow::{bail, Context, Result};
 use mfcbeam::fmi::import::{
     bind, Fmu, FmuCandidate, FmuCompensator, FmuInverseHysteresis, FmuModel, ImportKind,
 };
-use mfcbeam::fmi::package::{default_library, FmuPackage, LIBRARY_FILE};
+use mfcbeam::fmi::package::{build_command, FmuPackage, ReleaseFolder};
+use mfcbeam::fmi::Platform;
 use mfcbeam::fmi::{FmiVersion, FmuKind};
 use mfcbeam::io::{format_f64, read_beam, read_model_file, write_atomic, Trace};
 use mfcbeam::prelude::*;
@@ -64,15 +65,7 @@ pub fn fmu(a: &FmuArgs) -> Result<()> {
     } else {
         beam
     };
-    let library = match &a.library {
-        Some(l) => l.clone(),
-        None => default_library().with_context(|| {
-            format!(
-                "--library: no {LIBRARY_FILE} beside this program; build it with \
-                 `cargo build --release -p mfcbeam-fmu` (or give its path)"
-            )
-        })?,
-    };
+    let libraries = libraries(a)?;
     let package = FmuPackage {
         kind: match a.kind {
             FmuKindArg::Compensator => FmuKind::Compensator,
@@ -89,18 +82,86 @@ pub fn fmu(a: &FmuArgs) -> Result<()> {
         beam,
         beam_model: super::args::BeamModelArgs::kind_of(a.beam_model, a.elements),
         controller,
-        library,
+        libraries,
     };
     package
         .write(&a.output)
         .with_context(|| format!("--output {}", a.output.display()))?;
+    let platforms: Vec<_> = package.platforms().iter().map(|p| p.name()).collect();
     eprintln!(
-        "wrote {} (FMI {}, {})",
+        "wrote {} (FMI {}, {}; platforms {})",
         a.output.display(),
         package.version.as_str(),
-        package.kind.name()
+        package.kind.name(),
+        platforms.join(", ")
     );
     Ok(())
+}
+
+/// The libraries to pack: those given, each platform read from its
+/// header, or those of the release folder.
+fn libraries(a: &FmuArgs) -> Result<Vec<(Platform, std::path::PathBuf)>> {
+    if !a.library.is_empty() {
+        let mut found = Vec::new();
+        for path in &a.library {
+            let bytes =
+                std::fs::read(path).with_context(|| format!("--library {}", path.display()))?;
+            let platform = Platform::of_library(&bytes)
+                .map_err(|what| anyhow::anyhow!("--library {}: {what}", path.display()))?;
+            found.push((platform, path.clone()));
+        }
+        return Ok(found);
+    }
+    let folder = match &a.release_folder {
+        Some(dir) => ReleaseFolder::new(dir),
+        None => ReleaseFolder::of_this_program()
+            .context("--release-folder: cannot tell where this program runs from; give it")?,
+    };
+    let chosen = !a.platforms.is_empty();
+    let wanted: Vec<Platform> = if !chosen || a.platforms.iter().any(|p| p == "all") {
+        Platform::ALL.to_vec()
+    } else {
+        a.platforms
+            .iter()
+            .map(|name| {
+                Platform::from_name(name).with_context(|| {
+                    let names: Vec<_> = Platform::ALL.iter().map(|p| p.name()).collect();
+                    format!("--platforms: '{name}' is none of {}", names.join(", "))
+                })
+            })
+            .collect::<Result<_>>()?
+    };
+    let (found, missing) = folder.find(&wanted);
+    let how = |p: &Platform| format!("{p} (`{}`)", build_command(*p));
+    if chosen && !missing.is_empty() {
+        let list: Vec<_> = missing.iter().map(how).collect();
+        bail!(
+            "--platforms: no library in {} for {}",
+            folder.target.display(),
+            list.join(", ")
+        );
+    }
+    if found.is_empty() {
+        bail!(
+            "--release-folder: no mfcbeam-fmu library in {}; build it with `{}`",
+            folder.target.display(),
+            Platform::host().map_or("cargo build --release -p mfcbeam-fmu".into(), build_command)
+        );
+    }
+    // macOS libraries are built on a Mac: not finding them is expected
+    let missing: Vec<_> = missing
+        .into_iter()
+        .filter(|p| Platform::BUILT_HERE.contains(p))
+        .collect();
+    if !missing.is_empty() {
+        let list: Vec<_> = missing.iter().map(|p| p.name()).collect();
+        eprintln!(
+            "not packed, no library in {}: {} (--platforms names the ones required)",
+            folder.target.display(),
+            list.join(", ")
+        );
+    }
+    Ok(found)
 }
 
 /// Parse `--fmu-variable OURS=THEIRS`.

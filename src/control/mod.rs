@@ -26,19 +26,30 @@
 //! * [`benchmark`]: the scenarios (disturbances, model error, noise) every
 //!   controller runs.
 
+// Without the `control` feature (the FMU library's build) only the
+// controllers' steps and their file remain: their designs are computed
+// beforehand.
+#[cfg(feature = "control")]
 pub mod benchmark;
+#[cfg(feature = "control")]
 pub mod closed_loop;
 pub mod controller;
 pub mod file;
 pub mod pid;
+#[cfg(feature = "control")]
 pub mod process;
+#[cfg(feature = "control")]
 pub mod riccati;
+#[cfg(feature = "control")]
 pub mod scores;
 pub mod state_feedback;
 
+#[cfg(feature = "control")]
 pub use benchmark::*;
+#[cfg(feature = "control")]
 pub use closed_loop::*;
 pub use controller::*;
+#[cfg(feature = "control")]
 pub use scores::*;
 
 /// What can go wrong designing or running a loop.
@@ -56,6 +67,7 @@ pub enum ControlError {
     Controller { name: String, reason: String },
     #[error(transparent)]
     Beam(#[from] crate::beam::BeamError),
+    #[cfg(feature = "control")]
     #[error(transparent)]
     Feedforward(#[from] crate::feedforward::FeedforwardError),
     #[error(transparent)]

@@ -23,6 +23,7 @@
 //! §11.2 gives the margins).
 
 use super::{ControlError, Controller, LoopSample};
+#[cfg(feature = "control")]
 use crate::beam::modal::ModalModel;
 
 /// The design rule's parameters.
@@ -97,6 +98,7 @@ impl PidGains {
     }
 
     /// The rule applied to the first mode of `modal`.
+    #[cfg(feature = "control")]
     pub fn design(modal: &ModalModel, settings: &PidSettings) -> Result<Self, ControlError> {
         settings.validate()?;
         if modal.is_empty() {

@@ -20,10 +20,13 @@
 //!
 //! Both gains solve a discrete Riccati equation ([`super::riccati`]).
 
+#[cfg(feature = "control")]
 use nalgebra::{DMatrix, DVector};
 
+#[cfg(feature = "control")]
 use super::riccati::solve_dare;
 use super::{ControlError, Controller, LoopSample};
+#[cfg(feature = "control")]
 use crate::beam::modal::ModalModel;
 
 /// The design rule's parameters.
@@ -103,6 +106,7 @@ pub struct StateFeedbackDesign {
 impl StateFeedbackDesign {
     /// The rule applied to `modal` at `sample_time`, for the reference `y_d`
     /// and feedforward `u_d`.
+    #[cfg(feature = "control")]
     pub fn design(
         modal: &ModalModel,
         sample_time: f64,

@@ -9,8 +9,7 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 use super::variables::{vr, FmuConfig, FmuKind, CONFIG_FILE};
-use crate::beam::simulation::DiscreteBeam;
-use crate::beam::step_response_fit::modal_model;
+use crate::beam::simulation::{DiscreteBeam, DiscreteBeamFile};
 use crate::control::file::{BuiltController, ControllerFile};
 use crate::control::{Controller, LoopSample};
 use crate::operators::compensator::{Compensator, CompensatorSettings};
@@ -208,17 +207,20 @@ impl Component {
             FmuKind::Controller => unreachable!("loaded by load_controller"),
             FmuKind::Plant => {
                 let beam_path = self.resource_or(&self.beam_file, self.config.beam.as_deref())?;
-                let beam = crate::io::read_beam(&beam_path).map_err(|e| FmuError::Resource {
+                let beam_error = |reason: String| FmuError::Resource {
                     path: beam_path.display().to_string(),
-                    reason: e.to_string(),
-                })?;
-                let kind = self.config.beam_model.map(Into::into).unwrap_or_default();
-                let beam_error = |e: crate::beam::parameters::BeamError| FmuError::Resource {
-                    path: beam_path.display().to_string(),
-                    reason: e.to_string(),
+                    reason,
                 };
-                let modal = modal_model(&beam, kind).map_err(beam_error)?;
-                let discrete = DiscreteBeam::new(&modal, self.sample_time).map_err(beam_error)?;
+                let file: DiscreteBeamFile =
+                    crate::io::read_json(&beam_path).map_err(|e| beam_error(e.to_string()))?;
+                let discrete =
+                    DiscreteBeam::from_file(&file).map_err(|e| beam_error(e.to_string()))?;
+                let (ts, model_ts) = (discrete.sample_time(), self.sample_time);
+                if ts != model_ts {
+                    return Err(beam_error(format!(
+                        "discretized at {ts} s, but the model's sample time is {model_ts} s"
+                    )));
+                }
                 if discrete.modes() != self.config.modes {
                     return Err(FmuError::Resource {
                         path: beam_path.display().to_string(),

@@ -10,6 +10,7 @@
 //!   outputs, save and restore; the C functions of the `mfcbeam-fmu`
 //!   library are a thin layer over it;
 //! * [`description`] — `modelDescription.xml` for FMI 2.0 and 3.0;
+//! * [`platform`] — the platforms of the binaries and their folders;
 //! * [`package`] (feature `fmi-tools`) — the `.fmu` archive;
 //! * [`import`] (feature `fmi-tools`) — load an FMU and adapt it to the
 //!   conformance traits;
@@ -44,7 +45,9 @@ pub mod description;
 pub mod import;
 #[cfg(feature = "fmi-tools")]
 pub mod package;
+pub mod platform;
 pub mod variables;
 
 pub use component::{Component, FmuError};
+pub use platform::Platform;
 pub use variables::{FmiVersion, FmuConfig, FmuKind, Variable};

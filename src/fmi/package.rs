@@ -1,7 +1,8 @@
-//! The `.fmu` archive: `modelDescription.xml`, the shared library under
-//! `binaries/<platform>/<modelIdentifier>.so` (the standard layout, so that
-//! other platforms can be added beside it), and under `resources/` the
-//! configuration, the model file and, for the plant, the beam file.
+//! The `.fmu` archive: `modelDescription.xml`, the shared library of each
+//! platform under `binaries/<folder>/<modelIdentifier>.<so|dll|dylib>`
+//! ([`Platform::folder`]), and under `resources/` the configuration, the
+//! model file and, for the plant, the beam file and its discretization.
+//! The description is the same for every platform.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -10,12 +11,17 @@ use sha2::{Digest, Sha256};
 use thiserror::Error;
 
 use super::description::{model_description, model_identifier, DescriptionInfo};
+use super::platform::Platform;
 use super::variables::{BeamDiscretization, FmiVersion, FmuConfig, FmuKind, CONFIG_FILE};
 use crate::beam::parameters::BeamParameters;
 use crate::beam::simulation::DiscreteBeam;
 use crate::beam::step_response_fit::{modal_model, BeamModelKind};
 use crate::control::file::ControllerFile;
 use crate::operators::model::{HysteresisCreepModel, ModelFile};
+
+/// The plant's discretized beam under `resources/`, what its instances
+/// load (`resources/beam.json`, the beam it came from, is for the reader).
+pub const DISCRETE_BEAM_FILE: &str = "discrete_beam.json";
 
 /// Why an FMU could not be built.
 #[derive(Debug, Error)]
@@ -44,21 +50,83 @@ pub struct FmuPackage {
     pub beam_model: BeamModelKind,
     /// The controller's design (the controller; `model` is then unused).
     pub controller: Option<ControllerFile>,
-    /// The `mfcbeam-fmu` shared library (`libmfcbeam_fmu.so`).
-    pub library: PathBuf,
+    /// The `mfcbeam-fmu` shared library of each platform, at least one
+    /// ([`ReleaseFolder::find`] finds a release folder's).
+    pub libraries: Vec<(Platform, PathBuf)>,
 }
 
-/// The shared library's file name as cargo builds it on this platform.
-pub const LIBRARY_FILE: &str = "libmfcbeam_fmu.so";
+/// The FMU library's crate name (`cargo build --release -p mfcbeam-fmu`).
+pub const LIBRARY_NAME: &str = "mfcbeam_fmu";
 
-/// Where the library is by default: beside the running program (cargo
-/// puts the binary and the library of one build in the same folder).
-pub fn default_library() -> Option<PathBuf> {
-    let exe = std::env::current_exe().ok()?;
-    let dir = exe.parent()?;
-    [dir.join(LIBRARY_FILE), dir.join("..").join(LIBRARY_FILE)]
-        .into_iter()
-        .find(|p| p.is_file())
+/// A cargo target folder to take the libraries from: the cross builds
+/// under `<target>/<rust target>/release/`, and this machine's platform
+/// from `profile` (`<target>/release/`, or the folder of the running
+/// program).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReleaseFolder {
+    pub target: PathBuf,
+    pub profile: PathBuf,
+}
+
+impl ReleaseFolder {
+    /// The release builds of the target folder `target`.
+    pub fn new(target: &Path) -> Self {
+        Self {
+            target: target.to_path_buf(),
+            profile: target.join("release"),
+        }
+    }
+
+    /// The target folder this program was built into: it runs from
+    /// `<target>/<profile>/`, where cargo put the host's library beside it.
+    pub fn of_this_program() -> Option<Self> {
+        let exe = std::env::current_exe().ok()?;
+        let profile = exe.parent()?.to_path_buf();
+        let target = profile.parent()?.to_path_buf();
+        Some(Self { target, profile })
+    }
+
+    /// Where `platform`'s library would be, first match first.
+    pub fn candidates(&self, platform: Platform) -> Vec<PathBuf> {
+        let file = platform.library_file(LIBRARY_NAME);
+        let mut paths = Vec::new();
+        if Platform::host() == Some(platform) {
+            paths.push(self.profile.join(&file));
+        }
+        paths.push(
+            self.target
+                .join(platform.rust_target())
+                .join("release")
+                .join(&file),
+        );
+        paths
+    }
+
+    /// The libraries of `platforms` found here, and the platforms that
+    /// have none.
+    pub fn find(&self, platforms: &[Platform]) -> (Vec<(Platform, PathBuf)>, Vec<Platform>) {
+        let mut found = Vec::new();
+        let mut missing = Vec::new();
+        for &p in platforms {
+            match self.candidates(p).into_iter().find(|c| c.is_file()) {
+                Some(path) => found.push((p, path)),
+                None => missing.push(p),
+            }
+        }
+        (found, missing)
+    }
+}
+
+/// How to build a platform's library on a Linux machine with its toolchain
+/// (`docs/guide/deploy.md`).
+pub fn build_command(platform: Platform) -> String {
+    match Platform::host() {
+        Some(h) if h == platform => "cargo build --release -p mfcbeam-fmu".into(),
+        _ => format!(
+            "cargo build --release -p mfcbeam-fmu --target {}",
+            platform.rust_target()
+        ),
+    }
 }
 
 /// A GUID-shaped digest of everything the FMU holds, so that a description
@@ -82,6 +150,13 @@ fn token(parts: &[&[u8]]) -> String {
 }
 
 impl FmuPackage {
+    /// The platforms it holds, in the archive's order.
+    pub fn platforms(&self) -> Vec<Platform> {
+        let mut p: Vec<_> = self.libraries.iter().map(|(p, _)| *p).collect();
+        p.sort();
+        p
+    }
+
     /// The archive's bytes.
     pub fn build(&self) -> Result<Vec<u8>, PackageError> {
         let controller = match (self.kind, &self.controller) {
@@ -98,12 +173,35 @@ impl FmuPackage {
         };
         let model = HysteresisCreepModel::from_file(&self.model)
             .map_err(|e| PackageError::Model(e.to_string()))?;
-        let library = std::fs::read(&self.library).map_err(|e| PackageError::Library {
-            path: self.library.display().to_string(),
-            reason: format!(
-                "{e} (build it with `cargo build --release -p mfcbeam-fmu`, or give --library)"
-            ),
-        })?;
+        if self.libraries.is_empty() {
+            return Err(PackageError::Library {
+                path: "--platforms".into(),
+                reason: "no platform's library to pack".into(),
+            });
+        }
+        let mut libraries: Vec<(Platform, Vec<u8>)> = Vec::new();
+        for (platform, path) in &self.libraries {
+            let bad = |reason: String| PackageError::Library {
+                path: path.display().to_string(),
+                reason,
+            };
+            if libraries.iter().any(|(p, _)| p == platform) {
+                return Err(bad(format!("a second library for {platform}")));
+            }
+            let bytes = std::fs::read(path).map_err(|e| {
+                bad(format!(
+                    "{e} (build it with `{}`)",
+                    build_command(*platform)
+                ))
+            })?;
+            match Platform::of_library(&bytes) {
+                Ok(p) if p == *platform => {}
+                Ok(p) => return Err(bad(format!("a library for {p}, not for {platform}"))),
+                Err(what) => return Err(bad(format!("{what}, not a library for {platform}"))),
+            }
+            libraries.push((*platform, bytes));
+        }
+        libraries.sort_by_key(|(p, _)| *p);
         let model_json = match controller {
             Some(c) => serde_json::to_vec_pretty(c),
             None => serde_json::to_vec_pretty(&self.model),
@@ -113,7 +211,7 @@ impl FmuPackage {
             Some(c) => ("controller.json", c.sample_time, 0),
             None => ("model.json", model.sample_time(), model.preview()),
         };
-        let (beam_json, modes) = match (self.kind, &self.beam) {
+        let (beam_json, discrete_json, modes) = match (self.kind, &self.beam) {
             (FmuKind::Plant, None) => return Err(PackageError::NoBeam),
             (FmuKind::Plant, Some(beam)) => {
                 beam.validate()
@@ -124,25 +222,34 @@ impl FmuPackage {
                     .map_err(|e| PackageError::Beam(e.to_string()))?;
                 let json = serde_json::to_vec_pretty(beam)
                     .map_err(|e| PackageError::Beam(e.to_string()))?;
-                (Some(json), discrete.modes())
+                let discrete_json = serde_json::to_vec_pretty(&discrete.file())
+                    .map_err(|e| PackageError::Beam(e.to_string()))?;
+                (Some(json), Some(discrete_json), discrete.modes())
             }
-            _ => (None, 0),
+            _ => (None, None, 0),
         };
         let discretization = BeamDiscretization::from(self.beam_model);
-        let token = token(&[
-            self.kind.name().as_bytes(),
+        let kind_name = self.kind.name();
+        let discretization_name = format!("{discretization:?}");
+        let mut parts: Vec<&[u8]> = vec![
+            kind_name.as_bytes(),
             self.version.as_str().as_bytes(),
             &model_json,
             beam_json.as_deref().unwrap_or(&[]),
-            format!("{discretization:?}").as_bytes(),
-            &library,
-        ]);
+            discrete_json.as_deref().unwrap_or(&[]),
+            discretization_name.as_bytes(),
+        ];
+        for (platform, bytes) in &libraries {
+            parts.push(platform.name().as_bytes());
+            parts.push(bytes);
+        }
+        let token = token(&parts);
         let config = FmuConfig {
             kind: self.kind,
             fmi_version: self.version,
             token,
             model: model_name.into(),
-            beam: beam_json.as_ref().map(|_| "beam.json".into()),
+            beam: discrete_json.as_ref().map(|_| DISCRETE_BEAM_FILE.into()),
             beam_model: beam_json.as_ref().map(|_| discretization),
             modes,
         };
@@ -167,17 +274,20 @@ impl FmuPackage {
             .compression_method(zip::CompressionMethod::Deflated)
             .unix_permissions(0o644);
         let id = model_identifier(&config);
-        let mut entries: Vec<(String, &[u8])> = vec![
-            ("modelDescription.xml".into(), xml.as_bytes()),
-            (
-                format!("binaries/{}/{id}.so", self.version.linux64_folder()),
-                &library,
-            ),
-            (format!("resources/{CONFIG_FILE}"), &config_json),
-            (format!("resources/{model_name}"), &model_json),
-        ];
-        if let Some(b) = &beam_json {
+        let mut entries: Vec<(String, &[u8])> =
+            vec![("modelDescription.xml".into(), xml.as_bytes())];
+        for (platform, bytes) in &libraries {
+            let folder = platform.folder(self.version);
+            entries.push((
+                format!("binaries/{folder}/{id}{}", platform.extension()),
+                bytes,
+            ));
+        }
+        entries.push((format!("resources/{CONFIG_FILE}"), &config_json));
+        entries.push((format!("resources/{model_name}"), &model_json));
+        if let (Some(b), Some(d)) = (&beam_json, &discrete_json) {
             entries.push(("resources/beam.json".into(), b));
+            entries.push((format!("resources/{DISCRETE_BEAM_FILE}"), d));
         }
         let archive = |e: &dyn std::fmt::Display| PackageError::Archive(e.to_string());
         for (name, bytes) in entries {

@@ -4,6 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
+#[cfg(feature = "beam")]
 use crate::beam::step_response_fit::BeamModelKind;
 
 /// What an FMU contains.
@@ -70,6 +71,7 @@ pub enum BeamDiscretization {
     Modal { elements: usize },
 }
 
+#[cfg(feature = "beam")]
 impl From<BeamModelKind> for BeamDiscretization {
     fn from(k: BeamModelKind) -> Self {
         match k {
@@ -79,6 +81,7 @@ impl From<BeamModelKind> for BeamDiscretization {
     }
 }
 
+#[cfg(feature = "beam")]
 impl From<BeamDiscretization> for BeamModelKind {
     fn from(k: BeamDiscretization) -> Self {
         match k {
@@ -100,9 +103,12 @@ pub struct FmuConfig {
     /// The model file under `resources/` (the controller's: its controller
     /// file).
     pub model: String,
-    /// The beam file under `resources/` (the plant).
+    /// The plant's discretized beam under `resources/` (a
+    /// [`DiscreteBeamFile`](crate::beam::simulation::DiscreteBeamFile)).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub beam: Option<String>,
+    /// How the plant's beam was discretized when it was packaged (the
+    /// beam file it came from is `resources/beam.json`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub beam_model: Option<BeamDiscretization>,
     /// The plant's number of modes: its modal-state outputs were fixed

@@ -10,6 +10,7 @@ use crate::io::scratch::ScratchDir;
 
 use super::abi::{Api, Fmi2Api, Fmi3Api};
 use super::{FmiVersion, ImportError, ImportedDescription};
+use crate::fmi::Platform;
 
 /// A loaded FMU.
 pub struct Fmu {
@@ -119,25 +120,7 @@ impl Fmu {
         }
         let xml = std::fs::read_to_string(&xml_path).map_err(|e| unreadable(e.to_string()))?;
         let description = ImportedDescription::parse(&xml)?;
-        // the standard folder first; some exporters use the other name
-        let folders = match description.version {
-            FmiVersion::Fmi2 => ["linux64", "x86_64-linux"],
-            FmiVersion::Fmi3 => ["x86_64-linux", "linux64"],
-        };
-        let file = format!("{}.so", description.model_identifier);
-        let Some(lib_path) = folders
-            .iter()
-            .map(|f| dir.join("binaries").join(f).join(&file))
-            .find(|p| p.is_file())
-        else {
-            return Err(ImportError::Library {
-                path: path.display().to_string(),
-                reason: format!(
-                    "no Linux x86-64 binary binaries/{}/{file}",
-                    description.version.linux64_folder()
-                ),
-            });
-        };
+        let lib_path = host_library(path, dir, &description)?;
         // SAFETY: loading runs the library's initialisers; an FMU is
         // trusted native code by the standard's design
         let library =
@@ -192,5 +175,77 @@ impl Fmu {
     /// The unpacked `resources/` folder.
     pub fn resources(&self) -> PathBuf {
         self.dir.path().join("resources")
+    }
+}
+
+/// This machine's binary in the unpacked FMU `dir`, checked to be a
+/// library for this platform before it is loaded: a missing one names the
+/// platforms the FMU holds, a foreign or broken one says what it is.
+fn host_library(
+    fmu: &Path,
+    dir: &Path,
+    description: &ImportedDescription,
+) -> Result<PathBuf, ImportError> {
+    let error = |path: &Path, reason: String| ImportError::Library {
+        path: path.display().to_string(),
+        reason,
+    };
+    let Some(host) = Platform::host() else {
+        return Err(error(
+            fmu,
+            "this machine is none of the FMU platforms".into(),
+        ));
+    };
+    let binaries = dir.join("binaries");
+    let file = format!("{}{}", description.model_identifier, host.extension());
+    // the version's folder first; some exporters use the other version's
+    let mut folders = vec![host.folder(description.version)];
+    for v in [FmiVersion::Fmi2, FmiVersion::Fmi3] {
+        if !folders.contains(&host.folder(v)) {
+            folders.push(host.folder(v));
+        }
+    }
+    let Some(lib_path) = folders
+        .iter()
+        .map(|f| binaries.join(f).join(&file))
+        .find(|p| p.is_file())
+    else {
+        let mut held: Vec<String> = std::fs::read_dir(&binaries)
+            .map(|entries| {
+                entries
+                    .filter_map(|e| e.ok())
+                    .filter(|e| e.path().is_dir())
+                    .map(|e| e.file_name().to_string_lossy().into_owned())
+                    .collect()
+            })
+            .unwrap_or_default();
+        held.sort();
+        let holds = if held.is_empty() {
+            "it holds no binaries".to_string()
+        } else {
+            format!("it holds binaries/{}", held.join(", binaries/"))
+        };
+        return Err(error(
+            fmu,
+            format!(
+                "no binary for this machine ({host}): binaries/{}/{file} is missing; {holds}",
+                host.folder(description.version)
+            ),
+        ));
+    };
+    let mut head = Vec::new();
+    std::fs::File::open(&lib_path)
+        .and_then(|f| f.take(1 << 16).read_to_end(&mut head))
+        .map_err(|e| error(&lib_path, e.to_string()))?;
+    match Platform::of_library(&head) {
+        Ok(p) if p == host => Ok(lib_path),
+        Ok(p) => Err(error(
+            &lib_path,
+            format!("a library for {p}, not for this machine ({host})"),
+        )),
+        Err(what) => Err(error(
+            &lib_path,
+            format!("{what}, not a library for {host}"),
+        )),
     }
 }
