@@ -234,14 +234,17 @@ pub(crate) fn c_str<'a>(p: *const c_char, what: &str) -> Result<&'a str, FmuErro
 /// The folder of an FMI 2 resource location (`file:///…`, `file:/…`,
 /// percent-encoded) or an FMI 3 resource path.
 pub(crate) fn resource_folder(location: &str) -> PathBuf {
-    let rest = location
-        .strip_prefix("file://")
-        .or_else(|| location.strip_prefix("file:"))
-        .unwrap_or(location);
-    // file://localhost/… and file:///…: the path starts at the first '/'
-    let rest = match rest.find('/') {
-        Some(i) if !rest.starts_with('/') => &rest[i..],
-        _ => rest,
+    let rest = match location.strip_prefix("file://") {
+        // file://localhost/… and file:///…: the path starts at the first '/'
+        Some(rest) => match rest.find('/') {
+            Some(i) => &rest[i..],
+            None => rest,
+        },
+        None => match location.strip_prefix("file:") {
+            Some(rest) => rest,
+            // a native path (FMI 3.0's resourcePath): as it is
+            None => return PathBuf::from(location),
+        },
     };
     let bytes = rest.as_bytes();
     let mut out = Vec::with_capacity(bytes.len());
@@ -258,7 +261,13 @@ pub(crate) fn resource_folder(location: &str) -> PathBuf {
         out.push(bytes[i]);
         i += 1;
     }
-    PathBuf::from(String::from_utf8_lossy(&out).into_owned())
+    let path = String::from_utf8_lossy(&out).into_owned();
+    // file:///C:/dir: on Windows the path starts at the drive letter
+    let b = path.as_bytes();
+    if cfg!(windows) && b.len() >= 3 && b[0] == b'/' && b[1].is_ascii_alphabetic() && b[2] == b':' {
+        return PathBuf::from(&path[1..]);
+    }
+    PathBuf::from(path)
 }
 
 /// The body of a setter or getter of a type this FMU has no variable of:
@@ -312,7 +321,24 @@ mod tests {
             PathBuf::from("/tmp/x")
         );
         assert_eq!(resource_folder("/tmp/x/"), PathBuf::from("/tmp/x/"));
+        // a native path is not decoded
+        assert_eq!(resource_folder("/tmp/100%41"), PathBuf::from("/tmp/100%41"));
+        assert_eq!(resource_folder("Z:/tmp/x/"), PathBuf::from("Z:/tmp/x/"));
+        assert_eq!(
+            resource_folder("Z:\\tmp\\x\\"),
+            PathBuf::from("Z:\\tmp\\x\\")
+        );
         // a stray % stays
-        assert_eq!(resource_folder("/tmp/100%"), PathBuf::from("/tmp/100%"));
+        assert_eq!(
+            resource_folder("file:///tmp/100%"),
+            PathBuf::from("/tmp/100%")
+        );
+        // on Windows, the drive letter after file:///
+        let drive = resource_folder("file:///C:/x%20y/resources");
+        if cfg!(windows) {
+            assert_eq!(drive, PathBuf::from("C:/x y/resources"));
+        } else {
+            assert_eq!(drive, PathBuf::from("/C:/x y/resources"));
+        }
     }
 }

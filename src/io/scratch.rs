@@ -111,6 +111,7 @@ fn remove_stale(base: &Path, kind: &str) {
 
 /// Remove every live scratch directory and kill every registered child
 /// (what a termination signal does before the process exits).
+#[cfg(unix)]
 fn clean_up_now() {
     let live = live();
     #[cfg(unix)]

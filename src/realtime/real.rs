@@ -52,7 +52,9 @@ pub trait Real:
     /// The greatest `Self` less than `self`.
     fn next_down(self) -> Self;
     /// `self · a + b` rounded once, on every CPU: an FMA instruction where
-    /// the code is compiled for one, else the C library's `fma`. Only with
+    /// the code is compiled for one, else the C library's `fma` (on
+    /// windows-gnu, whose `fma` rounds twice, the instruction where the CPU
+    /// has one and the `libm` crate's otherwise: [`fused`]). Only with
     /// `std`: stable Rust reaches no fused operation without it (the
     /// Cortex-M4's `vfma.f32` included). The creep update (20) and the
     /// steps' weighted sums are written with it (`creep_pass::update`,
@@ -147,7 +149,7 @@ macro_rules! real {
             #[cfg(feature = "std")]
             #[inline(always)]
             fn fused_mul_add(self, a: Self, b: Self) -> Self {
-                $t::mul_add(self, a, b)
+                fused::$t(self, a, b)
             }
         }
     };
@@ -155,3 +157,85 @@ macro_rules! real {
 
 real!(f32);
 real!(f64);
+
+/// The fused multiply-add of each type. Where no FMA instruction is
+/// compiled in, `mul_add` is a call to the C library's `fma`. glibc's,
+/// macOS's and the hardware's round once, and so have the same bits; the
+/// `fma` and `fmaf` of mingw-w64 before version 11 (Debian 12's, which
+/// Rust's windows-gnu target links) round twice (mingw-w64 bug 848). There
+/// the operation is the instruction where the CPU has one and the `libm`
+/// crate's (rounded once, in Rust) where it does not.
+#[cfg(feature = "std")]
+mod fused {
+    #[cfg(not(all(windows, target_env = "gnu", target_arch = "x86_64")))]
+    #[inline(always)]
+    pub(super) fn f64(x: f64, a: f64, b: f64) -> f64 {
+        x.mul_add(a, b)
+    }
+
+    #[cfg(not(all(windows, target_env = "gnu", target_arch = "x86_64")))]
+    #[inline(always)]
+    pub(super) fn f32(x: f32, a: f32, b: f32) -> f32 {
+        x.mul_add(a, b)
+    }
+
+    #[cfg(all(windows, target_env = "gnu", target_arch = "x86_64"))]
+    #[inline(always)]
+    pub(super) fn f64(x: f64, a: f64, b: f64) -> f64 {
+        if cfg!(target_feature = "fma") || std::arch::is_x86_feature_detected!("fma") {
+            // SAFETY: the CPU has FMA
+            unsafe { instruction_f64(x, a, b) }
+        } else {
+            libm::fma(x, a, b)
+        }
+    }
+
+    #[cfg(all(windows, target_env = "gnu", target_arch = "x86_64"))]
+    #[inline(always)]
+    pub(super) fn f32(x: f32, a: f32, b: f32) -> f32 {
+        if cfg!(target_feature = "fma") || std::arch::is_x86_feature_detected!("fma") {
+            // SAFETY: the CPU has FMA
+            unsafe { instruction_f32(x, a, b) }
+        } else {
+            libm::fmaf(x, a, b)
+        }
+    }
+
+    /// Compiled with FMA, `mul_add` is the instruction.
+    #[cfg(all(windows, target_env = "gnu", target_arch = "x86_64"))]
+    #[target_feature(enable = "fma")]
+    #[inline]
+    unsafe fn instruction_f64(x: f64, a: f64, b: f64) -> f64 {
+        x.mul_add(a, b)
+    }
+
+    #[cfg(all(windows, target_env = "gnu", target_arch = "x86_64"))]
+    #[target_feature(enable = "fma")]
+    #[inline]
+    unsafe fn instruction_f32(x: f32, a: f32, b: f32) -> f32 {
+        x.mul_add(a, b)
+    }
+}
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    use super::Real;
+
+    /// `x·a + b` whose exact value lies just above a rounding midpoint that
+    /// a first rounding to 64 bits (x87's extended format, as mingw-w64's
+    /// `fma` computes) lands on exactly: rounded once it goes up, twice it
+    /// goes to even, down.
+    #[test]
+    fn the_fused_multiply_add_rounds_once() {
+        // (1 + 2⁻³⁵)² − (2⁻³⁴ − 2⁻⁵³) = 1 + 2⁻⁵³ + 2⁻⁷⁰
+        let x = 1.0 + 2f64.powi(-35);
+        let b = -(2f64.powi(-34) - 2f64.powi(-53));
+        assert_eq!(x.fused_mul_add(x, b), 1.0 + 2f64.powi(-52));
+        // in f32, fused rather than rounded after the product:
+        // (1 + 2⁻¹³)² − (2⁻¹² − 2⁻²⁴) = 1 + 2⁻²⁴ + 2⁻²⁶ goes up; the
+        // product rounded first (1 + 2⁻¹²) leaves the midpoint 1 + 2⁻²⁴
+        let y = 1.0f32 + 2f32.powi(-13);
+        let c = -(2f32.powi(-12) - 2f32.powi(-24));
+        assert_eq!(y.fused_mul_add(y, c), 1.0 + 2f32.powi(-23));
+    }
+}

@@ -16,6 +16,7 @@ pub(crate) const fn lanes<T>() -> usize {
     64 / size_of::<T>()
 }
 
+#[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn is_f64<T>() -> bool {
     size_of::<T>() == 8
@@ -189,6 +190,7 @@ macro_rules! whole_block_halves {
         }
     };
 }
+#[cfg(target_arch = "x86_64")]
 pub(crate) use whole_block_halves;
 
 /// Operation `$name` of the block type `$b`, one register (its `f64` form

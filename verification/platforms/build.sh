@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# The programs of the platform check, built for each platform into DIR:
+# the FMU host (fmu_host, fmu_host.exe, fmu_host-aarch64) against the FMI
+# headers that FMPy ships (the standard's own, not mfcbeam's), and the
+# stand-in bcryptprimitives.dll for wine 8.0.
+#
+#   verification/platforms/build.sh DIR
+set -euo pipefail
+here="$(cd "$(dirname "$0")" && pwd)"
+out="$1"
+mkdir -p "$out"
+headers="$(python3 -c 'import fmpy, os; print(os.path.join(os.path.dirname(fmpy.__file__), "c-code"))')"
+flags=(-std=c99 -O2 -Wall -Wextra -Werror -I "$headers")
+gcc "${flags[@]}" -o "$out/fmu_host" "$here/fmu_host.c" -ldl
+aarch64-linux-gnu-gcc "${flags[@]}" -o "$out/fmu_host-aarch64" "$here/fmu_host.c" -ldl
+x86_64-w64-mingw32-gcc "${flags[@]}" -o "$out/fmu_host.exe" "$here/fmu_host.c"
+x86_64-w64-mingw32-gcc -O2 -Wall -Wextra -Werror -shared -o "$out/bcryptprimitives.dll" \
+  "$here/bcryptprimitives.c" -ladvapi32
