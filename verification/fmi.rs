@@ -298,6 +298,18 @@ fn broken_archives_are_refused_with_one_clear_error() {
         let e = text(Fmu::load(&foreign).unwrap_err());
         assert!(e.contains(expected), "{entry}: {e}");
         assert_eq!(e.lines().count(), 1, "{e}");
+        // and so from `conform --fmu`: exit 2, one line
+        let out = cli()
+            .args(["conform", "--kind", "model", "--fmu"])
+            .arg(&foreign)
+            .arg("--model")
+            .arg(root().join("golden/nominal_model.json"))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+        assert!(stderr.contains(expected), "{stderr}");
     }
 
     // a malformed description

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The programs of the platform check, built for each platform into DIR:
 # the FMU host (fmu_host, fmu_host.exe, fmu_host-aarch64) against the FMI
-# headers that FMPy ships (the standard's own, not mfcbeam's), and the
-# stand-in bcryptprimitives.dll for wine 8.0.
+# headers that FMPy ships (the standard's own, not mfcbeam's), and a wine
+# prefix of its own in DIR/wine with the stand-in bcryptprimitives.dll that
+# wine 8.0 lacks.
 #
 #   verification/platforms/build.sh DIR
 set -euo pipefail
@@ -16,3 +17,9 @@ aarch64-linux-gnu-gcc "${flags[@]}" -o "$out/fmu_host-aarch64" "$here/fmu_host.c
 x86_64-w64-mingw32-gcc "${flags[@]}" -o "$out/fmu_host.exe" "$here/fmu_host.c"
 x86_64-w64-mingw32-gcc -O2 -Wall -Wextra -Werror -shared -o "$out/bcryptprimitives.dll" \
   "$here/bcryptprimitives.c" -ladvapi32
+export WINEPREFIX="$(realpath "$out")/wine" WINEDEBUG=-all WINEDLLOVERRIDES="mscoree,mshtml="
+wine="$(command -v wine64 || command -v wine || echo /usr/lib/wine/wine64)"
+if [ ! -d "$WINEPREFIX/drive_c/windows/system32" ]; then
+  "$wine" wineboot --init >"$out/wineboot.log" 2>&1
+fi
+cp "$out/bcryptprimitives.dll" "$WINEPREFIX/drive_c/windows/system32/"
