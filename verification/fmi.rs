@@ -495,6 +495,40 @@ fn one_fmu_carries_every_platform_under_its_standard_folder() {
         &["--release-folder", t, "--platforms", "x86_64-windows"],
         "a library for aarch64-linux, not for x86_64-windows",
     );
+
+    // in a checkout's target folder a platform asked for is built with
+    // cargo; a build that cannot run (here: no manifest cargo can read)
+    // ends in one line naming the command and cargo's error
+    let checkout = dir.join("checkout");
+    std::fs::create_dir_all(checkout.join("fmu")).unwrap();
+    std::fs::create_dir_all(checkout.join("target")).unwrap();
+    std::fs::write(checkout.join("Cargo.toml"), "not a manifest").unwrap();
+    std::fs::write(checkout.join("fmu/Cargo.toml"), "").unwrap();
+    let out = cli()
+        .args(["fmu", "--kind", "model", "--fmi", "3", "--model"])
+        .arg(root().join("golden/nominal_model.json"))
+        .arg("--output")
+        .arg(dir.join("x.fmu"))
+        .arg("--release-folder")
+        .arg(checkout.join("target"))
+        .args(["--platforms", "aarch64-darwin"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    let lines: Vec<&str> = stderr.trim_end().lines().collect();
+    assert_eq!(lines.len(), 2, "the notice and the error: {stderr}");
+    assert!(
+        lines[0].starts_with("building the aarch64-darwin library"),
+        "{stderr}"
+    );
+    assert!(
+        lines[1].contains(
+            "`cargo build --release -p mfcbeam-fmu --target aarch64-apple-darwin` failed: error"
+        ),
+        "{stderr}"
+    );
+    assert!(!dir.join("x.fmu").exists());
 }
 
 /// The independent C FMU, built by its script.

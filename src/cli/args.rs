@@ -484,7 +484,7 @@ pub struct FmuArgs {
     /// The FMU to write.
     #[arg(long)]
     pub output: PathBuf,
-    /// The platforms to pack, comma-separated (x86_64-linux, x86_64-windows, aarch64-linux, x86_64-darwin, aarch64-darwin; FMI 2 folder names too), or `all`; each must have its library in the release folder. Default: every platform whose library is there, naming those that are not.
+    /// The platforms to pack, comma-separated (x86_64-linux, x86_64-windows, aarch64-linux, x86_64-darwin, aarch64-darwin; FMI 2 folder names too), or `all`; each must have its library in the release folder, where one that is missing is built with cargo if the folder is a checkout's target folder. Default: every platform whose library is there, naming those that are not.
     #[arg(long, value_delimiter = ',', conflicts_with = "library")]
     pub platforms: Vec<String>,
     /// The cargo target folder holding the libraries: the host's in release/, the others in <rust target>/release/ (default: the one this program runs from).

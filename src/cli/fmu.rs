@@ -131,7 +131,16 @@ fn libraries(a: &FmuArgs) -> Result<Vec<(Platform, std::path::PathBuf)>> {
             })
             .collect::<Result<_>>()?
     };
-    let (found, missing) = folder.find(&wanted);
+    let (mut found, mut missing) = folder.find(&wanted);
+    // the platforms asked for are built where the folder is a checkout's
+    if chosen && !missing.is_empty() {
+        if let Some(source) = source_tree(&folder.target) {
+            for &p in &missing {
+                build_library(&source, &folder.target, p)?;
+            }
+            (found, missing) = folder.find(&wanted);
+        }
+    }
     let how = |p: &Platform| format!("{p} (`{}`)", build_command(*p));
     if chosen && !missing.is_empty() {
         let list: Vec<_> = missing.iter().map(how).collect();
@@ -162,6 +171,44 @@ fn libraries(a: &FmuArgs) -> Result<Vec<(Platform, std::path::PathBuf)>> {
         );
     }
     Ok(found)
+}
+
+/// The mfcbeam checkout whose cargo target folder `target` is, if it is
+/// one (the FMU library's crate beside it).
+fn source_tree(target: &Path) -> Option<std::path::PathBuf> {
+    let source = target.canonicalize().ok()?.parent()?.to_path_buf();
+    (source.join("Cargo.toml").is_file() && source.join("fmu").join("Cargo.toml").is_file())
+        .then_some(source)
+}
+
+/// Build `platform`'s FMU library from the checkout `source` into
+/// `target` with the cargo on the path; its first error in one line if
+/// that fails (no toolchain, no target, no linker).
+fn build_library(source: &Path, target: &Path, platform: Platform) -> Result<()> {
+    let command = build_command(platform);
+    eprintln!("building the {platform} library: {command}");
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let mut cmd = std::process::Command::new(cargo);
+    cmd.args(["build", "--release", "-p", "mfcbeam-fmu", "--target-dir"])
+        .arg(target)
+        .current_dir(source);
+    if Platform::host() != Some(platform) {
+        cmd.args(["--target", platform.rust_target()]);
+    }
+    let out = cmd
+        .output()
+        .with_context(|| format!("--platforms: {platform}: running `{command}`"))?;
+    if !out.status.success() {
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let first = stderr
+            .lines()
+            .find(|l| l.trim_start().starts_with("error"))
+            .or_else(|| stderr.lines().last())
+            .unwrap_or("no message")
+            .trim();
+        bail!("--platforms: {platform}: `{command}` failed: {first}");
+    }
+    Ok(())
 }
 
 /// Parse `--fmu-variable OURS=THEIRS`.

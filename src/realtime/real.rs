@@ -54,7 +54,7 @@ pub trait Real:
     /// `self · a + b` rounded once, on every CPU: an FMA instruction where
     /// the code is compiled for one, else the C library's `fma` (on
     /// windows-gnu, whose `fma` rounds twice, the instruction where the CPU
-    /// has one and the `libm` crate's otherwise: [`fused`]). Only with
+    /// has one and the `libm` crate's otherwise). Only with
     /// `std`: stable Rust reaches no fused operation without it (the
     /// Cortex-M4's `vfma.f32` included). The creep update (20) and the
     /// steps' weighted sums are written with it (`creep_pass::update`,
