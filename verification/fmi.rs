@@ -266,7 +266,26 @@ fn broken_archives_are_refused_with_one_clear_error() {
     // this machine's should be: refused before it is loaded, saying what
     // the FMU holds or what the file is
     let id = "mfcbeam_model";
-    let cases: [(&str, &[u8], &str); 4] = [
+    // a library of this platform without the FMI functions, and a real one
+    // cut short (its header intact: loaded, it would be mapped past its end
+    // and the process killed by SIGBUS)
+    let src = dir.join("nothing.c");
+    std::fs::write(&src, "int nothing(void) { return 0; }\n").unwrap();
+    let no_fmi = dir.join("nothing.so");
+    let cc = Command::new("cc")
+        .args(["-shared", "-fPIC", "-o"])
+        .arg(&no_fmi)
+        .arg(&src)
+        .output()
+        .unwrap();
+    assert!(
+        cc.status.success(),
+        "{}",
+        String::from_utf8_lossy(&cc.stderr)
+    );
+    let no_fmi = std::fs::read(&no_fmi).unwrap();
+    let cut = std::fs::read(library()).unwrap()[..4096].to_vec();
+    let cases: [(&str, &[u8], &str); 6] = [
         (
             "binaries/x86_64-windows/mfcbeam_model.dll",
             &fake_library(Platform::X86_64Windows),
@@ -286,6 +305,16 @@ fn broken_archives_are_refused_with_one_clear_error() {
             "binaries/x86_64-linux/mfcbeam_model.so",
             b"garbage, not a library",
             "not a shared library (no ELF, PE or Mach-O header)",
+        ),
+        (
+            "binaries/x86_64-linux/mfcbeam_model.so",
+            &no_fmi,
+            "no function fmi3InstantiateCoSimulation",
+        ),
+        (
+            "binaries/x86_64-linux/mfcbeam_model.so",
+            &cut,
+            "cut short or corrupt: its segment",
         ),
     ];
     assert!(xml.contains(&format!("modelIdentifier=\"{id}\"")), "{xml}");
@@ -350,6 +379,7 @@ fn fake_library(platform: Platform) -> Vec<u8> {
         }
         Platform::Aarch64Linux | Platform::X86_64Linux => {
             b[..4].copy_from_slice(b"\x7fELF");
+            b[4] = 2;
             b[5] = 1;
             b[18] = if platform == Platform::Aarch64Linux {
                 0xb7

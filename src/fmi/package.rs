@@ -194,7 +194,7 @@ impl FmuPackage {
                     build_command(*platform)
                 ))
             })?;
-            match Platform::of_library(&bytes) {
+            match super::platform::check_library(&bytes) {
                 Ok(p) if p == *platform => {}
                 Ok(p) => return Err(bad(format!("a library for {p}, not for {platform}"))),
                 Err(what) => return Err(bad(format!("{what}, not a library for {platform}"))),

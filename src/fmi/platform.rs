@@ -165,6 +165,85 @@ impl Platform {
     }
 }
 
+/// The platform of a whole shared library, as [`Platform::of_library`]
+/// reads it, after checking that every part its headers place in the file
+/// (ELF: the program and section headers and each loaded segment; PE: the
+/// section table and each section's data) lies inside it. A library cut
+/// short would otherwise be mapped past its end by the loader, and the
+/// process reading it dies (SIGBUS) instead of getting an error.
+pub fn check_library(bytes: &[u8]) -> Result<Platform, String> {
+    let platform = Platform::of_library(bytes)?;
+    let len = bytes.len() as u64;
+    let u16_at = |i: u64| -> Option<u64> {
+        let i = usize::try_from(i).ok()?;
+        bytes
+            .get(i..i.checked_add(2)?)
+            .map(|b| u16::from_le_bytes([b[0], b[1]]) as u64)
+    };
+    let u32_at = |i: u64| -> Option<u64> {
+        let i = usize::try_from(i).ok()?;
+        bytes
+            .get(i..i.checked_add(4)?)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as u64)
+    };
+    let u64_at = |i: u64| -> Option<u64> {
+        let i = usize::try_from(i).ok()?;
+        let b = bytes.get(i..i.checked_add(8)?)?;
+        Some(u64::from_le_bytes(b.try_into().ok()?))
+    };
+    let short = |what: &str, end: Option<u64>| -> Result<(), String> {
+        match end {
+            Some(end) if end <= len => Ok(()),
+            _ => Err(format!(
+                "cut short or corrupt: its {what} lies beyond its {len} bytes"
+            )),
+        }
+    };
+    match platform {
+        Platform::X86_64Linux | Platform::Aarch64Linux => {
+            if bytes.get(4) != Some(&2) {
+                return Err("not a 64-bit ELF file".into());
+            }
+            let table = |offset: u64, size: u64, count: u64| {
+                let (o, s, n) = (u64_at(offset)?, u16_at(size)?, u16_at(count)?);
+                Some((o, s, n, o.checked_add(s.checked_mul(n)?)?))
+            };
+            let (phoff, phentsize, phnum, ph_end) =
+                table(0x20, 0x36, 0x38).ok_or("a truncated ELF header")?;
+            short("program header table", Some(ph_end))?;
+            for k in 0..phnum {
+                let h = phoff + k * phentsize;
+                let loaded = u32_at(h) == Some(1);
+                let end = u64_at(h + 8)
+                    .zip(u64_at(h + 32))
+                    .and_then(|(o, n)| o.checked_add(n));
+                if loaded {
+                    short(&format!("segment {k}"), end)?;
+                }
+            }
+            let (shoff, _, _, sh_end) = table(0x28, 0x3a, 0x3c).ok_or("a truncated ELF header")?;
+            if shoff != 0 {
+                short("section header table", Some(sh_end))?;
+            }
+        }
+        Platform::X86_64Windows => {
+            let pe = u32_at(0x3c).ok_or("a truncated PE header")?;
+            let sections = u16_at(pe + 6).ok_or("a truncated PE header")?;
+            let optional = u16_at(pe + 20).ok_or("a truncated PE header")?;
+            let table = pe + 24 + optional;
+            short("section table", Some(table + 40 * sections))?;
+            for k in 0..sections {
+                let h = table + 40 * k;
+                let end = u32_at(h + 20).zip(u32_at(h + 16)).map(|(o, n)| o + n);
+                short(&format!("section {k}"), end)?;
+            }
+        }
+        // not loaded on the machines this project runs its checks on
+        Platform::X86_64Darwin | Platform::Aarch64Darwin => {}
+    }
+    Ok(platform)
+}
+
 impl fmt::Display for Platform {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
@@ -227,5 +306,49 @@ mod tests {
         for junk in [&b""[..], b"\x7fEL", b"MZ", b"#!/bin/sh\n"] {
             assert!(Platform::of_library(junk).is_err(), "{junk:?}");
         }
+    }
+
+    /// An ELF file whose one loaded segment ends at `end`, in `len` bytes.
+    fn elf(end: u64, len: usize) -> Vec<u8> {
+        let mut b = vec![0u8; len.max(120)];
+        b[..4].copy_from_slice(b"\x7fELF");
+        b[4] = 2;
+        b[5] = 1;
+        b[18] = 0x3e;
+        b[0x20..0x28].copy_from_slice(&64u64.to_le_bytes()); // e_phoff
+        b[0x36..0x38].copy_from_slice(&56u16.to_le_bytes()); // e_phentsize
+        b[0x38..0x3a].copy_from_slice(&1u16.to_le_bytes()); // e_phnum
+        b[64..68].copy_from_slice(&1u32.to_le_bytes()); // PT_LOAD
+        b[72..80].copy_from_slice(&0u64.to_le_bytes()); // p_offset
+        b[96..104].copy_from_slice(&end.to_le_bytes()); // p_filesz
+        b.truncate(len);
+        b
+    }
+
+    #[test]
+    fn a_library_cut_short_is_refused_before_it_is_loaded() {
+        assert_eq!(check_library(&elf(4096, 4096)), Ok(Platform::X86_64Linux));
+        let e = check_library(&elf(8192, 4096)).unwrap_err();
+        assert!(e.contains("segment 0 lies beyond its 4096 bytes"), "{e}");
+        // the program header table itself beyond the end
+        let e = check_library(&elf(100, 100)).unwrap_err();
+        assert!(e.contains("program header table"), "{e}");
+        // offsets that overflow are refused, not wrapped
+        let mut huge = elf(64, 4096);
+        huge[72..80].copy_from_slice(&u64::MAX.to_le_bytes());
+        assert!(check_library(&huge).is_err());
+        // a PE section's data beyond the end
+        let mut pe = vec![0u8; 512];
+        pe[..2].copy_from_slice(b"MZ");
+        pe[0x3c] = 0x80;
+        pe[0x80..0x84].copy_from_slice(b"PE\0\0");
+        pe[0x84..0x86].copy_from_slice(&0x8664u16.to_le_bytes());
+        pe[0x86..0x88].copy_from_slice(&1u16.to_le_bytes()); // one section
+        let section = 0x80 + 24;
+        pe[section + 16..section + 20].copy_from_slice(&256u32.to_le_bytes());
+        pe[section + 20..section + 24].copy_from_slice(&256u32.to_le_bytes());
+        assert_eq!(check_library(&pe), Ok(Platform::X86_64Windows));
+        pe[section + 16..section + 20].copy_from_slice(&257u32.to_le_bytes());
+        assert!(check_library(&pe).unwrap_err().contains("section 0"));
     }
 }

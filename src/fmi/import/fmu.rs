@@ -233,11 +233,9 @@ fn host_library(
             ),
         ));
     };
-    let mut head = Vec::new();
-    std::fs::File::open(&lib_path)
-        .and_then(|f| f.take(1 << 16).read_to_end(&mut head))
-        .map_err(|e| error(&lib_path, e.to_string()))?;
-    match Platform::of_library(&head) {
+    // the whole file: its headers' offsets are checked against its length
+    let bytes = std::fs::read(&lib_path).map_err(|e| error(&lib_path, e.to_string()))?;
+    match crate::fmi::platform::check_library(&bytes) {
         Ok(p) if p == host => Ok(lib_path),
         Ok(p) => Err(error(
             &lib_path,
