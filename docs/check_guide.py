@@ -26,6 +26,11 @@ An HTML comment on the line before a fence says more about the block:
                           (a program shown in full runs from there)
   <!-- ci -->             not run here: every command in it is a line of
                           .ci/run, which runs it (the test command itself)
+  <!-- table: FILE without COLUMN -->
+                          before a markdown table, not a block: the table
+                          is the one in FILE (written by a block of the
+                          page) cell for cell, COLUMN (a header, optional:
+                          a wall-clock time, say) left out of both
   <!-- draws: OUT=FIGURE -->
                           the SVG it writes as OUT is the committed FIGURE
                           (a path in the repository) up to a pixel in
@@ -64,6 +69,7 @@ GUIDE = REPO / "docs" / "guide"
 SHOWN = {"text", "json", "csv"}
 FENCE = re.compile(r"^(\s*)```(\S*)\s*$")
 NOTE = re.compile(r"^<!--\s*(writes|exit|save|file|ci|draws)\s*:?\s*(.*?)\s*-->\s*$")
+TABLE = re.compile(r"^<!--\s*table:\s*(\S+)(?:\s+without\s+(.+?))?\s*-->\s*$")
 LINK = re.compile(r"!?\[(?:[^\]\[]|\[[^\]]*\])*\]\(([^)\s]+)\)")
 
 
@@ -161,6 +167,39 @@ def blocks(path):
         out.append((start, lang, notes, "\n".join(body) + "\n"))
         k += 1
     return out
+
+
+def tables(path):
+    """(line, file, column left out, rows) of each table marked as a file's."""
+    lines = expanded(path).splitlines()
+    out = []
+    for k, line in enumerate(lines):
+        m = TABLE.match(line.strip())
+        if not m:
+            continue
+        rows, j = [], k + 1
+        while j < len(lines) and lines[j].strip().startswith("|"):
+            rows.append(lines[j])
+            j += 1
+        if not rows:
+            raise Failure(f"{path.relative_to(REPO)}:{k + 1}: a table note without a table")
+        out.append((k + 1, m.group(1), m.group(2), rows))
+    return out
+
+
+def cells(rows, without, required=True):
+    """A markdown table's cells, row by row, the column `without` dropped
+    (and the separator row); the page may leave that column out itself."""
+    grid = [[c.strip() for c in r.strip().strip("|").split("|")] for r in rows]
+    grid = [r for r in grid if not all(set(c) <= set("-: ") for c in r)]
+    if without and without not in grid[0] and not required:
+        return grid
+    if without:
+        if without not in grid[0]:
+            raise Failure(f"no column '{without}' in {grid[0]}")
+        k = grid[0].index(without)
+        grid = [r[:k] + r[k + 1:] for r in grid]
+    return grid
 
 
 def workspace():
@@ -295,6 +334,23 @@ def run_page(path, links_only, say=print):
                     raise Failure(f"{where}: {out} is not {figure} ({why}); if the change "
                                   "is meant, run with --update-figures")
             ran += 1
+        for line, name, without, rows in tables(path):
+            where = f"{rel}:{line}"
+            written = d / name
+            if not written.is_file():
+                raise Failure(f"{where}: the table is {name}'s, which no block wrote")
+            try:
+                ours = cells(rows, without, required=False)
+                theirs = cells([r for r in written.read_text().splitlines()
+                                if r.strip().startswith("|")], without)
+            except Failure as e:
+                raise Failure(f"{where}: {e}")
+            if ours != theirs:
+                k = next((i for i, (a, b) in enumerate(zip(ours, theirs)) if a != b),
+                         min(len(ours), len(theirs)))
+                a = ours[k] if k < len(ours) else "(no row)"
+                b = theirs[k] if k < len(theirs) else "(no row)"
+                raise Failure(f"{where}: the table is not {name}'s: row {k}: {a} against {b}")
     finally:
         shutil.rmtree(d, ignore_errors=True)
     return ran

@@ -139,3 +139,20 @@ def test_a_failing_page_fails_the_run_with_its_line(tmp_path, monkeypatch, capsy
     assert "docs/guide/b.md:1: exit 4, expected 0" in capsys.readouterr().err
     assert g.main(["--jobs", "0"]) == 1
     assert "--jobs takes a count" in capsys.readouterr().err
+
+
+def test_a_table_marked_as_a_files_is_that_files_table(tmp_path, monkeypatch):
+    block = ("<!-- writes: t.md -->\n```sh\nprintf '| a | t (us) |\\n|---|---|\\n"
+             "| 1 | 9.5 |\\n' > t.md\n```\n")
+    same = "<!-- table: t.md without t (us) -->\n| a | t (us) |\n|---|---|\n| 1 | 3.0 |\n"
+    assert run_page(tmp_path, monkeypatch, block + same) == 1
+    other = same.replace("| 1 | 3.0 |", "| 2 | 3.0 |")
+    with pytest.raises(g.Failure, match="not t.md's: row 1"):
+        run_page(tmp_path, monkeypatch, block + other)
+    with pytest.raises(g.Failure, match="which no block wrote"):
+        run_page(tmp_path, monkeypatch, same)
+    # the page may leave the column out; the file must have it
+    shorter = "<!-- table: t.md without t (us) -->\n| a |\n|---|\n| 1 |\n"
+    assert run_page(tmp_path, monkeypatch, block + shorter) == 1
+    with pytest.raises(g.Failure, match="no column 'b'"):
+        run_page(tmp_path, monkeypatch, block + shorter.replace("without t (us)", "without b"))

@@ -1458,7 +1458,21 @@ fn benchmark_control_writes_traces_plots_and_the_table() {
 
 #[test]
 fn benchmark_control_names_a_controller_that_fails() {
-    let cases: [(&[&str], &[&str]); 5] = [
+    let cases: [(&[&str], &[&str]); 7] = [
+        // answers without reading: its input pipe fills, the writing is
+        // bounded by the timeout as the reading is
+        (
+            &["--exec", "yes 0", "--timeout", "1"],
+            &["did not take its input within 1 s"],
+        ),
+        // closes its output and runs on: reported as such, then killed
+        (
+            &["--exec", "sh -c 'exec 1>&-; sleep 31.25'", "--timeout", "1"],
+            &[
+                "at sample 0",
+                "closed its output without answering (still running)",
+            ],
+        ),
         (
             &["--exec", "sh -c 'read l; echo banana'"],
             &[
@@ -1488,6 +1502,14 @@ fn benchmark_control_names_a_controller_that_fails() {
         assert_clean_failure(&mfcbeam(&all), needles, None);
         assert!(started.elapsed().as_secs() < 15, "{args:?} hung");
     }
+    // nothing it started is left running (a zombie's command line is empty)
+    let left: Vec<String> = fs::read_dir("/proc")
+        .unwrap()
+        .filter_map(|e| fs::read(e.ok()?.path().join("cmdline")).ok())
+        .map(|c| String::from_utf8_lossy(&c).replace('\0', " "))
+        .filter(|c| c.starts_with("sleep 31.25"))
+        .collect();
+    assert!(left.is_empty(), "left running: {left:?}");
     assert_clean_failure(
         &mfcbeam(&["benchmark-control", "--controller", "mpc"]),
         &["--controller 'mpc'"],

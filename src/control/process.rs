@@ -5,14 +5,20 @@
 //! shortest round-trip form) and writes one line: `Δ_k` as a number, or an
 //! empty line or `nan` for nothing (held and flagged). It gets the
 //! scenario's name and sample time in the environment (`MFCBEAM_SCENARIO`,
-//! `MFCBEAM_SAMPLE_TIME`). A program that exits, does not answer within the
-//! timeout, or writes anything else ends the run with an error naming the
-//! sample and what came; it is killed when the run ends.
+//! `MFCBEAM_SAMPLE_TIME`). A program that exits, closes its output, does
+//! not take its input or does not answer within the timeout, or writes
+//! anything else, ends the run with an error naming the sample and what
+//! came; it is killed when the run ends.
+//!
+//! Neither side blocks the run: a thread writes the program's input and
+//! another reads its output, and each sample waits for both within the
+//! timeout. A program that answers without reading (its input pipe full)
+//! is caught as one that does not take its input.
 
 use std::io::{BufRead, BufReader, Write};
-use std::process::{Child, ChildStdin, Command, Stdio};
-use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
-use std::time::Duration;
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender};
+use std::time::{Duration, Instant};
 
 use super::{ControlError, Controller, LoopSample};
 
@@ -23,10 +29,12 @@ const MAX_LINE: usize = 4096;
 pub struct ProcessController {
     name: String,
     child: Child,
-    stdin: Option<ChildStdin>,
+    /// Lines for the writer thread; dropped, the program's input closes.
+    input: Option<Sender<String>>,
+    /// The writer's answer for each line: written, or why not.
+    written: Receiver<std::io::Result<()>>,
     lines: Receiver<std::io::Result<String>>,
     timeout: Duration,
-    line: String,
 }
 
 impl ProcessController {
@@ -61,7 +69,19 @@ impl ProcessController {
             .spawn()
             .map_err(|e| fail(format!("could not start: {e}")))?;
         let stdout = child.stdout.take().expect("stdout is piped");
-        let stdin = child.stdin.take();
+        let mut stdin = child.stdin.take().expect("stdin is piped");
+        let (input, to_write) = mpsc::channel::<String>();
+        let (done, written) = mpsc::channel();
+        std::thread::spawn(move || {
+            for line in to_write {
+                let result = stdin.write_all(line.as_bytes()).and_then(|_| stdin.flush());
+                let failed = result.is_err();
+                if done.send(result).is_err() || failed {
+                    break;
+                }
+            }
+            // the channel closed: stdin drops here, the program sees EOF
+        });
         let (sender, lines) = mpsc::sync_channel(1);
         std::thread::spawn(move || {
             let mut reader = BufReader::new(stdout);
@@ -79,10 +99,10 @@ impl ProcessController {
         Ok(Self {
             name,
             child,
-            stdin,
+            input: Some(input),
+            written,
             lines,
             timeout,
-            line: String::with_capacity(96),
         })
     }
 
@@ -97,18 +117,21 @@ impl ProcessController {
     }
 
     fn fail(&mut self, k: usize, reason: impl std::fmt::Display) -> ControlError {
+        // how it ended, if it did, before it is killed
+        let status = match self.child.try_wait() {
+            Ok(Some(s)) => format!(" ({s})"),
+            _ => String::new(),
+        };
         self.kill();
-        let status = self
-            .child
-            .try_wait()
-            .ok()
-            .flatten()
-            .map(|s| format!(" ({s})"))
-            .unwrap_or_default();
         ControlError::Controller {
             name: self.name.clone(),
             reason: format!("at sample {k}: {reason}{status}"),
         }
+    }
+
+    /// Whether the program is still running.
+    fn running(&mut self) -> bool {
+        matches!(self.child.try_wait(), Ok(None))
     }
 }
 
@@ -118,35 +141,54 @@ impl Controller for ProcessController {
     }
 
     fn step(&mut self, s: &LoopSample) -> Result<Option<f64>, ControlError> {
-        use std::fmt::Write as _;
-        self.line.clear();
-        let _ = writeln!(
-            self.line,
-            "{},{:?},{:?},{:?}",
-            s.k, s.t, s.reference, s.measurement
-        );
-        let written = match self.stdin.as_mut() {
-            Some(stdin) => stdin
-                .write_all(self.line.as_bytes())
-                .and_then(|_| stdin.flush()),
-            None => Err(std::io::ErrorKind::BrokenPipe.into()),
+        let deadline = Instant::now() + self.timeout;
+        let t = self.timeout.as_secs_f64();
+        let line = format!("{},{:?},{:?},{:?}\n", s.k, s.t, s.reference, s.measurement);
+        let sent = self.input.as_ref().is_some_and(|i| i.send(line).is_ok());
+        let written = if sent {
+            self.written
+                .recv_timeout(deadline.saturating_duration_since(Instant::now()))
+        } else {
+            Err(RecvTimeoutError::Disconnected)
         };
-        if let Err(e) = written {
-            return Err(self.fail(s.k, format!("could not write its input ({e}): it exited")));
+        match written {
+            Ok(Ok(())) => {}
+            Ok(Err(_)) | Err(RecvTimeoutError::Disconnected) if !self.running() => {
+                return Err(self.fail(s.k, "it exited"));
+            }
+            Ok(Err(e)) => {
+                return Err(self.fail(s.k, format!("it closed its input ({e})")));
+            }
+            Err(RecvTimeoutError::Disconnected) => {
+                return Err(self.fail(s.k, "its input could not be written"));
+            }
+            Err(RecvTimeoutError::Timeout) => {
+                return Err(self.fail(
+                    s.k,
+                    format!("it did not take its input within {t} s (it does not read it)"),
+                ));
+            }
         }
-        let answer = match self.lines.recv_timeout(self.timeout) {
+        let answer = match self
+            .lines
+            .recv_timeout(deadline.saturating_duration_since(Instant::now()))
+        {
             Ok(Ok(text)) => text,
             Ok(Err(e)) => return Err(self.fail(s.k, format!("could not read its output: {e}"))),
             Err(RecvTimeoutError::Timeout) => {
-                let t = self.timeout.as_secs_f64();
                 return Err(self.fail(s.k, format!("no answer within {t} s")));
             }
-            Err(RecvTimeoutError::Disconnected) => {
-                return Err(self.fail(s.k, "it exited without answering"))
-            }
+            Err(RecvTimeoutError::Disconnected) => String::new(),
         };
         if answer.is_empty() {
-            return Err(self.fail(s.k, "it exited without answering"));
+            // the end of its output: it exited, or closed it and runs on
+            std::thread::sleep(Duration::from_millis(20));
+            let why = if self.running() {
+                "it closed its output without answering (still running)"
+            } else {
+                "it exited without answering"
+            };
+            return Err(self.fail(s.k, why));
         }
         if answer.len() > MAX_LINE || !answer.ends_with('\n') {
             return Err(self.fail(s.k, "its answer is not a line of at most 4096 bytes"));
@@ -167,7 +209,7 @@ impl Controller for ProcessController {
 
 impl Drop for ProcessController {
     fn drop(&mut self) {
-        drop(self.stdin.take()); // EOF: a well-behaved program exits
+        drop(self.input.take()); // EOF: a well-behaved program exits
         if !matches!(self.child.try_wait(), Ok(Some(_))) {
             std::thread::sleep(Duration::from_millis(20));
             if !matches!(self.child.try_wait(), Ok(Some(_))) {
