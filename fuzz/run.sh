@@ -17,7 +17,7 @@ seconds=${1:-60}
 shift || true
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-  targets=(model_json model_fields beam_json trace_csv candidate_output capi controller_json)
+  targets=(model_json model_fields beam_json trace_csv candidate_output capi controller_json library_header)
 fi
 host=$(rustc -vV | sed -n 's/^host: //p')
 export CARGO_TARGET_DIR="$PWD/../target"

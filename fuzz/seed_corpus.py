@@ -81,3 +81,23 @@ inputs = doubles(1e-3, 0.0, 1e-3, 2e-3, float("nan"), 1e-3, 1e-3, 1e300, 1e-3, 1
 for name, c in [("pid", pid), ("state-feedback", sf)]:
     put("controller_json", f"{name}.json", json.dumps(c))
     put("controller_json", f"{name}-inputs", json.dumps(c).encode() + b"\0" + inputs)
+
+# shared libraries' headers (what an FMU's binary is checked for before it
+# is loaded): an x86-64 ELF with one loaded segment, an aarch64 one whose
+# segment runs past its end, a PE with one section, a Mach-O header
+elf = bytearray(176)
+elf[:4], elf[4], elf[5], elf[18] = b"\x7fELF", 2, 1, 0x3E
+struct.pack_into("<Q", elf, 0x20, 64)  # e_phoff
+struct.pack_into("<HH", elf, 0x36, 56, 1)  # e_phentsize, e_phnum
+struct.pack_into("<I", elf, 64, 1)  # PT_LOAD
+struct.pack_into("<Q", elf, 96, 176)  # p_filesz
+put("library_header", "elf-x86_64", bytes(elf))
+elf[18] = 0xB7
+struct.pack_into("<Q", elf, 96, 4096)
+put("library_header", "elf-aarch64-cut", bytes(elf))
+pe = bytearray(512)
+pe[:2], pe[0x3C], pe[0x80:0x84] = b"MZ", 0x80, b"PE\0\0"
+struct.pack_into("<HH", pe, 0x84, 0x8664, 1)  # machine, one section
+struct.pack_into("<II", pe, 0x80 + 24 + 16, 256, 256)  # its raw data
+put("library_header", "pe-x86_64", bytes(pe))
+put("library_header", "macho-arm64", struct.pack("<II", 0xFEEDFACF, 0x0100000C) + bytes(24))

@@ -392,3 +392,16 @@ pub fn controller_json(data: &[u8]) {
         assert!(c.state_is_finite(), "the state was poisoned at sample {k}");
     }
 }
+
+/// A shared library's header as an FMU carries it (the importer and the
+/// packing read it before anything is loaded): any bytes give a platform
+/// or a reason, never a panic or an overflow, and a file passed as whole
+/// is the platform its header names.
+pub fn library_header(data: &[u8]) {
+    use mfcbeam::fmi::platform::check_library;
+    use mfcbeam::fmi::Platform;
+    match check_library(data) {
+        Ok(p) => assert_eq!(Platform::of_library(data), Ok(p)),
+        Err(why) => assert!(!why.is_empty() && !why.contains('\n'), "{why:?}"),
+    }
+}
