@@ -51,14 +51,6 @@ impl FmiVersion {
             FmiVersion::Fmi3 => "3.0",
         }
     }
-
-    /// The folder of the Linux x86-64 binary under `binaries/`.
-    pub fn linux64_folder(self) -> &'static str {
-        match self {
-            FmiVersion::Fmi2 => "linux64",
-            FmiVersion::Fmi3 => "x86_64-linux",
-        }
-    }
 }
 
 /// The beam's discretization as the configuration stores it.
@@ -391,7 +383,7 @@ pub fn variables(kind: FmuKind, modes: usize) -> Vec<Variable> {
                 Some("false"),
                 "u was not a finite number in the last step: the previous u is held",
             ));
-            v.push(var("beam_file", vr::BEAM_FILE, String, Parameter, Some(""), "beam file (JSON) to load instead of the one in resources/ (empty: resources/beam.json); it must have as many modes"));
+            v.push(var("beam_file", vr::BEAM_FILE, String, Parameter, Some(""), "discretized beam file (JSON, as resources/discrete_beam.json) to load instead of that one (empty: resources/discrete_beam.json); at the model's sample time, with as many modes"));
             for j in 0..modes {
                 let (k, n) = (j as u32, j + 1);
                 let part = |name: std::string::String,
