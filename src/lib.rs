@@ -108,6 +108,8 @@ pub mod feedforward;
 pub mod fmi;
 #[cfg(feature = "identification")]
 pub mod identification;
+#[cfg(feature = "fmi-tools")]
+pub mod isolation;
 
 /// The types most programs need, one name for each concept: the `f64`
 /// operators on the heap (`HysteresisOperator` is `Hysteresis<f64, Heap>`,

@@ -9,6 +9,8 @@
  *   compensator time    per-step median over batches, in ns, on stdout
  *   compensator trace   y_d,u_peer of the first 4096 samples as CSV, to check it
  *
+ * Built with -DSTEP_ABI -shared -fPIC it is a candidate library of the step
+ * ABI (mfcbeam bench, mfcbeam conform --library).
  * Built with -DPEER_LIB -shared -fPIC it is a library instead (peer_new,
  * peer_targets, peer_run) for the interleaved comparison in benches/peers.rs.
  * With -DBRANCH_FREE the step is the same loops without the target test,
@@ -550,6 +552,7 @@ static double compensate(compensator *c, double target, int *saturated) {
 }
 #endif
 
+#ifndef STEP_ABI /* the forward model and the test input: not in a candidate */
 static double model_step(model *w, double u) {
     double h = 0.0;
     for (int i = 0; i < NP; i++) {
@@ -582,9 +585,39 @@ static void test_input(double *out) {
         out[k] = v;
     }
 }
+#endif
 
 #ifdef BANK_PEER
 /* included by bank.c, which brings its own entry points */
+#elif defined(STEP_ABI)
+/* The step ABI of `mfcbeam bench` and `mfcbeam conform --library`
+ * (include/mfcbeam_candidate.h): this peer as a user's compensator with its
+ * model compiled in. It ignores the model file and takes the limits. */
+#include <stdlib.h>
+typedef struct {
+    compensator c;
+    int saturated;
+} step_abi;
+
+void *mfcbeam_candidate_create(const char *model_file, double lower, double upper) {
+    (void)model_file;
+    step_abi *s = malloc(sizeof *s);
+    if (!s) return NULL;
+    init_compensator(&s->c);
+    s->c.lower = lower;
+    s->c.upper = upper;
+    s->saturated = 0;
+    return s;
+}
+
+double mfcbeam_candidate_step(void *p, double target) {
+    step_abi *s = p;
+    return compensate(&s->c, target, &s->saturated);
+}
+
+int mfcbeam_candidate_saturated(const void *p) { return ((const step_abi *)p)->saturated; }
+
+void mfcbeam_candidate_free(void *p) { free(p); }
 #elif defined(PEER_LIB)
 /* For benches/peers.rs, which times this and mfcbeam in interleaved batches:
  * the same loop as main's timed one. */

@@ -77,6 +77,14 @@ pub enum Command {
     /// table, the open loop alongside; with --output-dir also traces and
     /// plots.
     BenchmarkControl(BenchmarkControlArgs),
+    /// The real-time budget: the latency of each step (median, p99, p99.9,
+    /// p99.99, max) of the reference and of C libraries and FMUs, in
+    /// interleaved rounds on the same targets, against the sample time.
+    Bench(BenchArgs),
+    /// Serve a candidate to the checker on stdin and stdout (what `conform`,
+    /// `bench` and `benchmark-control` run FMUs and libraries in).
+    #[command(hide = true)]
+    Host(HostServeArgs),
 }
 
 /// `benchmark-control`.
@@ -133,6 +141,8 @@ pub struct BenchmarkControlArgs {
     /// Longest the controller may take to answer one sample (s).
     #[arg(long, default_value_t = 10.0, allow_hyphen_values = true)]
     pub timeout: f64,
+    #[command(flatten)]
+    pub host: HostArgs,
     /// Directory for the traces (`<scenario>-<controller>.csv`), the plots
     /// (`<scenario>.png`) and the table (`scores.md`).
     #[arg(long)]
@@ -399,14 +409,24 @@ pub struct ConformArgs {
         long,
         value_name = "CMD ARGS…",
         allow_hyphen_values = true,
-        required_unless_present = "fmu",
-        conflicts_with = "fmu"
+        required_unless_present_any = ["fmu", "library"],
+        conflicts_with_all = ["fmu", "library"]
     )]
     pub exec: Option<String>,
     /// An FMU (FMI 2.0 or 3.0 Co-Simulation) to check instead of a
-    /// command; it implements the model given with --model.
-    #[arg(long, value_name = "X.fmu", requires = "model")]
+    /// command; it implements the model given with --model. It runs in a
+    /// host process of its own.
+    #[arg(
+        long,
+        value_name = "X.fmu",
+        requires = "model",
+        conflicts_with = "library"
+    )]
     pub fmu: Option<PathBuf>,
+    #[command(flatten)]
+    pub library: LibraryArgs,
+    #[command(flatten)]
+    pub host: HostArgs,
     /// The fixed mode: the candidate implements this one model (its
     /// parameters compiled in) and reads no model file. Only properties
     /// that vary the input run; the report lists the others.
@@ -440,6 +460,150 @@ pub struct ConformArgs {
     /// cases are those a candidate written before them reads.
     #[arg(long)]
     pub with_dynamics: bool,
+}
+
+/// What `bench` times.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum BenchKind {
+    /// The compensator W⁻¹: targets y_d in, u out.
+    Compensator,
+    /// The actuator model W: voltages u in, y out.
+    Model,
+}
+
+/// `bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// What the candidates implement.
+    #[arg(long, value_enum, default_value_t = BenchKind::Compensator)]
+    pub kind: BenchKind,
+    /// The model file the reference is built from and the libraries get
+    /// (default: the nominal model); the FMUs implement it.
+    #[arg(long, value_name = "M.json")]
+    pub model: Option<PathBuf>,
+    /// A shared library with the step ABI (PREFIX_create, PREFIX_step,
+    /// PREFIX_free); repeatable.
+    #[arg(long, value_name = "LIB.so")]
+    pub library: Vec<PathBuf>,
+    /// The prefix of the libraries' functions.
+    #[arg(long, default_value = mfcbeam::isolation::DEFAULT_SYMBOL_PREFIX)]
+    pub symbol_prefix: String,
+    /// The floating-point type of the libraries' step.
+    #[arg(long, value_enum, default_value_t = PrecisionArg::F64)]
+    pub precision: PrecisionArg,
+    /// An FMU (FMI 2.0 or 3.0 Co-Simulation), one doStep per sample;
+    /// repeatable.
+    #[arg(long, value_name = "X.fmu")]
+    pub fmu: Vec<PathBuf>,
+    /// The targets: `adversarial` (reversals at every sample, saturation,
+    /// the whole range, sub-normal increments, non-finite samples), a
+    /// scenario of the paper (`fig11`, `fig12`, `fig13`, `fig14`), or a
+    /// trace file with the kind's input column (y_d or u).
+    #[arg(long, default_value = "adversarial")]
+    pub target: String,
+    /// Steps per round for each candidate.
+    #[arg(long, default_value_t = 100_000)]
+    pub steps: usize,
+    /// Rounds; each times every candidate once, in turn.
+    #[arg(long, default_value_t = 10)]
+    pub rounds: usize,
+    /// The budget of one step (µs); default: the model's sample time.
+    #[arg(long, value_name = "US")]
+    pub budget: Option<f64>,
+    /// The saturation limits of the compensators.
+    #[arg(long, value_name = "LO,HI", allow_hyphen_values = true, value_parser = parse_limits)]
+    pub limits: Option<(f64, f64)>,
+    /// Factor on the agreement tolerance, for lower-precision candidates
+    /// (f32: 536870912 = 2^29).
+    #[arg(long, default_value_t = 1.0)]
+    pub tolerance_scale: f64,
+    /// Pin the reference and every host to this CPU.
+    #[arg(long, value_name = "N")]
+    pub cpu: Option<usize>,
+    /// Write the figures as JSON.
+    #[arg(long, value_name = "FILE.json")]
+    pub json: Option<PathBuf>,
+    /// Write the latency histograms (SVG or PNG by the extension).
+    #[arg(long, value_name = "FILE.svg")]
+    pub histogram: Option<PathBuf>,
+    /// Longest one round of one candidate may take (s).
+    #[arg(long, default_value_t = 60.0, allow_hyphen_values = true)]
+    pub timeout: f64,
+    #[command(flatten)]
+    pub host: HostArgs,
+}
+
+/// A shared library with the step ABI as the candidate.
+#[derive(Debug, Args)]
+pub struct LibraryArgs {
+    /// A shared library with the step ABI (PREFIX_create, PREFIX_step,
+    /// PREFIX_free; docs/FILES.md, "The step ABI") to check instead of a
+    /// command; it runs in a host process of its own.
+    #[arg(long, value_name = "LIB.so")]
+    pub library: Option<PathBuf>,
+    /// The prefix of the library's functions.
+    #[arg(long, default_value = mfcbeam::isolation::DEFAULT_SYMBOL_PREFIX, requires = "library")]
+    pub symbol_prefix: String,
+    /// The floating-point type of the library's step.
+    #[arg(long, value_enum, default_value_t = PrecisionArg::F64, requires = "library")]
+    pub precision: PrecisionArg,
+}
+
+/// The floating-point type of a step library.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PrecisionArg {
+    /// `double PREFIX_step(void *, double)`.
+    F64,
+    /// `float PREFIX_step(void *, float)`.
+    F32,
+}
+
+impl PrecisionArg {
+    pub fn precision(self) -> mfcbeam::isolation::Precision {
+        match self {
+            Self::F64 => mfcbeam::isolation::Precision::F64,
+            Self::F32 => mfcbeam::isolation::Precision::F32,
+        }
+    }
+}
+
+/// The host process of an FMU or library candidate.
+#[derive(Debug, Args)]
+pub struct HostArgs {
+    /// The address space the candidate's host process may use (MB): an
+    /// allocation beyond it fails inside the host.
+    #[arg(long, value_name = "MB", default_value_t = mfcbeam::isolation::DEFAULT_MEMORY_LIMIT >> 20)]
+    pub memory_limit: u64,
+}
+
+impl HostArgs {
+    /// The host's settings with `timeout` (s, checked by the caller).
+    pub fn settings(&self, timeout: f64) -> anyhow::Result<mfcbeam::isolation::HostSettings> {
+        const MOST: u64 = 1 << 30;
+        if !(16..=MOST).contains(&self.memory_limit) {
+            anyhow::bail!(
+                "--memory-limit: must be a number of MB in [16, {MOST}], found {}",
+                self.memory_limit
+            );
+        }
+        let mut s = mfcbeam::isolation::HostSettings::this_program(
+            std::time::Duration::from_secs_f64(timeout),
+        )
+        .map_err(|e| anyhow::anyhow!("this program's path: {e}"))?;
+        s.memory_limit = Some(self.memory_limit << 20);
+        Ok(s)
+    }
+}
+
+/// `host` (internal): serve a candidate to the checker.
+#[derive(Debug, Args)]
+pub struct HostServeArgs {
+    /// The shared progress page.
+    #[arg(long)]
+    pub progress: Option<PathBuf>,
+    /// The address space limit (bytes).
+    #[arg(long)]
+    pub memory_limit: Option<u64>,
 }
 
 /// What an FMU contains.

@@ -34,9 +34,10 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Golden(a) => golden(&a),
         Command::Conform(a) => {
             let settings = super::conform::settings(&a)?;
-            match &a.fmu {
-                Some(fmu) => super::fmu::conform_fmu(&a, fmu, settings),
-                None => super::conform::conform_program(&a, settings),
+            if a.fmu.is_some() || a.library.library.is_some() {
+                super::hosted::conform_hosted(&a, settings)
+            } else {
+                super::conform::conform_program(&a, settings)
             }
         }
         Command::Verify(a) => verify(&a),
@@ -45,6 +46,9 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Signal(a) => signal(&a),
         Command::Records(a) => records(&a),
         Command::BenchmarkControl(a) => super::control::benchmark_control(&a),
+        Command::Bench(a) => super::bench::bench(&a),
+        Command::Host(a) => mfcbeam::isolation::serve(a.progress.as_deref(), a.memory_limit)
+            .map_err(|e| anyhow::anyhow!("host: {e}")),
     }
 }
 

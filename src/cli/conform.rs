@@ -152,6 +152,11 @@ pub(super) trait Candidate {
     fn summary(&self, cases: usize, seconds: f64) -> String;
     /// The first run that failed, as a line, if any did.
     fn first_error(&self) -> Option<String>;
+    /// The line of a candidate that took its host process down (a crash,
+    /// an exit, a hang), its case written to `a.out`; `None` if it did not.
+    fn took_down(&self, _a: &ConformArgs) -> Result<Option<String>> {
+        Ok(None)
+    }
     /// The counterexample of property `p` written to `dir`: the line that
     /// names it, and the hints.
     fn write_counterexample(
@@ -185,6 +190,12 @@ pub(super) fn run(
         &settings,
     )?;
     candidate.checked();
+    // a candidate that ended its host: every later case failed at once,
+    // so the finding is the report
+    if let Some(line) = candidate.took_down(a)? {
+        eprintln!("mfcbeam: {line}");
+        return Err(super::Exit(1).into());
+    }
     let cases: usize = report.properties.iter().map(|p| p.cases).sum();
     println!("{report}");
     println!(

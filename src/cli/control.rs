@@ -13,9 +13,8 @@ use mfcbeam::control::process::ProcessController;
 use mfcbeam::control::{
     Benchmark, BenchmarkRun, BuiltinController, Controller, BENCHMARK_SCENARIOS,
 };
-use mfcbeam::fmi::controller::{ControllerVariables, FmuController};
-use mfcbeam::fmi::import::Fmu;
 use mfcbeam::io::{read_beam, read_model, write_atomic, Trace};
+use mfcbeam::isolation::{CandidateSpec, HostedCandidate, HostedController, Role};
 use mfcbeam::operators::nominal::SAMPLE_TIME;
 use mfcbeam::suite::conformance::external::split_command;
 use mfcbeam::suite::plots::{panel, scaled, series, write_figure, Figure, COLORS, GREY};
@@ -26,7 +25,8 @@ use super::args::BenchmarkControlArgs;
 enum Entrant {
     Builtin(BuiltinController),
     Program(Vec<String>),
-    Fmu(Arc<Fmu>, ControllerVariables),
+    /// An FMU in its host process, and its file name.
+    Fmu(Arc<HostedCandidate>, String),
 }
 
 impl Entrant {
@@ -58,26 +58,33 @@ pub fn benchmark_control(a: &BenchmarkControlArgs) -> Result<()> {
         }
         entrants.push(Entrant::Program(words));
     } else if let Some(path) = &a.fmu {
-        let fmu = Fmu::load(path).with_context(|| format!("--fmu {}", path.display()))?;
-        let mut names = ControllerVariables::default();
+        let mut variables = Vec::new();
         for item in &a.fmu_variable {
             let Some((ours, theirs)) = item.split_once('=') else {
                 bail!("--fmu-variable '{item}': expected OURS=THEIRS");
             };
-            let slot = match ours {
-                "reference" => &mut names.reference,
-                "measurement" => &mut names.measurement,
-                "correction" => &mut names.correction,
-                _ => bail!(
+            if !["reference", "measurement", "correction"].contains(&ours) {
+                bail!(
                     "--fmu-variable '{item}': '{ours}' is none of ours (reference, measurement, correction)"
-                ),
-            };
-            *slot = theirs.to_string();
+                );
+            }
+            variables.push((ours.to_string(), theirs.to_string()));
         }
-        // bind once now, so that a wrong FMU fails before any scenario runs
-        FmuController::new(fmu.clone(), &names, SAMPLE_TIME)
-            .with_context(|| format!("--fmu {}", path.display()))?;
-        entrants.push(Entrant::Fmu(fmu, names));
+        // loaded and bound once now, in its host process, so that a wrong
+        // FMU fails before any scenario runs
+        let option = format!("--fmu {}", path.display());
+        let spec = CandidateSpec::Fmu {
+            path: path.display().to_string(),
+            role: Role::Controller,
+            variables,
+            sample_time: SAMPLE_TIME,
+        };
+        let candidate = HostedCandidate::start(&a.host.settings(a.timeout)?, spec)
+            .map_err(|e| anyhow::anyhow!("{option}: {e}"))?;
+        let name = path
+            .file_name()
+            .map_or("FMU".into(), |n| n.to_string_lossy().into_owned());
+        entrants.push(Entrant::Fmu(candidate, name));
     } else if a.controller.is_empty() {
         entrants.push(Entrant::Builtin(BuiltinController::Pid));
         entrants.push(Entrant::Builtin(BuiltinController::StateFeedback));
@@ -119,9 +126,9 @@ pub fn benchmark_control(a: &BenchmarkControlArgs) -> Result<()> {
                     ],
                     Duration::from_secs_f64(a.timeout),
                 )?),
-                Entrant::Fmu(fmu, names) => Box::new(
-                    FmuController::new(fmu.clone(), names, bench.settings.sample_time)
-                        .with_context(|| format!("--fmu {}", fmu.path.display()))?,
+                Entrant::Fmu(candidate, name) => Box::new(
+                    HostedController::new(candidate, name)
+                        .map_err(|e| anyhow::anyhow!("--fmu {name}: {e}"))?,
                 ),
             };
             let run = bench

@@ -1,13 +1,15 @@
 //! The `mfcbeam` command line: [`args`] defines the arguments, [`commands`]
 //! carries them out (the larger commands in files of their own:
-//! [`identify`], [`conform`], [`fmu`], [`control`]). Errors end the program with exit code 2 and one line on
+//! [`identify`], [`conform`], [`hosted`], [`fmu`], [`control`], [`bench`]). Errors end the program with exit code 2 and one line on
 //! stderr naming the file, row or field.
 
 pub mod args;
+pub mod bench;
 pub mod commands;
 pub mod conform;
 pub mod control;
 pub mod fmu;
+pub mod hosted;
 pub mod identify;
 
 pub use args::Cli;

@@ -63,6 +63,15 @@ pub mod storage;
 pub mod superposition;
 
 pub use compensator::{Compensated, Compensator, CompensatorSettings};
+#[cfg(feature = "std")]
+pub use simd::cpu_description;
+
+/// The kernel set the `f64` step of an operator runs on this CPU
+/// (`portable`, `avx2` or `avx512`): what a timing of it names.
+#[cfg(feature = "std")]
+pub fn kernel_set() -> &'static str {
+    simd::Kernels::detect_single_step::<f64>().name()
+}
 pub use creep::Creep;
 pub use delay::{preview, preview_into, DelayLine};
 pub use dynamics::{Dynamics, DynamicsParameters, Resonance};

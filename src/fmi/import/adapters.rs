@@ -135,7 +135,11 @@ impl FmuCandidate {
     }
 
     /// One sample: set the input, one step, read the output (and flags).
-    fn sample(&self, i: &mut FmuInstance, x: f64) -> Result<(f64, bool, bool), ImportError> {
+    pub(crate) fn sample(
+        &self,
+        i: &mut FmuInstance,
+        x: f64,
+    ) -> Result<(f64, bool, bool), ImportError> {
         let b = &self.bindings;
         i.set_f64(b.input, x)?;
         i.do_step(self.sample_time)?;

@@ -58,7 +58,6 @@ pub(crate) fn vendor_is_amd_and_family() -> (bool, u32) {
 /// model name (from `/proc/cpuinfo` on Linux) and the vector features the
 /// kernels use.
 #[cfg(feature = "std")]
-#[cfg(feature = "internals")]
 pub fn cpu_description() -> std::string::String {
     use std::string::String;
     let info = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();

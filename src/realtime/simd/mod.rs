@@ -34,7 +34,6 @@ pub(crate) mod block;
 mod cpu;
 
 #[cfg(feature = "std")]
-#[cfg(feature = "internals")]
 pub use cpu::cpu_description;
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 pub use cpu::f64_step_on_512;

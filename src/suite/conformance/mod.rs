@@ -67,6 +67,7 @@ pub use compensator::{check_compensator, compensator_properties};
 pub use factories::*;
 pub use inverse_hysteresis::{check_inverse_hysteresis, inverse_hysteresis_properties};
 pub use model::{check_model, model_properties};
+pub use runner::current_case;
 pub(crate) use runner::run_properties;
 
 /// Builds an implementation of `W` from a model file (starting from its

@@ -5,6 +5,19 @@ use super::*;
 use crate::error::ModelError;
 use crate::operators::model::ModelFile;
 
+thread_local! {
+    /// The property and case this thread is checking.
+    static CURRENT: std::cell::Cell<Option<(&'static str, usize)>> =
+        const { std::cell::Cell::new(None) };
+}
+
+/// The property and the index of the case the calling thread is checking
+/// (shrunk or not), if it is checking one: what a candidate that ends the
+/// process is reported with.
+pub fn current_case() -> Option<(&'static str, usize)> {
+    CURRENT.with(|c| c.get())
+}
+
 /// Run every property on `factory`, the properties spread over the
 /// available cores (each has its own seeded generator, so the result does
 /// not depend on the scheduling).
@@ -82,6 +95,7 @@ fn run_property<F: ?Sized>(
         } else {
             case
         };
+        CURRENT.with(|c| c.set(Some((p.name, i))));
         let outcome = evaluate(|| (p.check)(&case, factory, settings));
         let (error, tolerance) = match &outcome {
             Outcome::Skipped => continue,
@@ -127,6 +141,7 @@ fn run_property<F: ?Sized>(
             }
         }
     }
+    CURRENT.with(|c| c.set(None));
     result
 }
 
