@@ -30,6 +30,7 @@ LAYERS = [
     ["io"],
     ["suite"],
     ["fmi"],
+    ["isolation"],
     ["cli", "main", "lib"],
 ]
 

@@ -495,6 +495,10 @@ pub struct BenchArgs {
     /// repeatable.
     #[arg(long, value_name = "X.fmu")]
     pub fmu: Vec<PathBuf>,
+    /// The FMUs' name for one of ours, `OURS=THEIRS` (ours: u, y, y_d,
+    /// saturated, fault, u_min, u_max); repeatable.
+    #[arg(long, value_name = "OURS=THEIRS")]
+    pub fmu_variable: Vec<String>,
     /// The targets: `adversarial` (reversals at every sample, saturation,
     /// the whole range, sub-normal increments, non-finite samples), a
     /// scenario of the paper (`fig11`, `fig12`, `fig13`, `fig14`), or a

@@ -296,6 +296,7 @@ pub fn bench(a: &BenchArgs) -> Result<()> {
             },
         ));
     }
+    let variables = super::hosted::variable_map(&a.fmu_variable)?;
     for f in &a.fmu {
         specs.push((
             format!("--fmu {}", f.display()),
@@ -304,7 +305,7 @@ pub fn bench(a: &BenchArgs) -> Result<()> {
             CandidateSpec::Fmu {
                 path: f.display().to_string(),
                 role,
-                variables: Vec::new(),
+                variables: variables.clone(),
                 sample_time: file.sample_time,
             },
         ));

@@ -27,7 +27,7 @@ use super::conform::{
 use super::Exit;
 
 /// Parse `--fmu-variable OURS=THEIRS`.
-fn variable_map(items: &[String]) -> Result<Vec<(String, String)>> {
+pub(super) fn variable_map(items: &[String]) -> Result<Vec<(String, String)>> {
     const OURS: [&str; 7] = ["u", "y", "y_d", "saturated", "fault", "u_min", "u_max"];
     items
         .iter()
