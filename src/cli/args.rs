@@ -469,6 +469,10 @@ pub enum BenchKind {
     Compensator,
     /// The actuator model W: voltages u in, y out.
     Model,
+    /// The closed loop's controller: reference and measurement in,
+    /// correction out (FMUs only; the reference is the built-in design of
+    /// --controller).
+    Controller,
 }
 
 /// `bench`.
@@ -500,11 +504,18 @@ pub struct BenchArgs {
     #[arg(long, value_name = "OURS=THEIRS")]
     pub fmu_variable: Vec<String>,
     /// The targets: `adversarial` (reversals at every sample, saturation,
-    /// the whole range, sub-normal increments, non-finite samples), a
-    /// scenario of the paper (`fig11`, `fig12`, `fig13`, `fig14`), or a
-    /// trace file with the kind's input column (y_d or u).
-    #[arg(long, default_value = "adversarial")]
-    pub target: String,
+    /// the whole range, sub-normal steps off zero), a scenario of the paper
+    /// (`fig11`, …), or a trace file with the kind's input column (y_d or
+    /// u). For a controller: a closed-loop benchmark scenario (`nominal`,
+    /// …), whose reference and measurement, recorded with the built-in
+    /// design, are the inputs. Default: adversarial; nominal for a
+    /// controller.
+    #[arg(long)]
+    pub target: Option<String>,
+    /// With --kind controller: the built-in design the FMUs are compared
+    /// with and timed beside: `pid` or `lq`.
+    #[arg(long, default_value = "lq", value_name = "pid|lq")]
+    pub controller: String,
     /// Steps per round for each candidate.
     #[arg(long, default_value_t = 100_000)]
     pub steps: usize,

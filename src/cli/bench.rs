@@ -15,6 +15,7 @@ use std::time::Duration;
 
 use anyhow::{bail, Context, Result};
 
+use mfcbeam::control::{Controller, LoopSample};
 use mfcbeam::io::{read_model_file, write_atomic, Trace};
 use mfcbeam::isolation::timer::{calibrate, empty_brackets, ticks, timer_name};
 use mfcbeam::isolation::{
@@ -47,6 +48,8 @@ enum Unit {
 enum Reference {
     Compensator(Box<dyn ActuatorCompensator>),
     Model(Box<dyn ActuatorModel>),
+    /// A built-in design; its inputs come in pairs.
+    Controller(Box<dyn Controller>),
 }
 
 impl Reference {
@@ -72,6 +75,22 @@ impl Reference {
                     out.push(y);
                 }
             }
+            Self::Controller(c) => {
+                for (k, pair) in targets.chunks_exact(2).enumerate() {
+                    let s = LoopSample {
+                        k,
+                        t: 0.0,
+                        reference: pair[0],
+                        measurement: pair[1],
+                    };
+                    let t0 = ticks();
+                    let r = black_box(c.step(black_box(&s)));
+                    let t1 = ticks();
+                    ticks_out.push(t1.wrapping_sub(t0));
+                    // held (or failed): no number
+                    out.push(r.ok().flatten().unwrap_or(f64::NAN));
+                }
+            }
         }
         out
     }
@@ -83,8 +102,9 @@ fn targets(a: &BenchArgs, file: &ModelFile, limits: (f64, f64), len: usize) -> R
     let column = match a.kind {
         BenchKind::Compensator => "y_d",
         BenchKind::Model => "u",
+        BenchKind::Controller => unreachable!("a controller's inputs are recorded"),
     };
-    let base: Vec<f64> = match a.target.as_str() {
+    let base: Vec<f64> = match target_name(a) {
         "adversarial" => return Ok(adversarial(a.kind, file, limits, len)),
         id => {
             use mfcbeam::suite::scenarios::{run, scenario, ScenarioContext, SCENARIOS};
@@ -117,9 +137,52 @@ fn targets(a: &BenchArgs, file: &ModelFile, limits: (f64, f64), len: usize) -> R
         }
     };
     if base.is_empty() {
-        bail!("--target {}: no samples", a.target);
+        bail!("--target {}: no samples", target_name(a));
     }
     Ok(base.iter().copied().cycle().take(len).collect())
+}
+
+/// `--target`, or the kind's default.
+fn target_name(a: &BenchArgs) -> &str {
+    match (&a.target, a.kind) {
+        (Some(t), _) => t,
+        (None, BenchKind::Controller) => "nominal",
+        (None, _) => "adversarial",
+    }
+}
+
+/// A controller's inputs, `len` samples of (reference, measurement): the
+/// closed loop of a benchmark scenario run with the built-in `design`
+/// (repeated to fill them), and the reference controller, fresh.
+fn controller_inputs(
+    a: &BenchArgs,
+    model: &HysteresisCreepModel,
+    len: usize,
+) -> Result<(Vec<f64>, Box<dyn Controller>)> {
+    use mfcbeam::beam::step_response_fit::{modal_model, BeamModelKind};
+    use mfcbeam::control::{Benchmark, BuiltinController};
+    let design = match BuiltinController::from_id(&a.controller) {
+        Some(d @ (BuiltinController::Pid | BuiltinController::StateFeedback)) => d,
+        _ => bail!("--controller '{}': not one of pid, lq", a.controller),
+    };
+    let id = target_name(a);
+    if let Err(mfcbeam::control::ControlError::Invalid { reason, .. }) = Benchmark::scenario(id) {
+        bail!("--target: {reason}");
+    }
+    let beam = mfcbeam::beam::BeamParameters::nominal();
+    let elements = mfcbeam::beam::fe::DEFAULT_ELEMENTS;
+    let modal = modal_model(&beam, BeamModelKind::Modal { elements })?;
+    let bench = Benchmark::new(model.clone(), modal)?;
+    let run = bench.run(id, bench.controller(design)?.as_mut())?;
+    let pairs: Vec<f64> = run
+        .trace
+        .reference
+        .iter()
+        .zip(&run.trace.measurement)
+        .flat_map(|(&r, &m)| [r, m])
+        .collect();
+    let inputs = pairs.iter().copied().cycle().take(2 * len).collect();
+    Ok((inputs, bench.controller(design)?))
 }
 
 /// Adversarial targets: the sign reverses at every sample, so every play
@@ -135,7 +198,7 @@ fn adversarial(kind: BenchKind, file: &ModelFile, limits: (f64, f64), len: usize
                 m.run(&ramp).last().copied().unwrap_or(limits.1).abs()
             })
             .unwrap_or(limits.1.abs()),
-        BenchKind::Model => limits.1.abs().min(limits.0.abs()),
+        BenchKind::Model | BenchKind::Controller => limits.1.abs().min(limits.0.abs()),
     };
     let mut state: u64 = 0x2545_F491_4F6C_DD1D;
     (0..len)
@@ -155,6 +218,13 @@ fn adversarial(kind: BenchKind, file: &ModelFile, limits: (f64, f64), len: usize
         })
         .collect()
 }
+
+/// How closely a controller must agree with the built-in design it is
+/// timed beside, relative to the largest correction: two implementations
+/// of the same stable linear filter differ by rounding, some `ε` per
+/// operation, far below this (the project's controller FMUs give the same
+/// bits).
+const CONTROLLER_AGREEMENT: f64 = 1e-9;
 
 /// The latency figures of one candidate (ns).
 #[derive(Debug, Clone, serde::Serialize)]
@@ -262,17 +332,33 @@ pub fn bench(a: &BenchArgs) -> Result<()> {
     let role = match a.kind {
         BenchKind::Compensator => Role::Compensator,
         BenchKind::Model => Role::Model,
+        BenchKind::Controller => Role::Controller,
     };
+    if a.kind == BenchKind::Controller && !a.library.is_empty() {
+        bail!("--library: a controller is timed as an FMU (--fmu)");
+    }
     let n_out = role.outputs();
-    let all_targets = targets(a, &file, limits, a.steps)?;
-
     // the reference, then the candidates in their hosts
-    let reference = match a.kind {
-        BenchKind::Compensator => Reference::Compensator(Box::new(model.compensator(settings)?)),
-        BenchKind::Model => Reference::Model(Box::new(model.clone())),
+    let (all_targets, reference) = match a.kind {
+        BenchKind::Compensator => (
+            targets(a, &file, limits, a.steps)?,
+            Reference::Compensator(Box::new(model.compensator(settings)?)),
+        ),
+        BenchKind::Model => (
+            targets(a, &file, limits, a.steps)?,
+            Reference::Model(Box::new(model.clone())),
+        ),
+        BenchKind::Controller => {
+            let (inputs, c) = controller_inputs(a, &model, a.steps)?;
+            (inputs, Reference::Controller(c))
+        }
+    };
+    let reference_name = match a.kind {
+        BenchKind::Controller => format!("reference (mfcbeam, {})", a.controller),
+        _ => "reference (mfcbeam, f64)".into(),
     };
     let mut entries = vec![Entry {
-        name: "reference (mfcbeam, f64)".into(),
+        name: reference_name,
         unit: Unit::Reference(reference),
         ticks: Vec::new(),
         refused: None,
@@ -361,7 +447,10 @@ pub fn bench(a: &BenchArgs) -> Result<()> {
                 let v_max = all_targets.iter().fold(0.0f64, |m, v| m.max(v.abs()));
                 tolerance::model(&file, v_max)
             }
+            // set from the reference's corrections below
+            BenchKind::Controller => 0.0,
         };
+    let mut tolerance = tolerance;
 
     // round 0 warms the caches and predictors up and checks the outputs;
     // its times are dropped
@@ -382,13 +471,32 @@ pub fn bench(a: &BenchArgs) -> Result<()> {
             match &mut e.unit {
                 Unit::Reference(r) => {
                     expected = r.run(&all_targets, &mut e.ticks);
+                    if a.kind == BenchKind::Controller && round == 0 {
+                        // the same linear filter in another implementation:
+                        // rounding, relative to the largest correction
+                        let most = expected
+                            .iter()
+                            .filter(|v| v.is_finite())
+                            .fold(0.0f64, |m, v| m.max(v.abs()));
+                        tolerance = a.tolerance_scale * CONTROLLER_AGREEMENT * most.max(1e-300);
+                    }
                     if round == 0 {
                         e.ticks.clear();
                     }
                 }
                 Unit::Hosted(c, instance) => match instance.run_timed(&all_targets) {
                     Ok((outputs, ticks)) => {
-                        let found: Vec<f64> = outputs.iter().step_by(n_out).copied().collect();
+                        let found: Vec<f64> = outputs
+                            .chunks_exact(n_out)
+                            .map(|o| {
+                                // a controller's held sample has no number
+                                if a.kind == BenchKind::Controller && o[1] != 0.0 {
+                                    f64::NAN
+                                } else {
+                                    o[0]
+                                }
+                            })
+                            .collect();
                         if let Some(err) = c.first_error() {
                             e.refused = Some(format!("round {round}: it failed: {err}"));
                         } else if let Some((k, error)) = disagreement(&expected, &found, tolerance)
@@ -412,8 +520,11 @@ pub fn bench(a: &BenchArgs) -> Result<()> {
     // the report
     let cpu = a.cpu.unwrap_or(0);
     println!(
-        "latency of one step, {:?} ({} targets), {} rounds of {} steps per candidate, interleaved, after a round to warm up",
-        a.kind, a.target, a.rounds, a.steps
+        "latency of one step, {} ({} targets), {} rounds of {} steps per candidate, interleaved, after a round to warm up",
+        format!("{:?}", a.kind).to_lowercase(),
+        target_name(a),
+        a.rounds,
+        a.steps
     );
     println!("CPU: {}", mfcbeam::realtime::cpu_description());
     println!(
@@ -469,7 +580,7 @@ pub fn bench(a: &BenchArgs) -> Result<()> {
     if let Some(path) = &a.json {
         let value = serde_json::json!({
             "kind": format!("{:?}", a.kind).to_lowercase(),
-            "target": a.target,
+            "target": target_name(a),
             "rounds": a.rounds,
             "steps_per_round": a.steps,
             "cpu": mfcbeam::realtime::cpu_description(),

@@ -460,8 +460,12 @@ fn read_frame(r: &mut impl Read) -> io::Result<Option<Vec<u8>>> {
     if n > MAX_FRAME {
         return Err(bad("frame (longer than the largest)"));
     }
-    let mut payload = vec![0u8; n];
-    r.read_exact(&mut payload)?;
+    // grown as the bytes arrive: a length alone allocates nothing
+    let mut payload = Vec::new();
+    r.take(n as u64).read_to_end(&mut payload)?;
+    if payload.len() < n {
+        return Err(io::ErrorKind::UnexpectedEof.into());
+    }
     Ok(Some(payload))
 }
 
@@ -541,6 +545,34 @@ mod tests {
                 assert_eq!(ticks, vec![0, u64::MAX]);
             }
             r => panic!("{r:?}"),
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2000))]
+
+        /// Any bytes, and any valid frame with bytes changed or cut, give a
+        /// message or an error: never a panic.
+        #[test]
+        fn any_bytes_decode_or_fail_cleanly(
+            bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..64),
+            flips in proptest::collection::vec((0usize..64, proptest::prelude::any::<u8>()), 0..4),
+            cut in 0usize..80,
+        ) {
+            let _ = read_request(&mut bytes.as_slice());
+            let _ = read_reply(&mut bytes.as_slice());
+            let mut valid = Vec::new();
+            send_request(&mut valid, &Request::Run { instance: 1, inputs: vec![1.0, 2.0], timed: true }).unwrap();
+            send_reply(&mut valid, &Reply::Ran { outputs: vec![0.5], ticks: vec![3], error: Some("e".into()) }).unwrap();
+            for (at, b) in flips {
+                if let Some(x) = valid.get_mut(at) {
+                    *x = b;
+                }
+            }
+            valid.truncate(cut);
+            let mut r = valid.as_slice();
+            let _ = read_request(&mut r);
+            let _ = read_reply(&mut r);
         }
     }
 
