@@ -19,6 +19,7 @@
 use std::ffi::{c_char, c_int, c_void, CString};
 
 use super::protocol::Precision;
+use crate::fmi::import::loader_error;
 
 type Create = unsafe extern "C" fn(*const c_char, f64, f64) -> *mut c_void;
 type Step64 = unsafe extern "C" fn(*mut c_void, f64) -> f64;
@@ -43,21 +44,6 @@ pub struct StepLibrary {
     saturated: Option<Saturated>,
     /// Keeps the functions loaded.
     _library: libloading::Library,
-}
-
-/// The loader's message with its reason (libloading keeps the reason of
-/// `dlopen` in the error's source).
-pub(crate) fn loader_error(e: &libloading::Error) -> String {
-    let mut text = e.to_string();
-    let mut source = std::error::Error::source(e);
-    while let Some(s) = source {
-        let more = s.to_string();
-        if !text.contains(&more) {
-            text = format!("{text}: {more}");
-        }
-        source = s.source();
-    }
-    text
 }
 
 impl StepLibrary {

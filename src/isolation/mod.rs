@@ -15,6 +15,24 @@
 //!   of samples goes in one message and each step is bracketed by the
 //!   timer ([`timer`]) there, so isolation adds nothing to a step's time.
 //!
+//! A shared library candidate has the **step ABI**: three functions named
+//! by a prefix ([`DEFAULT_SYMBOL_PREFIX`] unless another is given), in
+//! `f64` or `f32` ([`Precision`]):
+//!
+//! ```c
+//! void  *PREFIX_create(const char *model_file, double lower_limit, double upper_limit);
+//! double PREFIX_step(void *candidate, double input);   /* or float, float */
+//! void   PREFIX_free(void *candidate);
+//! int    PREFIX_saturated(const void *candidate);      /* optional */
+//! ```
+//!
+//! `create` gets the model file to implement (`NULL` for a fixed
+//! implementation) and a compensator's limits (infinite for the other
+//! kinds), and returns `NULL` to refuse; `step` is one sample. Without
+//! `saturated`, a compensator's `u` at a limit is taken as clipped. The
+//! ABI has no state functions: a saved state is the inputs so far,
+//! replayed into a fresh instance.
+//!
 //! The parts:
 //!
 //! * `protocol`: the messages, length-prefixed, numbers as IEEE bits;

@@ -12,6 +12,21 @@ use super::abi::{Api, Fmi2Api, Fmi3Api};
 use super::{FmiVersion, ImportError, ImportedDescription};
 use crate::fmi::Platform;
 
+/// The loader's message with its reason: libloading keeps what `dlopen`
+/// or `dlsym` said in the error's source.
+pub(crate) fn loader_error(e: &libloading::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = std::error::Error::source(e);
+    while let Some(s) = source {
+        let more = s.to_string();
+        if !text.contains(&more) {
+            text = format!("{text}: {more}");
+        }
+        source = s.source();
+    }
+    text
+}
+
 /// A loaded FMU.
 pub struct Fmu {
     pub description: ImportedDescription,
@@ -82,7 +97,7 @@ macro_rules! symbol {
         let s = unsafe { $lib.get(concat!($name, "\0").as_bytes()) }.map_err(|e| {
             ImportError::Library {
                 path: $path.display().to_string(),
-                reason: format!("no function {}: {e}", $name),
+                reason: format!("no function {}: {}", $name, loader_error(&e)),
             }
         })?;
         *s
@@ -126,7 +141,7 @@ impl Fmu {
         let library =
             unsafe { libloading::Library::new(&lib_path) }.map_err(|e| ImportError::Library {
                 path: lib_path.display().to_string(),
-                reason: e.to_string(),
+                reason: loader_error(&e),
             })?;
         let p = &lib_path;
         let api = match description.version {

@@ -37,6 +37,7 @@ pub use adapters::{
     bind, Bindings, FmuCandidate, FmuCompensator, FmuInverseHysteresis, FmuModel, ImportKind,
 };
 pub use description::{ImportedDescription, ImportedVariable};
+pub(crate) use fmu::loader_error;
 pub use fmu::{Fmu, MAX_DESCRIPTION, MAX_UNPACKED};
 pub use instance::FmuInstance;
 
