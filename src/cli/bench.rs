@@ -219,6 +219,13 @@ fn adversarial(kind: BenchKind, file: &ModelFile, limits: (f64, f64), len: usize
         .collect()
 }
 
+/// The most steps in one round of one candidate (a message of 32 bytes a
+/// step, 64 MB).
+const MAX_STEPS_PER_ROUND: usize = 2_000_000;
+
+/// The most steps timed per candidate (their ticks: 80 MB).
+const MAX_STEPS: usize = 10_000_000;
+
 /// How closely a controller must agree with the built-in design it is
 /// timed beside, relative to the largest correction: two implementations
 /// of the same stable linear filter differ by rounding, some `ε` per
@@ -295,11 +302,17 @@ fn frequency(cpu: usize) -> Option<String> {
 }
 
 pub fn bench(a: &BenchArgs) -> Result<()> {
-    if a.steps == 0 || a.steps > 10_000_000 {
-        bail!("--steps: must be in [1, 10000000], found {}", a.steps);
+    // a round's outputs and ticks travel in one message, and every step's
+    // ticks are kept: bounded so both stay far below their limits
+    if a.steps == 0 || a.steps > MAX_STEPS_PER_ROUND {
+        bail!("--steps: must be in [1, {MAX_STEPS_PER_ROUND}], found {}", a.steps);
     }
-    if a.rounds == 0 || a.rounds > 1000 {
-        bail!("--rounds: must be in [1, 1000], found {}", a.rounds);
+    if a.rounds == 0 || a.rounds.saturating_mul(a.steps) > MAX_STEPS {
+        bail!(
+            "--rounds: must be at least 1, with --steps × --rounds at most {MAX_STEPS}, found {} × {}",
+            a.steps,
+            a.rounds
+        );
     }
     if !(a.tolerance_scale.is_finite() && a.tolerance_scale >= 1.0) {
         bail!("--tolerance-scale: must be a finite number >= 1");
