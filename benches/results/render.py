@@ -48,6 +48,8 @@ ROWS = [
     ("bank_f32_two_threads_over_one_1024", "bank `f32`, 1024 channels: `Par::rayon(2)` / one thread"),
     ("latency_f64_median_ns", "one `f64` step, adversarial targets: median (ns)"),
     ("latency_f64_p999_ns", "the same, 99.9th percentile (ns)"),
+    ("bench_reference_median_ns", "`mfcbeam bench`, the reference (heap `f64`) step, adversarial targets: median (ns)"),
+    ("bench_reference_p999_ns", "the same, 99.9th percentile (ns)"),
 ]
 LABELS = dict(ROWS)
 
