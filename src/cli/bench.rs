@@ -305,7 +305,10 @@ pub fn bench(a: &BenchArgs) -> Result<()> {
     // a round's outputs and ticks travel in one message, and every step's
     // ticks are kept: bounded so both stay far below their limits
     if a.steps == 0 || a.steps > MAX_STEPS_PER_ROUND {
-        bail!("--steps: must be in [1, {MAX_STEPS_PER_ROUND}], found {}", a.steps);
+        bail!(
+            "--steps: must be in [1, {MAX_STEPS_PER_ROUND}], found {}",
+            a.steps
+        );
     }
     if a.rounds == 0 || a.rounds.saturating_mul(a.steps) > MAX_STEPS {
         bail!(
