@@ -412,6 +412,8 @@ pub fn bench(a: &BenchArgs) -> Result<()> {
             },
         ));
     }
+    // named before pinning: the pinned thread sees one CPU
+    let cpu_description = mfcbeam::realtime::cpu_description();
     let placement = match a.cpu {
         Some(cpu) => {
             pin_this_thread(cpu).map_err(|e| anyhow::anyhow!("--cpu: {e}"))?;
@@ -542,7 +544,7 @@ pub fn bench(a: &BenchArgs) -> Result<()> {
         a.rounds,
         a.steps
     );
-    println!("CPU: {}", mfcbeam::realtime::cpu_description());
+    println!("CPU: {cpu_description}");
     println!(
         "frequency: {}; kernels: {}; {placement}",
         frequency(cpu).unwrap_or_else(|| "not readable".into()),
@@ -599,7 +601,7 @@ pub fn bench(a: &BenchArgs) -> Result<()> {
             "target": target_name(a),
             "rounds": a.rounds,
             "steps_per_round": a.steps,
-            "cpu": mfcbeam::realtime::cpu_description(),
+            "cpu": cpu_description,
             "frequency": frequency(cpu),
             "kernels": mfcbeam::realtime::kernel_set(),
             "placement": placement,
