@@ -252,7 +252,8 @@ impl Hosted {
         signal: &[f64],
     ) -> Result<Vec<f64>> {
         let m = self.fixed.is_none().then_some(model);
-        let fail = |e: HostError| anyhow::anyhow!("{}: {e}", self.option);
+        // the host's error kept, so that a refusal can be told apart
+        let fail = |e: HostError| anyhow::Error::new(e).context(self.option.clone());
         Ok(match kind {
             ConformKind::Model | ConformKind::Hysteresis => HostedModel::new(&self.candidate, m)
                 .map_err(fail)?
@@ -289,9 +290,30 @@ impl Hosted {
             _ => file,
         };
         let input: Vec<f64> = (0..50).map(|k| 10.0 * k as f64).collect();
-        let out = self
-            .output(kind, &file, None, &input)
-            .with_context(|| "unusable on a first, simple case".to_string());
+        let mut out = self.output(kind, &file, None, &input);
+        // a library that declines the nominal model (create returns NULL)
+        // is tried on its hysteresis part, as a program that exits 3 is:
+        // it implements part of the model, and cases with the rest are
+        // skipped
+        let refused = |r: &Result<Vec<f64>>| {
+            r.as_ref()
+                .err()
+                .and_then(|e| e.downcast_ref::<HostError>())
+                .is_some_and(|e| matches!(e, HostError::Refused(_)))
+        };
+        if self.fixed.is_none() && refused(&out) {
+            let h = file.clone().hysteresis_part();
+            if h != file {
+                out = self.output(kind, &h, None, &input);
+                if refused(&out) {
+                    bail!(
+                        "{}: unusable on a first, simple case: it declines (create returns NULL) even the nominal model's hysteresis part",
+                        self.option
+                    );
+                }
+            }
+        }
+        let out = out.context("unusable on a first, simple case");
         if let Some(line) = self.write_finding(out_dir, true)? {
             eprintln!("mfcbeam: {line}");
             return Err(Exit(1).into());
@@ -312,7 +334,6 @@ impl Hosted {
 
     /// The line of a candidate that took its host down, its model and
     /// input written to `out/<crash|exit|hang>/` when `write` is set.
-    #[allow(clippy::too_many_lines)]
     fn write_finding(&self, out: &Path, write: bool) -> Result<Option<String>> {
         let Some(f) = self.candidate.finding() else {
             return Ok(None);
