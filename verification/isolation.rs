@@ -297,6 +297,37 @@ fn conform_survives_a_crashing_library() {
 }
 
 #[test]
+fn a_library_that_declines_creep_is_checked_on_the_rest() {
+    let dir = Dir::new("declines-creep");
+    let lib = dir.path("declines_creep.so");
+    compile("declines_creep.c", &lib, 0, 0);
+    let r = run(
+        &dir,
+        &[
+            "conform",
+            "--kind",
+            "model",
+            "--library",
+            lib.to_str().unwrap(),
+            "--out",
+            "out",
+        ],
+    );
+    let (out, left) = &r;
+    assert!(left.is_empty(), "{left:?}");
+    // not unusable (2): the cases without creep ran (and the identity
+    // fails them), those with creep were declined
+    assert_eq!(out.code, Some(1), "{}", out.stderr);
+    assert!(
+        out.stdout
+            .contains("skipped, the implementation declined them"),
+        "{}",
+        out.stdout
+    );
+    assert!(out.stdout.contains("monotonicity"), "{}", out.stdout);
+}
+
+#[test]
 fn a_file_that_is_not_a_library_is_refused_with_the_loaders_reason() {
     let dir = Dir::new("not-a-library");
     let path = dir.path("text.so");
