@@ -22,42 +22,14 @@
 //! subtracted: the figures are upper bounds.
 
 use std::hint::black_box;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use mfcbeam::internals as simd;
+use mfcbeam::isolation::timer::{calibrate, ticks};
 use mfcbeam::prelude::*;
 use mfcbeam::realtime::{nominal, Compensated, Compensator, CompensatorSettings, Real};
 
 const TS_NS: f64 = 2e5;
-
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn ticks() -> u64 {
-    use std::arch::x86_64::{_mm_lfence, _rdtsc};
-    // SAFETY: lfence and rdtsc exist on every x86-64 CPU.
-    unsafe {
-        _mm_lfence();
-        let t = _rdtsc();
-        _mm_lfence();
-        t
-    }
-}
-
-#[cfg(not(target_arch = "x86_64"))]
-#[inline(always)]
-fn ticks() -> u64 {
-    use std::sync::OnceLock;
-    static START: OnceLock<Instant> = OnceLock::new();
-    START.get_or_init(Instant::now).elapsed().as_nanos() as u64
-}
-
-/// ns per tick.
-fn calibrate() -> f64 {
-    let (t0, c0) = (Instant::now(), ticks());
-    while t0.elapsed() < Duration::from_millis(200) {}
-    let (dt, dc) = (t0.elapsed(), ticks() - c0);
-    dt.as_nanos() as f64 / dc as f64
-}
 
 #[cfg(target_os = "linux")]
 fn pin() -> String {
@@ -171,7 +143,7 @@ fn main() {
         .find_map(|a| a.parse().ok())
         .unwrap_or(10_000_000);
     let placement = pin();
-    let ns_per_tick = calibrate();
+    let ns_per_tick = calibrate(Duration::from_millis(200));
     let targets = adversarial(1 << 16);
     let mut samples = vec![0u64; steps];
 

@@ -23,7 +23,7 @@ use mfcbeam::isolation::{
 };
 use mfcbeam::operators::nominal::nominal_model_file;
 use mfcbeam::prelude::*;
-use mfcbeam::suite::conformance::tolerance;
+use mfcbeam::suite::conformance::{tolerance, Rng};
 use mfcbeam::suite::plots::{panel, series, write_figure_file, Figure, COLORS};
 
 use super::args::{BenchArgs, BenchKind};
@@ -200,16 +200,14 @@ fn adversarial(kind: BenchKind, file: &ModelFile, limits: (f64, f64), len: usize
             .unwrap_or(limits.1.abs()),
         BenchKind::Model | BenchKind::Controller => limits.1.abs().min(limits.0.abs()),
     };
-    let mut state: u64 = 0x2545_F491_4F6C_DD1D;
+    let mut rng = Rng::new(0x2545_F491_4F6C_DD1D);
     (0..len)
         .map(|k| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            let unit = (state >> 11) as f64 / (1u64 << 53) as f64;
+            let bits = rng.next_u64();
+            let unit = (bits >> 11) as f64 / (1u64 << 53) as f64;
             let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
             if k % 11 == 10 {
-                sign * f64::from_bits(1 + (state & 0xffff))
+                sign * f64::from_bits(1 + (bits & 0xffff))
             } else if k % 4 == 3 && kind == BenchKind::Compensator {
                 sign * reach * (1.2 + 0.3 * unit)
             } else {

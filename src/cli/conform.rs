@@ -296,6 +296,20 @@ pub(super) fn compared_line(f: &mfcbeam::suite::conformance::Failure) -> String 
     )
 }
 
+/// `DIR/expected.csv`: what the property required at the compared
+/// samples, what the candidate gave, and the compared sample's index.
+pub(super) fn write_expected(dir: &Path, f: &mfcbeam::suite::conformance::Failure) -> Result<()> {
+    let n = f.expected.len().min(f.found.len());
+    let path = dir.join("expected.csv");
+    let mut expected = Trace::from_columns(
+        &path,
+        &[("expected", &f.expected[..n]), ("candidate", &f.found[..n])],
+    );
+    expected.push_text_column("compared", (0..n).map(|k| k.to_string()))?;
+    expected.write(&path)?;
+    Ok(())
+}
+
 /// The input column of a kind's traces.
 pub(super) fn input_column(kind: ConformKind) -> &'static str {
     match kind {
@@ -486,14 +500,7 @@ fn write_case(
     let column = input_column(kind);
     let rerun = candidate.run_in(dir, &run.model, column, &run.input, run.limits);
     let _ = fs::remove_file(dir.join("stderr.txt"));
-    let n = f.expected.len().min(f.found.len());
-    let mut expected = Trace::from_columns(
-        &dir.join("expected.csv"),
-        &[("expected", &f.expected[..n]), ("candidate", &f.found[..n])],
-    );
-    // the compared sample's index, as an integer
-    expected.push_text_column("compared", (0..n).map(|k| k.to_string()))?;
-    expected.write(&dir.join("expected.csv"))?;
+    write_expected(dir, f)?;
     write_command(candidate, dir, run.limits)?;
     // the other runs: those that are not a prefix of a longer one (an
     // adapter reruns the whole history on each call)

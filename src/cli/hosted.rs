@@ -22,7 +22,8 @@ use mfcbeam::suite::conformance::{fixed, ConformanceSettings, Counterexample, Pr
 
 use super::args::{ConformArgs, ConformKind};
 use super::conform::{
-    compared_line, explain_kind, input_column, output_column, run, Candidate, Factories,
+    compared_line, explain_kind, input_column, output_column, run, write_expected, Candidate,
+    Factories,
 };
 use super::Exit;
 
@@ -469,14 +470,7 @@ impl Candidate for Hosted {
         let out_path = dir.join("candidate.csv");
         Trace::from_columns(&out_path, &[("t", &t), (output_column(a.kind), &found)])
             .write(&out_path)?;
-        let n = f.expected.len().min(f.found.len());
-        let exp_path = dir.join("expected.csv");
-        let mut expected = Trace::from_columns(
-            &exp_path,
-            &[("expected", &f.expected[..n]), ("candidate", &f.found[..n])],
-        );
-        expected.push_text_column("compared", (0..n).map(|k| k.to_string()))?;
-        expected.write(&exp_path)?;
+        write_expected(dir, f)?;
         let explanation = explain(
             explain_kind(a.kind),
             &c.case.model,
