@@ -11,9 +11,11 @@
 //! and brings a schema layer besides, for the dozen functions per version
 //! that a sampled Co-Simulation run needs.
 //!
-//! An FMU is native code in this process: one that crashes takes the
-//! process with it. Calls into one FMU are serialised (a third-party FMU
-//! may keep global state); its instances are otherwise independent.
+//! An FMU is native code in the process that loads it: one that crashes
+//! takes that process with it. The checker therefore loads FMUs only in a
+//! host process ([`crate::isolation`]), which runs these adapters. Calls
+//! into one FMU are serialised (a third-party FMU may keep global state);
+//! its instances are otherwise independent.
 //!
 //! * `fmu` — the archive unpacked (bounded) and the library opened;
 //! * `abi` — the FMI 2.0 and 3.0 functions called and the callbacks given;
