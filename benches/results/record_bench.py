@@ -61,9 +61,13 @@ def main(paths: list[str]) -> int:
         "description": first["cpu"],
     }
     data["date"] = today
-    commit = subprocess.run(
-        ["git", "rev-parse", "--short=7", "HEAD"], capture_output=True, text=True, cwd=HERE
-    ).stdout.strip() or "?"
+    def git(*args: str) -> str:
+        return subprocess.run(["git", *args], capture_output=True, text=True, cwd=HERE).stdout.strip()
+
+    # the commit measured, with -dirty if the tree has changes (as the benches mark it)
+    commit = git("rev-parse", "--short=7", "HEAD") or "?"
+    if git("status", "--porcelain", "--untracked-files=no"):
+        commit += "-dirty"
     figures: dict[str, list[float]] = {}
     for r in runs:
         for c in r["candidates"]:
