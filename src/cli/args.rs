@@ -505,8 +505,9 @@ pub struct BenchArgs {
     pub fmu_variable: Vec<String>,
     /// The targets: `adversarial` (reversals at every sample, saturation,
     /// the whole range, sub-normal steps off zero), a scenario of the paper
-    /// (`fig11`, …), or a trace file with the kind's input column (y_d or
-    /// u). For a controller: a closed-loop benchmark scenario (`nominal`,
+    /// with the kind's input column (`compensated`, `feedforward`, … for
+    /// y_d; `rectangle`, `staircase`, … for u), or a trace file with that
+    /// column. For a controller: a closed-loop benchmark scenario (`nominal`,
     /// …), whose reference and measurement, recorded with the built-in
     /// design, are the inputs. Default: adversarial; nominal for a
     /// controller.

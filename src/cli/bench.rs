@@ -128,7 +128,12 @@ fn targets(a: &BenchArgs, file: &ModelFile, limits: (f64, f64), len: usize) -> R
                 let path = Path::new(id);
                 if !path.is_file() {
                     bail!(
-                        "--target '{id}': neither adversarial, a scenario (fig11, …) nor a trace file"
+                        "--target '{id}': neither adversarial, a scenario ({}) nor a trace file",
+                        SCENARIOS
+                            .iter()
+                            .map(|s| s.id)
+                            .collect::<Vec<_>>()
+                            .join(", ")
                     );
                 }
                 let trace = Trace::read(path)?;

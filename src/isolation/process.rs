@@ -69,7 +69,7 @@ pub enum HostError {
         stderr: Option<String>,
     },
     /// A request took longer than the timeout; the host was killed.
-    #[error("the candidate did not answer within {seconds} s {} and was killed{}", .during.describe(), sample_text(*.sample))]
+    #[error("the candidate did not answer within {seconds} s (killed) {}{}", .during.describe(), sample_text(*.sample))]
     Timeout {
         seconds: f64,
         during: Phase,
