@@ -53,6 +53,7 @@
 pub mod delay;
 mod dynamics;
 mod identify;
+pub mod initial_state;
 mod plan;
 mod regressor;
 pub mod report;
@@ -67,6 +68,7 @@ pub use delay::{
 };
 pub use dynamics::{fit_dynamics, fit_dynamics_and_delay, DynamicsParts};
 pub use identify::{identify, identify_records, FitRecord, Identification};
+pub use initial_state::{estimate_state, StateEstimate, StateSettings};
 pub use plan::EPSILON_S;
 pub use report::{
     first_at_max, validate, ActiveConstraint, DynamicsReport, FitErrors, FitReport, RecordFit,

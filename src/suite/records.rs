@@ -6,7 +6,9 @@
 //! history before each record (the state at its start is unknown), a
 //! sensor offset per record and white measurement noise. Each record is
 //! the lab protocol: a hold at `−A`, then raised-cosine cycles of rising
-//! amplitude from `−A` up to `+A`.
+//! amplitude from `−A` up to `+A`; or a hold at another level (near 0 V,
+//! say), which leaves the history's memory in the plays, and a tracking
+//! run from there.
 //!
 //! The truth is not the identified model class when `β > 0` (no
 //! compensator inverts it exactly): what an identification of these
@@ -14,7 +16,11 @@
 
 use crate::operators::creep::CreepOperator;
 use crate::operators::heap::Heap;
+use crate::operators::model::{
+    CreepData, DynamicsData, HysteresisData, ModelFile, SuperpositionData,
+};
 use crate::operators::nominal::nominal_model_file;
+use crate::operators::traits::Snapshot;
 use crate::realtime::{Dynamics, DynamicsParameters, Resonance, Superposition};
 use crate::suite::conformance::Rng;
 
@@ -27,8 +33,12 @@ pub struct RecordSettings {
     pub rates: Vec<f64>,
     /// Drive amplitude `A` (V), default 90.
     pub amplitude: f64,
-    /// The hold at `−A` before the cycles (s), default 1.5.
+    /// The hold before the drive (s), default 1.5.
     pub hold: f64,
+    /// The hold's level (V), default `−A` (saturation: the history is
+    /// wiped out). Another level keeps the history's memory; a tracking
+    /// run starts from it, the cycles from `−A`.
+    pub hold_level: Option<f64>,
     /// Raised-cosine cycles per record, default 50.
     pub cycles: usize,
     /// `β` (s) of the rate-dependent thresholds, default 2e-5 (below
@@ -50,6 +60,10 @@ pub struct RecordSettings {
     /// The drive after the hold: raised cosines (default) or a tracking
     /// run.
     pub drive: Drive,
+    /// The tracking run's levels lie within this fraction of `±A`
+    /// (default 0.8); a smaller run than the history leaves the larger
+    /// plays' memory in place.
+    pub tracking_range: f64,
 }
 
 /// What follows the hold of a record.
@@ -71,6 +85,7 @@ impl Default for RecordSettings {
             rates: vec![20.0, 40.0, 100.0],
             amplitude: 90.0,
             hold: 1.5,
+            hold_level: None,
             cycles: 50,
             rate_gain: 2e-5,
             resonance: Some(Resonance {
@@ -83,7 +98,18 @@ impl Default for RecordSettings {
             history: 0.5,
             seed: 20_131,
             drive: Drive::Cycles,
+            tracking_range: 0.8,
         }
+    }
+}
+
+impl RecordSettings {
+    /// The actuator of these settings as a model file, virgin: exact when
+    /// `rate_gain` is 0, else its rate-independent part.
+    pub fn actuator_model(&self) -> ModelFile {
+        Actuator::new(self)
+            .model_file(self.sample_time)
+            .without_state()
     }
 }
 
@@ -96,6 +122,10 @@ pub struct SyntheticRecord {
     pub y: Vec<f64>,
     /// The sensor offset added.
     pub offset: f64,
+    /// The actuator at the record's first sample as a model file, in its
+    /// state then (offset and noise not included). It is the actuator
+    /// exactly when `rate_gain` is 0.
+    pub start: ModelFile,
 }
 
 /// The record protocol at `rate`: the hold at `−A`, then `cycles` raised
@@ -105,23 +135,24 @@ pub fn protocol(settings: &RecordSettings, rate: f64, rng: &mut Rng) -> Vec<f64>
     let ts = settings.sample_time;
     let a = settings.amplitude;
     let hold = (settings.hold / ts).round() as usize;
+    let level = settings.hold_level.unwrap_or(-a);
     if settings.drive == Drive::Tracking {
         let run = (2.0 / ts).round() as usize;
         let (every, jag) = (
             ((1.0 / rate) / ts).round().max(1.0) as usize,
             (0.005 / ts).round().max(1.0) as usize,
         );
-        let (mut level, mut v) = (-a, -a);
+        let (mut target, mut v) = (level, level);
         let lag = 1.0 - (-ts * std::f64::consts::TAU * 3.0 * rate).exp();
         return (0..hold + run)
             .map(|k| {
                 if k < hold {
-                    return -a;
+                    return level;
                 }
                 if (k - hold).is_multiple_of(every) {
-                    level = rng.uniform(-0.8 * a, 0.8 * a);
+                    target = rng.uniform(-settings.tracking_range * a, settings.tracking_range * a);
                 }
-                v += lag * (level - v);
+                v += lag * (target - v);
                 let step = if ((k - hold) / jag).is_multiple_of(2) {
                     a / 6.0
                 } else {
@@ -135,7 +166,7 @@ pub fn protocol(settings: &RecordSettings, rate: f64, rng: &mut Rng) -> Vec<f64>
     (0..hold + cycling)
         .map(|k| {
             if k < hold {
-                return -a;
+                return level;
             }
             let t = (k - hold) as f64 * ts;
             let rise = 0.1 + 0.9 * (k - hold) as f64 / cycling.max(1) as f64;
@@ -221,6 +252,39 @@ impl Actuator {
             None => w,
         }
     }
+
+    /// The rate-independent part (`β = 0`) as a model file, in the
+    /// actuator's state.
+    fn model_file(&self, sample_time: f64) -> ModelFile {
+        ModelFile {
+            sample_time,
+            hysteresis: HysteresisData {
+                thresholds: self.thresholds.clone(),
+                weights: self.weights.clone(),
+                state: Some(self.plays.clone()),
+            },
+            creep: Some(CreepData {
+                thresholds: self.creep.thresholds().to_vec(),
+                weights: self.creep.weights().to_vec(),
+                eigenvalues: self.creep.eigenvalues().to_vec(),
+                state: Some(Snapshot::state(&self.creep)),
+            }),
+            superposition: Some(SuperpositionData {
+                thresholds: self.superposition.thresholds().to_vec(),
+                weights: self.superposition.weights().to_vec(),
+            }),
+            dynamics: self.dynamics.as_ref().map(|g| {
+                let mut state = vec![0.0; g.state_len()];
+                DynamicsData {
+                    state: g.state_into(&mut state).map(|()| state),
+                    ..DynamicsData::of(g.parameters())
+                }
+            }),
+            delay: None,
+            delay_state: None,
+            offset: None,
+        }
+    }
 }
 
 /// The records of `settings` (module docs), each after its own history.
@@ -242,12 +306,19 @@ pub fn generate(settings: &RecordSettings) -> Vec<SyntheticRecord> {
             actuator.step(level);
         }
         let u = protocol(settings, rate, &mut rng);
+        let start = actuator.model_file(ts);
         let offset = rng.uniform(-1.0, 1.0) * settings.offset_spread * range;
         let y = u
             .iter()
             .map(|&v| actuator.step(v) + offset + settings.noise * range * gaussian(&mut rng))
             .collect();
-        records.push(SyntheticRecord { rate, u, y, offset });
+        records.push(SyntheticRecord {
+            rate,
+            u,
+            y,
+            offset,
+            start,
+        });
     }
     records
 }
