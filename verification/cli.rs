@@ -1635,3 +1635,112 @@ fn benchmark_control_takes_the_models_and_the_beam_from_files() {
         None,
     );
 }
+
+/// A record of the nominal model with a memory: a history (up to 900 V and
+/// back to 0), a hold at 0 V (0.4 s), then two periods of a 2 Hz sine of
+/// 300 V; noise-free. Returns the model file in the state the record
+/// starts in.
+fn record_with_a_past(path: &Path) -> ModelFile {
+    let ts = mfcbeam::operators::nominal::SAMPLE_TIME;
+    let mut m = nominal_model();
+    for k in 0..=4000 {
+        m.step(900.0 * (1.0 - (k as f64 - 2000.0).abs() / 2000.0));
+    }
+    let start = m.to_file();
+    let u: Vec<f64> = (0..7000)
+        .map(|k| {
+            let t = k as f64 * ts - 0.4;
+            if t < 0.0 {
+                0.0
+            } else {
+                300.0 * (std::f64::consts::TAU * 2.0 * t).sin()
+            }
+        })
+        .collect();
+    let y = m.run(&u);
+    let t: Vec<f64> = (0..u.len()).map(|k| k as f64 * ts).collect();
+    Trace::from_owned_columns(path, vec![("t", t), ("u", u), ("y", y)])
+        .write(path)
+        .unwrap();
+    start
+}
+
+#[test]
+fn estimate_state_recovers_the_memory_a_record_starts_in() {
+    let d = TempDir::new("estimate-state");
+    let record = d.path("record.csv");
+    let truth = record_with_a_past(&record);
+    let (start, end) = (d.path("start.json"), d.path("end.json"));
+    // the window: the hold and the sine's first period (samples 0..4500),
+    // which moves every play the second one moves
+    for (at, out) in [("start", &start), ("end", &end)] {
+        let run = on_files(
+            "estimate-state",
+            MODEL,
+            s(&record),
+            s(out),
+            &["--until", "0.9s", "--state-at", at],
+        );
+        let report = String::from_utf8_lossy(&run.stderr);
+        assert!(run.status.success(), "{report}");
+        assert!(report.contains("samples 0..4500"), "{report}");
+    }
+    let trace = Trace::read(&record).unwrap();
+    let (u, y) = (trace.column("u").unwrap(), trace.column("y").unwrap());
+    // from the estimated start, the model predicts the record after the
+    // window; the virgin model does not
+    let estimated = mfcbeam::io::read_model(&start).unwrap().run(&u);
+    let virgin = nominal_model().run(&u);
+    let error = |x: &[f64]| (4500..u.len()).fold(0.0f64, |m, k| m.max((x[k] - y[k]).abs()));
+    assert!(error(&virgin) > 10.0, "{}", error(&virgin));
+    assert!(
+        error(&estimated) < 1e-2 * error(&virgin),
+        "{}",
+        error(&estimated)
+    );
+    // the play states the window shows are the truth's: those the sine
+    // moves (thresholds up to 583 V); the others hold what the level asks
+    let x = mfcbeam::io::read_model_file(&start)
+        .unwrap()
+        .hysteresis
+        .state
+        .unwrap();
+    let x_true = truth.hysteresis.state.unwrap();
+    for i in 0..=7 {
+        assert!((x[i] - x_true[i]).abs() < 2.0, "{x:?} vs {x_true:?}");
+    }
+    // --state-at end: the estimated start run through the window
+    let mut from_start = mfcbeam::io::read_model(&start).unwrap();
+    from_start.run(&u[..4500]);
+    let after = mfcbeam::io::read_model_file(&end).unwrap();
+    assert_eq!(
+        after.hysteresis.state,
+        from_start.to_file().hysteresis.state
+    );
+}
+
+#[test]
+fn estimate_state_error_contract() {
+    let d = TempDir::new("estimate-state-errors");
+    let record = d.path("record.csv");
+    record_with_a_past(&record);
+    let out = d.path("out.json");
+    for (until, needle) in [("0", "--until"), ("1", "--until"), ("9s", "--until")] {
+        let run = on_files(
+            "estimate-state",
+            MODEL,
+            s(&record),
+            s(&out),
+            &["--until", until],
+        );
+        assert_clean_failure(&run, &[needle], Some(&out));
+    }
+    let bad = d.write("bad.csv", "t,u,y\n0,0,0\n0.0002,nan,0\n0.0004,1,1\n");
+    let run = on_files("estimate-state", MODEL, s(&bad), s(&out), &[]);
+    assert_clean_failure(&run, &["bad.csv"], Some(&out));
+    let no_y = d.write("no_y.csv", "t,u\n0,0\n0.0002,1\n");
+    let run = on_files("estimate-state", MODEL, s(&no_y), s(&out), &[]);
+    assert_clean_failure(&run, &["y"], Some(&out));
+    let run = on_files("estimate-state", s(&no_y), s(&record), s(&out), &[]);
+    assert_clean_failure(&run, &["no_y.csv"], Some(&out));
+}

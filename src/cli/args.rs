@@ -39,6 +39,10 @@ pub enum Command {
     /// Identify a model (weights by constrained least squares, (23)–(25)) from
     /// columns `t`, `u`, `y`; prints the fit report on stderr.
     Identify(IdentifyArgs),
+    /// Estimate the memory a record starts in (play and creep states, the
+    /// state of G, the offset) for a fixed model from the record's first
+    /// samples; writes the model with that state.
+    EstimateState(EstimateStateArgs),
     /// The beam: modal analysis, simulation, step-response identification.
     #[command(subcommand)]
     Beam(BeamCommand),
@@ -274,6 +278,12 @@ pub struct IdentifyArgs {
     /// several times (a table, one row per record, with its input's rate).
     #[arg(long, value_name = "OTHER.csv")]
     pub validate: Vec<PathBuf>,
+    /// Estimate each validation record's initial memory (as
+    /// `estimate-state` does) from its samples before this sample or time
+    /// (like `1.2s`), and score it from there on: a record with an
+    /// unknown past scored fairly.
+    #[arg(long, value_name = "SAMPLE|SECONDSs")]
+    pub validate_state_until: Option<FitStart>,
     /// Where the validation records' errors start (a sample or a time like
     /// `0.1s`); default: as --fit-from (or where |u| first reaches max|u|).
     #[arg(long, value_name = "SAMPLE|SECONDSs")]
@@ -790,6 +800,46 @@ pub struct BeamIdentifyArgs {
 }
 
 #[derive(Debug, Args)]
+pub struct EstimateStateArgs {
+    /// Model file (JSON): its parameters are kept; its state, if any, is
+    /// where the estimate starts from (virgin otherwise).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// The record (CSV): columns `u` (V), `y` and `t` (s) at the model's
+    /// sample time.
+    #[arg(long)]
+    pub input: PathBuf,
+    /// The end of the estimation window: a sample or a time like `1.2s`
+    /// (default: the whole record).
+    #[arg(long, value_name = "SAMPLE|SECONDSs")]
+    pub until: Option<FitStart>,
+    /// Model file written (JSON): the model in the estimated state.
+    #[arg(long)]
+    pub output: PathBuf,
+    /// The state the file holds: at the record's `start`, or at the `end`
+    /// of the window (where a compensator started up by the record goes
+    /// on).
+    #[arg(long, value_name = "start|end", default_value = "start")]
+    pub state_at: StateAt,
+    /// Keep the model's offset instead of estimating it.
+    #[arg(long)]
+    pub keep_offset: bool,
+    /// Keep the model's creep states instead of estimating them.
+    #[arg(long)]
+    pub keep_creep: bool,
+    /// Start G at rest on its first input instead of estimating its state.
+    #[arg(long)]
+    pub keep_dynamics: bool,
+}
+
+/// `estimate-state --state-at`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum StateAt {
+    Start,
+    End,
+}
+
+#[derive(Debug, Args)]
 pub struct RecordsArgs {
     /// Directory for the records (`<rate>hz.csv`, one per rate).
     #[arg(long)]
@@ -815,6 +865,18 @@ pub struct RecordsArgs {
     /// lag, the voltage jagged with steps every 5 ms).
     #[arg(long, value_name = "cycles|tracking", default_value = "cycles")]
     pub drive: DriveArg,
+    /// The hold's level (V); default -90 (saturation, which wipes the
+    /// history out). Another level keeps the history's memory; a tracking
+    /// run starts from it.
+    #[arg(long, value_name = "V", allow_hyphen_values = true)]
+    pub hold_at: Option<f64>,
+    /// The tracking run's levels within this fraction of ±90 V.
+    #[arg(long, value_name = "FRACTION", default_value_t = RecordSettings::default().tracking_range)]
+    pub tracking_range: f64,
+    /// Also write the actuator as a model file, `DIR/actuator.json`
+    /// (virgin; without the rate dependence, so exact with --rate-gain 0).
+    #[arg(long)]
+    pub write_model: bool,
 }
 
 /// `records --drive`.

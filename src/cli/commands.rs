@@ -25,6 +25,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Compensate(a) => compensate(&a),
         Command::Invert(a) => invert(&a),
         Command::Identify(a) => super::identify::identify(&a),
+        Command::EstimateState(a) => super::identify::estimate_state(&a),
         Command::Beam(BeamCommand::Modes(a)) => beam_modes(&a),
         Command::Beam(BeamCommand::Simulate(a)) => beam_simulate(&a),
         Command::Beam(BeamCommand::Identify(a)) => beam_identify(&a),
@@ -474,6 +475,8 @@ fn records(a: &RecordsArgs) -> Result<()> {
         rate_gain: a.rate_gain,
         noise: a.noise,
         seed: a.seed,
+        hold_level: a.hold_at,
+        tracking_range: a.tracking_range,
         ..RecordSettings::default()
     };
     let ts = settings.sample_time;
@@ -492,6 +495,17 @@ fn records(a: &RecordsArgs) -> Result<()> {
     }
     if !(a.noise.is_finite() && a.noise >= 0.0) {
         bail!("--noise: must be a finite number >= 0");
+    }
+    if let Some(h) = a.hold_at {
+        if !(h.is_finite() && h.abs() <= settings.amplitude) {
+            bail!(
+                "--hold-at: must lie within ±{} V, found {h}",
+                settings.amplitude
+            );
+        }
+    }
+    if !(a.tracking_range.is_finite() && a.tracking_range > 0.0 && a.tracking_range <= 1.0) {
+        bail!("--tracking-range: must lie in (0, 1]");
     }
     if let Some(p) = &a.plot {
         if !matches!(p.extension().and_then(|e| e.to_str()), Some("png" | "svg")) {
@@ -521,6 +535,19 @@ fn records(a: &RecordsArgs) -> Result<()> {
             r.offset
         );
         names.push(format!("{} Hz", r.rate));
+    }
+    if a.write_model {
+        let path = a.output_dir.join("actuator.json");
+        write_json(&path, &settings.actuator_model())?;
+        eprintln!(
+            "mfcbeam: wrote {} (the actuator without its rate dependence, virgin{})",
+            path.display(),
+            if settings.rate_gain == 0.0 {
+                ": the records' truth"
+            } else {
+                ""
+            }
+        );
     }
     if let Some(p) = &a.plot {
         let loops: Vec<(String, &[f64], &[f64])> = records

@@ -1,18 +1,20 @@
 //! `mfcbeam identify`: a model from one or more measured records, its fit
 //! report and, with a held-out part or other records, the validation
-//! table.
+//! table; `mfcbeam estimate-state`: the memory a record starts in, for a
+//! fixed model.
 
 use anyhow::{anyhow, bail, Context, Result};
 
 use mfcbeam::identification::{
     check_record, dominant_rate, fit_dynamics_and_delay, holdout_samples, identify_records,
-    search_delay_records, DelaySetting, FitRecord, IdentificationSettings, Record, ValidationRow,
-    ValidationTable,
+    search_delay_records, DelaySetting, FitRecord, FitStart, IdentificationSettings, Record,
+    StateEstimate, StateSettings, ValidationRow, ValidationTable,
 };
-use mfcbeam::io::{write_json, Trace};
+use mfcbeam::io::{read_model_file, write_json, Trace};
+use mfcbeam::operators::model::{HysteresisCreepModel, ModelFile};
 use mfcbeam::operators::traits::Operator;
 
-use super::args::{IdentifyArgs, OffsetSetting, ThresholdRule};
+use super::args::{EstimateStateArgs, IdentifyArgs, OffsetSetting, StateAt, ThresholdRule};
 use super::trace_sample_time;
 
 pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
@@ -194,7 +196,23 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
     }
     let mut rows = Vec::new();
     for r in &records {
-        rows.push(r.row(&id.model)?);
+        match a.validate_state_until {
+            None => rows.push(r.row(&id.model)?),
+            Some(until) => {
+                // the record's memory estimated on its window, scored after it
+                let file = id.model.to_file().without_state();
+                let until = window_end(until, r.u.len(), ts)
+                    .map_err(|e| anyhow!("--validate-state-until: {}: {e}", r.name))?;
+                let estimate = estimate(&file, r.u, r.y, until, &StateSettings::default())
+                    .map_err(|e| anyhow!("--validate-state-until: {}: {e}", r.name))?;
+                let model = HysteresisCreepModel::from_file(&estimate.model)?;
+                let scored = Record {
+                    from: r.from.max(until),
+                    ..r.clone()
+                };
+                rows.push(scored.row(&model)?);
+            }
+        }
     }
     if let Some(p) = &a.plot {
         let fit = id.model.clone().run(u);
@@ -285,6 +303,91 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
         eprintln!("mfcbeam: wrote {}", p.display());
     }
     eprintln!("mfcbeam: wrote {}", a.output.display());
+    Ok(())
+}
+
+/// `--until` of a record of `len` samples as a sample count.
+fn window_end(until: FitStart, len: usize, ts: f64) -> Result<usize> {
+    let k = match until {
+        FitStart::FirstAtMax => len,
+        other => other.resolve(&[], ts),
+    };
+    if k < 2 || k > len {
+        bail!(
+            "the window must end within the record's {len} samples, at sample 2 or later, not {k}"
+        );
+    }
+    Ok(k)
+}
+
+fn estimate(
+    file: &ModelFile,
+    u: &[f64],
+    y: &[f64],
+    until: usize,
+    settings: &StateSettings,
+) -> Result<StateEstimate, mfcbeam::identification::IdentificationError> {
+    mfcbeam::identification::estimate_state(
+        file,
+        u,
+        y,
+        &StateSettings {
+            until: Some(until),
+            ..settings.clone()
+        },
+    )
+}
+
+pub(super) fn estimate_state(a: &EstimateStateArgs) -> Result<()> {
+    let file = read_model_file(&a.model)?;
+    // the model checked here, so that a bad one is named by its file
+    HysteresisCreepModel::from_file(&file).with_context(|| a.model.display().to_string())?;
+    let trace = Trace::read(&a.input)?;
+    trace.check_time_column(file.sample_time)?;
+    let (u, y) = (trace.column("u")?, trace.column("y")?);
+    let name = a.input.display().to_string();
+    let until = match a.until {
+        Some(t) => window_end(t, u.len(), file.sample_time).map_err(|e| anyhow!("--until: {e}"))?,
+        None => u.len(),
+    };
+    let settings = StateSettings {
+        fit_offset: !a.keep_offset,
+        fit_creep: !a.keep_creep,
+        fit_dynamics: !a.keep_dynamics,
+        ..StateSettings::default()
+    };
+    let estimate = estimate(&file, &u, &y, until, &settings).map_err(|e| anyhow!("{name}: {e}"))?;
+    let written = match a.state_at {
+        StateAt::Start => estimate.model.clone(),
+        StateAt::End => estimate.model_after_window(&u)?,
+    };
+    write_json(&a.output, &written)?;
+    eprintln!(
+        "window               samples 0..{until} ({:.6} s) of {name}",
+        until as f64 * file.sample_time
+    );
+    eprintln!(
+        "error rms            {:.6e} in the window ({:.6e} from the prior state); {} steps",
+        estimate.rms, estimate.prior_rms, estimate.iterations
+    );
+    eprintln!(
+        "offset               {:.6e}",
+        estimate.model.offset.unwrap_or(0.0)
+    );
+    if estimate.unwiped.is_empty() {
+        eprintln!("memory               every play was moved in the window: nothing of the past is left after it");
+    } else {
+        let list: Vec<String> = estimate.unwiped.iter().map(|i| i.to_string()).collect();
+        eprintln!(
+            "memory               plays {} were not moved in the window: their states after it rest on the output level alone",
+            list.join(", ")
+        );
+    }
+    let at = match a.state_at {
+        StateAt::Start => "at the record's first sample".to_string(),
+        StateAt::End => format!("after sample {}", until - 1),
+    };
+    eprintln!("mfcbeam: wrote {} (state {at})", a.output.display());
     Ok(())
 }
 
