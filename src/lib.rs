@@ -32,7 +32,9 @@
 //!   ([`operators::compensator`]), with saturation to the supply limits.
 //! * **Identification** (23)–(25): weights by constrained least squares,
 //!   a streamed faer QR and an exact active-set solve, with an offset and an
-//!   unknown initial state (`identification`, feature `identification`).
+//!   unknown initial state (`identification`, feature `identification`);
+//!   the memory a record starts in, for a fixed model
+//!   (`identification::initial_state`, feature `std`).
 //! * **Beam** (26)–(27): the paper's Ritz model and a converged finite-element
 //!   model, both in modal form, exact zero-order-hold simulation, the
 //!   Hammerstein plant and step-response fits (`beam`, feature `beam`).
@@ -106,7 +108,7 @@ pub mod control;
 pub mod feedforward;
 #[cfg(feature = "fmi")]
 pub mod fmi;
-#[cfg(feature = "identification")]
+#[cfg(feature = "std")]
 pub mod identification;
 #[cfg(feature = "fmi-tools")]
 pub mod isolation;

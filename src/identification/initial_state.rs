@@ -41,8 +41,7 @@
 //! the prior (the model file's state, or virgin), moved only as far as the
 //! output level asks: [`StateEstimate::unwiped`] names those plays.
 
-use super::report::check_record_signals;
-use super::settings::IdentificationError;
+use super::settings::{check_record_signals, IdentificationError};
 use crate::operators::model::{HysteresisCreepModel, ModelFile};
 use crate::operators::play::play;
 use crate::realtime::creep::creep_gain;
@@ -674,13 +673,14 @@ impl<'a> Problem<'a> {
             if fresh {
                 self.simulate(theta, &mut work);
                 let e: Vec<f64> = self.y.iter().zip(&work.out).map(|(y, o)| y - o).collect();
-                let j = faer::MatRef::from_column_major_slice(&work.jac[..p * k_len], k_len, p);
-                let jtj = j.transpose() * j;
-                let jte = j.transpose() * faer::ColRef::from_slice(&e);
+                // JᵀJ and Jᵀe, column by column (a few dozen unknowns)
+                let col = |c: usize| &work.jac[c * k_len..(c + 1) * k_len];
                 for a in 0..p {
-                    gradient[a] = jte[a];
-                    for b in 0..p {
-                        normal[a * p + b] = jtj[(a, b)];
+                    gradient[a] = dot(col(a), &e);
+                    for b in 0..=a {
+                        let v = dot(col(a), col(b));
+                        normal[a * p + b] = v;
+                        normal[b * p + a] = v;
                     }
                 }
                 fresh = false;
@@ -790,6 +790,24 @@ impl<'a> Problem<'a> {
         out.offset = (offset != 0.0).then_some(offset);
         out
     }
+}
+
+/// `Σ a_k b_k` in four lanes (which the compiler keeps in registers).
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut lanes = [0.0; 4];
+    let (a4, b4) = (a.chunks_exact(4), b.chunks_exact(4));
+    let tail: f64 = a4
+        .remainder()
+        .iter()
+        .zip(b4.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    for (x, y) in a4.zip(b4) {
+        for l in 0..4 {
+            lanes[l] += x[l] * y[l];
+        }
+    }
+    (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]) + tail
 }
 
 /// Rounds of search and descent at most.

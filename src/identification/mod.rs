@@ -50,26 +50,42 @@
 //! never excited: their columns are zero. They keep weight 0 (which leaves the
 //! partial sums, and so (11), intact) and are named in the report.
 
+// the state estimate needs `std` alone (the C library has it); the rest
+// needs the `identification` feature (faer)
+#[cfg(feature = "identification")]
 pub mod delay;
+#[cfg(feature = "identification")]
 mod dynamics;
+#[cfg(feature = "identification")]
 mod identify;
 pub mod initial_state;
+#[cfg(feature = "identification")]
 mod plan;
+#[cfg(feature = "identification")]
 mod regressor;
+#[cfg(feature = "identification")]
 pub mod report;
 pub mod settings;
+#[cfg(feature = "identification")]
 mod solve;
+#[cfg(feature = "identification")]
 pub mod thresholds;
+#[cfg(feature = "identification")]
 pub mod validation;
 
+#[cfg(feature = "identification")]
 pub use delay::{
     search_delay, search_delay_records, validation_rms, DelayCriterion, DelayRow, DelaySearch,
     DelaySetting, Record, DEFAULT_MAX_DELAY,
 };
+#[cfg(feature = "identification")]
 pub use dynamics::{fit_dynamics, fit_dynamics_and_delay, DynamicsParts};
+#[cfg(feature = "identification")]
 pub use identify::{identify, identify_records, FitRecord, Identification};
 pub use initial_state::{estimate_state, StateEstimate, StateSettings};
+#[cfg(feature = "identification")]
 pub use plan::EPSILON_S;
+#[cfg(feature = "identification")]
 pub use report::{
     first_at_max, validate, ActiveConstraint, DynamicsReport, FitErrors, FitReport, RecordFit,
     UnexcitedOperator,
@@ -78,7 +94,9 @@ pub use settings::{
     holdout_samples, superposition_kinks, thresholds_23, IdentificationError,
     IdentificationSettings,
 };
+#[cfg(feature = "identification")]
 pub use solve::RANK_TOLERANCE;
+#[cfg(feature = "identification")]
 pub use validation::{
     check_record, dominant_rate, validate_record, validate_record_zeroed, FitStart, ValidationRow,
     ValidationTable, ZeroSegment,

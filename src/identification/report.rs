@@ -2,6 +2,7 @@
 //! fitted, held-out and validation samples, the active constraints, the rank
 //! and the operators the data do not determine — and its printout.
 
+pub(super) use super::settings::check_record_signals;
 use super::settings::IdentificationError;
 use super::solve::RANK_TOLERANCE;
 use crate::operators::model::HysteresisCreepModel;
@@ -324,29 +325,6 @@ impl std::fmt::Display for FitReport {
         }
         Ok(())
     }
-}
-
-pub(super) fn check_finite(signal: &'static str, x: &[f64]) -> Result<(), IdentificationError> {
-    match x.iter().position(|v| !v.is_finite()) {
-        Some(index) => Err(IdentificationError::NonFinite {
-            signal,
-            index,
-            value: x[index],
-        }),
-        None => Ok(()),
-    }
-}
-
-/// A record's input and output: one length, every sample finite.
-pub(super) fn check_record_signals(u: &[f64], y: &[f64]) -> Result<(), IdentificationError> {
-    if u.len() != y.len() {
-        return Err(IdentificationError::LengthMismatch {
-            u: u.len(),
-            y: y.len(),
-        });
-    }
-    check_finite("u", u)?;
-    check_finite("y", y)
 }
 
 /// The first sample at which `|v|` reaches `max|v|`.

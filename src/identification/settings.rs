@@ -235,6 +235,29 @@ pub fn holdout_samples(fraction: f64, samples: usize) -> Result<usize, Identific
     }
 }
 
+fn check_finite(signal: &'static str, x: &[f64]) -> Result<(), IdentificationError> {
+    match x.iter().position(|v| !v.is_finite()) {
+        Some(index) => Err(IdentificationError::NonFinite {
+            signal,
+            index,
+            value: x[index],
+        }),
+        None => Ok(()),
+    }
+}
+
+/// A record's input and output: one length, every sample finite.
+pub(super) fn check_record_signals(u: &[f64], y: &[f64]) -> Result<(), IdentificationError> {
+    if u.len() != y.len() {
+        return Err(IdentificationError::LengthMismatch {
+            u: u.len(),
+            y: y.len(),
+        });
+    }
+    check_finite("u", u)?;
+    check_finite("y", y)
+}
+
 /// Thresholds by (23): `r_i = (i · r_max) / (n + 1)`, `i = 0..n`, evaluated in
 /// that order so every implementation gets the same bits.
 pub fn thresholds_23(count: usize, r_max: f64) -> Vec<f64> {
