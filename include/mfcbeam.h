@@ -511,6 +511,44 @@ void mfcbeam_compensator_reset(struct MfcbeamCompensatorHandle *comp);
 void mfcbeam_compensator_free(struct MfcbeamCompensatorHandle *comp);
 #endif
 
+#if defined(MFCBEAM_STD)
+/**
+ * Estimate the memory a record starts in for the model file `model_json`:
+ * its play and creep states, the state of `G` and the offset, from the
+ * samples `0..until` of the record `u`, `y` (`len` samples each; `until`
+ * 0: all of them), its parameters kept. Returns the model file (JSON, to be
+ * released with `mfcbeam_string_free`) in the estimated state at the
+ * record's first sample, or with `state_at_end` nonzero after the window:
+ * where a compensator built from it goes on. NULL and the reason in `err`
+ * (at most `err_len` bytes) for a bad model, a NULL array, a non-finite
+ * sample or a window outside the record. Allocates; not for a control
+ * loop's step.
+ *
+ * # Safety
+ * `model_json` is NULL or NUL-terminated; `u` and `y` are NULL or have
+ * `len` readable doubles; `err` is NULL or has `err_len` writable bytes.
+ */
+char *mfcbeam_estimate_state(const char *model_json,
+                             const double *u,
+                             const double *y,
+                             size_t len,
+                             size_t until,
+                             int state_at_end,
+                             char *err,
+                             size_t err_len);
+#endif
+
+#if defined(MFCBEAM_STD)
+/**
+ * Release a string this library returned. Nothing for NULL.
+ *
+ * # Safety
+ * `text` is NULL or from this library (`mfcbeam_estimate_state`), freed
+ * once.
+ */
+void mfcbeam_string_free(char *text);
+#endif
+
 #ifdef __cplusplus
 }  // extern "C"
 #endif  // __cplusplus

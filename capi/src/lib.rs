@@ -14,6 +14,11 @@
 //!   operators); `mfcbeam_*_init` fills one from an `MfcbeamParameters` and
 //!   allocates nothing. `*_init_json` does the same from a model file.
 //!
+//! * **The memory a record starts in** (`mfcbeam_estimate_state`): the
+//!   model file with the play and creep states, the state of `G` and the
+//!   offset estimated from a record's first samples, as a string released
+//!   by `mfcbeam_string_free`.
+//!
 //! A compensator takes one sample per call (`mfcbeam_compensator_compensate`,
 //! `_f32`, `_f64`) or a whole signal (`mfcbeam_compensator_compensate_into`,
 //! `_f32_into`, `_f64_into`: the same values and flags, faster).
@@ -39,6 +44,8 @@ mod fixed;
 mod heap;
 mod parameters;
 mod run;
+#[cfg(feature = "std")]
+mod state;
 
 /// A panic cannot happen in the no_std build's code paths (every input is
 /// checked); should one, the target stops here rather than unwind into C.
@@ -57,3 +64,5 @@ pub use fixed::*;
 #[cfg(feature = "std")]
 pub use heap::*;
 pub use parameters::MfcbeamParameters;
+#[cfg(feature = "std")]
+pub use state::*;

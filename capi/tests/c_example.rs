@@ -3,7 +3,9 @@
 //! handles; `examples/c/mfcbeam_run.c`, linked against `libmfcbeam.a`,
 //! follows the file contract and goes through `mfcbeam conform` as a model
 //! and as a compensator, in `f64` (heap handles) and in `f32`
-//! (caller-owned storage, tolerances scaled by `ε₃₂/ε₆₄ = 2²⁹`).
+//! (caller-owned storage, tolerances scaled by `ε₃₂/ε₆₄ = 2²⁹`);
+//! `examples/c/start_up.c` starts a compensator from the memory
+//! `mfcbeam_estimate_state` estimates.
 //!
 //! A nested cargo builds the static library and makes sure the `mfcbeam`
 //! binary is the one `cargo test --workspace` builds (a `cargo build` of the
@@ -42,9 +44,9 @@ fn cargo_build(args: &[&str]) {
 }
 
 /// Compile the C examples once: (mfcbeam_run, api_errors, no_heap,
-/// old_names).
-fn programs() -> &'static (PathBuf, PathBuf, PathBuf, PathBuf) {
-    static BUILT: OnceLock<(PathBuf, PathBuf, PathBuf, PathBuf)> = OnceLock::new();
+/// old_names, start_up).
+fn programs() -> &'static (PathBuf, PathBuf, PathBuf, PathBuf, PathBuf) {
+    static BUILT: OnceLock<(PathBuf, PathBuf, PathBuf, PathBuf, PathBuf)> = OnceLock::new();
     BUILT.get_or_init(|| {
         // the program and the static library as `cargo test --workspace`
         // built them: no rebuild. A test's dependencies are built with all
@@ -90,8 +92,17 @@ fn programs() -> &'static (PathBuf, PathBuf, PathBuf, PathBuf) {
             build("no_heap", &["-DMFCBEAM_NO_STD"]),
             // the deprecated names warn, and still build
             build("old_names", &["-Wno-error=deprecated-declarations"]),
+            build("start_up", &[]),
         )
     })
+}
+
+#[test]
+fn a_compensator_starts_up_from_an_estimated_memory() {
+    let out = Command::new(&programs().4).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(text.trim_end().ends_with("ok"), "{text}");
 }
 
 #[test]

@@ -1,6 +1,7 @@
 /*
  * The C API refuses bad input cleanly: malformed JSON, inadmissible
- * parameters, bad limits, NULL and uninitialised handles, capacity. Each
+ * parameters, bad limits, NULL and uninitialised handles, capacity, a
+ * state estimate's bad record. Each
  * check prints one line; the exit code is the number of failed checks.
  *
  *     cc -I include -o api_errors examples/c/api_errors.c \
@@ -235,6 +236,27 @@ int main(void) {
     err[0] = 0;
     check(mfcbeam_compensator_f64_init_json(&comp64, "{", -1.0, 1.0, err, sizeof err) == -1, "storage from bad JSON",
           err);
+
+    /* the state estimate: NULL and the reason */
+    double su[4] = {0.0, 50.0, 150.0, 60.0}, sy[4] = {0.0, 25.0, 80.0, 40.0};
+    err[0] = 0;
+    char *state = mfcbeam_estimate_state(NULL, su, sy, 4, 0, 0, err, sizeof err);
+    check(!state && strstr(err, "NULL"), "estimate from NULL JSON", err);
+    err[0] = 0;
+    state = mfcbeam_estimate_state(GOOD, su, NULL, 4, 0, 0, err, sizeof err);
+    check(!state && strstr(err, "y: NULL"), "estimate on a NULL output", err);
+    err[0] = 0;
+    state = mfcbeam_estimate_state(GOOD, su, sy, 4, 9, 0, err, sizeof err);
+    check(!state && strstr(err, "until"), "estimation window beyond the record", err);
+    su[2] = NAN;
+    err[0] = 0;
+    state = mfcbeam_estimate_state(GOOD, su, sy, 4, 0, 0, err, sizeof err);
+    check(!state && strstr(err, "finite"), "estimate on a NaN input", err);
+    su[2] = 150.0;
+    state = mfcbeam_estimate_state(GOOD, su, sy, 4, 0, 1, err, sizeof err);
+    check(state && strstr(state, "\"state\""), "estimate on a good record", state ? NULL : err);
+    mfcbeam_string_free(state);
+    mfcbeam_string_free(NULL);
 
     printf("%d failed\n", failed);
     return failed;

@@ -7,7 +7,9 @@
 #   - examples/c/mfcbeam_run.c through `mfcbeam conform` as a model and a
 #     compensator: in f64 linked statically, in f32 (at f32 tolerances)
 #     against the shared library (the DLL with its import library);
-#   - the independent C candidate (examples/conformance/c/candidate.c).
+#   - the independent C candidate (examples/conformance/c/candidate.c);
+#   - examples/c/start_up.c: a compensator started from the memory
+#     mfcbeam_estimate_state estimates.
 #
 #   verification/platforms/c_api.sh CLI WORK [CASES]
 # WORK holds the wine prefix of verification/platforms/run.py.
@@ -62,6 +64,8 @@ for platform in x86_64-windows aarch64-linux; do
   "$cc" "${flags[@]}" -D_POSIX_C_SOURCE=200809L -o "$out/api_errors$exe" \
     "$root/examples/c/api_errors.c" "$lib/libmfcbeam.a" "${static_libs[@]}"
   "$cc" -O2 -o "$out/candidate$exe" "$root/examples/conformance/c/candidate.c" -lm
+  "$cc" "${flags[@]}" -o "$out/start_up$exe" "$root/examples/c/start_up.c" "$lib/libmfcbeam.a" \
+    "${static_libs[@]}"
 
   report="$("${run[@]}" "$out/api_errors$exe" | tr -d '\r')"
   if ! grep -q "0 failed$" <<<"$report" || grep -q FAILED <<<"$report"; then
@@ -70,6 +74,13 @@ for platform in x86_64-windows aarch64-linux; do
     exit 1
   fi
   echo "$platform: api_errors: $(grep -c '^ok: ' <<<"$report") checks, $(tail -n 1 <<<"$report")"
+  report="$("${run[@]}" "$out/start_up$exe" | tr -d '\r')"
+  if [ "$(tail -n 1 <<<"$report")" != ok ]; then
+    echo "$report" >&2
+    echo "c_api.sh: start_up failed on $platform" >&2
+    exit 1
+  fi
+  echo "$platform: start_up: $(head -n 1 <<<"$report")"
   for pair in model:simulate compensator:compensate; do
     kind="${pair%%:*}" command="${pair#*:}"
     conform "$kind" "${run[*]} $out/mfcbeam_run$exe $command"
