@@ -210,6 +210,30 @@ def identify(
     `validate_zero=(a, b)`: each validation record's offset estimated on its
     samples a..b); returns the model and the fit report."""
 
+class StateReport(TypedDict):
+    window: int
+    rms: float
+    prior_rms: float
+    offset: float
+    unwiped: List[int]
+    iterations: int
+
+def estimate_state(
+    model: Model,
+    u: ArrayLike,
+    y: ArrayLike,
+    *,
+    until: Optional[int] = None,
+    state_at: str = "start",
+    fit_offset: bool = True,
+    fit_creep: bool = True,
+    fit_dynamics: bool = True,
+) -> Tuple[Model, StateReport]:
+    """Estimate the memory the record (u, y) starts in for `model` (play and
+    creep states, the state of G, the offset) from its samples before
+    `until`; returns the model in that state (`state_at="end"`: after the
+    window) and the report."""
+
 class Modes(TypedDict):
     frequencies_hz: FloatArray
     damping_ratios: FloatArray

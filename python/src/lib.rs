@@ -12,6 +12,7 @@ mod arrays;
 mod beam;
 mod identify;
 mod model;
+mod state;
 
 /// Prandtl–Ishlinskii hysteresis and creep operators, their analytic inverse
 /// (the compensator), identification from measurements, the MFC-driven
@@ -23,6 +24,7 @@ fn _mfcbeam(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<model::Compensator>()?;
     m.add_class::<beam::Beam>()?;
     m.add_function(wrap_pyfunction!(identify::identify, m)?)?;
+    m.add_function(wrap_pyfunction!(state::estimate_state, m)?)?;
     m.add_function(wrap_pyfunction!(beam::feedforward, m)?)?;
     Ok(())
 }

@@ -132,6 +132,50 @@ def test_plant_equals_cli(cli, fmus, tmp_path, version):
     assert np.abs(res["z_re_1"]).max() > 0.0
 
 
+def write_csv(path, columns):
+    keys = list(columns)
+    with open(path, "w") as f:
+        f.write(",".join(keys) + "\n")
+        for row in zip(*(columns[k] for k in keys)):
+            f.write(",".join(repr(float(v)) for v in row) + "\n")
+
+
+@pytest.mark.parametrize("version", ["2", "3"])
+def test_a_compensator_fmu_starts_in_an_estimated_memory(cli, tmp_path, version):
+    # the nominal model after a past (up to 900 V and back), then a record:
+    # 0.4 s held at 0 V and a 2 Hz sine of 300 V
+    past = 900.0 * (1.0 - np.abs(np.arange(4001) - 2000.0) / 2000.0)
+    t = np.arange(7000) * TS - 0.4
+    record = np.where(t < 0.0, 0.0, 300.0 * np.sin(2.0 * np.pi * 2.0 * t))
+    u = np.concatenate([past, record])
+    write_csv(tmp_path / "u.csv", {"t": np.arange(len(u)) * TS, "u": u})
+    model = ROOT / "golden" / "nominal_model.json"
+    run(cli, "simulate", "--model", model, "--input", tmp_path / "u.csv", "--output", tmp_path / "y.csv")
+    y = read_csv(tmp_path / "y.csv")["y"][len(past):]
+    write_csv(tmp_path / "record.csv", {"t": np.arange(len(record)) * TS, "u": record, "y": y})
+    # the memory after the hold and the sine's first period, estimated
+    window = 4500
+    run(cli, "estimate-state", "--model", model, "--input", tmp_path / "record.csv",
+        "--until", window, "--state-at", "end", "--output", tmp_path / "end.json")
+    # targets: the model in that state on the rest of the record; the
+    # compensator FMU built from the same file gives the voltages back
+    rest = record[window:]
+    write_csv(tmp_path / "rest.csv", {"t": np.arange(len(rest)) * TS, "u": rest})
+    run(cli, "simulate", "--model", tmp_path / "end.json", "--input", tmp_path / "rest.csv",
+        "--output", tmp_path / "targets.csv")
+    targets = read_csv(tmp_path / "targets.csv")
+    fmu = tmp_path / f"compensator{version}.fmu"
+    run(cli, "fmu", "--kind", "compensator", "--model", tmp_path / "end.json", "--fmi", version,
+        "--output", fmu)
+    res = simulate(fmu, fmpy_input({"y_d": targets["y"]}, "y_d"), ["u", "saturated", "fault"])
+    # W⁻¹∘W = id to rounding: a thousand roundings of the voltages' size
+    assert np.abs(res["u"][1:] - rest).max() <= 1e3 * np.finfo(float).eps * 900.0
+    assert not res["saturated"].any() and not res["fault"].any()
+    # and the estimate was worth making: the record's own output after the
+    # window is the model's from there
+    assert np.abs(targets["y"] - y[window:]).max() < 0.05
+
+
 def test_delay_is_a_calculated_parameter(cli, tmp_path):
     """With a dead time the compensator FMU reports d, inverts the memory
     part, and the target previewed by d gives the command line's output."""
