@@ -1744,3 +1744,77 @@ fn estimate_state_error_contract() {
     let run = on_files("estimate-state", s(&no_y), s(&record), s(&out), &[]);
     assert_clean_failure(&run, &["no_y.csv"], Some(&out));
 }
+
+#[test]
+fn identify_scores_a_record_with_a_past_after_its_estimated_state() {
+    let d = TempDir::new("validate-state");
+    let (sig, data, model) = (d.path("sig.csv"), d.path("data.csv"), d.path("m.json"));
+    let record = d.path("record.csv");
+    record_with_a_past(&record);
+    let ok = |out: &Output| {
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        )
+    };
+    ok(&mfcbeam(&[
+        "signal",
+        "--periods",
+        "4",
+        "--amplitude",
+        "1000",
+        "--plateau",
+        "0.1",
+        "--output",
+        s(&sig),
+    ]));
+    ok(&on_files("simulate", MODEL, s(&sig), s(&data), &[]));
+    // the validation row of record.csv: (from, rms)
+    let row = |extra: &[&str]| -> (usize, f64) {
+        let mut args = vec![
+            "identify",
+            "--input",
+            s(&data),
+            "--output",
+            s(&model),
+            "--validate",
+            s(&record),
+        ];
+        args.extend_from_slice(extra);
+        let out = mfcbeam(&args);
+        ok(&out);
+        let report = String::from_utf8_lossy(&out.stderr).to_string();
+        let line = report
+            .lines()
+            .find(|l| l.starts_with(s(&record)))
+            .unwrap_or_else(|| panic!("no row for the record: {report}"));
+        let cells: Vec<&str> = line[s(&record).len()..].split_whitespace().collect();
+        (cells[0].parse().unwrap(), cells[2].parse().unwrap())
+    };
+    let (from, virgin) = row(&[]);
+    let (from_estimated, estimated) = row(&["--validate-state-until", "0.9s"]);
+    // scored from the end of the window, and the memory no longer counts
+    // against the model: the identified model is the nominal one to its
+    // rounding, so what is left is the estimate's
+    assert_eq!(from_estimated, 4500);
+    assert!(from < 4500, "{from}");
+    assert!(virgin > 1.0, "{virgin}");
+    assert!(estimated < 1e-2 * virgin, "{estimated} against {virgin}");
+    let bad = mfcbeam(&[
+        "identify",
+        "--input",
+        s(&data),
+        "--output",
+        s(&d.path("m2.json")),
+        "--validate",
+        s(&record),
+        "--validate-state-until",
+        "99s",
+    ]);
+    assert_clean_failure(
+        &bad,
+        &["--validate-state-until", "record.csv"],
+        Some(&d.path("m2.json")),
+    );
+}

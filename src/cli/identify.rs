@@ -5,6 +5,7 @@
 
 use anyhow::{anyhow, bail, Context, Result};
 
+use mfcbeam::identification::validate_record_from_state;
 use mfcbeam::identification::{
     check_record, dominant_rate, fit_dynamics_and_delay, holdout_samples, identify_records,
     search_delay_records, DelaySetting, FitRecord, FitStart, IdentificationSettings, Record,
@@ -206,11 +207,14 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
                 let estimate = estimate(&file, r.u, r.y, until, &StateSettings::default())
                     .map_err(|e| anyhow!("--validate-state-until: {}: {e}", r.name))?;
                 let model = HysteresisCreepModel::from_file(&estimate.model)?;
-                let scored = Record {
-                    from: r.from.max(until),
-                    ..r.clone()
-                };
-                rows.push(scored.row(&model)?);
+                rows.push(validate_record_from_state(
+                    &model,
+                    r.name,
+                    r.u,
+                    r.y,
+                    r.from.max(until),
+                    r.zero.clone(),
+                )?);
             }
         }
     }

@@ -102,13 +102,15 @@ impl StateSettings {
 /// The estimated memory of a record.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StateEstimate {
-    /// The model in the estimated state at the record's first sample (play
-    /// and creep states, offset; `G` and the dead time at rest on it).
+    /// The model in the estimated state at the record's first sample: the
+    /// play and creep states, the state of `G` and the offset (the dead
+    /// time fills with its first output, as a model not started does).
     pub model: ModelFile,
     /// Samples of the window.
     pub window: usize,
-    /// RMS error over the window from the prior state (offset fitted
-    /// alike) and from the estimate.
+    /// RMS error over the window from the prior (the model's own states,
+    /// moved into the first input's band, and its offset) and from the
+    /// estimate.
     pub prior_rms: f64,
     pub rms: f64,
     /// Plays whose memory the window did not wipe out, by index: their

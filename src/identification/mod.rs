@@ -98,6 +98,6 @@ pub use settings::{
 pub use solve::RANK_TOLERANCE;
 #[cfg(feature = "identification")]
 pub use validation::{
-    check_record, dominant_rate, validate_record, validate_record_zeroed, FitStart, ValidationRow,
-    ValidationTable, ZeroSegment,
+    check_record, dominant_rate, validate_record, validate_record_from_state,
+    validate_record_zeroed, FitStart, ValidationRow, ValidationTable, ZeroSegment,
 };

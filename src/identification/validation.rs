@@ -148,17 +148,9 @@ pub fn validate_record(
     y: &[f64],
     from: usize,
 ) -> Result<ValidationRow, IdentificationError> {
-    check_record(name, u, y, from)?;
-    let mut m = model.clone();
-    m.reset();
-    let fit = m.run(u);
-    Ok(ValidationRow {
-        name: name.to_string(),
-        from,
-        errors: FitErrors::of(&fit, y, from..u.len()),
-        rate: dominant_rate(u, model.sample_time()),
-        zeroed: None,
-    })
+    let mut virgin = model.clone();
+    virgin.reset();
+    validate_record_from_state(&virgin, name, u, y, from, None)
 }
 
 /// [`validate_record`], and the errors with the record's constant offset
@@ -171,23 +163,50 @@ pub fn validate_record_zeroed(
     from: usize,
     zero: std::ops::Range<usize>,
 ) -> Result<ValidationRow, IdentificationError> {
-    let mut row = validate_record(model, name, u, y, from)?;
-    if zero.is_empty() || zero.end > u.len() {
-        return Err(IdentificationError::InvalidSetting {
-            field: "validate_zero",
-            reason: format!(
-                "{name}: samples {}..{} are not inside its {} samples",
-                zero.start,
-                zero.end,
-                u.len()
-            ),
-        });
+    let mut virgin = model.clone();
+    virgin.reset();
+    validate_record_from_state(&virgin, name, u, y, from, Some(zero))
+}
+
+/// The validation row of `model` run from its own state, not the virgin
+/// one: a record whose starting memory was estimated
+/// ([`super::initial_state`]). Zeroed on `zero` when given, as
+/// [`validate_record_zeroed`].
+pub fn validate_record_from_state(
+    model: &HysteresisCreepModel,
+    name: &str,
+    u: &[f64],
+    y: &[f64],
+    from: usize,
+    zero: Option<std::ops::Range<usize>>,
+) -> Result<ValidationRow, IdentificationError> {
+    check_record(name, u, y, from)?;
+    if let Some(zero) = &zero {
+        if zero.is_empty() || zero.end > u.len() {
+            return Err(IdentificationError::InvalidSetting {
+                field: "validate_zero",
+                reason: format!(
+                    "{name}: samples {}..{} are not inside its {} samples",
+                    zero.start,
+                    zero.end,
+                    u.len()
+                ),
+            });
+        }
     }
     let fit = model.clone().run(u);
-    let offset = zero.clone().map(|k| y[k] - fit[k]).sum::<f64>() / zero.len() as f64;
-    let shifted: Vec<f64> = fit.iter().map(|f| f + offset).collect();
-    row.zeroed = Some((offset, FitErrors::of(&shifted, y, from..u.len())));
-    Ok(row)
+    let zeroed = zero.map(|zero| {
+        let offset = zero.clone().map(|k| y[k] - fit[k]).sum::<f64>() / zero.len() as f64;
+        let shifted: Vec<f64> = fit.iter().map(|f| f + offset).collect();
+        (offset, FitErrors::of(&shifted, y, from..u.len()))
+    });
+    Ok(ValidationRow {
+        name: name.to_string(),
+        from,
+        errors: FitErrors::of(&fit, y, from..u.len()),
+        rate: dominant_rate(u, model.sample_time()),
+        zeroed,
+    })
 }
 
 /// A record fit to validate on: `u` and `y` of one length, finite, and
