@@ -370,8 +370,13 @@ pub(super) fn estimate_state(a: &EstimateStateArgs) -> Result<()> {
         "window               samples 0..{until} ({:.6} s) of {name}",
         until as f64 * file.sample_time
     );
+    let limit = if estimate.iterations >= settings.max_iterations {
+        " (the limit: the error was still falling)"
+    } else {
+        ""
+    };
     eprintln!(
-        "error rms            {:.6e} in the window ({:.6e} from the prior state); {} steps",
+        "error rms            {:.6e} in the window ({:.6e} from the prior state); {} steps{limit}",
         estimate.rms, estimate.prior_rms, estimate.iterations
     );
     eprintln!(
