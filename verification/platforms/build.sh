@@ -21,5 +21,8 @@ export WINEPREFIX="$(realpath "$out")/wine" WINEDEBUG=-all WINEDLLOVERRIDES="msc
 wine="$(command -v wine64 || command -v wine || echo /usr/lib/wine/wine64)"
 if [ ! -d "$WINEPREFIX/drive_c/windows/system32" ]; then
   "$wine" wineboot --init >"$out/wineboot.log" 2>&1
+  # until its server has written the new prefix out and exited: a server
+  # killed now leaves a prefix that hangs the next client
+  "$(command -v wineserver || echo /usr/lib/wine/wineserver)" -w
 fi
 cp "$out/bcryptprimitives.dll" "$WINEPREFIX/drive_c/windows/system32/"
