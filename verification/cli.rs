@@ -369,6 +369,32 @@ fn an_existing_output_file_survives_a_failed_run() {
     assert_eq!(fs::read_to_string(&output).unwrap(), "previous content\n");
 }
 
+/// The paper's identification input (`signal`, 4 shrinking periods of
+/// 1000 V) at `sig` and the nominal model's noise-free output on it at
+/// `data`.
+fn nominal_record(sig: &Path, data: &Path) {
+    for out in [
+        mfcbeam(&[
+            "signal",
+            "--periods",
+            "4",
+            "--amplitude",
+            "1000",
+            "--plateau",
+            "0.1",
+            "--output",
+            s(sig),
+        ]),
+        on_files("simulate", MODEL, s(sig), s(data), &[]),
+    ] {
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}
+
 #[test]
 fn identify_round_trip_recovers_a_model_that_compensates() {
     let d = TempDir::new("identify");
@@ -382,18 +408,7 @@ fn identify_round_trip_recovers_a_model_that_compensates() {
             String::from_utf8_lossy(&out.stderr)
         )
     };
-    ok(mfcbeam(&[
-        "signal",
-        "--periods",
-        "4",
-        "--amplitude",
-        "1000",
-        "--plateau",
-        "0.1",
-        "--output",
-        s(&sig),
-    ]));
-    ok(on_files("simulate", MODEL, s(&sig), s(&data), &[]));
+    nominal_record(&sig, &data);
     let out = mfcbeam(&["identify", "--input", s(&data), "--output", s(&model)]);
     ok(out.clone());
     let report = String::from_utf8_lossy(&out.stderr);
@@ -1758,18 +1773,7 @@ fn identify_scores_a_record_with_a_past_after_its_estimated_state() {
             String::from_utf8_lossy(&out.stderr)
         )
     };
-    ok(&mfcbeam(&[
-        "signal",
-        "--periods",
-        "4",
-        "--amplitude",
-        "1000",
-        "--plateau",
-        "0.1",
-        "--output",
-        s(&sig),
-    ]));
-    ok(&on_files("simulate", MODEL, s(&sig), s(&data), &[]));
+    nominal_record(&sig, &data);
     // the validation row of record.csv: (from, rms)
     let row = |extra: &[&str]| -> (usize, f64) {
         let mut args = vec![

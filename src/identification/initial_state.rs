@@ -1010,12 +1010,19 @@ mod tests {
         f
     }
 
+    /// The full model after a history, a walk of `len` samples to run it
+    /// on, and the model built from the file.
+    fn case(seed: u64, len: usize) -> (ModelFile, Vec<f64>, HysteresisCreepModel) {
+        let mut rng = Rng::new(seed);
+        let file = after_history(&full_model(), &mut rng);
+        let u = walk(&mut rng, len, 900.0);
+        let model = HysteresisCreepModel::from_file(&file).unwrap();
+        (file, u, model)
+    }
+
     #[test]
     fn the_simulation_is_the_model_from_the_same_state() {
-        let mut rng = Rng::new(7);
-        let file = after_history(&full_model(), &mut rng);
-        let u = walk(&mut rng, 2000, 900.0);
-        let model = HysteresisCreepModel::from_file(&file).unwrap();
+        let (file, u, model) = case(7, 2000);
         let p = Problem::new(&model, &file, &u, &u, &StateSettings::default());
         let theta = p.start(&model);
         let mut work = Work::new(&p, false);
@@ -1037,10 +1044,7 @@ mod tests {
 
     #[test]
     fn the_derivatives_are_the_difference_quotients() {
-        let mut rng = Rng::new(11);
-        let file = after_history(&full_model(), &mut rng);
-        let u = walk(&mut rng, 1500, 900.0);
-        let model = HysteresisCreepModel::from_file(&file).unwrap();
+        let (file, u, model) = case(11, 1500);
         let p = Problem::new(&model, &file, &u, &u, &StateSettings::default());
         let mut theta = p.start(&model);
         // away from the bounds, where both sides' quotients exist
