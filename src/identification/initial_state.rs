@@ -42,10 +42,11 @@
 //! output level asks: [`StateEstimate::unwiped`] names those plays.
 
 use super::settings::{check_record_signals, IdentificationError};
+use crate::operators::heap::Heap;
 use crate::operators::model::{HysteresisCreepModel, ModelFile};
 use crate::operators::play::play;
 use crate::realtime::creep::creep_gain;
-use crate::realtime::{Dynamics, DynamicsParameters};
+use crate::realtime::{Dynamics, DynamicsParameters, Superposition};
 
 /// What [`estimate_state`] estimates, and from which samples.
 #[derive(Debug, Clone, PartialEq)]
@@ -176,9 +177,8 @@ struct Problem<'a> {
     creep_r: Vec<f64>,
     creep_w: Vec<f64>,
     gains: Vec<f64>,
-    /// superposition thresholds and weights (empty: identity)
-    s_r: Vec<f64>,
-    s_w: Vec<f64>,
+    /// `S` (none: the identity)
+    superposition: Option<Superposition<f64, Heap>>,
     dynamics: Option<(DynamicsParameters, f64)>,
     delay: usize,
     /// unknowns: `d_1..d_{n−1}`, then the creep states, the deviation of
@@ -251,10 +251,7 @@ impl<'a> Problem<'a> {
             }
             None => (Vec::new(), Vec::new(), Vec::new()),
         };
-        let (s_r, s_w) = match model.superposition() {
-            Some(s) => (s.thresholds().to_vec(), s.weights().to_vec()),
-            None => (Vec::new(), Vec::new()),
-        };
+
         let fit_creep = settings.fit_creep && !creep_r.is_empty();
         let dynamics_len = match model.dynamics() {
             Some(g) if settings.fit_dynamics => g.state_len(),
@@ -301,8 +298,7 @@ impl<'a> Problem<'a> {
             creep_r,
             creep_w,
             gains,
-            s_r,
-            s_w,
+            superposition: model.superposition().cloned(),
             dynamics: model
                 .dynamics()
                 .map(|g| (*g.parameters(), model.sample_time())),
@@ -547,32 +543,17 @@ impl<'a> Problem<'a> {
     }
 
     fn s_apply(&self, z: f64) -> f64 {
-        if self.s_r.is_empty() {
-            return z;
-        }
-        self.s_r
-            .iter()
-            .zip(&self.s_w)
-            .map(|(&r, &w)| {
-                w * if r == 0.0 {
-                    z
-                } else if r > 0.0 {
-                    (z - r).max(0.0)
-                } else {
-                    (z - r).min(0.0)
-                }
-            })
-            .sum()
+        self.superposition.as_ref().map_or(z, |s| s.apply(z))
     }
 
     /// The slope of `S` at `z` (its right-hand one at a kink).
     fn s_slope(&self, z: f64) -> f64 {
-        if self.s_r.is_empty() {
+        let Some(s) = &self.superposition else {
             return 1.0;
-        }
-        self.s_r
+        };
+        s.thresholds()
             .iter()
-            .zip(&self.s_w)
+            .zip(s.weights())
             .filter(|&(&r, _)| r == 0.0 || (r > 0.0 && z >= r) || (r < 0.0 && z < r))
             .map(|(_, &w)| w)
             .sum()
