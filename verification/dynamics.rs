@@ -10,6 +10,7 @@ use mfcbeam::identification::{
     fit_dynamics, identify_records, validate_record_zeroed, DynamicsParts, FitRecord,
     IdentificationSettings,
 };
+use mfcbeam::operators::bank::Par;
 use mfcbeam::operators::model::{DynamicsData, LowPassData, ResonanceData};
 use mfcbeam::prelude::*;
 use mfcbeam::realtime::Model;
@@ -261,7 +262,13 @@ fn dynamics_and_offsets_come_back_from_two_rates() {
         resonance: true,
         delay_fraction: true,
     };
-    let id = fit_dynamics(&records, TS, &settings, parts).unwrap();
+    let id = fit_dynamics(&records, TS, &settings, parts, Par::Seq).unwrap();
+    // the trials side by side: the same model, bit for bit
+    let side_by_side = fit_dynamics(&records, TS, &settings, parts, Par::rayon(2)).unwrap();
+    assert_eq!(
+        serde_json::to_string(&id.model.to_file()).unwrap(),
+        serde_json::to_string(&side_by_side.model.to_file()).unwrap()
+    );
     let g = id.report.dynamics.as_ref().unwrap();
     eprintln!("{g:?}");
     let (r, rt) = (g.parameters.resonance.unwrap(), g_true.resonance.unwrap());
@@ -304,7 +311,7 @@ fn a_part_the_records_do_not_excite_is_reported_not_guessed() {
         resonance: true,
         ..DynamicsParts::default()
     };
-    match fit_dynamics(&records, TS, &settings, parts) {
+    match fit_dynamics(&records, TS, &settings, parts, Par::Seq) {
         Err(e) => assert!(
             e.to_string().contains("not determined") || e.to_string().contains("show no such"),
             "{e}"
@@ -384,7 +391,7 @@ fn with_noise_the_dynamics_lie_within_their_standard_errors() {
         delay_fraction: true,
         ..DynamicsParts::default()
     };
-    let id = fit_dynamics(&records, TS, &settings, parts).unwrap();
+    let id = fit_dynamics(&records, TS, &settings, parts, Par::Seq).unwrap();
     let g = id.report.dynamics.as_ref().unwrap();
     eprintln!("{g:?}");
     let r = g.parameters.resonance.unwrap();

@@ -11,6 +11,7 @@ use mfcbeam::identification::{
     IdentificationError, IdentificationSettings, Record, UnexcitedOperator,
 };
 use mfcbeam::io::TimeAxis;
+use mfcbeam::operators::bank::Par;
 
 use crate::arrays::{optional_signal, signal, value_error};
 use crate::model::Model;
@@ -297,7 +298,8 @@ pub fn identify<'py>(
                     delay: id.report.delay,
                     ..settings.clone()
                 };
-                id = fit_dynamics_and_delay(&fit_records, ts, &s, parts, &records)?;
+                // on this thread: the package leaves threads to its caller
+                id = fit_dynamics_and_delay(&fit_records, ts, &s, parts, &records, Par::Seq)?;
             }
             let mut validated = Vec::new();
             for r in &records {

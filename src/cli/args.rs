@@ -212,6 +212,11 @@ pub struct IdentifyArgs {
     /// sample to the preview).
     #[arg(long, value_name = "PARTS", default_value = "none")]
     pub dynamics: DynamicsParts,
+    /// Threads of the --dynamics search (its trials run side by side; the
+    /// model does not depend on the count): 0 for one per core, 1 for this
+    /// thread alone.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub threads: usize,
     /// Where the play thresholds go: `uniform` (23) or `reversals` (half by
     /// (23), half at the quantiles of the half-amplitudes of the input's
     /// reversals: records of small loops get plays that move in them).

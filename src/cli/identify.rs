@@ -12,6 +12,7 @@ use mfcbeam::identification::{
     StateEstimate, StateSettings, ValidationRow, ValidationTable,
 };
 use mfcbeam::io::{read_model_file, write_json, Trace};
+use mfcbeam::operators::bank::Par;
 use mfcbeam::operators::model::{HysteresisCreepModel, ModelFile};
 use mfcbeam::operators::traits::Operator;
 
@@ -185,15 +186,22 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
             delay: id.report.delay,
             ..settings.clone()
         };
-        id = fit_dynamics_and_delay(&fit_records, ts, &s, a.dynamics, &records).map_err(
-            |e| match e {
-                mfcbeam::identification::IdentificationError::InvalidSetting {
-                    field: "dynamics",
-                    reason,
-                } => anyhow!("--dynamics: {reason}"),
-                e => name_of(e),
-            },
-        )?;
+        let search = |par| fit_dynamics_and_delay(&fit_records, ts, &s, a.dynamics, &records, par);
+        let fit = match a.threads {
+            1 => search(Par::Seq),
+            n => rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .map_err(|e| anyhow!("--threads {n}: {e}"))?
+                .install(|| search(Par::rayon(0))),
+        };
+        id = fit.map_err(|e| match e {
+            mfcbeam::identification::IdentificationError::InvalidSetting {
+                field: "dynamics",
+                reason,
+            } => anyhow!("--dynamics: {reason}"),
+            e => name_of(e),
+        })?;
     }
     let mut rows = Vec::new();
     for r in &records {

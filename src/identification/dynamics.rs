@@ -14,11 +14,19 @@
 //! The standard errors follow from the Jacobian at the optimum; a part the
 //! records do not determine (a singular or ill-conditioned Jacobian, or a
 //! relative standard error above 1/2) is reported as an error, not guessed.
+//!
+//! Every trial of `G` is a whole fit of the weights, so the search shares
+//! what `G` does not change: the play and creep columns of the regressor,
+//! computed once per dead time and filtered by each trial's `G` (a linear
+//! filter of each column). The trials of a grid, the columns of a
+//! difference Jacobian, the two starts and the dead times are independent:
+//! they run side by side as the call's [`Par`] allows, and the fitted model
+//! is the same bits with any.
 
-use super::identify::{identify_records, FitRecord, Identification};
+use super::identify::{identify_records_with, FitRecord, Identification, SharedColumns};
 use super::report::DynamicsReport;
 use super::settings::{IdentificationError, IdentificationSettings};
-use crate::operators::traits::Operator;
+use crate::operators::bank::Par;
 use crate::realtime::{DynamicsParameters, Resonance};
 
 /// Which parts of `G` to fit.
@@ -64,6 +72,15 @@ impl DynamicsParts {
 const MAX_RESONANCE: f64 = 0.49;
 /// Levenberg–Marquardt steps at most.
 const MAX_ITERATIONS: usize = 60;
+
+/// A step that lowers the sum of squares by less than this fraction of the
+/// residual variance `σ̂² = ss/N` ends the descent. Near the optimum a move
+/// of `t` standard errors changes the sum by `t² σ̂²`, so such a step moves
+/// the parameters by about a hundredth of their standard errors. Without
+/// noise `σ̂²` shrinks with the error and the descent runs to rounding; a
+/// delay fraction pressed against its bound (whose coordinate only grows)
+/// stops here rather than at [`MAX_ITERATIONS`].
+const STALL: f64 = 1e-4;
 
 /// The largest delay fraction: the zero of `N` at `−τ/(1 − τ)` stays
 /// inside `|z| ≤ 0.96`.
@@ -113,29 +130,46 @@ fn coordinates(lp: Option<f64>, res: Option<(f64, f64)>, fraction: Option<f64>) 
     x
 }
 
-/// The output errors of the model fitted with `G` on every record's fitted
-/// samples (each with its own offset), one after another.
-fn residual(
-    records: &[FitRecord<'_>],
+/// A search over `G` at one dead time: the records, and the operators'
+/// columns every trial shares (`G` filters them, it does not change them).
+struct Search<'a> {
+    records: &'a [FitRecord<'a>],
     sample_time: f64,
-    settings: &IdentificationSettings,
-    g: Option<DynamicsParameters>,
-) -> Result<(Identification, Vec<f64>), IdentificationError> {
-    let s = IdentificationSettings {
-        dynamics: g,
-        ..settings.clone()
-    };
-    let id = identify_records(records, sample_time, &s)?;
-    let mut r = Vec::new();
-    for (index, rec) in records.iter().enumerate() {
-        let (fitted, offset) = match id.report.records.get(index) {
-            Some(f) => (f.fitted.clone(), f.offset),
-            None => (id.report.fitted.clone(), id.model.offset()),
+    settings: &'a IdentificationSettings,
+    parts: DynamicsParts,
+    columns: SharedColumns,
+    par: Par,
+}
+
+impl Search<'_> {
+    /// The model fitted with `G` and its output errors on every record's
+    /// fitted samples (each with its own offset), one after another.
+    fn residual(
+        &self,
+        g: Option<DynamicsParameters>,
+    ) -> Result<(Identification, Vec<f64>), IdentificationError> {
+        let s = IdentificationSettings {
+            dynamics: g,
+            ..self.settings.clone()
         };
-        let fit = id.model.clone().with_offset(offset)?.run(rec.u);
-        r.extend(fitted.map(|k| fit[k] - rec.y[k]));
+        let columns = g.is_some().then_some(&self.columns);
+        let (id, fits) = identify_records_with(self.records, self.sample_time, &s, columns)?;
+        let mut r = Vec::new();
+        for (index, (rec, fit)) in self.records.iter().zip(&fits).enumerate() {
+            let fitted = match id.report.records.get(index) {
+                Some(f) => f.fitted.clone(),
+                None => id.report.fitted.clone(),
+            };
+            r.extend(fitted.map(|k| fit[k] - rec.y[k]));
+        }
+        Ok((id, r))
     }
-    Ok((id, r))
+
+    /// The output errors at the coordinates `x`.
+    fn residual_at(&self, x: &[f64]) -> Result<Vec<f64>, IdentificationError> {
+        let fs = 1.0 / self.sample_time;
+        Ok(self.residual(Some(parameters(self.parts, x, fs)))?.1)
+    }
 }
 
 fn sum_squares(r: &[f64]) -> f64 {
@@ -205,43 +239,30 @@ struct Refined {
     iterations: usize,
 }
 
-/// Levenberg–Marquardt steps on a forward-difference Jacobian from `x`.
-fn refine(
-    records: &[FitRecord<'_>],
-    sample_time: f64,
-    settings: &IdentificationSettings,
-    parts: DynamicsParts,
-    mut x: Vec<f64>,
-) -> Result<Refined, IdentificationError> {
-    let fs = 1.0 / sample_time;
+/// Levenberg–Marquardt steps on a forward-difference Jacobian from `x`
+/// (its columns are independent trials, run as `search.par` allows).
+fn refine(search: &Search<'_>, mut x: Vec<f64>) -> Result<Refined, IdentificationError> {
     let k = x.len();
     let mut lambda = 1e-3;
     let mut iterations = 0;
     let mut jtj = vec![vec![0.0; k]; k];
-    let mut r = residual(
-        records,
-        sample_time,
-        settings,
-        Some(parameters(parts, &x, fs)),
-    )?
-    .1;
+    let mut r = search.residual_at(&x)?;
     let mut ss = sum_squares(&r);
     while iterations < MAX_ITERATIONS {
         iterations += 1;
         // forward differences in the coordinates
         let h = 1e-6;
+        let shifted: Vec<Vec<f64>> = (0..k)
+            .map(|i| {
+                let mut xh = x.clone();
+                xh[i] += h;
+                xh
+            })
+            .collect();
         let mut columns = Vec::with_capacity(k);
-        for i in 0..k {
-            let mut xh = x.clone();
-            xh[i] += h;
-            let (_, rh) = residual(
-                records,
-                sample_time,
-                settings,
-                Some(parameters(parts, &xh, fs)),
-            )?;
+        for rh in search.par.map(&shifted, |xh| search.residual_at(xh)) {
             columns.push(
-                rh.iter()
+                rh?.iter()
                     .zip(&r)
                     .map(|(a, b)| (a - b) / h)
                     .collect::<Vec<f64>>(),
@@ -267,16 +288,12 @@ fn refine(
                 continue;
             };
             let trial: Vec<f64> = x.iter().zip(&step).map(|(a, b)| a - b).collect();
-            let attempt = residual(
-                records,
-                sample_time,
-                settings,
-                Some(parameters(parts, &trial, fs)),
-            );
-            if let Ok((_, rt)) = attempt {
+            if let Ok(rt) = search.residual_at(&trial) {
                 let st = sum_squares(&rt);
                 if st < ss {
-                    let small = step.iter().all(|d| d.abs() < 1e-12) || (ss - st) <= 1e-15 * ss;
+                    let small = step.iter().all(|d| d.abs() < 1e-12)
+                        || (ss - st) <= 1e-15 * ss
+                        || (ss - st) <= STALL * st / rt.len().max(1) as f64;
                     (x, r, ss) = (trial, rt, st);
                     lambda = (lambda / 3.0).max(1e-12);
                     improved = !small;
@@ -297,6 +314,25 @@ fn refine(
     })
 }
 
+/// The first of `candidates` with the least sum of squares (trials run as
+/// `search.par` allows; the choice does not depend on it).
+fn best_of(
+    search: &Search<'_>,
+    best: &mut Option<(f64, Vec<f64>)>,
+    candidates: Vec<Vec<f64>>,
+) -> Result<(), IdentificationError> {
+    let sums = search.par.map(&candidates, |x| {
+        search.residual_at(x).map(|r| sum_squares(&r))
+    });
+    for (x, ss) in candidates.into_iter().zip(sums) {
+        let ss = ss?;
+        if best.as_ref().is_none_or(|b| ss < b.0) {
+            *best = Some((ss, x));
+        }
+    }
+    Ok(())
+}
+
 /// Fit the weights and the `parts` of `G` to the records (module docs), at
 /// the dead time `settings.delay`; `settings.dynamics` is ignored.
 pub fn fit_dynamics(
@@ -304,8 +340,17 @@ pub fn fit_dynamics(
     sample_time: f64,
     settings: &IdentificationSettings,
     parts: DynamicsParts,
+    par: Par,
 ) -> Result<Identification, IdentificationError> {
-    let (static_id, e0) = residual(records, sample_time, settings, None)?;
+    let search = Search {
+        records,
+        sample_time,
+        settings,
+        parts,
+        columns: SharedColumns::new(),
+        par,
+    };
+    let (static_id, e0) = search.residual(None)?;
     if !parts.any() {
         return Ok(static_id);
     }
@@ -328,30 +373,15 @@ pub fn fit_dynamics(
         resonances.push((f_peak.clamp(f_lo, f_hi), 0.05));
     }
     let mut best: Option<(f64, Vec<f64>)> = None;
-    let try_start =
-        |best: &mut Option<(f64, Vec<f64>)>, x: Vec<f64>| -> Result<(), IdentificationError> {
-            let (_, r) = residual(
-                records,
-                sample_time,
-                settings,
-                Some(parameters(parts, &x, fs)),
-            )?;
-            let ss = sum_squares(&r);
-            if std::env::var_os("MFCBEAM_DEBUG_DYNAMICS").is_some() {
-                eprintln!("grid {:?} ss {ss:e}", parameters(parts, &x, fs));
-            }
-            if best.as_ref().is_none_or(|b| ss < b.0) {
-                *best = Some((ss, x));
-            }
-            Ok(())
-        };
     let low_passes = [0.03, 0.1, 0.3, 1.0].map(|f| f * fs);
     let fraction = parts.delay_fraction.then_some(0.0);
     if parts.resonance {
         let lp = parts.low_pass.then_some(0.3 * fs);
-        for &res in &resonances {
-            try_start(&mut best, coordinates(lp, Some(res), fraction))?;
-        }
+        let grid = resonances
+            .iter()
+            .map(|&res| coordinates(lp, Some(res), fraction))
+            .collect();
+        best_of(&search, &mut best, grid)?;
     }
     // the best so far as (low-pass, resonance, fraction)
     let so_far = |best: &Option<(f64, Vec<f64>)>| {
@@ -366,15 +396,19 @@ pub fn fit_dynamics(
     };
     if parts.low_pass {
         let (_, res, fraction) = so_far(&best);
-        for &lp in &low_passes {
-            try_start(&mut best, coordinates(Some(lp), res, fraction))?;
-        }
+        let grid = low_passes
+            .iter()
+            .map(|&lp| coordinates(Some(lp), res, fraction))
+            .collect();
+        best_of(&search, &mut best, grid)?;
     }
     if parts.delay_fraction {
         let (lp, res, _) = so_far(&best);
-        for t in [-0.3, 0.0, 0.3] {
-            try_start(&mut best, coordinates(lp, res, Some(t)))?;
-        }
+        let grid = [-0.3, 0.0, 0.3]
+            .iter()
+            .map(|&t| coordinates(lp, res, Some(t)))
+            .collect();
+        best_of(&search, &mut best, grid)?;
     }
     // Levenberg–Marquardt from the best grid point and from the residual's
     // spectral peak (where a resonance rings), the better kept
@@ -388,16 +422,8 @@ pub fn fit_dynamics(
         ));
     }
     let mut refined: Option<Refined> = None;
-    for x0 in starts {
-        let r = refine(records, sample_time, settings, parts, x0.clone())?;
-        if std::env::var_os("MFCBEAM_DEBUG_DYNAMICS").is_some() {
-            eprintln!(
-                "start {:?} -> {:?} ss {:e}",
-                parameters(parts, &x0, fs),
-                parameters(parts, &r.x, fs),
-                r.ss
-            );
-        }
+    for r in par.map(&starts, |x0| refine(&search, x0.clone())) {
+        let r = r?;
         if refined.as_ref().is_none_or(|b| r.ss < b.ss) {
             refined = Some(r);
         }
@@ -407,7 +433,7 @@ pub fn fit_dynamics(
     } = refined.expect("at least one start");
     let k = x.len();
     let g = parameters(parts, &x, fs);
-    let (mut id, r) = residual(records, sample_time, settings, Some(g))?;
+    let (mut id, r) = search.residual(Some(g))?;
     if sum_squares(&r) >= sum_squares(&e0) {
         return Err(IdentificationError::InvalidSetting {
             field: "dynamics",
@@ -517,6 +543,7 @@ pub fn fit_dynamics_and_delay(
     settings: &IdentificationSettings,
     parts: DynamicsParts,
     validation: &[super::Record<'_>],
+    par: Par,
 ) -> Result<Identification, IdentificationError> {
     let d0 = settings.delay;
     let mut best: Option<(f64, Identification)> = None;
@@ -525,14 +552,19 @@ pub fn fit_dynamics_and_delay(
     // may call for one sample more
     let fewer = 1 + usize::from(parts.resonance);
     let more = usize::from(parts.delay_fraction);
-    for d in (d0.saturating_sub(fewer)..=d0 + more).rev() {
+    let delays: Vec<usize> = (d0.saturating_sub(fewer)..=d0 + more).rev().collect();
+    // each dead time a search of its own, the searches side by side
+    let fits = par.map(&delays, |&d| {
         let s = IdentificationSettings {
             delay: d,
             ..settings.clone()
         };
+        fit_dynamics(records, sample_time, &s, parts, par)
+    });
+    for fit in fits {
         // the dead time one less may leave a part undetermined where the
         // first did not: only an error when no dead time fits
-        let fit = match fit_dynamics(records, sample_time, &s, parts) {
+        let fit = match fit {
             Ok(fit) => fit,
             Err(e) => {
                 last_error.get_or_insert(e);

@@ -8,7 +8,7 @@
 use faer::Mat;
 
 use super::plan::{in_record, FitPlan, Solution, EPSILON_S};
-use super::regressor::regressor_factor;
+use super::regressor::{regressor_factor, OperatorColumns};
 use super::report::check_record_signals;
 use super::report::StartCheck;
 use super::settings::{IdentificationError, IdentificationSettings};
@@ -69,6 +69,22 @@ pub fn identify_records(
     sample_time: f64,
     settings: &IdentificationSettings,
 ) -> Result<Identification, IdentificationError> {
+    identify_records_with(records, sample_time, settings, None).map(|(id, _)| id)
+}
+
+/// The operators' columns a search over `G` shares between its trials at
+/// one alignment: filled by the first trial, read by the others.
+pub(super) type SharedColumns = std::sync::OnceLock<OperatorColumns>;
+
+/// [`identify_records`], and each record's model output as its report
+/// scores it; `columns`: the operators' columns shared with the other
+/// trials of a search over `G`.
+pub(super) fn identify_records_with(
+    records: &[FitRecord<'_>],
+    sample_time: f64,
+    settings: &IdentificationSettings,
+    columns: Option<&SharedColumns>,
+) -> Result<(Identification, Vec<Vec<f64>>), IdentificationError> {
     settings.validate()?;
     if records.is_empty() {
         return Err(IdentificationError::InvalidSetting {
@@ -127,7 +143,7 @@ pub fn identify_records(
     // the plan (thresholds, kinks, margins) from the measurement itself:
     // G⁻¹[y] carries its noise amplified
     let plan = FitPlan::new(&u_cat, &y_raw, sample_time, settings, &parts, records.len())?;
-    let mut regression = Regression::of(&u_cat, &y_cat, &plan, None)?;
+    let mut regression = Regression::of(&u_cat, &y_cat, &plan, None, columns)?;
     let mut solution = regression.solve(&plan)?;
     if settings.dynamics.is_some() && !plan.r_s.is_empty() {
         // With G, the dead zones of S⁻¹ take S's output, which only G⁻¹[y]
@@ -136,7 +152,7 @@ pub fn identify_records(
         // its place, starting from y itself (G ≈ 1 at the rates fitted).
         let mut zone = y_raw.clone();
         for _ in 0..2 {
-            let next = Regression::of(&u_cat, &y_cat, &plan, Some(&zone))?;
+            let next = Regression::of(&u_cat, &y_cat, &plan, Some(&zone), columns)?;
             let next_solution = next.solve(&plan)?;
             (regression, solution) = (next, next_solution);
             for (index, segment) in plan.segments.iter().enumerate() {
@@ -160,6 +176,7 @@ pub fn identify_records(
     // the fit of the model as it will be used, from the virgin state, on
     // each record (the first one's in the main fields)
     let mut record_reports = Vec::with_capacity(records.len());
+    let mut fits = Vec::with_capacity(records.len());
     for (index, (r, segment)) in records.iter().zip(&plan.segments).enumerate() {
         let fitted = segment.fitted.start - segment.whole.start + aligned
             ..segment.fitted.end - segment.whole.start + aligned;
@@ -179,10 +196,13 @@ pub fn identify_records(
             fitted,
             offset: own.offset(),
         });
+        fits.push(fit);
     }
     let first = &record_reports[0];
-    let (u, y, n) = (records[0].u, records[0].y, records[0].u.len());
-    let fit = model.clone().run(u);
+    let (y, n) = (records[0].y, records[0].u.len());
+    // the first record's own model is the model (the same weights and
+    // offset)
+    let fit = &fits[0];
     let (start, end) = (first.fitted.start, first.fitted.end);
     let unknowns = plan.excited();
     let report = FitReport {
@@ -191,7 +211,7 @@ pub fn identify_records(
         delay: d,
         skip_reason: plan.skip_reason.clone(),
         fit: first.fit,
-        holdout: (end < n).then(|| FitErrors::of(&fit, y, end..n)),
+        holdout: (end < n).then(|| FitErrors::of(fit, y, end..n)),
         offset: model.offset(),
         condition_number: regression.condition_number,
         rank: regression.rank,
@@ -209,7 +229,7 @@ pub fn identify_records(
             .copied()
             .collect(),
         standard_errors,
-        start: StartCheck::of(&fit, y, start..end),
+        start: StartCheck::of(fit, y, start..end),
         superposition: model
             .superposition()
             .map(|s| (s.thresholds().to_vec(), s.weights().to_vec())),
@@ -220,7 +240,7 @@ pub fn identify_records(
         },
         dynamics: None,
     };
-    Ok(Identification { model, report })
+    Ok((Identification { model, report }, fits))
 }
 
 /// Stage 1: the triangular factor of `[1 | Φ | ς]` and what it determines.
@@ -240,6 +260,7 @@ impl Regression {
         y: &[f64],
         plan: &FitPlan,
         zone: Option<&[f64]>,
+        columns: Option<&SharedColumns>,
     ) -> Result<Self, IdentificationError> {
         let creep = if plan.nc > 0 {
             Some(CreepOperator::new(
@@ -251,6 +272,11 @@ impl Regression {
         } else {
             None
         };
+        let columns = columns.map(|c| {
+            c.get_or_init(|| {
+                OperatorColumns::new(u, &plan.segments, &plan.r_h[..plan.nh], creep.as_ref())
+            })
+        });
         let factor = regressor_factor(
             u,
             y,
@@ -261,6 +287,7 @@ impl Regression {
             (!plan.r_s.is_empty()).then_some((plan.r_s.as_slice(), plan.centre)),
             plan.dynamics.as_ref().map(|g| (g, plan.sample_time)),
             zone,
+            columns,
         );
         let p = plan.excited();
         let r = Self::weights_block(&factor, plan);

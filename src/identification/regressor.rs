@@ -10,6 +10,7 @@ use faer::Mat;
 
 use crate::operators::creep::CreepOperator;
 use crate::operators::play::play;
+use crate::realtime::dynamics::{INPUTS, MAX_ORDER};
 
 /// Rows of the regressor folded into the triangular factor at a time: the
 /// chunk (`CHUNK × (p + 2)` doubles, about 1 MB at the paper's orders) stays
@@ -38,30 +39,165 @@ pub(crate) struct Segment {
     pub offset_column: usize,
 }
 
+/// The play and creep columns of the regressor (before `G`) at every
+/// sample of the concatenated records, each record from the virgin state:
+/// what every trial of `G` at one alignment shares
+/// ([`super::dynamics`]), computed once. Row-major, `nh + nc` values a
+/// sample (13 MB for 70 000 samples at the paper's orders): only a search
+/// over `G` keeps it, a single fit streams its rows.
+pub(crate) struct OperatorColumns {
+    /// The thresholds and eigenvalues the columns belong to.
+    r_h: Vec<f64>,
+    r_c: Vec<f64>,
+    eigenvalues: Vec<f64>,
+    /// Samples of the concatenated input the columns were computed on.
+    samples: usize,
+    values: Vec<f64>,
+}
+
+impl OperatorColumns {
+    /// The columns of `u` split into `segments` (their `whole` ranges):
+    /// the plays at `r_h`, and the log(t)-creep operators of `creep` before
+    /// the update with each sample (the one-sample delay of (20)).
+    pub(crate) fn new(
+        u: &[f64],
+        segments: &[Segment],
+        r_h: &[f64],
+        creep: Option<&CreepOperator>,
+    ) -> Self {
+        let nh = r_h.len();
+        let nc = creep.map_or(0, |c| c.thresholds().len());
+        let width = nh + nc;
+        let mut values = vec![0.0; u.len() * width];
+        let mut x = vec![0.0; nh];
+        for segment in segments {
+            x.fill(0.0);
+            let mut creep = creep.cloned();
+            for k in segment.whole.clone() {
+                let row = &mut values[k * width..(k + 1) * width];
+                for (xi, &r) in x.iter_mut().zip(r_h) {
+                    *xi = play(u[k], r, *xi);
+                }
+                row[..nh].copy_from_slice(&x);
+                if let Some(c) = &mut creep {
+                    c.log_creep_outputs_into(&mut row[nh..]);
+                    c.advance(u[k]);
+                }
+            }
+        }
+        Self {
+            r_h: r_h.to_vec(),
+            r_c: creep.map_or_else(Vec::new, |c| c.thresholds().to_vec()),
+            eigenvalues: creep.map_or_else(Vec::new, |c| c.eigenvalues().to_vec()),
+            samples: u.len(),
+            values,
+        }
+    }
+
+    /// Whether these are the columns of a regression with these operators
+    /// on `samples` samples.
+    fn matches(&self, samples: usize, r_h: &[f64], creep: Option<&CreepOperator>) -> bool {
+        self.samples == samples
+            && self.r_h == r_h
+            && creep.map_or(self.r_c.is_empty(), |c| {
+                self.r_c == c.thresholds() && self.eigenvalues == c.eigenvalues()
+            })
+    }
+
+    fn row(&self, k: usize) -> &[f64] {
+        let width = self.r_h.len() + self.r_c.len();
+        &self.values[k * width..(k + 1) * width]
+    }
+}
+
 /// `G` without its lag (`g N/A`: the lag is part of the alignment) applied
 /// to every column of the rows, one state per column, at rest on a
-/// record's first row.
+/// record's first row. The columns share `G`'s coefficients, so their
+/// states are kept column by column in arrays and a row is one vectorised
+/// pass: the same operations, in the same order, as
+/// [`Dynamics::step`](crate::realtime::Dynamics::step) on each column.
 struct RowFilter {
-    filters: Vec<crate::realtime::Dynamics<f64>>,
+    c: [f64; MAX_ORDER],
+    order: usize,
+    gain: f64,
+    b: [f64; INPUTS],
+    /// `y_{k−1−i}` of every column in `y[i]`, and `w_{k−1}`.
+    y: [Vec<f64>; MAX_ORDER],
+    w: Vec<f64>,
+    started: bool,
 }
 
 impl RowFilter {
     fn new(dynamics: &crate::realtime::DynamicsParameters, sample_time: f64, cols: usize) -> Self {
-        let g = crate::realtime::Dynamics::new(dynamics, sample_time)
+        let g = crate::realtime::Dynamics::<f64>::new(dynamics, sample_time)
             .expect("checked dynamics")
             .without_lag();
+        let (c_used, gain, b) = g.coefficients();
+        let mut c = [0.0; MAX_ORDER];
+        c[..c_used.len()].copy_from_slice(c_used);
         Self {
-            filters: vec![g; cols],
+            c,
+            order: c_used.len(),
+            gain,
+            b,
+            y: std::array::from_fn(|_| vec![0.0; cols]),
+            w: vec![0.0; cols],
+            started: false,
         }
     }
 
     fn restart(&mut self) {
-        self.filters.iter_mut().for_each(|g| g.reset());
+        self.started = false;
     }
 
     fn apply(&mut self, row: &mut [f64]) {
-        for (x, g) in row.iter_mut().zip(&mut self.filters) {
-            *x = g.step(*x);
+        if !self.started {
+            // at rest at the first row, which passes unchanged
+            for y in &mut self.y {
+                y.copy_from_slice(row);
+            }
+            self.w.copy_from_slice(row);
+            self.started = true;
+            return;
+        }
+        match self.order {
+            0 => self.apply_order::<0>(row),
+            1 => self.apply_order::<1>(row),
+            2 => self.apply_order::<2>(row),
+            _ => self.apply_order::<3>(row),
+        }
+    }
+
+    #[inline(always)]
+    fn apply_order<const N: usize>(&mut self, row: &mut [f64]) {
+        let [y0, y1, y2] = &mut self.y;
+        let n = row.len();
+        let (y0, y1, y2, w) = (&mut y0[..n], &mut y1[..n], &mut y2[..n], &mut self.w[..n]);
+        let (c, gain, b) = (self.c, self.gain, self.b);
+        for j in 0..n {
+            let x = b[0] * row[j] + b[1] * w[j];
+            let mut past = 0.0;
+            if N > 0 {
+                past += c[0] * y0[j];
+            }
+            if N > 1 {
+                past += c[1] * y1[j];
+            }
+            if N > 2 {
+                past += c[2] * y2[j];
+            }
+            let out = gain * x - past;
+            if N > 2 {
+                y2[j] = y1[j];
+            }
+            if N > 1 {
+                y1[j] = y0[j];
+            }
+            if N > 0 {
+                y0[j] = out;
+            }
+            w[j] = row[j];
+            row[j] = out;
         }
     }
 }
@@ -97,6 +233,7 @@ pub(crate) fn regressor_factor(
     superposition: Option<(&[f64], f64)>,
     dynamics: Option<(&crate::realtime::DynamicsParameters, f64)>,
     zone: Option<&[f64]>,
+    columns: Option<&OperatorColumns>,
 ) -> Mat<f64> {
     let nh = r_h.len();
     let nc = creep.as_ref().map_or(0, |c| c.thresholds().len());
@@ -114,9 +251,15 @@ pub(crate) fn regressor_factor(
     let mut filter = dynamics.map(|(g, ts)| RowFilter::new(g, ts, cols));
     let total: usize = segments.iter().map(|s| s.fitted.len()).sum();
     let mut done = 0;
+    // the operators' columns from the cache when they are its own
+    let columns = columns.filter(|c| c.matches(u.len(), r_h, creep.as_ref()));
     for segment in segments {
         x.fill(0.0);
-        let mut creep = creep.clone();
+        let mut creep = if columns.is_some() {
+            None
+        } else {
+            creep.clone()
+        };
         if let Some(f) = &mut filter {
             f.restart();
         }
@@ -128,8 +271,10 @@ pub(crate) fn regressor_factor(
         };
         for k in segment.whole.start..segment.fitted.end {
             let v = u[k];
-            for (xi, &r) in x.iter_mut().zip(r_h) {
-                *xi = play(v, r, *xi);
+            if columns.is_none() {
+                for (xi, &r) in x.iter_mut().zip(r_h) {
+                    *xi = play(v, r, *xi);
+                }
             }
             let keep = k >= segment.fitted.start;
             if let Some(c) = &mut creep {
@@ -145,8 +290,13 @@ pub(crate) fn regressor_factor(
             if q > 0 {
                 row[segment.offset_column] = 1.0;
             }
-            row[q..q + nh].copy_from_slice(&x);
-            row[q + nh..q + nh + nc].copy_from_slice(&creep_row);
+            match columns {
+                Some(c) => row[q..q + nh + nc].copy_from_slice(c.row(k)),
+                None => {
+                    row[q..q + nh].copy_from_slice(&x);
+                    row[q + nh..q + nh + nc].copy_from_slice(&creep_row);
+                }
+            }
             match superposition {
                 None => row[q + p] = y[k],
                 Some(_) => {
@@ -228,4 +378,112 @@ fn thin_r_in_place(mut a: faer::MatMut<'_, f64>) {
         MemStack::new(&mut buf),
         Default::default(),
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::realtime::{Dynamics, DynamicsParameters, Resonance};
+
+    fn g() -> DynamicsParameters {
+        DynamicsParameters {
+            low_pass: Some(1500.0),
+            resonance: Some(Resonance {
+                frequency: 740.0,
+                damping: 0.014,
+            }),
+            delay_fraction: 0.3,
+        }
+    }
+
+    /// A row-major signal of `cols` columns, each its own jagged wave.
+    fn rows(n: usize, cols: usize) -> Vec<Vec<f64>> {
+        (0..n)
+            .map(|k| {
+                (0..cols)
+                    .map(|j| ((k * (j + 3)) % 17) as f64 - 8.0 + (k as f64 * 0.01).sin() * j as f64)
+                    .collect()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_row_filter_is_g_on_each_column_bit_for_bit() {
+        let (ts, cols) = (1e-4, 7);
+        for parameters in [
+            g(),
+            DynamicsParameters {
+                low_pass: Some(900.0),
+                resonance: None,
+                delay_fraction: -0.2,
+            },
+            DynamicsParameters {
+                low_pass: None,
+                resonance: None,
+                delay_fraction: 0.4,
+            },
+        ] {
+            let mut filter = RowFilter::new(&parameters, ts, cols);
+            let one = Dynamics::<f64>::new(&parameters, ts).unwrap().without_lag();
+            let mut each = vec![one; cols];
+            for record in 0..2 {
+                filter.restart();
+                each.iter_mut().for_each(|g| g.reset());
+                for mut row in rows(300 + record, cols) {
+                    let expected: Vec<f64> =
+                        row.iter().zip(&mut each).map(|(&x, g)| g.step(x)).collect();
+                    filter.apply(&mut row);
+                    assert!(row
+                        .iter()
+                        .zip(&expected)
+                        .all(|(a, b)| a.to_bits() == b.to_bits()));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_shared_columns_give_the_streamed_factor_bit_for_bit() {
+        let ts = 1e-4;
+        let u: Vec<f64> = (0..3000)
+            .map(|k| 600.0 * (k as f64 * 0.004).sin() * (1.0 + (k as f64 * 0.0007).cos()))
+            .collect();
+        let y: Vec<f64> = u.iter().map(|v| 0.8 * v + 3.0).collect();
+        let segments = [
+            Segment {
+                whole: 0..1800,
+                fitted: 100..1800,
+                offset_column: 0,
+            },
+            Segment {
+                whole: 1800..3000,
+                fitted: 1900..3000,
+                offset_column: 1,
+            },
+        ];
+        let r_h = [0.0, 200.0, 400.0, 700.0];
+        let creep = CreepOperator::new([0.0, 300.0], vec![0.0; 2], vec![1.0, 10.0], ts).unwrap();
+        let columns = OperatorColumns::new(&u, &segments, &r_h, Some(&creep));
+        assert!(columns.matches(u.len(), &r_h, Some(&creep)));
+        let factor = |cached: Option<&OperatorColumns>| {
+            regressor_factor(
+                &u,
+                &y,
+                &segments,
+                2,
+                &r_h,
+                Some(creep.clone()),
+                Some((&[300.0, -300.0][..], 10.0)),
+                Some((&g(), ts)),
+                None,
+                cached,
+            )
+        };
+        let (streamed, shared) = (factor(None), factor(Some(&columns)));
+        for i in 0..streamed.nrows() {
+            for j in 0..streamed.ncols() {
+                assert_eq!(streamed[(i, j)].to_bits(), shared[(i, j)].to_bits());
+            }
+        }
+    }
 }

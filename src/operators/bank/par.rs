@@ -52,6 +52,26 @@ impl Par {
             Par::Rayon(parts) => parts.get(),
         }
     }
+
+    /// `f` of each item, in the items' order: one after another, or with
+    /// [`Par::Rayon`] each item a task of the current rayon pool (a search's
+    /// trials, which differ in cost, are balanced by the pool's stealing
+    /// rather than split into even parts). The results do not depend on it.
+    #[cfg(feature = "std")]
+    pub(crate) fn map<T: Sync, R: Send>(
+        self,
+        items: &[T],
+        f: impl Fn(&T) -> R + Sync + Send,
+    ) -> std::vec::Vec<R> {
+        match self {
+            Par::Seq => items.iter().map(f).collect(),
+            #[cfg(feature = "rayon")]
+            Par::Rayon(_) => {
+                use rayon::prelude::*;
+                items.par_iter().map(f).collect()
+            }
+        }
+    }
 }
 
 /// A part's step: `(part, first block, state rows, targets, outputs)`.
