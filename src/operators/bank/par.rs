@@ -57,7 +57,7 @@ impl Par {
     /// [`Par::Rayon`] each item a task of the current rayon pool (a search's
     /// trials, which differ in cost, are balanced by the pool's stealing
     /// rather than split into even parts). The results do not depend on it.
-    #[cfg(feature = "std")]
+    #[cfg(feature = "identification")]
     pub(crate) fn map<T: Sync, R: Send>(
         self,
         items: &[T],
