@@ -10,13 +10,15 @@
 //! set's (median and range). With `MFCBEAM_RESULTS` the two ratios'
 //! medians are written as data (`benches/common/results.rs`).
 //!
-//! On x86-64 the portable kernels are compiled without FMA, so each of a
-//! channel-step's fused multiply-adds (about 144 at the paper's order) is
-//! a call to an `fma` routine, one lane at a time, in the bank and in the
-//! loop alike; on 64-bit ARM FMA is an instruction and the bank's lanes are
-//! NEON vectors (`verification/platforms/neon_bank.sh`). Timing under an
-//! emulator says nothing about the hardware it emulates: run this on the
-//! CPU whose figures you want.
+//! On x86-64 the portable kernels are compiled without FMA: a single
+//! compensator's fused multiply-adds (about 144 a step at the paper's
+//! order) are each a call to an `fma` routine, while the bank's, where the
+//! CPU has FMA, run a block at a time in one function compiled with it
+//! (the rest of its lanes stay in SSE2). On 64-bit ARM FMA is an
+//! instruction and the bank's lanes are NEON vectors
+//! (`verification/platforms/neon_bank.sh`). Timing under an emulator says
+//! nothing about the hardware it emulates: run this on the CPU whose
+//! figures you want.
 //!
 //! `cargo bench --features internals --bench portable_bank`
 
