@@ -479,6 +479,69 @@ fn an_asymmetric_record_gives_back_its_superposition_operator() {
     }
 }
 
+/// Two records of the asymmetric truth, the second with a sensor offset,
+/// fitted with one offset per record: each record's report row is the
+/// errors of that record's own model, and with `S` that model is not the
+/// first record's with another offset (an offset shifts `S`'s input).
+#[test]
+fn with_s_each_record_has_its_own_model() {
+    let truth = asymmetric_truth();
+    let u1 = staircase_input(1000.0, 20.0);
+    let u2: Vec<f64> = staircase_input(900.0, 20.0);
+    let y1 = truth.clone().run(&u1);
+    let y2: Vec<f64> = truth.clone().run(&u2).iter().map(|v| v - 40.0).collect();
+    let records = [
+        mfcbeam::identification::FitRecord {
+            u: &u1,
+            y: &y1,
+            fit_from: None,
+        },
+        mfcbeam::identification::FitRecord {
+            u: &u2,
+            y: &y2,
+            fit_from: None,
+        },
+    ];
+    let settings = IdentificationSettings {
+        superposition_kinks: Some(truth_kinks(&truth)),
+        offset_per_record: true,
+        ..Default::default()
+    };
+    let id = mfcbeam::identification::identify_records(&records, SAMPLE_TIME, &settings).unwrap();
+    assert_eq!(id.record_models.len(), 2);
+    assert_eq!(
+        serde_json::to_string(&id.record_models[0].to_file()).unwrap(),
+        serde_json::to_string(&id.model.to_file()).unwrap()
+    );
+    for ((record, model), row) in records
+        .iter()
+        .zip(&id.record_models)
+        .zip(&id.report.records)
+    {
+        let fit = model.clone().run(record.u);
+        let e: Vec<f64> = row.fitted.clone().map(|k| fit[k] - record.y[k]).collect();
+        assert_eq!(rms(&e).to_bits(), row.fit.rms.to_bits());
+    }
+    // the first record's model with the second's offset is another model
+    let own = id.record_models[1].clone().run(&u2);
+    let shifted = id
+        .model
+        .clone()
+        .with_offset(id.report.records[1].offset)
+        .unwrap()
+        .run(&u2);
+    let apart = own
+        .iter()
+        .zip(&shifted)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    eprintln!("apart by {apart}, rms {:?}", id.report.records[1].fit);
+    assert!(
+        apart > 1e-3 * id.report.records[1].fit.output_range,
+        "{apart}"
+    );
+}
+
 /// The same record with white noise (σ = 0.5 V, about 0.04 % of the range)
 /// and `S⁻¹`'s kinks by the default rule (4 per side, not where the truth
 /// has them): the modified model fits the asymmetric actuator far better

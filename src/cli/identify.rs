@@ -229,13 +229,8 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
     if let Some(p) = &a.plot {
         let fit = id.model.clone().run(u);
         let mut others: Vec<(String, Vec<f64>)> = Vec::new();
-        for (i, (name, fu, fy)) in fitted.iter().enumerate().skip(1) {
-            let offset = id
-                .report
-                .records
-                .get(i)
-                .map_or(id.model.offset(), |r| r.offset);
-            let fit = id.model.clone().with_offset(offset)?.run(fu);
+        for ((name, fu, fy), model) in fitted.iter().zip(&id.record_models).skip(1) {
+            let fit = model.clone().run(fu);
             others.push((
                 format!("{name} (fitted)"),
                 fit.iter().zip(fy).map(|(a, b)| a - b).collect(),

@@ -23,6 +23,10 @@ use crate::operators::traits::Operator;
 pub struct Identification {
     pub model: HysteresisCreepModel,
     pub report: FitReport,
+    /// Each fitted record's own model (virgin state): the weights, with its
+    /// own offset. With `S` an offset shifts `S`'s input, so a record's
+    /// model is not `model` with another offset. The first is `model`.
+    pub record_models: Vec<HysteresisCreepModel>,
 }
 
 /// Identify a model from input `u` (V) and measured output `y`, sampled at
@@ -177,6 +181,7 @@ pub(super) fn identify_records_with(
     // each record (the first one's in the main fields)
     let mut record_reports = Vec::with_capacity(records.len());
     let mut fits = Vec::with_capacity(records.len());
+    let mut record_models = Vec::with_capacity(records.len());
     for (index, (r, segment)) in records.iter().zip(&plan.segments).enumerate() {
         let fitted = segment.fitted.start - segment.whole.start + aligned
             ..segment.fitted.end - segment.whole.start + aligned;
@@ -196,6 +201,7 @@ pub(super) fn identify_records_with(
             fitted,
             offset: own.offset(),
         });
+        record_models.push(own);
         fits.push(fit);
     }
     let first = &record_reports[0];
@@ -240,7 +246,14 @@ pub(super) fn identify_records_with(
         },
         dynamics: None,
     };
-    Ok((Identification { model, report }, fits))
+    Ok((
+        Identification {
+            model,
+            report,
+            record_models,
+        },
+        fits,
+    ))
 }
 
 /// Stage 1: the triangular factor of `[1 | Φ | ς]` and what it determines.
