@@ -285,7 +285,9 @@ impl Regression {
         } else {
             None
         };
-        let columns = columns.map(|c| {
+        let width = plan.nh + creep.as_ref().map_or(0, |c| c.thresholds().len());
+        let affordable = OperatorColumns::affordable(u.len(), width);
+        let columns = columns.filter(|_| affordable).map(|c| {
             c.get_or_init(|| {
                 OperatorColumns::new(u, &plan.segments, &plan.r_h[..plan.nh], creep.as_ref())
             })

@@ -39,6 +39,11 @@ pub(crate) struct Segment {
     pub offset_column: usize,
 }
 
+/// The most memory [`OperatorColumns`] takes (256 MiB, about 1.4 million
+/// samples at the paper's orders): a longer search streams its rows as a
+/// single fit does, in every trial.
+const MAX_SHARED_BYTES: usize = 1 << 28;
+
 /// The play and creep columns of the regressor (before `G`) at every
 /// sample of the concatenated records, each record from the virgin state:
 /// what every trial of `G` at one alignment shares
@@ -92,6 +97,15 @@ impl OperatorColumns {
             samples: u.len(),
             values,
         }
+    }
+
+    /// Whether the columns of `samples` samples and `width` operators fit
+    /// in [`MAX_SHARED_BYTES`].
+    pub(crate) fn affordable(samples: usize, width: usize) -> bool {
+        samples
+            .checked_mul(width)
+            .and_then(|n| n.checked_mul(std::mem::size_of::<f64>()))
+            .is_some_and(|bytes| bytes <= MAX_SHARED_BYTES)
     }
 
     /// Whether these are the columns of a regression with these operators
@@ -465,6 +479,9 @@ mod tests {
         let creep = CreepOperator::new([0.0, 300.0], vec![0.0; 2], vec![1.0, 10.0], ts).unwrap();
         let columns = OperatorColumns::new(&u, &segments, &r_h, Some(&creep));
         assert!(columns.matches(u.len(), &r_h, Some(&creep)));
+        assert!(OperatorColumns::affordable(u.len(), 6));
+        assert!(!OperatorColumns::affordable(1 << 28, 24));
+        assert!(!OperatorColumns::affordable(usize::MAX, 2));
         let factor = |cached: Option<&OperatorColumns>| {
             regressor_factor(
                 &u,
