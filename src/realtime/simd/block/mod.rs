@@ -6,6 +6,7 @@
 //! the hardware's `min` and `max` are defined, and no fused multiply-add,
 //! so the portable, AVX2 and AVX-512 blocks compute the same bits.
 
+use core::marker::PhantomData;
 use core::mem::size_of;
 
 use crate::realtime::real::Real;
@@ -42,6 +43,20 @@ impl Row {
     pub(crate) fn lanes_mut<T: Real>(&mut self) -> &mut [T] {
         // SAFETY: as in `lanes`, and the borrow is unique.
         unsafe { core::slice::from_raw_parts_mut(self.0.as_mut_ptr() as *mut T, lanes::<T>()) }
+    }
+
+    /// The row as sixteen 32-bit words.
+    #[inline(always)]
+    fn halves(&self) -> &[u32; 16] {
+        // SAFETY: 64 bytes, aligned beyond `u32`'s; every bit pattern is a
+        // `u32`.
+        unsafe { &*(self.0.as_ptr() as *const [u32; 16]) }
+    }
+
+    #[inline(always)]
+    fn halves_mut(&mut self) -> &mut [u32; 16] {
+        // SAFETY: as in `halves`, and the borrow is unique.
+        unsafe { &mut *(self.0.as_mut_ptr() as *mut [u32; 16]) }
     }
 }
 
@@ -231,67 +246,109 @@ macro_rules! one_register_op3 {
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 pub(crate) use one_register_op3;
 
-/// Lanes in an array, one by one: any CPU.
-#[derive(Clone, Copy)]
-pub(crate) struct Portable<T>([T; 16]);
+/// Lanes one by one in a [`Row`]: any CPU. Every operation is a loop over
+/// the lanes without branches (a mask is a row of lanes all ones or all
+/// zeros, as wide as `T`'s, and a select is bitwise), so that the compiler
+/// makes each loop vector instructions where the target has them (NEON on
+/// 64-bit ARM, SSE2 on x86-64).
+///
+/// `FUSED`: an x86-64 build without FMA on a CPU with it, where a fused
+/// multiply-add is the instruction on 128-bit registers ([`fused_sse`]).
+/// Otherwise it is `Real::fused_mul_add` on each lane: the instruction
+/// where the build has one (64-bit ARM), else the C library's `fma`.
+pub(crate) struct Portable<T, const FUSED: bool = false>(Row, PhantomData<T>);
 
-// the lanes are indexed in step across three arrays
-#[allow(clippy::needless_range_loop)]
-impl<T: Real> Portable<T> {
+impl<T, const FUSED: bool> Clone for Portable<T, FUSED> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T, const FUSED: bool> Copy for Portable<T, FUSED> {}
+
+/// A portable block's flags: each lane all ones (true) or all zeros, in
+/// lanes as wide as the block's.
+#[derive(Clone, Copy)]
+pub(crate) struct PortableMask(Row);
+
+impl PortableMask {
+    /// Lane `l` from `flag(l)`, `T`'s lanes wide.
+    #[inline(always)]
+    fn from_flags<T>(flag: impl Fn(usize) -> bool) -> Self {
+        let mut m = Row::default();
+        if size_of::<T>() == 8 {
+            for (l, w) in m.0.iter_mut().enumerate() {
+                *w = if flag(l) { !0 } else { 0 };
+            }
+        } else {
+            for (l, w) in m.halves_mut().iter_mut().enumerate() {
+                *w = if flag(l) { !0 } else { 0 };
+            }
+        }
+        PortableMask(m)
+    }
+
+    /// `f` on each 64-bit word: a lane's flag is all its bits, so any
+    /// bitwise operation is one on the words, whatever the lanes' width.
+    #[inline(always)]
+    fn words(a: Row, b: Row, f: impl Fn(u64, u64) -> u64) -> Row {
+        Row(core::array::from_fn(|w| f(a.0[w], b.0[w])))
+    }
+}
+
+impl<T: Real, const FUSED: bool> Portable<T, FUSED> {
     #[inline(always)]
     fn map2(self, b: Self, f: impl Fn(T, T) -> T) -> Self {
-        let mut out = self.0;
-        for l in 0..lanes::<T>() {
-            out[l] = f(self.0[l], b.0[l]);
+        let mut out = Row::default();
+        let (x, y) = (self.0.lanes::<T>(), b.0.lanes::<T>());
+        for (l, o) in out.lanes_mut::<T>().iter_mut().enumerate() {
+            *o = f(x[l], y[l]);
         }
-        Portable(out)
+        Portable(out, PhantomData)
     }
 
     #[inline(always)]
     fn map3(self, a: Self, b: Self, f: impl Fn(T, T, T) -> T) -> Self {
-        let mut out = self.0;
-        for l in 0..lanes::<T>() {
-            out[l] = f(self.0[l], a.0[l], b.0[l]);
+        let mut out = Row::default();
+        let (x, y, z) = (self.0.lanes::<T>(), a.0.lanes::<T>(), b.0.lanes::<T>());
+        for (l, o) in out.lanes_mut::<T>().iter_mut().enumerate() {
+            *o = f(x[l], y[l], z[l]);
         }
-        Portable(out)
+        Portable(out, PhantomData)
     }
 
     #[inline(always)]
-    fn test2(self, b: Self, f: impl Fn(T, T) -> bool) -> [bool; 16] {
-        let mut out = [false; 16];
-        for l in 0..lanes::<T>() {
-            out[l] = f(self.0[l], b.0[l]);
-        }
-        out
+    fn test2(self, b: Self, f: impl Fn(T, T) -> bool) -> PortableMask {
+        let (x, y) = (self.0.lanes::<T>(), b.0.lanes::<T>());
+        PortableMask::from_flags::<T>(|l| f(x[l], y[l]))
     }
 }
 
-impl<T: Real> Block<T> for Portable<T> {
-    type Mask = [bool; 16];
+impl<T: Real, const FUSED: bool> Block<T> for Portable<T, FUSED> {
+    type Mask = PortableMask;
     whole_block_halves!();
 
     #[inline(always)]
     unsafe fn load(row: &Row) -> Self {
-        let mut a = [T::ZERO; 16];
-        a[..lanes::<T>()].copy_from_slice(row.lanes());
-        Portable(a)
+        Portable(*row, PhantomData)
     }
 
     #[inline(always)]
     unsafe fn load_values(values: &[T]) -> Self {
-        let mut a = [T::ZERO; 16];
-        a[..lanes::<T>()].copy_from_slice(&values[..lanes::<T>()]);
-        Portable(a)
+        let mut row = Row::default();
+        row.lanes_mut().copy_from_slice(&values[..lanes::<T>()]);
+        Portable(row, PhantomData)
     }
 
     #[inline(always)]
     unsafe fn store(self, row: &mut Row) {
-        row.lanes_mut().copy_from_slice(&self.0[..lanes::<T>()]);
+        *row = self.0;
     }
 
     #[inline(always)]
     unsafe fn splat(x: T) -> Self {
-        Portable([x; 16])
+        let mut row = Row::default();
+        row.lanes_mut().fill(x);
+        Portable(row, PhantomData)
     }
 
     #[inline(always)]
@@ -322,9 +379,13 @@ impl<T: Real> Block<T> for Portable<T> {
     #[inline(always)]
     unsafe fn mul_add(self, a: Self, b: Self) -> Self {
         #[cfg(all(feature = "std", target_arch = "x86_64", not(target_feature = "fma")))]
-        if std::arch::is_x86_feature_detected!("fma") {
-            // SAFETY: the CPU has FMA (checked just above)
-            return unsafe { fused_lanes::<T, false>(self, a, b) };
+        if FUSED {
+            // SAFETY: a `FUSED` block's operations run only where the CPU
+            // has FMA (`run_blocks`)
+            return Portable(
+                unsafe { fused_sse::lanes::<T, false>(self.0, a.0, b.0) },
+                PhantomData,
+            );
         }
         self.map3(a, b, |x, a, b| x.fused_mul_add(a, b))
     }
@@ -332,77 +393,134 @@ impl<T: Real> Block<T> for Portable<T> {
     #[inline(always)]
     unsafe fn neg_mul_add(self, a: Self, b: Self) -> Self {
         #[cfg(all(feature = "std", target_arch = "x86_64", not(target_feature = "fma")))]
-        if std::arch::is_x86_feature_detected!("fma") {
-            // SAFETY: the CPU has FMA (checked just above)
-            return unsafe { fused_lanes::<T, true>(self, a, b) };
+        if FUSED {
+            // SAFETY: as in `mul_add`
+            return Portable(
+                unsafe { fused_sse::lanes::<T, true>(self.0, a.0, b.0) },
+                PhantomData,
+            );
         }
         self.map3(a, b, |x, a, b| (-x).fused_mul_add(a, b))
     }
 
     #[inline(always)]
-    unsafe fn lt(self, b: Self) -> [bool; 16] {
+    unsafe fn lt(self, b: Self) -> PortableMask {
         self.test2(b, |x, y| x < y)
     }
 
     #[inline(always)]
-    unsafe fn gt(self, b: Self) -> [bool; 16] {
+    unsafe fn gt(self, b: Self) -> PortableMask {
         self.test2(b, |x, y| x > y)
     }
 
     #[inline(always)]
-    unsafe fn non_finite(self) -> [bool; 16] {
-        self.test2(self, |x, _| !x.is_finite())
+    unsafe fn non_finite(self) -> PortableMask {
+        // `x − x` is 0 for a finite `x` and NaN for an infinite or NaN
+        // one: a subtraction and a comparison, where `is_finite` tests bits
+        // (a 64-bit integer comparison SSE2 lacks)
+        self.test2(self, |x, _| {
+            #[allow(clippy::eq_op)]
+            let zero = x - x;
+            zero != T::ZERO
+        })
     }
 
     #[inline(always)]
-    unsafe fn select(m: [bool; 16], a: Self, b: Self) -> Self {
-        let mut out = b.0;
-        for l in 0..lanes::<T>() {
-            if m[l] {
-                out[l] = a.0[l];
-            }
+    unsafe fn select(m: PortableMask, a: Self, b: Self) -> Self {
+        Portable(
+            PortableMask::words(
+                PortableMask::words(m.0, a.0, |m, a| m & a),
+                PortableMask::words(m.0, b.0, |m, b| !m & b),
+                |x, y| x | y,
+            ),
+            PhantomData,
+        )
+    }
+
+    #[inline(always)]
+    unsafe fn or(a: PortableMask, b: PortableMask) -> PortableMask {
+        PortableMask(PortableMask::words(a.0, b.0, |a, b| a | b))
+    }
+
+    #[inline(always)]
+    unsafe fn and_not(a: PortableMask, b: PortableMask) -> PortableMask {
+        PortableMask(PortableMask::words(a.0, b.0, |a, b| a & !b))
+    }
+
+    #[inline(always)]
+    unsafe fn bits(m: PortableMask) -> u32 {
+        if size_of::<T>() == 8 {
+            (0..8).fold(0, |b, l| b | (((m.0 .0[l] >> 63) as u32) << l))
+        } else {
+            let h = m.0.halves();
+            (0..16).fold(0, |b, l| b | ((h[l] >> 31) << l))
         }
-        Portable(out)
-    }
-
-    #[inline(always)]
-    unsafe fn or(a: [bool; 16], b: [bool; 16]) -> [bool; 16] {
-        core::array::from_fn(|l| a[l] | b[l])
-    }
-
-    #[inline(always)]
-    unsafe fn and_not(a: [bool; 16], b: [bool; 16]) -> [bool; 16] {
-        core::array::from_fn(|l| a[l] & !b[l])
-    }
-
-    #[inline(always)]
-    unsafe fn bits(m: [bool; 16]) -> u32 {
-        (0..16).fold(0, |b, l| b | (u32::from(m[l]) << l))
     }
 }
 
-/// A portable block's fused operation, `±x·a + b` on every lane, where an
-/// x86-64 build without FMA runs on a CPU with it: the lanes in one
-/// function compiled with FMA (the compiler's vector instructions), not a
-/// call to an `fma` routine for each lane. The same bits: both round once.
-///
-/// # Safety
-/// The CPU has FMA.
+/// A portable block's fused multiply-adds on an x86-64 build without FMA,
+/// on a CPU with it: the instruction on each 128-bit quarter of the row, the
+/// width of the build's SSE2 vectors, so the block's other operations stay
+/// in their registers around it. The instruction is written out because
+/// the build cannot enable FMA in a function without also enabling AVX,
+/// which would make it another kernel set. Its VEX encoding clears the
+/// registers' upper halves: no penalty beside legacy SSE code. The same
+/// bits as `Real::fused_mul_add`: both round once, and `−(x·a) + b` is
+/// `(−x)·a + b` exactly.
 #[cfg(all(feature = "std", target_arch = "x86_64", not(target_feature = "fma")))]
-#[target_feature(enable = "fma")]
-#[inline(never)]
-unsafe fn fused_lanes<T: Real, const NEGATE: bool>(
-    x: Portable<T>,
-    a: Portable<T>,
-    b: Portable<T>,
-) -> Portable<T> {
-    x.map3(a, b, |x, a, b| {
-        if NEGATE {
-            (-x).fused_mul_add(a, b)
-        } else {
-            x.fused_mul_add(a, b)
+mod fused_sse {
+    use core::arch::asm;
+    use core::arch::x86_64::{
+        __m128, __m128d, _mm_load_pd, _mm_load_ps, _mm_store_pd, _mm_store_ps,
+    };
+    use core::mem::size_of;
+
+    use super::Row;
+
+    /// `±x·a + b` on every lane of `T` (`−` if `NEGATE`).
+    ///
+    /// # Safety
+    /// The CPU has FMA.
+    #[inline(always)]
+    pub(super) unsafe fn lanes<T, const NEGATE: bool>(x: Row, a: Row, b: Row) -> Row {
+        let mut out = Row::default();
+        for q in 0..4 {
+            // SAFETY: a row is 64 bytes aligned to 64: quarter `q` is 16
+            // bytes aligned to 16; the CPU has FMA (the caller's)
+            unsafe {
+                let at = |r: &Row| (r.0.as_ptr() as *const u8).add(16 * q);
+                let to = (out.0.as_mut_ptr() as *mut u8).add(16 * q);
+                if size_of::<T>() == 8 {
+                    let (x, a) = (_mm_load_pd(at(&x) as _), _mm_load_pd(at(&a) as _));
+                    let mut acc: __m128d = _mm_load_pd(at(&b) as _);
+                    if NEGATE {
+                        asm!("vfnmadd231pd {acc}, {x}, {a}", acc = inout(xmm_reg) acc,
+                            x = in(xmm_reg) x, a = in(xmm_reg) a,
+                            options(pure, nomem, nostack, preserves_flags));
+                    } else {
+                        asm!("vfmadd231pd {acc}, {x}, {a}", acc = inout(xmm_reg) acc,
+                            x = in(xmm_reg) x, a = in(xmm_reg) a,
+                            options(pure, nomem, nostack, preserves_flags));
+                    }
+                    _mm_store_pd(to as _, acc);
+                } else {
+                    let (x, a) = (_mm_load_ps(at(&x) as _), _mm_load_ps(at(&a) as _));
+                    let mut acc: __m128 = _mm_load_ps(at(&b) as _);
+                    if NEGATE {
+                        asm!("vfnmadd231ps {acc}, {x}, {a}", acc = inout(xmm_reg) acc,
+                            x = in(xmm_reg) x, a = in(xmm_reg) a,
+                            options(pure, nomem, nostack, preserves_flags));
+                    } else {
+                        asm!("vfmadd231ps {acc}, {x}, {a}", acc = inout(xmm_reg) acc,
+                            x = in(xmm_reg) x, a = in(xmm_reg) a,
+                            options(pure, nomem, nostack, preserves_flags));
+                    }
+                    _mm_store_ps(to as _, acc);
+                }
+            }
         }
-    })
+        out
+    }
 }
 
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
@@ -527,10 +645,15 @@ pub(crate) fn run_blocks<T: Real, W: BlockWork<T>>(k: super::Kernels, work: W) -
             // frame (aligned, its stack probed) was set up by the bank's
             // step on every call, whichever kernel set ran
             #[inline(never)]
-            fn portable<T: Real, W: BlockWork<T>>(work: W) -> W::Output {
-                work.run(Ops::<T, Portable<T>>(core::marker::PhantomData))
+            fn portable<T: Real, W: BlockWork<T>, const FUSED: bool>(work: W) -> W::Output {
+                work.run(Ops::<T, Portable<T, FUSED>>(core::marker::PhantomData))
             }
-            portable::<T, W>(work)
+            // `Portable<T, true>` only where its instruction exists
+            #[cfg(all(feature = "std", target_arch = "x86_64", not(target_feature = "fma")))]
+            if std::arch::is_x86_feature_detected!("fma") {
+                return portable::<T, W, true>(work);
+            }
+            portable::<T, W, false>(work)
         }
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         super::Kernels::Avx2(_) => {
