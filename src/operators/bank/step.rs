@@ -428,7 +428,7 @@ fn clip<T: Real, V: Block<T>>(
 /// is long, and the scheduler holds only so many waiting operations); two
 /// at a time where a set has sixteen registers ([`Block::PAIRED_CREEP`]:
 /// AVX2, whose blocks run this pass on each of their two registers in
-/// turn, see [`creep`]). Whole slices of rows, so that no index arithmetic
+/// turn, see [`creep`], and the portable blocks on x86-64's SSE2). Whole slices of rows, so that no index arithmetic
 /// or bounds check stands between the vector operations.
 #[inline(always)]
 fn creep_pass<T: Real, V: Block<T>>(

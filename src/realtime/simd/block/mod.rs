@@ -325,6 +325,9 @@ impl<T: Real, const FUSED: bool> Portable<T, FUSED> {
 
 impl<T: Real, const FUSED: bool> Block<T> for Portable<T, FUSED> {
     type Mask = PortableMask;
+    /// SSE2's sixteen registers hold four of a block's rows (each four
+    /// registers): the creep pass's four thresholds do not fit in them.
+    const PAIRED_CREEP: bool = cfg!(target_arch = "x86_64");
     whole_block_halves!();
 
     #[inline(always)]
