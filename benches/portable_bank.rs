@@ -13,9 +13,9 @@
 //! On x86-64 the portable kernels are compiled without FMA: a single
 //! compensator's fused multiply-adds (about 144 a step at the paper's
 //! order) are each a call to an `fma` routine, while the bank's, where the
-//! CPU has FMA, run a block at a time in one function compiled with it
-//! (the rest of its lanes stay in SSE2). On 64-bit ARM FMA is an
-//! instruction and the bank's lanes are NEON vectors
+//! CPU has FMA, are the instruction on the 128-bit registers its blocks'
+//! other operations use (SSE2). On 64-bit ARM FMA is an instruction and
+//! the bank's lanes are NEON vectors
 //! (`verification/platforms/neon_bank.sh`). Timing under an emulator says
 //! nothing about the hardware it emulates: run this on the CPU whose
 //! figures you want.
