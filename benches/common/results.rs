@@ -82,8 +82,17 @@ fn commit() -> String {
             .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
     };
     let head = run(&["rev-parse", "--short=7", "HEAD"]).unwrap_or_else(|| "?".into());
-    let dirty =
-        run(&["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
+    // the results themselves left out: a bench's second run sees the
+    // first one's figures there
+    let dirty = run(&[
+        "status",
+        "--porcelain",
+        "--untracked-files=no",
+        "--",
+        ".",
+        ":(exclude)benches/results",
+    ])
+    .is_some_and(|s| !s.is_empty());
     if dirty {
         format!("{head}-dirty")
     } else {
