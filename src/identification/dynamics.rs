@@ -153,7 +153,7 @@ impl Search<'_> {
             ..self.settings.clone()
         };
         let columns = g.is_some().then_some(&self.columns);
-        let (id, fits) = identify_records_with(self.records, self.sample_time, &s, columns)?;
+        let (id, fits) = identify_records_with(self.records, self.sample_time, &s, columns, None)?;
         let mut r = Vec::new();
         for (index, (rec, fit)) in self.records.iter().zip(&fits).enumerate() {
             let fitted = match id.report.records.get(index) {

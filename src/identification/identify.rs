@@ -8,7 +8,7 @@
 use faer::Mat;
 
 use super::plan::{in_record, FitPlan, Solution, EPSILON_S};
-use super::regressor::{regressor_factor, OperatorColumns};
+use super::regressor::{regressor_factor, OperatorColumns, OperatorState};
 use super::report::check_record_signals;
 use super::report::StartCheck;
 use super::settings::{IdentificationError, IdentificationSettings};
@@ -73,7 +73,7 @@ pub fn identify_records(
     sample_time: f64,
     settings: &IdentificationSettings,
 ) -> Result<Identification, IdentificationError> {
-    identify_records_with(records, sample_time, settings, None).map(|(id, _)| id)
+    identify_records_with(records, sample_time, settings, None, None).map(|(id, _)| id)
 }
 
 /// The operators' columns a search over `G` shares between its trials at
@@ -82,12 +82,14 @@ pub(super) type SharedColumns = std::sync::OnceLock<OperatorColumns>;
 
 /// [`identify_records`], and each record's model output as its report
 /// scores it; `columns`: the operators' columns shared with the other
-/// trials of a search over `G`.
+/// trials of a search over `G`; `states`: each record's operators start
+/// there, not virgin (in the regression and the report).
 pub(super) fn identify_records_with(
     records: &[FitRecord<'_>],
     sample_time: f64,
     settings: &IdentificationSettings,
     columns: Option<&SharedColumns>,
+    states: Option<&[OperatorState]>,
 ) -> Result<(Identification, Vec<Vec<f64>>), IdentificationError> {
     settings.validate()?;
     if records.is_empty() {
@@ -147,7 +149,7 @@ pub(super) fn identify_records_with(
     // the plan (thresholds, kinks, margins) from the measurement itself:
     // G⁻¹[y] carries its noise amplified
     let plan = FitPlan::new(&u_cat, &y_raw, sample_time, settings, &parts, records.len())?;
-    let mut regression = Regression::of(&u_cat, &y_cat, &plan, None, columns)?;
+    let mut regression = Regression::of(&u_cat, &y_cat, &plan, None, columns, states)?;
     let mut solution = regression.solve(&plan)?;
     if settings.dynamics.is_some() && !plan.r_s.is_empty() {
         // With G, the dead zones of S⁻¹ take S's output, which only G⁻¹[y]
@@ -156,7 +158,7 @@ pub(super) fn identify_records_with(
         // its place, starting from y itself (G ≈ 1 at the rates fitted).
         let mut zone = y_raw.clone();
         for _ in 0..2 {
-            let next = Regression::of(&u_cat, &y_cat, &plan, Some(&zone), columns)?;
+            let next = Regression::of(&u_cat, &y_cat, &plan, Some(&zone), columns, states)?;
             let next_solution = next.solve(&plan)?;
             (regression, solution) = (next, next_solution);
             for (index, segment) in plan.segments.iter().enumerate() {
@@ -165,8 +167,8 @@ pub(super) fn identify_records_with(
                     .get(index)
                     .copied()
                     .unwrap_or(solution.offset);
-                let w = plan
-                    .model_with(&solution, own)?
+                let model = plan.model_with(&solution, own)?;
+                let w = started_in(model, states.and_then(|s| s.get(index)))?
                     .run(&u_cat[segment.whole.clone()]);
                 zone[segment.whole.clone()].copy_from_slice(&w);
             }
@@ -194,7 +196,7 @@ pub(super) fn identify_records_with(
             .model_with(&solution, own)?
             .with_dynamics(settings.dynamics.as_ref())?
             .with_delay(d)?;
-        let fit = own.clone().run(r.u);
+        let fit = started_in(own.clone(), states.and_then(|s| s.get(index)))?.run(r.u);
         record_reports.push(RecordFit {
             samples: r.u.len(),
             fit: FitErrors::of(&fit, r.y, fitted.clone()),
@@ -256,6 +258,23 @@ pub(super) fn identify_records_with(
     ))
 }
 
+/// `model` with its operators in `state` (unchanged without one).
+pub(super) fn started_in(
+    model: HysteresisCreepModel,
+    state: Option<&OperatorState>,
+) -> Result<HysteresisCreepModel, IdentificationError> {
+    let Some(state) = state else {
+        return Ok(model);
+    };
+    let mut file = model.to_file();
+    file.hysteresis.state = Some(state.plays.clone());
+    if let Some(c) = &mut file.creep {
+        let m = c.eigenvalues.len().max(1);
+        c.state = Some(state.creep.chunks(m).map(<[f64]>::to_vec).collect());
+    }
+    Ok(HysteresisCreepModel::from_file(&file)?)
+}
+
 /// Stage 1: the triangular factor of `[1 | Φ | ς]` and what it determines.
 struct Regression {
     /// The factor, offset column first when the offset is fitted.
@@ -274,6 +293,7 @@ impl Regression {
         plan: &FitPlan,
         zone: Option<&[f64]>,
         columns: Option<&SharedColumns>,
+        states: Option<&[OperatorState]>,
     ) -> Result<Self, IdentificationError> {
         let creep = if plan.nc > 0 {
             Some(CreepOperator::new(
@@ -287,7 +307,8 @@ impl Regression {
         };
         let width = plan.nh + creep.as_ref().map_or(0, |c| c.thresholds().len());
         let affordable = OperatorColumns::affordable(u.len(), width);
-        let columns = columns.filter(|_| affordable).map(|c| {
+        // the shared columns start virgin
+        let columns = columns.filter(|_| affordable && states.is_none()).map(|c| {
             c.get_or_init(|| {
                 OperatorColumns::new(u, &plan.segments, &plan.r_h[..plan.nh], creep.as_ref())
             })
@@ -303,7 +324,8 @@ impl Regression {
             plan.dynamics.as_ref().map(|g| (g, plan.sample_time)),
             zone,
             columns,
-        );
+            states,
+        )?;
         let p = plan.excited();
         let r = Self::weights_block(&factor, plan);
         let sv = singular_values(&r);

@@ -60,6 +60,8 @@ mod dynamics;
 mod identify;
 pub mod initial_state;
 #[cfg(feature = "identification")]
+mod joint_state;
+#[cfg(feature = "identification")]
 mod plan;
 #[cfg(feature = "identification")]
 mod regressor;
@@ -83,6 +85,8 @@ pub use dynamics::{fit_dynamics, fit_dynamics_and_delay, DynamicsParts};
 #[cfg(feature = "identification")]
 pub use identify::{identify, identify_records, FitRecord, Identification};
 pub use initial_state::{estimate_state, StateEstimate, StateSettings};
+#[cfg(feature = "identification")]
+pub use joint_state::{identify_with_initial_states, InitialStateFit, InitialStateSettings};
 #[cfg(feature = "identification")]
 pub use plan::EPSILON_S;
 #[cfg(feature = "identification")]

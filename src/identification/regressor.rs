@@ -39,6 +39,17 @@ pub(crate) struct Segment {
     pub offset_column: usize,
 }
 
+/// The operators' state at a record's first sample, for the model's
+/// thresholds: the plays' `x_i` and the creep's `χ_ij` (threshold-major,
+/// `i · m + j`). A regression takes those of its own operators (the first
+/// of each). Finite, and as long as the model's operators (checked where
+/// it is made).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct OperatorState {
+    pub plays: Vec<f64>,
+    pub creep: Vec<f64>,
+}
+
 /// The most memory [`OperatorColumns`] takes (256 MiB, about 1.4 million
 /// samples at the paper's orders): a longer search streams its rows as a
 /// single fit does, in every trial.
@@ -236,6 +247,9 @@ impl RowFilter {
 /// (the right-hand side too, which gives back the measurement) passes
 /// through `G` before it enters: the fit is the output error of
 /// `y = G[S[H + C]]` for a fixed `G`, linear in the weights.
+///
+/// `states`: each segment's operators start there instead of the virgin
+/// state (then `columns`, computed from the virgin state, must be `None`).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn regressor_factor(
     u: &[f64],
@@ -248,7 +262,8 @@ pub(crate) fn regressor_factor(
     dynamics: Option<(&crate::realtime::DynamicsParameters, f64)>,
     zone: Option<&[f64]>,
     columns: Option<&OperatorColumns>,
-) -> Mat<f64> {
+    states: Option<&[OperatorState]>,
+) -> Result<Mat<f64>, crate::realtime::ParameterError> {
     let nh = r_h.len();
     let nc = creep.as_ref().map_or(0, |c| c.thresholds().len());
     let (kinks, centre) = superposition.unwrap_or((&[], 0.0));
@@ -266,14 +281,22 @@ pub(crate) fn regressor_factor(
     let total: usize = segments.iter().map(|s| s.fitted.len()).sum();
     let mut done = 0;
     // the operators' columns from the cache when they are its own
-    let columns = columns.filter(|c| c.matches(u.len(), r_h, creep.as_ref()));
-    for segment in segments {
-        x.fill(0.0);
+    let columns = columns.filter(|c| states.is_none() && c.matches(u.len(), r_h, creep.as_ref()));
+    for (index, segment) in segments.iter().enumerate() {
+        let state = states.and_then(|s| s.get(index));
+        match state {
+            Some(s) => x.copy_from_slice(&s.plays[..nh]),
+            None => x.fill(0.0),
+        }
         let mut creep = if columns.is_some() {
             None
         } else {
             creep.clone()
         };
+        if let (Some(c), Some(s)) = (&mut creep, state) {
+            let values = c.thresholds().len() * c.eigenvalues().len();
+            c.set_state_flat(&s.creep[..values])?;
+        }
         if let Some(f) = &mut filter {
             f.restart();
         }
@@ -345,7 +368,13 @@ pub(crate) fn regressor_factor(
             }
         }
     }
-    Mat::from_fn(cols, cols, |i, j| if i <= j { stack[(i, j)] } else { 0.0 })
+    Ok(Mat::from_fn(cols, cols, |i, j| {
+        if i <= j {
+            stack[(i, j)]
+        } else {
+            0.0
+        }
+    }))
 }
 
 /// Factor the stack `[R; chunk]` (the first `filled` chunk rows) in place and
@@ -494,7 +523,9 @@ mod tests {
                 Some((&g(), ts)),
                 None,
                 cached,
+                None,
             )
+            .unwrap()
         };
         let (streamed, shared) = (factor(None), factor(Some(&columns)));
         for i in 0..streamed.nrows() {
