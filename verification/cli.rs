@@ -1680,6 +1680,44 @@ fn record_with_a_past(path: &Path) -> ModelFile {
     start
 }
 
+/// `identify --fit-initial-state` on a record with a past: the rounds each
+/// lower the RMS error over every sample, every sample is fitted, and the
+/// model file stays virgin.
+#[test]
+fn identify_fits_the_initial_state_with_the_weights() {
+    let d = TempDir::new("identify-initial-state");
+    let record = d.path("record.csv");
+    record_with_a_past(&record);
+    let model = d.path("model.json");
+    let run = mfcbeam(&[
+        "identify",
+        "--input",
+        s(&record),
+        "--output",
+        s(&model),
+        "--fit-initial-state",
+    ]);
+    let report = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{report}");
+    let line = report
+        .lines()
+        .find(|l| l.starts_with("initial state        fitted with the weights in"))
+        .unwrap_or_else(|| panic!("{report}"));
+    let rms: Vec<f64> = line
+        .rsplit("every sample ")
+        .next()
+        .unwrap()
+        .split(" → ")
+        .map(|x| x.parse().unwrap())
+        .collect();
+    assert!(rms.len() >= 2, "{line}");
+    assert!(rms.windows(2).all(|w| w[1] < w[0]), "{line}");
+    // the fit starts at the first sample (the ordinary one skips to max|u|)
+    assert!(report.contains(" fitted: 0.."), "{report}");
+    let file = mfcbeam::io::read_model_file(&model).unwrap();
+    assert!(file.hysteresis.state.is_none());
+}
+
 #[test]
 fn estimate_state_recovers_the_memory_a_record_starts_in() {
     let d = TempDir::new("estimate-state");

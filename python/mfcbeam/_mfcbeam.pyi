@@ -139,6 +139,12 @@ class DelayRow(TypedDict):
     validations: List[FitErrors]
     score: float
 
+class InitialStateReport(TypedDict):
+    rms: List[float]
+    rounds: int
+    models: List[Model]
+    unwiped: List[List[int]]
+
 class FitReport(TypedDict):
     sample_time: float
     jitter: Optional[float]
@@ -172,6 +178,7 @@ class FitReport(TypedDict):
     undetermined: List[NamedOperator]
     records: List[Dict[str, Any]]
     dynamics: Optional[Dict[str, Any]]
+    initial_state: Optional[InitialStateReport]
     text: str
 
 def identify(
@@ -201,6 +208,7 @@ def identify(
     dynamics: str = "none",
     validate_zero: Optional[Tuple[int, int]] = None,
     thresholds: str = "uniform",
+    fit_initial_state: bool = False,
 ) -> Tuple[Model, FitReport]:
     """Identify W = G[S[H + C]] + offset from input u (V) and measured y, at
     `sample_time` (s) or timestamps `t` (`superposition=M`: M dead zones of S
@@ -208,7 +216,8 @@ def identify(
     time; `records`: more records fitted together, `offset="per-record"`;
     `dynamics`: "low-pass", "resonance" or both, comma-separated;
     `validate_zero=(a, b)`: each validation record's offset estimated on its
-    samples a..b); returns the model and the fit report."""
+    samples a..b; `fit_initial_state`: each record's memory fitted with the
+    weights); returns the model and the fit report."""
 
 class StateReport(TypedDict):
     window: int

@@ -6,9 +6,10 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use mfcbeam::identification::{
-    check_record, fit_dynamics_and_delay, holdout_samples, identify_records, search_delay_records,
-    DelayCriterion, DelaySetting, DynamicsParts, FitErrors, FitRecord, FitStart,
-    IdentificationError, IdentificationSettings, Record, UnexcitedOperator,
+    check_record, fit_dynamics_and_delay, holdout_samples, identify_records,
+    identify_with_initial_states, search_delay_records, DelayCriterion, DelaySetting,
+    DynamicsParts, FitErrors, FitRecord, FitStart, IdentificationError, IdentificationSettings,
+    InitialStateSettings, Record, UnexcitedOperator,
 };
 use mfcbeam::io::TimeAxis;
 use mfcbeam::operators::bank::Par;
@@ -60,6 +61,11 @@ const _: () = assert!(mfcbeam::identification::DEFAULT_MAX_DELAY == 10);
 /// a..b and reports its errors with it removed too ("zeroed").
 /// `thresholds="reversals"` places half of the play thresholds at the
 /// quantiles of the input's reversal half-amplitudes (the rest by (23)).
+/// `fit_initial_state=True` fits each fitted record's initial memory (play
+/// and creep states, and the state of G) together with the weights, in
+/// rounds that each lower the squared error over every sample, after the
+/// delay and dynamics searches: report["initial_state"] holds the RMS
+/// error by round and each record's model in its fitted state.
 ///
 /// Returns (model, report): the identified model (virgin state) and a dict
 /// of the figures the command line prints; report["text"] is that text.
@@ -71,7 +77,7 @@ const _: () = assert!(mfcbeam::identification::DEFAULT_MAX_DELAY == 10);
     epsilon_h = None, fit_offset = true, fit_from = None, holdout = 0.0, validate = None,
     superposition = 0, superposition_kinks = None, validate_from = None,
     delay = None, max_delay = 10, records = None, offset = "shared", dynamics = "none",
-    validate_zero = None, thresholds = "uniform"
+    validate_zero = None, thresholds = "uniform", fit_initial_state = false
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify<'py>(
@@ -103,6 +109,7 @@ pub fn identify<'py>(
     dynamics: &str,
     validate_zero: Option<(usize, usize)>,
     thresholds: &str,
+    fit_initial_state: bool,
 ) -> PyResult<(Model, Bound<'py, PyDict>)> {
     let offset_per_record = match offset {
         "shared" => false,
@@ -249,7 +256,7 @@ pub fn identify<'py>(
         offset_per_record,
         ..IdentificationSettings::default()
     };
-    let (id, validated, search) = py
+    let (id, validated, search, initial) = py
         .detach(move || {
             let records: Vec<Record> = validation
                 .iter()
@@ -301,11 +308,30 @@ pub fn identify<'py>(
                 // on this thread: the package leaves threads to its caller
                 id = fit_dynamics_and_delay(&fit_records, ts, &s, parts, &records, Par::Seq)?;
             }
+            let mut initial = None;
+            if fit_initial_state {
+                let s = IdentificationSettings {
+                    delay: id.report.delay,
+                    dynamics: id.model.dynamics().map(|g| *g.parameters()),
+                    ..settings.clone()
+                };
+                let (joint, states) = identify_with_initial_states(
+                    &fit_records,
+                    ts,
+                    &s,
+                    &InitialStateSettings::default(),
+                )?;
+                // the search's report stays with the model it found
+                let dynamics = id.report.dynamics.take();
+                id = joint;
+                id.report.dynamics = dynamics;
+                initial = Some(states);
+            }
             let mut validated = Vec::new();
             for r in &records {
                 validated.push(r.row(&id.model)?);
             }
-            Ok::<_, IdentificationError>((id, validated, search))
+            Ok::<_, IdentificationError>((id, validated, search, initial))
         })
         .map_err(value_error)?;
     let r = &id.report;
@@ -397,6 +423,23 @@ pub fn identify<'py>(
     d.set_item("standard_errors", r.standard_errors.clone())?;
     d.set_item("superposition", r.superposition.clone())?;
     d.set_item("delay", r.delay)?;
+    match initial {
+        None => d.set_item("initial_state", py.None())?,
+        Some(states) => {
+            let e = PyDict::new(py);
+            e.set_item("rms", states.rms.clone())?;
+            e.set_item("rounds", states.rounds)?;
+            let models = PyList::empty(py);
+            for file in &states.models {
+                let inner = mfcbeam::operators::model::HysteresisCreepModel::from_file(file)
+                    .map_err(value_error)?;
+                models.append(Model { inner })?;
+            }
+            e.set_item("models", models)?;
+            e.set_item("unwiped", states.unwiped.clone())?;
+            d.set_item("initial_state", e)?;
+        }
+    }
     let mut text = r.to_string();
     match &search {
         None => {

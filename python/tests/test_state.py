@@ -95,3 +95,24 @@ def test_bad_arguments_raise_value_error(record):
     bad[3] = np.nan
     with pytest.raises(ValueError, match=r"u\[3\]"):
         mfcbeam.estimate_state(nominal, bad, y)
+
+
+def test_identify_fits_the_initial_state_with_the_weights(record):
+    u, y = record["u"], record["y"]
+    model, report = mfcbeam.identify(
+        u, y, sample_time=mfcbeam.Model.nominal().sample_time, fit_initial_state=True
+    )
+    rms = report["initial_state"]["rms"]
+    # the ordinary fit, then every round kept: each lowers the error
+    assert 2 <= len(rms) <= report["initial_state"]["rounds"] + 1
+    assert all(b < a for a, b in zip(rms, rms[1:]))
+    # every sample fitted; the record's model in its fitted state
+    assert report["fitted"] == (0, len(u))
+    (started,) = report["initial_state"]["models"]
+    assert np.sqrt(np.mean((started.copy().simulate(u) - y) ** 2)) == pytest.approx(
+        rms[-1], rel=1e-9
+    )
+    # the model itself stays virgin, as a compensator starts
+    assert not any(json.loads(model.to_json())["hysteresis"].get("state", []))
+    _, plain = mfcbeam.identify(u, y, sample_time=mfcbeam.Model.nominal().sample_time)
+    assert plain["initial_state"] is None

@@ -217,6 +217,13 @@ pub struct IdentifyArgs {
     /// thread alone.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub threads: usize,
+    /// Fit each record's initial memory (its play and creep states)
+    /// together with the weights, in rounds that each lower the squared
+    /// error over every sample: a record with an unknown past fitted from
+    /// its first sample. After the --delay and --dynamics searches, with
+    /// what they found. The model file stays in the virgin state.
+    #[arg(long)]
+    pub fit_initial_state: bool,
     /// Where the play thresholds go: `uniform` (23) or `reversals` (half by
     /// (23), half at the quantiles of the half-amplitudes of the input's
     /// reversals: records of small loops get plays that move in them).

@@ -8,8 +8,9 @@ use anyhow::{anyhow, bail, Context, Result};
 use mfcbeam::identification::validate_record_from_state;
 use mfcbeam::identification::{
     check_record, dominant_rate, fit_dynamics_and_delay, holdout_samples, identify_records,
-    search_delay_records, DelaySetting, FitRecord, FitStart, IdentificationSettings, Record,
-    StateEstimate, StateSettings, ValidationRow, ValidationTable,
+    identify_with_initial_states, search_delay_records, DelaySetting, FitRecord, FitStart,
+    IdentificationSettings, InitialStateSettings, Record, StateEstimate, StateSettings,
+    ValidationRow, ValidationTable,
 };
 use mfcbeam::io::{read_model_file, write_json, Trace};
 use mfcbeam::operators::bank::Par;
@@ -203,6 +204,23 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
             e => name_of(e),
         })?;
     }
+    let initial_states = if a.fit_initial_state {
+        let s = IdentificationSettings {
+            delay: id.report.delay,
+            dynamics: id.model.dynamics().map(|g| *g.parameters()),
+            ..settings.clone()
+        };
+        let (joint, states) =
+            identify_with_initial_states(&fit_records, ts, &s, &InitialStateSettings::default())
+                .map_err(name_of)?;
+        // the search's report stays with the model it found
+        let dynamics = id.report.dynamics.take();
+        id = joint;
+        id.report.dynamics = dynamics;
+        Some(states)
+    } else {
+        None
+    };
     let mut rows = Vec::new();
     for r in &records {
         match a.validate_state_until {
@@ -227,9 +245,18 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
         }
     }
     if let Some(p) = &a.plot {
-        let fit = id.model.clone().run(u);
+        // each fitted record's model as fitted: in its fitted initial state
+        let started: Vec<HysteresisCreepModel> = match &initial_states {
+            Some(states) => states
+                .models
+                .iter()
+                .map(HysteresisCreepModel::from_file)
+                .collect::<Result<_, _>>()?,
+            None => id.record_models.clone(),
+        };
+        let fit = started[0].clone().run(u);
         let mut others: Vec<(String, Vec<f64>)> = Vec::new();
-        for ((name, fu, fy), model) in fitted.iter().zip(&id.record_models).skip(1) {
+        for ((name, fu, fy), model) in fitted.iter().zip(&started).skip(1) {
             let fit = model.clone().run(fu);
             others.push((
                 format!("{name} (fitted)"),
@@ -255,6 +282,19 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
     eprint!("{}", id.report);
     if let Some(search) = &search {
         eprint!("{search}");
+    }
+    if let Some(states) = &initial_states {
+        let rms: Vec<String> = states.rms.iter().map(|r| format!("{r:.4e}")).collect();
+        eprintln!(
+            "initial state        fitted with the weights in {} rounds: RMS error over every sample {}",
+            states.rounds,
+            rms.join(" → ")
+        );
+        for ((name, _, _), unwiped) in fitted.iter().zip(&states.unwiped) {
+            if !unwiped.is_empty() {
+                eprintln!("initial state        {name}: plays {unwiped:?} keep their memory through the record (their states rest on its level alone)");
+            }
+        }
     }
     if let Some(g) = &id.report.dynamics {
         eprint!("{}", DynamicsLine(g));
