@@ -448,6 +448,19 @@ fn identify_round_trip_recovers_a_model_that_compensates() {
     let m2 = mfcbeam::io::read_model(&d.path("m2.json")).unwrap();
     assert_eq!(m2.hysteresis().thresholds(), &[0.0, 250.0, 500.0, 750.0]);
     assert!(m2.creep().is_none());
+    // the creep penalty, chosen by GCV, is reported
+    let out = mfcbeam(&[
+        "identify",
+        "--input",
+        s(&data),
+        "--output",
+        s(&d.path("m3.json")),
+        "--creep-regularisation",
+        "gcv",
+    ]);
+    ok(out.clone());
+    let report = String::from_utf8_lossy(&out.stderr);
+    assert!(report.contains("creep penalty        λ = "), "{report}");
 }
 
 #[test]
@@ -485,6 +498,13 @@ fn identify_error_contract() {
         &["const.csv", "constant"],
         Some(&output),
     );
+    for bad in ["ridge", "-1", "NaN"] {
+        assert_clean_failure(
+            &run(&few, &["--creep-regularisation", bad]),
+            &["--creep-regularisation", bad],
+            Some(&output),
+        );
+    }
     let no_t = d.write("not.csv", "u,y\n0,0\n1,1\n");
     assert_clean_failure(
         &run(&no_t, &[]),

@@ -179,6 +179,7 @@ class FitReport(TypedDict):
     records: List[Dict[str, Any]]
     dynamics: Optional[Dict[str, Any]]
     initial_state: Optional[InitialStateReport]
+    creep_regularisation: Optional[Tuple[float, float]]
     text: str
 
 def identify(
@@ -209,6 +210,7 @@ def identify(
     validate_zero: Optional[Tuple[int, int]] = None,
     thresholds: str = "uniform",
     fit_initial_state: bool = False,
+    creep_regularisation: Union[None, str, float] = None,
 ) -> Tuple[Model, FitReport]:
     """Identify W = G[S[H + C]] + offset from input u (V) and measured y, at
     `sample_time` (s) or timestamps `t` (`superposition=M`: M dead zones of S
@@ -217,6 +219,7 @@ def identify(
     `dynamics`: "low-pass", "resonance" or both, comma-separated;
     `validate_zero=(a, b)`: each validation record's offset estimated on its
     samples a..b; `fit_initial_state`: each record's memory fitted with the
+    weights; `creep_regularisation`: "gcv" or λ, a penalty on the creep
     weights); returns the model and the fit report."""
 
 class StateReport(TypedDict):

@@ -7,9 +7,9 @@ use pyo3::types::{PyDict, PyList};
 
 use mfcbeam::identification::{
     check_record, fit_dynamics_and_delay, holdout_samples, identify_records,
-    identify_with_initial_states, search_delay_records, DelayCriterion, DelaySetting,
-    DynamicsParts, FitErrors, FitRecord, FitStart, IdentificationError, IdentificationSettings,
-    InitialStateSettings, Record, UnexcitedOperator,
+    identify_with_initial_states, search_delay_records, CreepRegularisation, DelayCriterion,
+    DelaySetting, DynamicsParts, FitErrors, FitRecord, FitStart, IdentificationError,
+    IdentificationSettings, InitialStateSettings, Record, UnexcitedOperator,
 };
 use mfcbeam::io::TimeAxis;
 use mfcbeam::operators::bank::Par;
@@ -61,6 +61,10 @@ const _: () = assert!(mfcbeam::identification::DEFAULT_MAX_DELAY == 10);
 /// a..b and reports its errors with it removed too ("zeroed").
 /// `thresholds="reversals"` places half of the play thresholds at the
 /// quantiles of the input's reversal half-amplitudes (the rest by (23)).
+/// `creep_regularisation="gcv"` (or a number λ ≥ 0) adds a penalty
+/// λ s² ‖w_C‖² on the creep weights, λ chosen by generalized
+/// cross-validation on the fitted samples (report["creep_regularisation"]:
+/// (λ, effective parameters)).
 /// `fit_initial_state=True` fits each fitted record's initial memory (play
 /// and creep states, and the state of G) together with the weights, in
 /// rounds that each lower the squared error over every sample, after the
@@ -77,7 +81,8 @@ const _: () = assert!(mfcbeam::identification::DEFAULT_MAX_DELAY == 10);
     epsilon_h = None, fit_offset = true, fit_from = None, holdout = 0.0, validate = None,
     superposition = 0, superposition_kinks = None, validate_from = None,
     delay = None, max_delay = 10, records = None, offset = "shared", dynamics = "none",
-    validate_zero = None, thresholds = "uniform", fit_initial_state = false
+    validate_zero = None, thresholds = "uniform", fit_initial_state = false,
+    creep_regularisation = None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify<'py>(
@@ -110,7 +115,20 @@ pub fn identify<'py>(
     validate_zero: Option<(usize, usize)>,
     thresholds: &str,
     fit_initial_state: bool,
+    creep_regularisation: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<(Model, Bound<'py, PyDict>)> {
+    // "none", "gcv" or λ
+    let creep_regularisation = match creep_regularisation {
+        None => CreepRegularisation::None,
+        Some(r) => match r.extract::<f64>() {
+            Ok(l) => format!("{l}").parse(),
+            Err(_) => r
+                .extract::<String>()
+                .map_err(|_| "not a string or a number".to_string())
+                .and_then(|s| s.parse()),
+        }
+        .map_err(|e: String| PyValueError::new_err(format!("creep_regularisation: {e}")))?,
+    };
     let offset_per_record = match offset {
         "shared" => false,
         "per-record" => true,
@@ -254,6 +272,7 @@ pub fn identify<'py>(
             DelaySetting::Auto => 0,
         },
         offset_per_record,
+        creep_regularisation,
         ..IdentificationSettings::default()
     };
     let (id, validated, search, initial) = py
@@ -423,6 +442,7 @@ pub fn identify<'py>(
     d.set_item("standard_errors", r.standard_errors.clone())?;
     d.set_item("superposition", r.superposition.clone())?;
     d.set_item("delay", r.delay)?;
+    d.set_item("creep_regularisation", r.creep_regularisation)?;
     match initial {
         None => d.set_item("initial_state", py.None())?,
         Some(states) => {

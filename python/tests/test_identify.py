@@ -283,3 +283,18 @@ def test_several_records_with_their_offsets_and_dynamics_agree_with_the_cli(cli)
                 {"thresholds": "reversals", "hysteresis_thresholds": [0.0, 1.0]}):
         with pytest.raises(ValueError):
             mfcbeam.identify(u1, y1, sample_time=ts, **bad)
+
+
+def test_the_creep_penalty_is_chosen_and_reported(record):
+    u, y, ts = record["u"], record["y"], record["ts"]
+    model, report = mfcbeam.identify(u, y, sample_time=ts, creep_regularisation="gcv")
+    lam, df = report["creep_regularisation"]
+    assert lam >= 0.0 and 0.0 < df <= report["unknowns"]
+    assert "creep penalty" in report["text"]
+    _, fixed = mfcbeam.identify(u, y, sample_time=ts, creep_regularisation=1e-3)
+    assert fixed["creep_regularisation"][0] == 1e-3
+    _, plain = mfcbeam.identify(u, y, sample_time=ts)
+    assert plain["creep_regularisation"] is None
+    for bad in ("ridge", -1.0, float("nan"), [1.0]):
+        with pytest.raises(ValueError, match="creep_regularisation"):
+            mfcbeam.identify(u, y, sample_time=ts, creep_regularisation=bad)

@@ -224,6 +224,16 @@ pub struct IdentifyArgs {
     /// what they found. The model file stays in the virgin state.
     #[arg(long)]
     pub fit_initial_state: bool,
+    /// A penalty λ s² ‖w_C‖² on the creep weights (s² the mean squared
+    /// creep column): `none`, a λ, or `gcv` (λ by generalized
+    /// cross-validation on the fitted samples alone).
+    #[arg(
+        long,
+        value_name = "none|gcv|LAMBDA",
+        default_value = "none",
+        allow_hyphen_values = true
+    )]
+    pub creep_regularisation: mfcbeam::identification::CreepRegularisation,
     /// Where the play thresholds go: `uniform` (23) or `reversals` (half by
     /// (23), half at the quantiles of the half-amplitudes of the input's
     /// reversals: records of small loops get plays that move in them).

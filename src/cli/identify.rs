@@ -117,6 +117,7 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
         },
         offset_per_record: a.offset == OffsetSetting::PerRecord,
         dynamics: None,
+        creep_regularisation: a.creep_regularisation,
     };
     // the settings are options: named as such, not after the input file
     if let Err(mfcbeam::identification::IdentificationError::InvalidSetting { field, reason }) =

@@ -11,8 +11,11 @@ use super::plan::{in_record, FitPlan, Solution, EPSILON_S};
 use super::regressor::{regressor_factor, OperatorColumns, OperatorState};
 use super::report::check_record_signals;
 use super::report::StartCheck;
+use super::settings::CreepRegularisation;
 use super::settings::{IdentificationError, IdentificationSettings};
-use super::solve::{nnls, null_space_members, singular_values, weights_from_sums, RANK_TOLERANCE};
+use super::solve::{
+    nnls, null_space_members, singular_values, weights_from_sums, NnlsSolution, RANK_TOLERANCE,
+};
 use super::{ActiveConstraint, FitErrors, FitReport, RecordFit, UnexcitedOperator};
 use crate::operators::creep::CreepOperator;
 use crate::operators::model::HysteresisCreepModel;
@@ -247,6 +250,7 @@ pub(super) fn identify_records_with(
             Vec::new()
         },
         dynamics: None,
+        creep_regularisation: solution.creep_penalty,
     };
     Ok((
         Identification {
@@ -404,7 +408,7 @@ impl Regression {
         let d: Vec<f64> = (0..p)
             .map(|i| c[i] - (0..p).map(|j| m[(i, j)] * plan.bound(j)).sum::<f64>())
             .collect();
-        let solution = nnls(&m, &d)?;
+        let (solution, creep_penalty) = self.penalised(plan, &m, &d)?;
         let sums: Vec<f64> = (0..p).map(|j| plan.bound(j) + solution.x[j]).collect();
         let active_constraints = (0..p)
             .filter(|&j| solution.x[j] == 0.0)
@@ -459,6 +463,104 @@ impl Regression {
             active_constraints,
             kkt_residual: solution.kkt_residual,
             iterations: solution.iterations,
+            creep_penalty,
         })
     }
+
+    /// The non-negative least squares `min ‖M x − d‖` with the creep
+    /// penalty of the plan's [`CreepRegularisation`] (its `λ` and the
+    /// weights' effective parameters, where there is one). The creep weights are the
+    /// differences of their partial sums, `w_C = D x_C` (their bound is 0),
+    /// so the penalty is `√(λ s²) D` in the creep columns under `M`, with
+    /// zeros under `d`: the problem stays a non-negative least squares.
+    fn penalised(
+        &self,
+        plan: &FitPlan,
+        m: &Mat<f64>,
+        d: &[f64],
+    ) -> Result<(NnlsSolution, Option<(f64, f64)>), IdentificationError> {
+        let creep = plan.group_ranges()[1].clone();
+        let lambdas: Vec<f64> = match plan.creep_regularisation {
+            CreepRegularisation::None => Vec::new(),
+            _ if creep.is_empty() => Vec::new(),
+            CreepRegularisation::Fixed(l) => vec![l],
+            CreepRegularisation::Gcv => std::iter::once(0.0)
+                .chain((0..=20).map(|k| 10f64.powf(-10.0 + 0.5 * k as f64)))
+                .collect(),
+        };
+        if lambdas.is_empty() {
+            return Ok((nnls(m, d)?, None));
+        }
+        let (p, q) = (plan.excited(), plan.offsets);
+        let r = Self::weights_block(&self.factor, plan);
+        // the mean squared creep column of the regressor (RᵀR = ΦᵀΦ)
+        let energy = creep
+            .clone()
+            .map(|j| (0..p).map(|i| r[(i, j)] * r[(i, j)]).sum::<f64>())
+            .sum::<f64>()
+            / creep.len() as f64;
+        let residual = self.factor[(q + p, q + p)].powi(2);
+        let samples = plan.rows as f64;
+        let mut best: Option<(f64, NnlsSolution, f64, f64)> = None;
+        for lambda in lambdas {
+            let s = (lambda * energy).sqrt();
+            let rows = p + creep.len();
+            let a = Mat::from_fn(rows, p, |i, j| {
+                if i < p {
+                    m[(i, j)]
+                } else {
+                    // row k of D on the creep columns: x_k − x_{k−1}
+                    let k = creep.start + (i - p);
+                    if j == k {
+                        s
+                    } else if j + 1 == k && j >= creep.start {
+                        -s
+                    } else {
+                        0.0
+                    }
+                }
+            });
+            let b: Vec<f64> = (0..rows).map(|i| if i < p { d[i] } else { 0.0 }).collect();
+            let solution = nnls(&a, &b)?;
+            let rss = (0..p)
+                .map(|i| {
+                    let e = (0..p).map(|j| m[(i, j)] * solution.x[j]).sum::<f64>() - d[i];
+                    e * e
+                })
+                .sum::<f64>()
+                + residual;
+            let df = if lambda == 0.0 {
+                self.rank as f64
+            } else {
+                effective_parameters(m, &a, p)
+            } + q as f64;
+            let score = if samples > df {
+                samples * rss / (samples - df).powi(2)
+            } else {
+                f64::INFINITY
+            };
+            if best.as_ref().is_none_or(|(s, ..)| score < *s) {
+                best = Some((score, solution, lambda, df));
+            }
+        }
+        match best {
+            // the weights' share of the effective parameters
+            Some((_, solution, lambda, df)) => Ok((solution, Some((lambda, df - q as f64)))),
+            None => Ok((nnls(m, d)?, None)),
+        }
+    }
+}
+
+/// `tr((MᵀM + PᵀP)⁻¹ MᵀM)`: the effective parameters of the unconstrained
+/// penalised fit, `a = [M; P]` (`M` its first `p` rows).
+fn effective_parameters(m: &Mat<f64>, a: &Mat<f64>, p: usize) -> f64 {
+    let gram = |x: &Mat<f64>| {
+        Mat::from_fn(p, p, |i, j| {
+            (0..x.nrows()).map(|k| x[(k, i)] * x[(k, j)]).sum::<f64>()
+        })
+    };
+    use faer::linalg::solvers::Solve;
+    let (mtm, ata) = (gram(m), gram(a));
+    let x = ata.partial_piv_lu().solve(&mtm);
+    (0..p).map(|i| x[(i, i)]).sum()
 }

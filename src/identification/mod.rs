@@ -95,7 +95,7 @@ pub use report::{
     UnexcitedOperator,
 };
 pub use settings::{
-    holdout_samples, superposition_kinks, thresholds_23, IdentificationError,
+    holdout_samples, superposition_kinks, thresholds_23, CreepRegularisation, IdentificationError,
     IdentificationSettings,
 };
 #[cfg(feature = "identification")]

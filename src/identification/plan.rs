@@ -45,6 +45,7 @@ pub(super) struct FitPlan {
     pub(super) centre: f64,
     /// The fixed dynamics `G` the columns pass through.
     pub(super) dynamics: Option<crate::realtime::DynamicsParameters>,
+    pub(super) creep_regularisation: super::settings::CreepRegularisation,
 }
 
 /// The four groups of columns with partial-sum bounds: the plays, the creep
@@ -211,6 +212,7 @@ impl FitPlan {
             ns_pos,
             centre,
             dynamics: settings.dynamics,
+            creep_regularisation: settings.creep_regularisation,
         })
     }
 
@@ -392,6 +394,9 @@ pub(super) struct Solution {
     pub(super) active_constraints: Vec<ActiveConstraint>,
     pub(super) kkt_residual: f64,
     pub(super) iterations: usize,
+    /// The creep penalty's `λ` and the fit's effective parameters there,
+    /// where one was asked for.
+    pub(super) creep_penalty: Option<(f64, f64)>,
 }
 
 #[cfg(test)]

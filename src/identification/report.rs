@@ -153,6 +153,10 @@ pub struct FitReport {
     pub dynamics: Option<DynamicsReport>,
     /// The first 5 % of the fitted samples against the rest.
     pub start: StartCheck,
+    /// The creep penalty's `λ` and the weights' effective parameters there
+    /// (the trace of the unconstrained fit's hat matrix, offsets left out;
+    /// at most `unknowns`), where one was asked for.
+    pub creep_regularisation: Option<(f64, f64)>,
 }
 
 /// The errors at the start of the fitted samples against the rest: a start
@@ -253,6 +257,13 @@ impl std::fmt::Display for FitReport {
             st.samples, st.rms, st.rest_rms
         )?;
         writeln!(f, "offset               {:.6e}", self.offset)?;
+        if let Some((lambda, df)) = self.creep_regularisation {
+            writeln!(
+                f,
+                "creep penalty        λ = {lambda:.3e}: {df:.2} effective parameters of {}",
+                self.unknowns
+            )?;
+        }
         if let Some((r, w)) = &self.superposition {
             let list = |x: &[f64]| {
                 let s: Vec<String> = x.iter().map(|v| format!("{v:.6e}")).collect();

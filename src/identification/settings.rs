@@ -91,6 +91,47 @@ pub struct IdentificationSettings {
     /// then fitted to `y = G[S[H + C]]`.
     /// [`fit_dynamics`](super::fit_dynamics) finds `G`.
     pub dynamics: Option<crate::realtime::DynamicsParameters>,
+    /// A penalty on the creep weights (default none).
+    pub creep_regularisation: CreepRegularisation,
+}
+
+/// A penalty `λ s² ‖w_C‖²` on the creep weights, added to the squared
+/// error of (25): `s²` is the mean squared creep column of the regressor,
+/// so `λ` weighs the creep weights against the data without units. The
+/// creep columns are nearly collinear (their eigenvalues are decades
+/// apart on a short record), so least squares alone can give large
+/// weights of opposite signs that cancel on the record and not after it.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[non_exhaustive]
+pub enum CreepRegularisation {
+    /// Least squares alone (`λ = 0`).
+    #[default]
+    None,
+    /// This `λ ≥ 0`.
+    Fixed(f64),
+    /// `λ` minimising the generalized cross-validation score of the fitted
+    /// samples, `N · RSS(λ) / (N − df(λ))²`, over `0` and `10⁻¹⁰ … 1` in
+    /// half decades (`df`: the trace of the unconstrained fit's hat matrix).
+    /// Chosen from the fitted record alone.
+    Gcv,
+}
+
+impl std::str::FromStr for CreepRegularisation {
+    type Err = String;
+
+    /// `none`, `gcv`, or `λ` (a number at least 0).
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.trim() {
+            "none" => Ok(Self::None),
+            "gcv" => Ok(Self::Gcv),
+            t => match t.parse::<f64>() {
+                Ok(l) if l.is_finite() && l >= 0.0 => Ok(Self::Fixed(l)),
+                _ => Err(format!(
+                    "'{t}' is none of \"none\", \"gcv\" or a number at least 0"
+                )),
+            },
+        }
+    }
 }
 
 impl Default for IdentificationSettings {
@@ -112,6 +153,7 @@ impl Default for IdentificationSettings {
             delay: 0,
             offset_per_record: false,
             dynamics: None,
+            creep_regularisation: CreepRegularisation::None,
         }
     }
 }
@@ -127,6 +169,14 @@ impl IdentificationSettings {
         };
         if self.hysteresis_thresholds.is_none() && self.hysteresis_operators == 0 {
             return bad("hysteresis_operators", "must be at least 1");
+        }
+        if let CreepRegularisation::Fixed(l) = self.creep_regularisation {
+            if !(l.is_finite() && l >= 0.0) {
+                return Err(IdentificationError::InvalidSetting {
+                    field: "creep_regularisation",
+                    reason: format!("λ must be finite and at least 0, not {l}"),
+                });
+            }
         }
         let creep = self
             .creep_thresholds
