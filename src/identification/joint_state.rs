@@ -114,14 +114,23 @@ pub fn identify_with_initial_states(
 ) -> Result<(Identification, InitialStateFit), IdentificationError> {
     state.validate()?;
     let (mut id, fits) = identify_records_with(records, sample_time, settings, None, None)?;
-    let samples: usize = records.iter().map(|r| r.y.len()).sum();
+    // the held-out end (one record only) stays out of the states and `J`
+    let used = |r: &FitRecord<'_>| r.y.len().saturating_sub(settings.holdout);
+    let samples: usize = records.iter().map(used).sum();
     let rms = |j: f64| (j / samples as f64).sqrt();
     // `J` of fits against measurements
     let total = |fits: &[Vec<f64>], measured: &[Vec<f64>]| -> f64 {
         measured
             .iter()
             .zip(fits)
-            .map(|(y, f)| f.iter().zip(y).map(|(a, b)| (a - b) * (a - b)).sum::<f64>())
+            .map(|(y, f)| {
+                let n = y.len().saturating_sub(settings.holdout);
+                f[..n]
+                    .iter()
+                    .zip(&y[..n])
+                    .map(|(a, b)| (a - b) * (a - b))
+                    .sum::<f64>()
+            })
             .sum()
     };
     let measured: Vec<Vec<f64>> = records.iter().map(|r| r.y.to_vec()).collect();
@@ -134,8 +143,8 @@ pub fn identify_with_initial_states(
     };
     // the offset a state estimate may move: a record's own
     let own_offset = settings.fit_offset && (records.len() == 1 || settings.offset_per_record);
-    let estimate_settings = StateSettings {
-        until: None,
+    let estimate_settings = |r: &FitRecord<'_>| StateSettings {
+        until: Some(used(r)),
         fit_offset: own_offset,
         fit_creep: state.fit_creep,
         fit_dynamics: true,
@@ -150,7 +159,7 @@ pub fn identify_with_initial_states(
         let mut next_unwiped = Vec::with_capacity(records.len());
         for (index, r) in records.iter().enumerate() {
             let current = started(&id.record_models[index], states.as_ref().map(|s| &s[index]))?;
-            let estimate = estimate_state(&current, r.u, r.y, &estimate_settings)
+            let estimate = estimate_state(&current, r.u, r.y, &estimate_settings(r))
                 .map_err(|e| super::plan::in_record(e, index, records.len()))?;
             next.push(RecordState::of(&estimate, r.u)?);
             next_unwiped.push(estimate.unwiped);
