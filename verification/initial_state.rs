@@ -224,6 +224,7 @@ fn the_weights_and_the_memory_are_fitted_together() {
         identify_records, identify_with_initial_states, FitRecord, IdentificationSettings,
         InitialStateSettings,
     };
+    use mfcbeam::operators::bank::Par;
     use mfcbeam::operators::nominal::{nominal_model, CREEP_EIGENVALUES, SAMPLE_TIME};
     let records = nominal_records(0.0, 0x97);
     let nominal = nominal_model().to_file();
@@ -244,12 +245,13 @@ fn the_weights_and_the_memory_are_fitted_together() {
         .collect();
     let ordinary = identify_records(&fit, SAMPLE_TIME, &settings).unwrap();
     let joint_settings = InitialStateSettings {
-        rounds: 6,
+        rounds: 4,
         tolerance: 0.0,
         ..InitialStateSettings::default()
     };
     let (joint, states) =
-        identify_with_initial_states(&fit, SAMPLE_TIME, &settings, &joint_settings).unwrap();
+        identify_with_initial_states(&fit, SAMPLE_TIME, &settings, &joint_settings, Par::Seq)
+            .unwrap();
     // the weights on an input of their own, from the virgin state: a 7 Hz
     // sine growing to ±900 V
     let probe: Vec<f64> = (0..20000)
@@ -293,6 +295,18 @@ fn the_weights_and_the_memory_are_fitted_together() {
     assert!(states.rms[states.rounds] < 0.01 * states.rms[0]);
     // and the weights are closer to the truth's
     assert!(joint_probe < ordinary_probe);
+    // the records' estimates side by side: the same bits
+    let one_round = InitialStateSettings {
+        rounds: 1,
+        ..joint_settings
+    };
+    let run_with =
+        |par| identify_with_initial_states(&fit, SAMPLE_TIME, &settings, &one_round, par);
+    let (seq, seq_states) = run_with(Par::Seq).unwrap();
+    let (par, par_states) = run_with(Par::rayon(2)).unwrap();
+    assert_eq!(seq.model.to_file(), par.model.to_file());
+    assert_eq!(seq_states.models, par_states.models);
+    assert_eq!(seq_states.rms, states.rms[..seq_states.rms.len()]);
     // the fitted states are admissible: the models load and their plays lie
     // within r_i of the first input
     for (r, m) in records.iter().zip(&states.models) {

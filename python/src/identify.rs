@@ -339,6 +339,7 @@ pub fn identify<'py>(
                     ts,
                     &s,
                     &InitialStateSettings::default(),
+                    Par::Seq,
                 )?;
                 // the search's report stays with the model it found
                 let dynamics = id.report.dynamics.take();

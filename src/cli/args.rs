@@ -212,7 +212,8 @@ pub struct IdentifyArgs {
     /// sample to the preview).
     #[arg(long, value_name = "PARTS", default_value = "none")]
     pub dynamics: DynamicsParts,
-    /// Threads of the --dynamics search (its trials run side by side; the
+    /// Threads of the --dynamics search and --fit-initial-state (the
+    /// trials, and the records' state estimates, run side by side; the
     /// model does not depend on the count): 0 for one per core, 1 for this
     /// thread alone.
     #[arg(long, value_name = "N", default_value_t = 0)]

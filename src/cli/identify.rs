@@ -188,15 +188,9 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
             delay: id.report.delay,
             ..settings.clone()
         };
-        let search = |par| fit_dynamics_and_delay(&fit_records, ts, &s, a.dynamics, &records, par);
-        let fit = match a.threads {
-            1 => search(Par::Seq),
-            n => rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build()
-                .map_err(|e| anyhow!("--threads {n}: {e}"))?
-                .install(|| search(Par::rayon(0))),
-        };
+        let fit = on_threads(a.threads, |par| {
+            fit_dynamics_and_delay(&fit_records, ts, &s, a.dynamics, &records, par)
+        })?;
         id = fit.map_err(|e| match e {
             mfcbeam::identification::IdentificationError::InvalidSetting {
                 field: "dynamics",
@@ -211,9 +205,16 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
             dynamics: id.model.dynamics().map(|g| *g.parameters()),
             ..settings.clone()
         };
-        let (joint, states) =
-            identify_with_initial_states(&fit_records, ts, &s, &InitialStateSettings::default())
-                .map_err(name_of)?;
+        let (joint, states) = on_threads(a.threads, |par| {
+            identify_with_initial_states(
+                &fit_records,
+                ts,
+                &s,
+                &InitialStateSettings::default(),
+                par,
+            )
+        })?
+        .map_err(name_of)?;
         // the search's report stays with the model it found
         let dynamics = id.report.dynamics.take();
         id = joint;
@@ -352,6 +353,19 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
     }
     eprintln!("mfcbeam: wrote {}", a.output.display());
     Ok(())
+}
+
+/// `f` with `threads` threads (`--threads`): 0 for one per core, 1 for
+/// this thread alone (`Par::Seq`), else a pool of that many.
+fn on_threads<R: Send>(threads: usize, f: impl FnOnce(Par) -> R + Send) -> Result<R> {
+    Ok(match threads {
+        1 => f(Par::Seq),
+        n => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map_err(|e| anyhow!("--threads {n}: {e}"))?
+            .install(|| f(Par::rayon(0))),
+    })
 }
 
 /// `--until` of a record of `len` samples as a sample count.

@@ -30,6 +30,7 @@ use super::identify::{identify_records_with, started_in, FitRecord, Identificati
 use super::initial_state::{estimate_state, StateEstimate, StateSettings};
 use super::regressor::OperatorState;
 use super::settings::{IdentificationError, IdentificationSettings};
+use crate::operators::bank::Par;
 use crate::operators::model::{HysteresisCreepModel, ModelFile};
 use crate::operators::traits::Operator;
 
@@ -105,12 +106,14 @@ pub struct InitialStateFit {
 /// with the memory as an unknown. The model is returned in the virgin state,
 /// as a compensator starts; each record's state is in the second value.
 /// `settings.fit_from` and the records' own are used in the first round
-/// only.
+/// only. `par`: the records' state estimates side by side (the result does
+/// not depend on it).
 pub fn identify_with_initial_states(
     records: &[FitRecord<'_>],
     sample_time: f64,
     settings: &IdentificationSettings,
     state: &InitialStateSettings,
+    par: Par,
 ) -> Result<(Identification, InitialStateFit), IdentificationError> {
     state.validate()?;
     let (mut id, fits) = identify_records_with(records, sample_time, settings, None, None)?;
@@ -155,14 +158,21 @@ pub fn identify_with_initial_states(
     let mut rounds = 0;
     while rounds < state.rounds {
         rounds += 1;
-        let mut next = Vec::with_capacity(records.len());
-        let mut next_unwiped = Vec::with_capacity(records.len());
-        for (index, r) in records.iter().enumerate() {
+        // the records' estimates are independent: side by side with `par`
+        let indices: Vec<usize> = (0..records.len()).collect();
+        let estimates = par.map(&indices, |&index| {
+            let r = &records[index];
             let current = started(&id.record_models[index], states.as_ref().map(|s| &s[index]))?;
             let estimate = estimate_state(&current, r.u, r.y, &estimate_settings(r))
                 .map_err(|e| super::plan::in_record(e, index, records.len()))?;
-            next.push(RecordState::of(&estimate, r.u)?);
-            next_unwiped.push(estimate.unwiped);
+            Ok::<_, IdentificationError>((RecordState::of(&estimate, r.u)?, estimate.unwiped))
+        });
+        let mut next = Vec::with_capacity(records.len());
+        let mut next_unwiped = Vec::with_capacity(records.len());
+        for estimate in estimates {
+            let (s, unwiped) = estimate?;
+            next.push(s);
+            next_unwiped.push(unwiped);
         }
         // `G`'s part of the start is the free response of its state: the
         // regression fits what is left of each measurement
