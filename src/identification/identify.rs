@@ -469,10 +469,11 @@ impl Regression {
 
     /// The non-negative least squares `min ‖M x − d‖` with the creep
     /// penalty of the plan's [`CreepRegularisation`] (its `λ` and the
-    /// weights' effective parameters, where there is one). The creep weights are the
-    /// differences of their partial sums, `w_C = D x_C` (their bound is 0),
-    /// so the penalty is `√(λ s²) D` in the creep columns under `M`, with
-    /// zeros under `d`: the problem stays a non-negative least squares.
+    /// weights' effective parameters, where there is one). The creep
+    /// weights are the differences of their partial sums, `w_C = D x_C`
+    /// (their bound is 0), so the penalty is `√(λ s²) D` in the creep
+    /// columns under `M`, with zeros under `d`: the problem stays a
+    /// non-negative least squares.
     fn penalised(
         &self,
         plan: &FitPlan,

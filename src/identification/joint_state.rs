@@ -3,12 +3,15 @@
 //!
 //! The squared output error over every sample of every record,
 //! `J(w, θ) = Σ_records Σ_k (ŷ_k(w, θ_r) − y_k)²`, with `w` the weights
-//! (and offsets) and `θ_r` record `r`'s play and creep states within their
-//! bounds, is minimised by block coordinate descent:
+//! (and offsets) and `θ_r` record `r`'s play, creep and `G` states within
+//! their bounds, is minimised by block coordinate descent:
 //!
 //! - for fixed states the model is linear in the weights: the
 //!   identification's regression, its operators started in the states, is
-//!   the exact minimum over `w` (the constrained least squares of (25));
+//!   the exact minimum over `w` (the constrained least squares of (25)).
+//!   `G` is linear in its input and its state together, so its state adds
+//!   a free response that does not depend on `w`: the regression fits the
+//!   measurement less that response, `G` at rest on the first input;
 //! - for fixed weights [`estimate_state`] lowers the error over each
 //!   record's states from the current ones (its prior), never raising it.
 //!
@@ -23,8 +26,8 @@
 //!
 //! The first round starts from the ordinary identification (virgin state,
 //! the samples before `|u|` first reaches `max|u|` skipped); the later ones
-//! fit every sample, since the states now account for the start. `G`, if
-//! any, is fixed and starts at rest on each record's first input.
+//! fit every sample, since the states now account for the start. `G`'s
+//! parameters, if any, stay as given.
 
 use super::identify::{identify_records_with, started_in, FitRecord, Identification};
 use super::initial_state::{estimate_state, StateEstimate, StateSettings};
