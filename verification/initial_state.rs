@@ -212,6 +212,54 @@ fn nominal_records(noise: f64, seed: u64) -> Vec<NominalRecord> {
     records
 }
 
+/// The nominal model's thresholds and eigenvalues (the class holds the
+/// truth), an offset per record, and `creep_regularisation`.
+fn nominal_settings(
+    creep_regularisation: mfcbeam::identification::CreepRegularisation,
+) -> mfcbeam::identification::IdentificationSettings {
+    use mfcbeam::operators::nominal::{nominal_model, CREEP_EIGENVALUES};
+    let nominal = nominal_model().to_file();
+    mfcbeam::identification::IdentificationSettings {
+        hysteresis_thresholds: Some(nominal.hysteresis.thresholds.clone()),
+        creep_thresholds: nominal.creep.as_ref().map(|c| c.thresholds.clone()),
+        eigenvalues: Some(CREEP_EIGENVALUES.to_vec()),
+        offset_per_record: true,
+        creep_regularisation,
+        ..Default::default()
+    }
+}
+
+fn fit_records(records: &[NominalRecord]) -> Vec<mfcbeam::identification::FitRecord<'_>> {
+    records
+        .iter()
+        .map(|r| mfcbeam::identification::FitRecord {
+            u: &r.u,
+            y: &r.y,
+            fit_from: None,
+        })
+        .collect()
+}
+
+/// A model's RMS error against the nominal model's on an input of its own,
+/// both from the virgin state, its offset taken off: a 7 Hz sine growing
+/// to ±900 V.
+fn probe_error(m: &HysteresisCreepModel) -> f64 {
+    use mfcbeam::operators::nominal::{nominal_model, SAMPLE_TIME};
+    let probe: Vec<f64> = (0..20000)
+        .map(|k| {
+            let t = k as f64 * SAMPLE_TIME;
+            900.0 * (1.0 - (-3.0 * t).exp()) * (std::f64::consts::TAU * 7.0 * t).sin()
+        })
+        .collect();
+    let truth = nominal_model().run(&probe);
+    let mut m = m.clone();
+    let offset = m.offset();
+    rms(probe
+        .iter()
+        .zip(&truth)
+        .map(|(&v, t)| m.step(v) - offset - t))
+}
+
 /// Noise-free records of the nominal model after an unknown past, with
 /// the model's own thresholds and eigenvalues (the class holds the truth):
 /// started from the ordinary identification (virgin state, the samples
@@ -222,28 +270,13 @@ fn nominal_records(noise: f64, seed: u64) -> Vec<NominalRecord> {
 #[test]
 fn the_weights_and_the_memory_are_fitted_together() {
     use mfcbeam::identification::{
-        identify_records, identify_with_initial_states, FitRecord, IdentificationSettings,
-        InitialStateSettings,
+        identify_records, identify_with_initial_states, CreepRegularisation, InitialStateSettings,
     };
     use mfcbeam::operators::bank::Par;
-    use mfcbeam::operators::nominal::{nominal_model, CREEP_EIGENVALUES, SAMPLE_TIME};
+    use mfcbeam::operators::nominal::SAMPLE_TIME;
     let records = nominal_records(0.0, 0x97);
-    let nominal = nominal_model().to_file();
-    let settings = IdentificationSettings {
-        hysteresis_thresholds: Some(nominal.hysteresis.thresholds.clone()),
-        creep_thresholds: nominal.creep.as_ref().map(|c| c.thresholds.clone()),
-        eigenvalues: Some(CREEP_EIGENVALUES.to_vec()),
-        offset_per_record: true,
-        ..IdentificationSettings::default()
-    };
-    let fit: Vec<FitRecord> = records
-        .iter()
-        .map(|r| FitRecord {
-            u: &r.u,
-            y: &r.y,
-            fit_from: None,
-        })
-        .collect();
+    let settings = nominal_settings(CreepRegularisation::None);
+    let fit = fit_records(&records);
     let ordinary = identify_records(&fit, SAMPLE_TIME, &settings).unwrap();
     let joint_settings = InitialStateSettings {
         rounds: 4,
@@ -253,23 +286,6 @@ fn the_weights_and_the_memory_are_fitted_together() {
     let (joint, states) =
         identify_with_initial_states(&fit, SAMPLE_TIME, &settings, &joint_settings, Par::Seq)
             .unwrap();
-    // the weights on an input of their own, from the virgin state: a 7 Hz
-    // sine growing to ±900 V
-    let probe: Vec<f64> = (0..20000)
-        .map(|k| {
-            let t = k as f64 * SAMPLE_TIME;
-            900.0 * (1.0 - (-3.0 * t).exp()) * (std::f64::consts::TAU * 7.0 * t).sin()
-        })
-        .collect();
-    let truth = nominal_model().run(&probe);
-    let probe_error = |m: &HysteresisCreepModel| {
-        let mut m = m.clone();
-        let offset = m.offset();
-        rms(probe
-            .iter()
-            .zip(&truth)
-            .map(|(&v, t)| m.step(v) - offset - t))
-    };
     let (ordinary_probe, joint_probe) = (probe_error(&ordinary.model), probe_error(&joint.model));
     // each record's own model in its fitted state, over every sample
     let record_error: Vec<f64> = records
@@ -330,30 +346,14 @@ fn the_weights_and_the_memory_are_fitted_together() {
 #[test]
 fn with_noise_and_the_creep_penalty_the_fit_reaches_the_noise() {
     use mfcbeam::identification::{
-        identify_records, identify_with_initial_states, CreepRegularisation, FitRecord,
-        IdentificationSettings, InitialStateSettings,
+        identify_records, identify_with_initial_states, CreepRegularisation, InitialStateSettings,
     };
     use mfcbeam::operators::bank::Par;
-    use mfcbeam::operators::nominal::{nominal_model, CREEP_EIGENVALUES, SAMPLE_TIME};
+    use mfcbeam::operators::nominal::SAMPLE_TIME;
     let sigma = 0.5;
     let records = nominal_records(sigma, 0x97);
-    let nominal = nominal_model().to_file();
-    let settings = IdentificationSettings {
-        hysteresis_thresholds: Some(nominal.hysteresis.thresholds.clone()),
-        creep_thresholds: nominal.creep.as_ref().map(|c| c.thresholds.clone()),
-        eigenvalues: Some(CREEP_EIGENVALUES.to_vec()),
-        offset_per_record: true,
-        creep_regularisation: CreepRegularisation::Gcv,
-        ..IdentificationSettings::default()
-    };
-    let fit: Vec<FitRecord> = records
-        .iter()
-        .map(|r| FitRecord {
-            u: &r.u,
-            y: &r.y,
-            fit_from: None,
-        })
-        .collect();
+    let settings = nominal_settings(CreepRegularisation::Gcv);
+    let fit = fit_records(&records);
     let ordinary = identify_records(&fit, SAMPLE_TIME, &settings).unwrap();
     let rounds = InitialStateSettings {
         rounds: 3,
@@ -361,21 +361,6 @@ fn with_noise_and_the_creep_penalty_the_fit_reaches_the_noise() {
     };
     let (joint, states) =
         identify_with_initial_states(&fit, SAMPLE_TIME, &settings, &rounds, Par::Seq).unwrap();
-    let probe: Vec<f64> = (0..20000)
-        .map(|k| {
-            let t = k as f64 * SAMPLE_TIME;
-            900.0 * (1.0 - (-3.0 * t).exp()) * (std::f64::consts::TAU * 7.0 * t).sin()
-        })
-        .collect();
-    let truth = nominal_model().run(&probe);
-    let probe_error = |m: &HysteresisCreepModel| {
-        let mut m = m.clone();
-        let offset = m.offset();
-        rms(probe
-            .iter()
-            .zip(&truth)
-            .map(|(&v, t)| m.step(v) - offset - t))
-    };
     let (ordinary_probe, joint_probe) = (probe_error(&ordinary.model), probe_error(&joint.model));
     eprintln!(
         "RMS error by round {:?}; on the probe: ordinary {ordinary_probe:.4}, joint {joint_probe:.4}",
