@@ -48,6 +48,8 @@ use crate::realtime::superposition::Superposition;
 use crate::realtime::CompensatorSettings;
 
 pub(crate) mod frames;
+#[cfg(shared_generics)]
+mod instances;
 mod par;
 mod step;
 mod walk;
