@@ -6,7 +6,8 @@
 //! between crates (`opt-level` 0, 1, `s` and `z`: the `shared_generics`
 //! cfg set by `build.rs`), the instances below, kept by `#[used]`, are
 //! linked instead. Optimized builds do not share them and compile their
-//! own as before, so there the cfg is off and nothing is added.
+//! own as before, so there the cfg is off and nothing is added; nor in
+//! the crate's own unit tests, which no other crate links.
 
 use crate::realtime::compensator::Compensated;
 use crate::realtime::error::ParameterError;

@@ -48,7 +48,7 @@ use crate::realtime::superposition::Superposition;
 use crate::realtime::CompensatorSettings;
 
 pub(crate) mod frames;
-#[cfg(shared_generics)]
+#[cfg(all(shared_generics, not(test)))]
 mod instances;
 mod par;
 mod step;
