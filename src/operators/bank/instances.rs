@@ -1,8 +1,8 @@
 //! The bank's steps for `f32` and `f64`, compiled in this crate.
 //!
 //! The steps are generic in the sample type, so each crate that steps a
-//! bank compiles every kernel set of them again: about a minute for each
-//! test binary that uses the bank. Where rustc shares generic instances
+//! bank compiles every kernel set of them again, each test binary that
+//! uses the bank among them. Where rustc shares generic instances
 //! between crates (`opt-level` 0, 1, `s` and `z`: the `shared_generics`
 //! cfg set by `build.rs`), the instances below, kept by `#[used]`, are
 //! linked instead. Optimized builds do not share them and compile their
