@@ -19,5 +19,6 @@ pub mod inverse;
 pub mod model;
 pub mod nominal;
 pub mod play;
+pub mod rate_dependent;
 pub mod supply;
 pub mod traits;

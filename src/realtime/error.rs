@@ -95,6 +95,19 @@ pub enum ParameterError {
         limit: usize,
         found: usize,
     },
+    /// A weight that must not be negative.
+    NegativeWeight {
+        field: &'static str,
+        index: usize,
+        value: f64,
+    },
+    /// A value outside the half-open interval `[lower, upper)`.
+    OutOfHalfOpenRange {
+        field: &'static str,
+        value: f64,
+        lower: f64,
+        upper: f64,
+    },
     /// A value outside the open interval `(lower, upper)`.
     OutOfRange {
         field: &'static str,
@@ -126,6 +139,8 @@ impl ParameterError {
             | P::ExceedsLimit { field, .. }
             | P::InvalidDuration { field, .. }
             | P::NonFiniteValue { field, .. }
+            | P::NegativeWeight { field, .. }
+            | P::OutOfHalfOpenRange { field, .. }
             | P::OutOfRange { field, .. } => field,
             P::NonPositiveSampleTime { .. } => "sample_time",
             P::InvalidLimits { .. } => "limits",
@@ -226,6 +241,18 @@ impl fmt::Display for Message<'_> {
             P::ExceedsLimit { limit, found, .. } => write!(
                 f,
                 "{field}: {found} exceeds the limit of {limit} (docs/FILES.md, \"Limits\")"
+            ),
+            P::NegativeWeight { index, value, .. } => {
+                write!(f, "{field}[{index}] = {value}: must not be negative")
+            }
+            P::OutOfHalfOpenRange {
+                value,
+                lower,
+                upper,
+                ..
+            } => write!(
+                f,
+                "{field}: {value} must be at least {lower} and below {upper}"
             ),
             P::OutOfRange {
                 value,
