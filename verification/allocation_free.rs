@@ -1,4 +1,5 @@
-//! The per-sample `step` of every operator, of the compensator and of a
+//! The per-sample `step` of every operator (the rate-dependent one's
+//! inverse, from a clone, too), of the compensator and of a
 //! compensator bank, with and without a superposition operator, and of the
 //! built-in feedback designs allocates nothing: counted with a global
 //! allocator that records every allocation.
@@ -127,8 +128,20 @@ fn steps_and_in_place_runs_allocate_nothing() {
     let frame_targets_s = vec![120.0f64; 40 * 5];
     let mut frame_out_s = vec![mfcbeam::realtime::Compensated::<f64>::default(); 40 * 5];
 
+    let mut rate = mfcbeam::operators::rate_dependent::RateDependentHysteresis::new(
+        model.hysteresis().thresholds(),
+        &[
+            0.45, 0.1, 0.08, 0.06, 0.05, 0.04, 0.03, 0.03, 0.02, 0.02, 0.01, 0.0,
+        ],
+        5e-5,
+        2e-4,
+    )
+    .unwrap();
+    let mut rate_inverse = rate.clone();
+
     let n = allocations_during(|| {
         for &v in &input {
+            std::hint::black_box(rate_inverse.invert(rate.step(v)));
             std::hint::black_box(play.step(v));
             std::hint::black_box(h.step(v));
             std::hint::black_box(inv.step(v));

@@ -200,6 +200,7 @@ fn a_non_finite_sample_changes_nothing() {
     for u in [5.0, 40.0, -12.0] {
         h.step(u);
     }
+    h.invert(3.0);
     let before = h.clone();
     for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
         assert!(h.step(bad).is_nan());

@@ -30,7 +30,7 @@ use crate::realtime::error::ParameterError;
 
 /// `H` with rate-dependent thresholds `r_i + g |Δu|`, in `f64` (module
 /// docs).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug)]
 pub struct RateDependentHysteresis {
     thresholds: Vec<f64>,
     weights: Vec<f64>,
@@ -43,6 +43,32 @@ pub struct RateDependentHysteresis {
     /// The inverse's pieces: where a play's slope changes, and by how much
     /// (preallocated: a step allocates nothing).
     changes: Vec<(f64, f64)>,
+}
+
+// by hand: a derived clone's scratch would have no capacity, and its
+// first inverse steps would allocate
+impl Clone for RateDependentHysteresis {
+    fn clone(&self) -> Self {
+        Self {
+            thresholds: self.thresholds.clone(),
+            weights: self.weights.clone(),
+            gain: self.gain,
+            plays: self.plays.clone(),
+            last: self.last,
+            changes: Vec::with_capacity(2 * self.thresholds.len()),
+        }
+    }
+}
+
+/// Equal parameters and state (the inverse's scratch aside).
+impl PartialEq for RateDependentHysteresis {
+    fn eq(&self, other: &Self) -> bool {
+        self.thresholds == other.thresholds
+            && self.weights == other.weights
+            && self.gain == other.gain
+            && self.plays == other.plays
+            && self.last == other.last
+    }
 }
 
 impl RateDependentHysteresis {
@@ -144,7 +170,8 @@ impl RateDependentHysteresis {
         y
     }
 
-    /// The output a step with input `u` would give, the state unchanged.
+    /// The output a step with input `u` would give, the state unchanged
+    /// (on a copy: it allocates).
     pub fn output_at(&self, u: f64) -> f64 {
         self.clone().step(u)
     }
