@@ -177,8 +177,8 @@ impl RateDependentHysteresis {
     }
 
     /// The exact inverse: the first input `u` from the last one whose step
-    /// gives `y`, and that step taken. A non-finite `y` gives NaN and leaves the state as it
-    /// was. Allocation-free.
+    /// gives `y`, and that step taken. A non-finite `y` gives NaN and
+    /// leaves the state as it was. Allocation-free.
     pub fn invert(&mut self, y: f64) -> f64 {
         if !y.is_finite() {
             return f64::NAN;
