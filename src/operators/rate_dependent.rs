@@ -128,6 +128,22 @@ impl RateDependentHysteresis {
         &self.plays
     }
 
+    /// A forward model of any weights and `0 ≤ g < 1`, unchecked: the
+    /// synthetic records' actuator, whose last weight is negative. Its
+    /// steps are monotone only under `new`'s conditions, so it is never
+    /// inverted.
+    pub(crate) fn forward_only(thresholds: Vec<f64>, weights: Vec<f64>, gain: f64) -> Self {
+        let n = thresholds.len();
+        Self {
+            thresholds,
+            weights,
+            gain,
+            plays: vec![0.0; n],
+            last: None,
+            changes: Vec::new(),
+        }
+    }
+
     /// The last input, `None` before the first step.
     pub fn last_input(&self) -> Option<f64> {
         self.last

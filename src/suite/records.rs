@@ -20,6 +20,7 @@ use crate::operators::model::{
     CreepData, DynamicsData, HysteresisData, ModelFile, SuperpositionData,
 };
 use crate::operators::nominal::nominal_model_file;
+use crate::operators::rate_dependent::RateDependentHysteresis;
 use crate::operators::traits::Snapshot;
 use crate::realtime::{Dynamics, DynamicsParameters, Resonance, Superposition};
 use crate::suite::conformance::Rng;
@@ -177,11 +178,7 @@ pub fn protocol(settings: &RecordSettings, rate: f64, rng: &mut Rng) -> Vec<f64>
 
 /// The actuator of [`generate`], stepped one sample at a time.
 struct Actuator {
-    thresholds: Vec<f64>,
-    weights: Vec<f64>,
-    plays: Vec<f64>,
-    last: Option<f64>,
-    beta: f64,
+    hysteresis: RateDependentHysteresis,
     creep: CreepOperator,
     superposition: Superposition<f64, Heap>,
     dynamics: Option<Dynamics<f64>>,
@@ -221,11 +218,11 @@ impl Actuator {
         let dynamics = (!g.is_identity())
             .then(|| Dynamics::new(&g, settings.sample_time).expect("valid dynamics"));
         Self {
-            plays: vec![0.0; r.len()],
-            thresholds: r,
-            weights: nominal.hysteresis.weights.clone(),
-            last: None,
-            beta: settings.rate_gain / settings.sample_time,
+            hysteresis: RateDependentHysteresis::forward_only(
+                r,
+                nominal.hysteresis.weights.clone(),
+                settings.rate_gain / settings.sample_time,
+            ),
             creep,
             superposition,
             dynamics,
@@ -233,19 +230,7 @@ impl Actuator {
     }
 
     fn step(&mut self, u: f64) -> f64 {
-        let grow = self.last.map_or(0.0, |l| self.beta * (u - l).abs());
-        self.last = Some(u);
-        let mut h = 0.0;
-        for ((x, r), w) in self
-            .plays
-            .iter_mut()
-            .zip(&self.thresholds)
-            .zip(&self.weights)
-        {
-            let r = r + grow;
-            *x = (u - r).max((u + r).min(*x));
-            h += w * *x;
-        }
+        let h = self.hysteresis.step(u);
         let w = self.superposition.apply(h + self.creep.step(u));
         match &mut self.dynamics {
             Some(g) => g.step(w),
@@ -259,9 +244,9 @@ impl Actuator {
         ModelFile {
             sample_time,
             hysteresis: HysteresisData {
-                thresholds: self.thresholds.clone(),
-                weights: self.weights.clone(),
-                state: Some(self.plays.clone()),
+                thresholds: self.hysteresis.thresholds().to_vec(),
+                weights: self.hysteresis.weights().to_vec(),
+                state: Some(self.hysteresis.play_states().to_vec()),
             },
             creep: Some(CreepData {
                 thresholds: self.creep.thresholds().to_vec(),
