@@ -27,6 +27,7 @@ use std::vec::Vec;
 
 use crate::realtime::checks::{check_finite, check_sample_time, check_thresholds};
 use crate::realtime::error::ParameterError;
+use crate::realtime::play::play;
 
 /// `H` with rate-dependent thresholds `r_i + g |Δu|`, in `f64` (module
 /// docs).
@@ -179,8 +180,7 @@ impl RateDependentHysteresis {
             .zip(&self.thresholds)
             .zip(&self.weights)
         {
-            let rho = r + grow;
-            *x = (u - rho).max((u + rho).min(*x));
+            *x = play(u, r + grow, *x);
             y += w * *x;
         }
         y
@@ -210,7 +210,7 @@ impl RateDependentHysteresis {
             .iter()
             .zip(&self.thresholds)
             .zip(&self.weights)
-            .map(|((&x, &r), &w)| w * x.clamp(from - r, from + r))
+            .map(|((&x, &r), &w)| w * play(from, r, x))
             .sum::<f64>();
         // downwards is upwards in the mirror image (the play is odd)
         let sign = if y >= at_from { 1.0 } else { -1.0 };
