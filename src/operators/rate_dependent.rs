@@ -133,6 +133,7 @@ impl RateDependentHysteresis {
     /// synthetic records' actuator, whose last weight is negative. Its
     /// steps are monotone only under `new`'s conditions, so it is never
     /// inverted.
+    #[cfg(feature = "suite")]
     pub(crate) fn forward_only(thresholds: Vec<f64>, weights: Vec<f64>, gain: f64) -> Self {
         let n = thresholds.len();
         Self {
