@@ -69,12 +69,12 @@
 /**
  * Words of `MfcbeamModelStorageF32`.
  */
-#define MFCBEAM_MODEL_F32_WORDS 527
+#define MFCBEAM_MODEL_F32_WORDS 530
 
 /**
  * Words of `MfcbeamModelStorageF64`.
  */
-#define MFCBEAM_MODEL_F64_WORDS 1021
+#define MFCBEAM_MODEL_F64_WORDS 1025
 
 #if defined(MFCBEAM_STD)
 /**

@@ -283,6 +283,7 @@ fn creep_bounds<'a>(
             dynamics: None,
             delay: 0,
             offset: 0.0,
+            rate_gain: 0.0,
         },
         state_max: 0.0,
         eps,

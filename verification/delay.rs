@@ -11,7 +11,7 @@ mod common;
 
 use common::{gaussian, Lcg};
 use mfcbeam::identification::{
-    identify, search_delay, thresholds_23, DelayCriterion, IdentificationSettings, Record,
+    identify, search_delay, thresholds_23, IdentificationSettings, Record, SearchCriterion,
 };
 use mfcbeam::operators::model::SuperpositionData;
 use mfcbeam::prelude::*;
@@ -249,6 +249,7 @@ fn representable() -> HysteresisCreepModel {
         dynamics: None,
         delay: 2,
         offset: 3.0,
+        rate_gain: 0.0,
     };
     HysteresisCreepModel::new(&parameters.validate().unwrap()).unwrap()
 }
@@ -351,7 +352,7 @@ fn auto_finds_a_known_dead_time_by_validation_holdout_and_fit() {
     ];
     let (id, search) = search_delay(&u20, &y20, TS, &no_creep(), 6, &records).unwrap();
     eprintln!("{search}");
-    assert_eq!(search.criterion, DelayCriterion::Validation);
+    assert_eq!(search.criterion, SearchCriterion::Validation);
     assert_eq!(search.chosen, 2);
     assert_eq!(id.model.delay(), 2);
     assert_eq!(search.rows.len(), 7);
@@ -366,10 +367,10 @@ fn auto_finds_a_known_dead_time_by_validation_holdout_and_fit() {
         ..no_creep()
     };
     let (_, search) = search_delay(&u20, &y20, TS, &holdout, 6, &[]).unwrap();
-    assert_eq!(search.criterion, DelayCriterion::Holdout);
+    assert_eq!(search.criterion, SearchCriterion::Holdout);
     assert_eq!(search.chosen, 2, "{search}");
     let (_, search) = search_delay(&u20, &y20, TS, &no_creep(), 6, &[]).unwrap();
-    assert_eq!(search.criterion, DelayCriterion::Fit);
+    assert_eq!(search.criterion, SearchCriterion::Fit);
     assert_eq!(search.chosen, 2, "{search}");
 }
 

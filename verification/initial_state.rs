@@ -20,12 +20,12 @@ fn rms(x: impl Iterator<Item = f64>) -> f64 {
 }
 
 /// Records of the lab protocol with an unknown past: a random history,
-/// 1 s held at 0 V, then 2 s of tracking; rate-independent (the model
-/// class holds the truth).
-fn records(noise: f64) -> (RecordSettings, Vec<SyntheticRecord>) {
+/// 1 s held at 0 V, then 2 s of tracking, with the thresholds' rate gain
+/// `β` (the model file holds the truth either way).
+fn records(noise: f64, rate_gain: f64) -> (RecordSettings, Vec<SyntheticRecord>) {
     let settings = RecordSettings {
         rates: vec![20.0, 40.0],
-        rate_gain: 0.0,
+        rate_gain,
         hold: 1.0,
         hold_level: Some(0.0),
         drive: Drive::Tracking,
@@ -46,8 +46,7 @@ fn run(model: &ModelFile, u: &[f64]) -> Vec<f64> {
 
 #[test]
 fn the_start_state_of_a_record_is_its_actuator() {
-    let (_, records) = records(0.0);
-    for r in &records {
+    for r in [records(0.0, 0.0).1, records(0.0, 2e-5).1].iter().flatten() {
         let y = run(&r.start, &r.u);
         // noise 0: the record is the model from its start state, plus the
         // offset, to the rounding of outputs of size 100 over the record
@@ -82,7 +81,13 @@ fn estimate(r: &SyntheticRecord, until: usize) -> StateEstimate {
 
 #[test]
 fn the_estimated_memory_predicts_the_rest_of_the_record() {
-    let (settings, records) = records(5e-4);
+    for rate_gain in [0.0, 2e-5] {
+        predicts_the_rest(rate_gain);
+    }
+}
+
+fn predicts_the_rest(rate_gain: f64) {
+    let (settings, records) = records(5e-4, rate_gain);
     let sigma = settings.noise * 2.0 * settings.amplitude;
     let until = window(&settings);
     for r in &records {
@@ -96,7 +101,7 @@ fn the_estimated_memory_predicts_the_rest_of_the_record() {
         let virgin = run(&virgin, &r.u);
         let after = |x: &[f64]| rms((until..r.u.len()).map(|k| x[k] - truth[k]));
         eprintln!(
-            "{} Hz: window rms {:.4} (prior {:.4}), noise {sigma:.4}; after the window, against the noise-free truth: estimate {:.4}, virgin {:.4}; {} iterations",
+            "β {rate_gain:e} s, {} Hz: window rms {:.4} (prior {:.4}), noise {sigma:.4}; after the window, against the noise-free truth: estimate {:.4}, virgin {:.4}; {} iterations",
             r.rate,
             estimate.rms,
             estimate.prior_rms,
@@ -107,7 +112,7 @@ fn the_estimated_memory_predicts_the_rest_of_the_record() {
         // the window is fitted to its noise
         assert!(estimate.rms <= 1.05 * sigma, "window rms {}", estimate.rms);
         // after it, the prediction is within the noise of the noise-free
-        // output (the truth's own class: rate gain 0)
+        // output (the truth's own class)
         assert!(after(&predicted) <= sigma, "{}", after(&predicted));
         // where the virgin state misses by several noise levels
         assert!(after(&virgin) >= 2.0 * sigma, "{}", after(&virgin));
@@ -119,7 +124,7 @@ fn the_estimated_memory_predicts_the_rest_of_the_record() {
 
 #[test]
 fn the_compensator_started_in_the_estimate_inverts_the_model() {
-    let (settings, records) = records(5e-4);
+    let (settings, records) = records(5e-4, 0.0);
     let until = window(&settings);
     let r = &records[0];
     let estimate = estimate(r, until);

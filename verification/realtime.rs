@@ -181,6 +181,7 @@ fn parameters_beyond_the_capacity_are_refused() {
         dynamics: None,
         delay: 0,
         offset: 0.0,
+        rate_gain: 0.0,
     };
     let mut w = Model::<f32, nominal::Capacity>::new(&small.validate().unwrap()).unwrap();
     let mut c = Compensator::<f32, nominal::Capacity>::new(

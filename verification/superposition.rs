@@ -51,6 +51,7 @@ fn alone<'a>(s: &SuperpositionParameters<'a>) -> ModelParameters<'a> {
         dynamics: None,
         delay: 0,
         offset: 0.0,
+        rate_gain: 0.0,
     }
 }
 

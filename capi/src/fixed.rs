@@ -37,9 +37,9 @@ pub const MFCBEAM_COMPENSATOR_F32_WORDS: usize = 584;
 /// Words of `MfcbeamCompensatorStorageF64`.
 pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 1129;
 /// Words of `MfcbeamModelStorageF32`.
-pub const MFCBEAM_MODEL_F32_WORDS: usize = 527;
+pub const MFCBEAM_MODEL_F32_WORDS: usize = 530;
 /// Words of `MfcbeamModelStorageF64`.
-pub const MFCBEAM_MODEL_F64_WORDS: usize = 1021;
+pub const MFCBEAM_MODEL_F64_WORDS: usize = 1025;
 
 /// The capacity of every caller-owned object.
 type Capacity =

@@ -130,6 +130,7 @@ impl MfcbeamParameters {
                 dynamics: (!dynamics.is_identity()).then_some(dynamics),
                 delay: self.delay,
                 offset: self.offset,
+                rate_gain: 0.0,
             })
         }
     }

@@ -139,6 +139,13 @@ class DelayRow(TypedDict):
     validations: List[FitErrors]
     score: float
 
+class RateGainRow(TypedDict):
+    rate_gain: float
+    fit: FitErrors
+    holdout: Optional[FitErrors]
+    validations: List[FitErrors]
+    score: float
+
 class InitialStateReport(TypedDict):
     rms: List[float]
     rounds: int
@@ -173,6 +180,9 @@ class FitReport(TypedDict):
     delay: int
     delays: Optional[List[DelayRow]]
     delay_criterion: Optional[str]
+    rate_gain: float
+    rate_gains: Optional[List[RateGainRow]]
+    rate_gain_criterion: Optional[str]
     active_constraints: List[ActiveConstraint]
     unexcited: List[NamedOperator]
     undetermined: List[NamedOperator]
@@ -211,6 +221,7 @@ def identify(
     thresholds: str = "uniform",
     fit_initial_state: bool = False,
     creep_regularisation: Union[None, str, float] = None,
+    rate_gain: Union[None, str, float] = None,
 ) -> Tuple[Model, FitReport]:
     """Identify W = G[S[H + C]] + offset from input u (V) and measured y, at
     `sample_time` (s) or timestamps `t` (`superposition=M`: M dead zones of S
@@ -220,7 +231,8 @@ def identify(
     `validate_zero=(a, b)`: each validation record's offset estimated on its
     samples a..b; `fit_initial_state`: each record's memory fitted with the
     weights; `creep_regularisation`: "gcv" or λ, a penalty on the creep
-    weights); returns the model and the fit report."""
+    weights; `rate_gain`: β (s) of the rate-dependent thresholds
+    r_i + β|Δu|/T_s, or "auto"); returns the model and the fit report."""
 
 class StateReport(TypedDict):
     window: int

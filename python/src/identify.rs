@@ -7,9 +7,10 @@ use pyo3::types::{PyDict, PyList};
 
 use mfcbeam::identification::{
     check_record, fit_dynamics_and_delay, holdout_samples, identify_records,
-    identify_with_initial_states, search_delay_records, CreepRegularisation, DelayCriterion,
+    identify_with_initial_states, search_delay_records, search_rate_gain, CreepRegularisation,
     DelaySetting, DynamicsParts, FitErrors, FitRecord, FitStart, IdentificationError,
-    IdentificationSettings, InitialStateSettings, Record, UnexcitedOperator,
+    IdentificationSettings, InitialStateSettings, RateGainSetting, Record, SearchCriterion,
+    UnexcitedOperator,
 };
 use mfcbeam::io::TimeAxis;
 use mfcbeam::operators::bank::Par;
@@ -65,6 +66,12 @@ const _: () = assert!(mfcbeam::identification::DEFAULT_MAX_DELAY == 10);
 /// λ s² ‖w_C‖² on the creep weights, λ chosen by generalized
 /// cross-validation on the fitted samples (report["creep_regularisation"]:
 /// (λ, effective parameters)).
+/// `rate_gain=β` (s, below the sample time) gives the plays the
+/// rate-dependent thresholds r_i + β|Δu|/T_s, the hysteresis weights then
+/// fitted non-negative; `rate_gain="auto"` searches β after the delay and
+/// dynamics and keeps the best as `delay="auto"` does
+/// (report["rate_gains"], report["rate_gain_criterion"]); report["rate_gain"]
+/// is the model's β.
 /// `fit_initial_state=True` fits each fitted record's initial memory (play
 /// and creep states, and the state of G) together with the weights, in
 /// rounds that each lower the squared error over every sample, after the
@@ -82,7 +89,7 @@ const _: () = assert!(mfcbeam::identification::DEFAULT_MAX_DELAY == 10);
     superposition = 0, superposition_kinks = None, validate_from = None,
     delay = None, max_delay = 10, records = None, offset = "shared", dynamics = "none",
     validate_zero = None, thresholds = "uniform", fit_initial_state = false,
-    creep_regularisation = None
+    creep_regularisation = None, rate_gain = None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify<'py>(
@@ -116,7 +123,20 @@ pub fn identify<'py>(
     thresholds: &str,
     fit_initial_state: bool,
     creep_regularisation: Option<&Bound<'py, PyAny>>,
+    rate_gain: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<(Model, Bound<'py, PyDict>)> {
+    // β (s) or "auto"
+    let rate_gain = match rate_gain {
+        None => RateGainSetting::Fixed(0.0),
+        Some(r) => match r.extract::<f64>() {
+            Ok(b) => format!("{b:e}").parse(),
+            Err(_) => r
+                .extract::<String>()
+                .map_err(|_| "not a string or a number".to_string())
+                .and_then(|s| s.parse()),
+        }
+        .map_err(|e: String| PyValueError::new_err(format!("rate_gain: {e}")))?,
+    };
     // "none", "gcv" or λ
     let creep_regularisation = match creep_regularisation {
         None => CreepRegularisation::None,
@@ -273,9 +293,20 @@ pub fn identify<'py>(
         },
         offset_per_record,
         creep_regularisation,
+        rate_gain: match rate_gain {
+            RateGainSetting::Fixed(b) => b,
+            RateGainSetting::Auto => 0.0,
+        },
         ..IdentificationSettings::default()
     };
-    let (id, validated, search, initial) = py
+    if let RateGainSetting::Fixed(b) = rate_gain {
+        if b >= ts {
+            return Err(PyValueError::new_err(format!(
+                "rate_gain: {b} s must be below the sample time {ts} s"
+            )));
+        }
+    }
+    let (id, validated, search, rate_search, initial) = py
         .detach(move || {
             let records: Vec<Record> = validation
                 .iter()
@@ -327,11 +358,25 @@ pub fn identify<'py>(
                 // on this thread: the package leaves threads to its caller
                 id = fit_dynamics_and_delay(&fit_records, ts, &s, parts, &records, Par::Seq)?;
             }
+            // β after G (as the command line does)
+            let mut rate_search = None;
+            if rate_gain == RateGainSetting::Auto {
+                let s = IdentificationSettings {
+                    delay: id.report.delay,
+                    dynamics: id.model.dynamics().map(|g| *g.parameters()),
+                    ..settings.clone()
+                };
+                let (mut found, search) = search_rate_gain(&fit_records, ts, &s, &records)?;
+                found.report.dynamics = id.report.dynamics.take();
+                id = found;
+                rate_search = Some(search);
+            }
             let mut initial = None;
             if fit_initial_state {
                 let s = IdentificationSettings {
                     delay: id.report.delay,
                     dynamics: id.model.dynamics().map(|g| *g.parameters()),
+                    rate_gain: id.model.rate_gain().map_or(0.0, |r| r.rate_gain()),
                     ..settings.clone()
                 };
                 let (joint, states) = identify_with_initial_states(
@@ -351,7 +396,7 @@ pub fn identify<'py>(
             for r in &records {
                 validated.push(r.row(&id.model)?);
             }
-            Ok::<_, IdentificationError>((id, validated, search, initial))
+            Ok::<_, IdentificationError>((id, validated, search, rate_search, initial))
         })
         .map_err(value_error)?;
     let r = &id.report;
@@ -443,6 +488,10 @@ pub fn identify<'py>(
     d.set_item("standard_errors", r.standard_errors.clone())?;
     d.set_item("superposition", r.superposition.clone())?;
     d.set_item("delay", r.delay)?;
+    d.set_item(
+        "rate_gain",
+        id.model.rate_gain().map_or(0.0, |g| g.rate_gain()),
+    )?;
     d.set_item("creep_regularisation", r.creep_regularisation)?;
     match initial {
         None => d.set_item("initial_state", py.None())?,
@@ -483,19 +532,46 @@ pub fn identify<'py>(
                 rows.append(e)?;
             }
             d.set_item("delays", rows)?;
-            d.set_item(
-                "delay_criterion",
-                match search.criterion {
-                    DelayCriterion::Validation => "validation",
-                    DelayCriterion::Holdout => "holdout",
-                    DelayCriterion::Fit => "fit",
-                },
-            )?;
+            d.set_item("delay_criterion", criterion_name(search.criterion))?;
+            text.push_str(&search.to_string());
+        }
+    }
+    match &rate_search {
+        None => {
+            d.set_item("rate_gains", py.None())?;
+            d.set_item("rate_gain_criterion", py.None())?;
+        }
+        Some(search) => {
+            let rows = PyList::empty(py);
+            for row in &search.rows {
+                let e = PyDict::new(py);
+                e.set_item("rate_gain", row.rate_gain)?;
+                e.set_item("fit", errors(py, &row.fit)?)?;
+                e.set_item("holdout", row.holdout.map(|h| errors(py, &h)).transpose()?)?;
+                let v = PyList::empty(py);
+                for errs in &row.validations {
+                    v.append(errors(py, errs)?)?;
+                }
+                e.set_item("validations", v)?;
+                e.set_item("score", row.score)?;
+                rows.append(e)?;
+            }
+            d.set_item("rate_gains", rows)?;
+            d.set_item("rate_gain_criterion", criterion_name(search.criterion))?;
             text.push_str(&search.to_string());
         }
     }
     d.set_item("text", text)?;
     Ok((Model { inner: id.model }, d))
+}
+
+/// What a search chose by, as the report names it.
+fn criterion_name(criterion: SearchCriterion) -> &'static str {
+    match criterion {
+        SearchCriterion::Validation => "validation",
+        SearchCriterion::Holdout => "holdout",
+        SearchCriterion::Fit => "fit",
+    }
 }
 
 /// The sample time from `sample_time` or the timestamps `t` (both: they must

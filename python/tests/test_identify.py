@@ -230,6 +230,53 @@ def test_a_dead_time_is_found_on_a_faster_record_and_agrees_with_the_cli(cli):
             mfcbeam.identify(u, y, sample_time=ts, delay=bad)
 
 
+def test_a_rate_gain_is_found_on_a_faster_record_and_agrees_with_the_cli(cli):
+    """The nominal loops, asymmetric, with rate-dependent thresholds (β = 0.3
+    T_s): fitted on 20 Hz triangles with the truth's thresholds and
+    rate_gain="auto", validated at 100 Hz, β comes back near the truth; the
+    command line gives the same model."""
+    m = json.loads(asymmetric_nominal().to_json())
+    del m["creep"]
+    ts = m["sample_time"]
+    m["hysteresis"]["rate_gain"] = 0.3 * ts
+    truth = mfcbeam.Model.from_json(json.dumps(m))
+
+    def triangles(rate, seconds, seed):
+        k = np.arange(int(seconds / ts))
+        phase = (k * ts * rate) % 1.0
+        u = 900.0 * np.where(phase < 0.5, 4 * phase - 1, 3 - 4 * phase)
+        rng = np.random.default_rng(seed)
+        return u, truth.copy().simulate(u) + rng.normal(0.0, 0.5, len(u))
+
+    (u, y), (u2, y2) = triangles(20.0, 1.0, 1), triangles(100.0, 0.5, 2)
+    r = m["hysteresis"]["thresholds"]
+    model, report = mfcbeam.identify(u, y, sample_time=ts, creep_operators=0, superposition=2,
+                                     hysteresis_thresholds=r, rate_gain="auto",
+                                     validate=(u2, y2))
+    assert report["rate_gain_criterion"] == "validation"
+    beta = report["rate_gain"]
+    assert 0.75 <= beta / (0.3 * ts) <= 1.25, beta
+    rows = report["rate_gains"]
+    assert [row["rate_gain"] for row in rows] == sorted(row["rate_gain"] for row in rows)
+    assert min(rows, key=lambda row: row["score"])["rate_gain"] == beta
+    assert "rate gain chosen" in report["text"]
+    src = cli.write_csv("r.csv", {"t": np.arange(len(u)) * ts, "u": u, "y": y})
+    val = cli.write_csv("rv.csv", {"t": np.arange(len(u2)) * ts, "u": u2, "y": y2})
+    out = cli.tmp / "r.json"
+    cli.run("identify", "--input", src, "--output", out, "--creep-operators", "0",
+            "--superposition", "2", "--hysteresis-thresholds", ",".join(map(str, r)),
+            "--rate-gain", "auto", "--validate", val)
+    ours = json.loads(model.to_json())
+    assert not np.any(ours["hysteresis"].pop("state"))
+    assert ours == json.loads(out.read_text())
+    # fixed, and bad values
+    _, fixed = mfcbeam.identify(u, y, sample_time=ts, creep_operators=0, rate_gain=0.5 * ts)
+    assert fixed["rate_gain"] == 0.5 * ts and fixed["rate_gains"] is None
+    for bad in ("fast", -1e-6, ts, float("nan")):
+        with pytest.raises(ValueError, match="rate_gain"):
+            mfcbeam.identify(u, y, sample_time=ts, rate_gain=bad)
+
+
 def test_several_records_with_their_offsets_and_dynamics_agree_with_the_cli(cli):
     """records=[...] fits one model to several rates, offset="per-record"
     gives each its own offset, dynamics="resonance" fits the stage's ringing

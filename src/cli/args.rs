@@ -11,7 +11,8 @@ use clap::{Args, Parser, Subcommand};
 use mfcbeam::beam::step_response_fit::BeamModelKind;
 use mfcbeam::feedforward::FeedforwardSettings;
 use mfcbeam::identification::{
-    DelaySetting, DynamicsParts, FitStart, IdentificationSettings, ZeroSegment, DEFAULT_MAX_DELAY,
+    DelaySetting, DynamicsParts, FitStart, IdentificationSettings, RateGainSetting, ZeroSegment,
+    DEFAULT_MAX_DELAY,
 };
 use mfcbeam::operators::nominal::SAMPLE_TIME;
 use mfcbeam::suite::conformance::ConformanceSettings;
@@ -320,6 +321,13 @@ pub struct IdentifyArgs {
     /// The largest dead time `--delay auto` tries (samples).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_DELAY)]
     pub max_delay: usize,
+    /// Rate-dependent play thresholds `r_i + β|Δu|/T_s`: `β` in seconds
+    /// (below the sample time; the hysteresis weights are then fitted
+    /// non-negative), or `auto`: search `β` and keep the best on the
+    /// --validate records (else the --holdout, else the fit), with a table
+    /// of the errors of each (after the --delay search).
+    #[arg(long, value_name = "SECONDS|auto", default_value = "0")]
+    pub rate_gain: RateGainSetting,
     /// Draw measured and model output over the input, and the residual over
     /// time (`.png` or `.svg`).
     #[arg(long, value_name = "FILE")]
@@ -897,7 +905,7 @@ pub struct RecordsArgs {
     #[arg(long, value_name = "FRACTION", default_value_t = RecordSettings::default().tracking_range)]
     pub tracking_range: f64,
     /// Also write the actuator as a model file, `DIR/actuator.json`
-    /// (virgin; without the rate dependence, so exact with --rate-gain 0).
+    /// (virgin, its rate gain included).
     #[arg(long)]
     pub write_model: bool,
 }

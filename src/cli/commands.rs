@@ -117,6 +117,12 @@ struct InverseSuperpositionJson {
 
 fn invert(a: &InvertArgs) -> Result<()> {
     let model = read_model(&a.model)?;
+    if model.rate_gain().is_some() {
+        bail!(
+            "{}: hysteresis.rate_gain: the inverse of rate-dependent thresholds is no PI operator; it is computed sample by sample",
+            a.model.display()
+        );
+    }
     let inv = model.hysteresis().inverse();
     let inverse_superposition = match model.superposition() {
         None => None,

@@ -8,9 +8,9 @@ use anyhow::{anyhow, bail, Context, Result};
 use mfcbeam::identification::validate_record_from_state;
 use mfcbeam::identification::{
     check_record, dominant_rate, fit_dynamics_and_delay, holdout_samples, identify_records,
-    identify_with_initial_states, search_delay_records, DelaySetting, FitRecord, FitStart,
-    IdentificationSettings, InitialStateSettings, Record, StateEstimate, StateSettings,
-    ValidationRow, ValidationTable,
+    identify_with_initial_states, search_delay_records, search_rate_gain, DelaySetting, FitRecord,
+    FitStart, IdentificationSettings, InitialStateSettings, RateGainSetting, Record, StateEstimate,
+    StateSettings, ValidationRow, ValidationTable,
 };
 use mfcbeam::io::{read_model_file, write_json, Trace};
 use mfcbeam::operators::bank::Par;
@@ -42,6 +42,11 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
             other.column("u")?,
             other.column("y")?,
         ));
+    }
+    if let RateGainSetting::Fixed(b) = a.rate_gain {
+        if b >= ts {
+            bail!("--rate-gain: {b} s must be below the sample time {ts} s");
+        }
     }
     let several = fitted.len() > 1;
     if several && a.holdout.is_some() {
@@ -98,7 +103,7 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
             )
         }
     };
-    let settings = IdentificationSettings {
+    let mut settings = IdentificationSettings {
         fit_offset: !a.no_offset,
         fit_from: starts[0],
         holdout,
@@ -118,6 +123,10 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
         offset_per_record: a.offset == OffsetSetting::PerRecord,
         dynamics: None,
         creep_regularisation: a.creep_regularisation,
+        rate_gain: match a.rate_gain {
+            RateGainSetting::Fixed(b) => b,
+            RateGainSetting::Auto => 0.0,
+        },
     };
     // the settings are options: named as such, not after the input file
     if let Err(mfcbeam::identification::IdentificationError::InvalidSetting { field, reason }) =
@@ -199,6 +208,22 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
             e => name_of(e),
         })?;
     }
+    // β after G: a linear lag also widens the loops with the rate, so a
+    // search without the dynamics found takes them for rate dependence
+    let rate_search = match a.rate_gain {
+        RateGainSetting::Fixed(_) => None,
+        RateGainSetting::Auto => {
+            settings.delay = id.report.delay;
+            settings.dynamics = id.model.dynamics().map(|g| *g.parameters());
+            let (mut found, search) =
+                search_rate_gain(&fit_records, ts, &settings, &records).map_err(name_of)?;
+            found.report.dynamics = id.report.dynamics.take();
+            // the later stages fit with the gain chosen
+            settings.rate_gain = search.chosen;
+            id = found;
+            Some(search)
+        }
+    };
     let initial_states = if a.fit_initial_state {
         let s = IdentificationSettings {
             delay: id.report.delay,
@@ -283,6 +308,9 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
     }
     eprint!("{}", id.report);
     if let Some(search) = &search {
+        eprint!("{search}");
+    }
+    if let Some(search) = &rate_search {
         eprint!("{search}");
     }
     if let Some(states) = &initial_states {

@@ -7,7 +7,7 @@
 //! `settings.delay = d`) and the one kept is the best on what the fit did
 //! not see: the validation records when there are any (their pooled rms),
 //! else the held-out samples, else the fitted record's own rms over the
-//! samples every candidate fits ([`DelayCriterion`]).
+//! samples every candidate fits ([`SearchCriterion`]).
 
 use std::fmt;
 use std::str::FromStr;
@@ -103,9 +103,9 @@ pub fn validation_rms(
     Ok(pooled_rms(&errors))
 }
 
-/// What the dead time was chosen by.
+/// What a search (the dead time, the rate gain) chose by.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum DelayCriterion {
+pub enum SearchCriterion {
     /// The pooled rms over the validation records.
     Validation,
     /// The rms on the held-out samples.
@@ -132,7 +132,7 @@ pub struct DelayRow {
 #[derive(Debug, Clone, PartialEq)]
 pub struct DelaySearch {
     pub chosen: usize,
-    pub criterion: DelayCriterion,
+    pub criterion: SearchCriterion,
     pub rows: Vec<DelayRow>,
     /// The validation records' names (the columns of `rows[i].validations`).
     pub names: Vec<String>,
@@ -196,11 +196,11 @@ pub fn search_delay_records(
     let end = fits.iter().map(|f| f.0.report.fitted.end).min();
     let common = start.unwrap_or(0)..end.unwrap_or(0).max(start.unwrap_or(0));
     let criterion = if !records.is_empty() {
-        DelayCriterion::Validation
+        SearchCriterion::Validation
     } else if fits[0].0.report.holdout.is_some() {
-        DelayCriterion::Holdout
+        SearchCriterion::Holdout
     } else {
-        DelayCriterion::Fit
+        SearchCriterion::Fit
     };
     // each candidate run again here rather than kept from its fit: memory
     // for one run, not one per candidate
@@ -210,13 +210,13 @@ pub fn search_delay_records(
             let run = id.model.clone().run(u);
             let fit = FitErrors::of(&run, y, common.clone());
             let score = match criterion {
-                DelayCriterion::Validation => pooled_rms(validations),
-                DelayCriterion::Holdout => id.report.holdout.map_or(f64::INFINITY, |h| h.rms),
-                DelayCriterion::Fit if id.report.records.len() > 1 => {
+                SearchCriterion::Validation => pooled_rms(validations),
+                SearchCriterion::Holdout => id.report.holdout.map_or(f64::INFINITY, |h| h.rms),
+                SearchCriterion::Fit if id.report.records.len() > 1 => {
                     let errors: Vec<FitErrors> = id.report.records.iter().map(|r| r.fit).collect();
                     pooled_rms(&errors)
                 }
-                DelayCriterion::Fit => fit.rms,
+                SearchCriterion::Fit => fit.rms,
             };
             DelayRow {
                 delay: id.report.delay,
@@ -242,7 +242,7 @@ pub fn search_delay_records(
 }
 
 /// The rms over all samples of several records.
-fn pooled_rms(errors: &[FitErrors]) -> f64 {
+pub(super) fn pooled_rms(errors: &[FitErrors]) -> f64 {
     let (sq, n) = errors.iter().fold((0.0, 0usize), |(sq, n), e| {
         (sq + e.rms * e.rms * e.samples as f64, n + e.samples)
     });
@@ -273,9 +273,9 @@ impl fmt::Display for DelaySearch {
             writeln!(f)?;
         }
         let by = match self.criterion {
-            DelayCriterion::Validation => "the validation records' pooled rms",
-            DelayCriterion::Holdout => "the held-out samples' rms",
-            DelayCriterion::Fit => "the fitted record's rms (no validation records, nothing held out: a dead time shows at high rates; validate on a faster record)",
+            SearchCriterion::Validation => "the validation records' pooled rms",
+            SearchCriterion::Holdout => "the held-out samples' rms",
+            SearchCriterion::Fit => "the fitted record's rms (no validation records, nothing held out: a dead time shows at high rates; validate on a faster record)",
         };
         writeln!(f, "dead time chosen     {} samples, by {by}", self.chosen)
     }

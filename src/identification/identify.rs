@@ -314,7 +314,13 @@ impl Regression {
         // the shared columns start virgin
         let columns = columns.filter(|_| affordable && states.is_none()).map(|c| {
             c.get_or_init(|| {
-                OperatorColumns::new(u, &plan.segments, &plan.r_h[..plan.nh], creep.as_ref())
+                OperatorColumns::new(
+                    u,
+                    &plan.segments,
+                    &plan.r_h[..plan.nh],
+                    plan.gain(),
+                    creep.as_ref(),
+                )
             })
         });
         let factor = regressor_factor(
@@ -323,6 +329,7 @@ impl Regression {
             &plan.segments,
             plan.offsets,
             &plan.r_h[..plan.nh],
+            plan.gain(),
             creep,
             (!plan.r_s.is_empty()).then_some((plan.r_s.as_slice(), plan.centre)),
             plan.dynamics.as_ref().map(|g| (g, plan.sample_time)),
@@ -399,10 +406,11 @@ impl Regression {
         let c: Vec<f64> = (0..p).map(|i| self.factor[(q + i, q + p)]).collect();
         // M = R D: column j of R D is R_j − R_{j+1} within each group
         let groups = plan.group_ranges();
+        // (except in a group whose weights are bounded themselves)
         let m = Mat::from_fn(p, p, |i, j| {
-            let same_group = groups
-                .iter()
-                .any(|g| g.contains(&j) && g.contains(&(j + 1)));
+            let same_group = groups.iter().enumerate().any(|(index, g)| {
+                !plan.bounds_weights(index) && g.contains(&j) && g.contains(&(j + 1))
+            });
             r[(i, j)] - if same_group { r[(i, j + 1)] } else { 0.0 }
         });
         let d: Vec<f64> = (0..p)
@@ -422,7 +430,11 @@ impl Regression {
             })
             .collect();
         // weights from partial sums, such that the recomputed sums hold
-        let mut w_h = weights_from_sums(&sums[..nh], plan.epsilon_h);
+        let mut w_h = if plan.bounds_weights(0) {
+            (0..nh).map(|j| sums[j].max(plan.bound(j))).collect()
+        } else {
+            weights_from_sums(&sums[..nh], plan.epsilon_h)
+        };
         w_h.resize(plan.r_h.len(), 0.0);
         let mut w_c = weights_from_sums(&sums[groups[1].clone()], 0.0);
         w_c.resize(plan.r_c.len(), 0.0);

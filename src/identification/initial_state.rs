@@ -173,6 +173,8 @@ struct Problem<'a> {
     y: &'a [f64],
     r: Vec<f64>,
     w: Vec<f64>,
+    /// `g = β/T_s` of rate-dependent thresholds (0: none)
+    rate_gain: f64,
     /// creep: thresholds, `w_i / m`, gains `1 − e^{−aT_s}`; `m`
     creep_r: Vec<f64>,
     creep_w: Vec<f64>,
@@ -290,6 +292,7 @@ impl<'a> Problem<'a> {
             y,
             w: h.weights().to_vec(),
             r,
+            rate_gain: model.rate_gain().map_or(0.0, |rate| rate.gain()),
             creep_fixed: file
                 .creep_state_flat()
                 .ok()
@@ -415,9 +418,15 @@ impl<'a> Problem<'a> {
             .split_at_mut(if jacobian { cols * k_len } else { 0 });
         for k in 0..k_len {
             let v = self.u[k];
+            // the thresholds' widening by the rate, none at the first
+            // sample (the model's, started there)
+            let widening = match k {
+                0 => 0.0,
+                _ => self.rate_gain * (v - self.u[k - 1]).abs(),
+            };
             let mut z = 0.0;
             for i in 0..n {
-                let p = play(v, self.r[i], work.x[i]);
+                let p = play(v, self.r[i] + widening, work.x[i]);
                 work.alive[i] &= p == work.x[i];
                 work.x[i] = p;
                 z += self.w[i] * p;

@@ -1,8 +1,9 @@
 //! Identification of the hysteresis and creep weights from a measurement,
 //! equations (23)–(25), in stages: [`settings`] (what to fit), `regressor`
 //! (stage 1), `solve` (stage 2) and [`report`] (stage 3), put together by
-//! [`identify()`]; [`delay`] chooses a dead time, [`validation`] checks the
-//! result on other records.
+//! [`identify()`]; [`delay`] chooses a dead time, [`rate_gain`] the rate
+//! dependence of the play thresholds, [`validation`] checks the result on
+//! other records.
 //!
 //! Thresholds (23): `r_i = (i · r_max)/(n + 1)`, `r_max = max_k |v_k|`;
 //! creep eigenvalues (24): `a_j = 1/(10^j T_s)`. With those fixed, `W` is linear
@@ -46,6 +47,11 @@
 //!    partial sums satisfy the bounds in floating point: the identified model
 //!    always satisfies (11) and (17), so its inverse (22) exists.
 //!
+//! With rate-dependent thresholds (`settings.rate_gain > 0`) the plays'
+//! columns use the widened thresholds, and the hysteresis weights
+//! themselves are bounded (`w_0 ≥ ε_H`, `w_i ≥ 0`: no `D` on their columns),
+//! the class whose steps stay invertible (docs/MATHEMATICS.md §5.8).
+//!
 //! Operators whose threshold the input never exceeds (`r_i ≥ max|v|`) are
 //! never excited: their columns are zero. They keep weight 0 (which leaves the
 //! partial sums, and so (11), intact) and are named in the report.
@@ -64,6 +70,8 @@ mod joint_state;
 #[cfg(feature = "identification")]
 mod plan;
 #[cfg(feature = "identification")]
+pub mod rate_gain;
+#[cfg(feature = "identification")]
 mod regressor;
 #[cfg(feature = "identification")]
 pub mod report;
@@ -77,8 +85,8 @@ pub mod validation;
 
 #[cfg(feature = "identification")]
 pub use delay::{
-    search_delay, search_delay_records, validation_rms, DelayCriterion, DelayRow, DelaySearch,
-    DelaySetting, Record, DEFAULT_MAX_DELAY,
+    search_delay, search_delay_records, validation_rms, DelayRow, DelaySearch, DelaySetting,
+    Record, SearchCriterion, DEFAULT_MAX_DELAY,
 };
 #[cfg(feature = "identification")]
 pub use dynamics::{fit_dynamics, fit_dynamics_and_delay, DynamicsParts};
@@ -89,6 +97,8 @@ pub use initial_state::{estimate_state, StateEstimate, StateSettings};
 pub use joint_state::{identify_with_initial_states, InitialStateFit, InitialStateSettings};
 #[cfg(feature = "identification")]
 pub use plan::EPSILON_S;
+#[cfg(feature = "identification")]
+pub use rate_gain::{search_rate_gain, RateGainRow, RateGainSearch, RateGainSetting};
 #[cfg(feature = "identification")]
 pub use report::{
     first_at_max, validate, ActiveConstraint, DynamicsReport, FitErrors, FitReport, RecordFit,

@@ -46,6 +46,10 @@ pub(super) struct FitPlan {
     /// The fixed dynamics `G` the columns pass through.
     pub(super) dynamics: Option<crate::realtime::DynamicsParameters>,
     pub(super) creep_regularisation: super::settings::CreepRegularisation,
+    /// `β` (s) of rate-dependent thresholds; with `β > 0` the hysteresis
+    /// weights themselves are bounded (non-negative), not their partial
+    /// sums.
+    pub(super) rate_gain: f64,
 }
 
 /// The four groups of columns with partial-sum bounds: the plays, the creep
@@ -72,6 +76,15 @@ impl FitPlan {
         settings.validate()?;
         check_record_signals(u, y)?;
         crate::realtime::checks::check_sample_time(sample_time).map_err(ModelError::from)?;
+        if !(settings.rate_gain >= 0.0 && settings.rate_gain < sample_time) {
+            return Err(IdentificationError::InvalidSetting {
+                field: "rate_gain",
+                reason: format!(
+                    "{} s must be at least 0 and below the sample time {sample_time} s",
+                    settings.rate_gain
+                ),
+            });
+        }
         let r_max = u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         if u.is_empty() || u.iter().all(|&v| v == u[0]) {
             return Err(IdentificationError::ConstantInput {
@@ -213,7 +226,20 @@ impl FitPlan {
             centre,
             dynamics: settings.dynamics,
             creep_regularisation: settings.creep_regularisation,
+            rate_gain: settings.rate_gain,
         })
+    }
+
+    /// `g = β/T_s`: the thresholds' widening per unit of input change.
+    pub(super) fn gain(&self) -> f64 {
+        self.rate_gain / self.sample_time
+    }
+
+    /// Whether the columns of group `group` are bounded one by one (the
+    /// hysteresis weights under rate-dependent thresholds) rather than
+    /// through their partial sums.
+    pub(super) fn bounds_weights(&self, group: usize) -> bool {
+        group == 0 && self.rate_gain > 0.0
     }
 
     /// Number of unknown weights: the excited operators and `S⁻¹`'s dead
@@ -255,11 +281,13 @@ impl FitPlan {
 
     /// The lower bound of partial sum `j`: `ε_H` (11), 0 (17), or for
     /// `S⁻¹` (whose linear weight is 1) `ε_S − 1`, so that every slope
-    /// `1 + Σ w'` is at least `ε_S`.
+    /// `1 + Σ w'` is at least `ε_S`. Where [`Self::bounds_weights`], that
+    /// of weight `j` itself: `ε_H` for the first, 0 for the others.
     pub(super) fn bound(&self, j: usize) -> f64 {
-        match self.group_of(j).0 {
-            0 => self.epsilon_h,
-            1 => 0.0,
+        match self.group_of(j) {
+            (0, index) if self.bounds_weights(0) && index > 0 => 0.0,
+            (0, _) => self.epsilon_h,
+            (1, _) => 0.0,
             _ => EPSILON_S - 1.0,
         }
     }
@@ -308,6 +336,7 @@ impl FitPlan {
             dynamics: None,
             delay: 0,
             offset: 0.0,
+            rate_gain: self.rate_gain,
         };
         let model = HysteresisCreepModel::new(&parameters.validate()?)?;
         if self.r_s.is_empty() {

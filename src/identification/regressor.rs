@@ -17,6 +17,18 @@ use crate::realtime::dynamics::{INPUTS, MAX_ORDER};
 /// in cache, where the whole regressor (40 MB for 40 s) would not.
 const CHUNK: usize = 4096;
 
+/// The widening `g |u_k − u_{k−1}|` of the play thresholds at sample `k`
+/// of `segment` (rate-dependent thresholds; none at its first sample,
+/// where the operators start, as a model started there has none).
+#[inline]
+fn widening(u: &[f64], segment: &Segment, k: usize, gain: f64) -> f64 {
+    if gain == 0.0 || k == segment.whole.start {
+        0.0
+    } else {
+        gain * (u[k] - u[k - 1]).abs()
+    }
+}
+
 /// The upper-triangular factor `R` of `[1 | Φ | ς]` on the samples `rows`
 /// (the `1` column only with `offset`): play outputs, log(t)-creep outputs
 /// (before the update with `v_k`: the one-sample delay of (20)) and the
@@ -62,8 +74,10 @@ const MAX_SHARED_BYTES: usize = 1 << 28;
 /// sample (13 MB for 70 000 samples at the paper's orders): only a search
 /// over `G` keeps it, a single fit streams its rows.
 pub(crate) struct OperatorColumns {
-    /// The thresholds and eigenvalues the columns belong to.
+    /// The thresholds (and their rate gain `g`) and eigenvalues the
+    /// columns belong to.
     r_h: Vec<f64>,
+    gain: f64,
     r_c: Vec<f64>,
     eigenvalues: Vec<f64>,
     /// Samples of the concatenated input the columns were computed on.
@@ -79,6 +93,7 @@ impl OperatorColumns {
         u: &[f64],
         segments: &[Segment],
         r_h: &[f64],
+        gain: f64,
         creep: Option<&CreepOperator>,
     ) -> Self {
         let nh = r_h.len();
@@ -91,8 +106,9 @@ impl OperatorColumns {
             let mut creep = creep.cloned();
             for k in segment.whole.clone() {
                 let row = &mut values[k * width..(k + 1) * width];
+                let widening = widening(u, segment, k, gain);
                 for (xi, &r) in x.iter_mut().zip(r_h) {
-                    *xi = play(u[k], r, *xi);
+                    *xi = play(u[k], r + widening, *xi);
                 }
                 row[..nh].copy_from_slice(&x);
                 if let Some(c) = &mut creep {
@@ -103,6 +119,7 @@ impl OperatorColumns {
         }
         Self {
             r_h: r_h.to_vec(),
+            gain,
             r_c: creep.map_or_else(Vec::new, |c| c.thresholds().to_vec()),
             eigenvalues: creep.map_or_else(Vec::new, |c| c.eigenvalues().to_vec()),
             samples: u.len(),
@@ -121,9 +138,16 @@ impl OperatorColumns {
 
     /// Whether these are the columns of a regression with these operators
     /// on `samples` samples.
-    fn matches(&self, samples: usize, r_h: &[f64], creep: Option<&CreepOperator>) -> bool {
+    fn matches(
+        &self,
+        samples: usize,
+        r_h: &[f64],
+        gain: f64,
+        creep: Option<&CreepOperator>,
+    ) -> bool {
         self.samples == samples
             && self.r_h == r_h
+            && self.gain == gain
             && creep.map_or(self.r_c.is_empty(), |c| {
                 self.r_c == c.thresholds() && self.eigenvalues == c.eigenvalues()
             })
@@ -257,6 +281,7 @@ pub(crate) fn regressor_factor(
     segments: &[Segment],
     offsets: usize,
     r_h: &[f64],
+    gain: f64,
     creep: Option<CreepOperator>,
     superposition: Option<(&[f64], f64)>,
     dynamics: Option<(&crate::realtime::DynamicsParameters, f64)>,
@@ -281,7 +306,8 @@ pub(crate) fn regressor_factor(
     let total: usize = segments.iter().map(|s| s.fitted.len()).sum();
     let mut done = 0;
     // the operators' columns from the cache when they are its own
-    let columns = columns.filter(|c| states.is_none() && c.matches(u.len(), r_h, creep.as_ref()));
+    let columns =
+        columns.filter(|c| states.is_none() && c.matches(u.len(), r_h, gain, creep.as_ref()));
     for (index, segment) in segments.iter().enumerate() {
         let state = states.and_then(|s| s.get(index));
         match state {
@@ -309,8 +335,9 @@ pub(crate) fn regressor_factor(
         for k in segment.whole.start..segment.fitted.end {
             let v = u[k];
             if columns.is_none() {
+                let widening = widening(u, segment, k, gain);
                 for (xi, &r) in x.iter_mut().zip(r_h) {
-                    *xi = play(v, r, *xi);
+                    *xi = play(v, r + widening, *xi);
                 }
             }
             let keep = k >= segment.fitted.start;
@@ -506,31 +533,36 @@ mod tests {
         ];
         let r_h = [0.0, 200.0, 400.0, 700.0];
         let creep = CreepOperator::new([0.0, 300.0], vec![0.0; 2], vec![1.0, 10.0], ts).unwrap();
-        let columns = OperatorColumns::new(&u, &segments, &r_h, Some(&creep));
-        assert!(columns.matches(u.len(), &r_h, Some(&creep)));
         assert!(OperatorColumns::affordable(u.len(), 6));
         assert!(!OperatorColumns::affordable(1 << 28, 24));
         assert!(!OperatorColumns::affordable(usize::MAX, 2));
-        let factor = |cached: Option<&OperatorColumns>| {
-            regressor_factor(
-                &u,
-                &y,
-                &segments,
-                2,
-                &r_h,
-                Some(creep.clone()),
-                Some((&[300.0, -300.0][..], 10.0)),
-                Some((&g(), ts)),
-                None,
-                cached,
-                None,
-            )
-            .unwrap()
-        };
-        let (streamed, shared) = (factor(None), factor(Some(&columns)));
-        for i in 0..streamed.nrows() {
-            for j in 0..streamed.ncols() {
-                assert_eq!(streamed[(i, j)].to_bits(), shared[(i, j)].to_bits());
+        // rate-independent and rate-dependent thresholds
+        for gain in [0.0, 0.3] {
+            let columns = OperatorColumns::new(&u, &segments, &r_h, gain, Some(&creep));
+            assert!(columns.matches(u.len(), &r_h, gain, Some(&creep)));
+            assert!(!columns.matches(u.len(), &r_h, gain + 0.1, Some(&creep)));
+            let factor = |cached: Option<&OperatorColumns>| {
+                regressor_factor(
+                    &u,
+                    &y,
+                    &segments,
+                    2,
+                    &r_h,
+                    gain,
+                    Some(creep.clone()),
+                    Some((&[300.0, -300.0][..], 10.0)),
+                    Some((&g(), ts)),
+                    None,
+                    cached,
+                    None,
+                )
+                .unwrap()
+            };
+            let (streamed, shared) = (factor(None), factor(Some(&columns)));
+            for i in 0..streamed.nrows() {
+                for j in 0..streamed.ncols() {
+                    assert_eq!(streamed[(i, j)].to_bits(), shared[(i, j)].to_bits());
+                }
             }
         }
     }

@@ -93,6 +93,12 @@ pub struct IdentificationSettings {
     pub dynamics: Option<crate::realtime::DynamicsParameters>,
     /// A penalty on the creep weights (default none).
     pub creep_regularisation: CreepRegularisation,
+    /// `β` (s) of rate-dependent play thresholds `r_i + β|Δu|/T_s`,
+    /// `0 ≤ β < T_s` (default 0: the paper's `H`). With `β > 0` the
+    /// hysteresis weights are fitted non-negative (`w_0 ≥ ε_H`), which
+    /// keeps the model's exact inverse;
+    /// [`search_rate_gain`](super::search_rate_gain) chooses `β`.
+    pub rate_gain: f64,
 }
 
 /// A penalty `λ s² ‖w_C‖²` on the creep weights, added to the squared
@@ -154,6 +160,7 @@ impl Default for IdentificationSettings {
             offset_per_record: false,
             dynamics: None,
             creep_regularisation: CreepRegularisation::None,
+            rate_gain: 0.0,
         }
     }
 }

@@ -30,6 +30,15 @@ pub struct HysteresisData {
     /// `x_init` of (8) per play; absent means virgin.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub state: Option<Vec<f64>>,
+    /// `β` (s): thresholds `r_i + β|u_k − u_{k−1}|/T_s`, `0 ≤ β < T_s`;
+    /// absent means 0 (the paper's `H`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rate_gain: Option<f64>,
+    /// The input of the sample before the first, which the first
+    /// rate-dependent thresholds need; absent means not started (the first
+    /// sample has no rate). Only with a `rate_gain`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub last_input: Option<f64>,
 }
 
 /// The creep part of a model file.
@@ -164,6 +173,7 @@ impl ModelFile {
     /// The same model without `state` entries (virgin).
     pub fn without_state(mut self) -> Self {
         self.hysteresis.state = None;
+        self.hysteresis.last_input = None;
         if let Some(c) = &mut self.creep {
             c.state = None;
         }
@@ -186,6 +196,9 @@ pub struct ModelState {
     /// The values waiting in the dead time (oldest first); `None` before
     /// the first sample or without dead time.
     pub delay: Option<Vec<f64>>,
+    /// The last input, which rate-dependent thresholds need; `None` before
+    /// the first sample or without them.
+    pub last_input: Option<f64>,
 }
 
 impl ModelFile {
@@ -213,6 +226,7 @@ impl ModelFile {
             dynamics: self.dynamics.as_ref().map(DynamicsData::parameters),
             delay: self.delay.unwrap_or(0),
             offset: self.offset.unwrap_or(0.0),
+            rate_gain: self.hysteresis.rate_gain.unwrap_or(0.0),
         }
     }
 
@@ -242,6 +256,7 @@ impl<T: Real, S: Storage> Model<T, S> {
         if let Some(x) = &file.hysteresis.state {
             model.hysteresis_mut().set_state(x)?;
         }
+        model.set_last_input(file.hysteresis.last_input)?;
         if let (Some(state), Some(c)) = (file.creep_state_flat()?, model.creep_mut()) {
             c.set_state_flat(&state)?;
         }
@@ -265,6 +280,11 @@ impl<T: Real, S: Storage> Model<T, S> {
                 thresholds: f64s(h.thresholds()),
                 weights: f64s(h.weights()),
                 state: Some(Snapshot::state(h)),
+                rate_gain: self.rate_gain().map(|r| r.rate_gain()),
+                last_input: self
+                    .rate_gain()
+                    .and_then(|r| r.last_input())
+                    .map(|v| v.to_f64()),
             },
             creep: self.creep().map(|c| CreepData {
                 thresholds: f64s(c.thresholds()),
@@ -316,6 +336,10 @@ impl<T: Real, S: Storage> Snapshot for Model<T, S> {
             creep: self.creep().map(Snapshot::state),
             dynamics: self.dynamics_state(),
             delay: self.delay_state(),
+            last_input: self
+                .rate_gain()
+                .and_then(|r| r.last_input())
+                .map(|v| v.to_f64()),
         }
     }
 
@@ -335,7 +359,9 @@ impl<T: Real, S: Storage> Snapshot for Model<T, S> {
                 })
             }
         }
+        self.check_last_input(state.last_input)?;
         self.set_memory_state(state)?;
+        self.set_last_input(state.last_input)?;
         *self.delay_line_mut() = line;
         if let (Some(mine), Some(g)) = (self.dynamics_mut(), g) {
             *mine = g;

@@ -20,8 +20,10 @@
 //! play is flat too, so they all leave the same play states. With `g = 0`
 //! it is `H`.
 //!
-//! This is the operator and its inverse in `f64`; the model file, the
-//! identification and the real-time compensator do not carry it yet.
+//! This is the operator and its inverse in `f64`. The model steps the same
+//! thresholds (`hysteresis.rate_gain`, [`crate::realtime::RateGain`]) and
+//! the identification fits `β` ([`crate::identification::rate_gain`]); the
+//! real-time compensator does not invert them yet.
 
 use std::vec::Vec;
 

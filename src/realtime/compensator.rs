@@ -148,6 +148,18 @@ pub struct Compensator<T: Real, S: Storage> {
     paper: bool,
 }
 
+/// The compensator inverts `H` by the rules (22), which hold for
+/// rate-independent thresholds only.
+pub(crate) fn refuse_rate_gain(parameters: &ModelParameters<'_>) -> Result<(), ParameterError> {
+    if parameters.rate_gain != 0.0 {
+        return Err(ParameterError::Unsupported {
+            field: "hysteresis.rate_gain",
+            reason: "the compensator does not yet invert rate-dependent thresholds; this model can be simulated, not compensated",
+        });
+    }
+    Ok(())
+}
+
 impl<T: Real, S: Storage> Compensator<T, S> {
     /// The compensator of the model `parameters` (virgin state) with
     /// output limits `settings`. The inverse parameters (22) and creep
@@ -160,6 +172,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         let parameters = parameters.get();
         let (ts, superposition) = (parameters.sample_time, parameters.superposition.as_ref());
         settings.validate()?;
+        refuse_rate_gain(parameters)?;
         let h = &parameters.hysteresis;
         let n = h.thresholds.len();
         let field = "hysteresis.thresholds";

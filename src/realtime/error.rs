@@ -108,6 +108,12 @@ pub enum ParameterError {
         lower: f64,
         upper: f64,
     },
+    /// A parameter or state that this operator does not take (the reason
+    /// says why).
+    Unsupported {
+        field: &'static str,
+        reason: &'static str,
+    },
     /// A value outside the open interval `(lower, upper)`.
     OutOfRange {
         field: &'static str,
@@ -141,7 +147,8 @@ impl ParameterError {
             | P::NonFiniteValue { field, .. }
             | P::NegativeWeight { field, .. }
             | P::OutOfHalfOpenRange { field, .. }
-            | P::OutOfRange { field, .. } => field,
+            | P::OutOfRange { field, .. }
+            | P::Unsupported { field, .. } => field,
             P::NonPositiveSampleTime { .. } => "sample_time",
             P::InvalidLimits { .. } => "limits",
         }
@@ -254,6 +261,7 @@ impl fmt::Display for Message<'_> {
                 f,
                 "{field}: {value} must be at least {lower} and below {upper}"
             ),
+            P::Unsupported { reason, .. } => write!(f, "{field}: {reason}"),
             P::OutOfRange {
                 value,
                 lower,

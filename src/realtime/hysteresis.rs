@@ -318,6 +318,17 @@ impl<T: Real, S: Storage> Hysteresis<T, S> {
         step(&mut self.state, &self.thresholds, &self.weights, v)
     }
 
+    /// One sample with every threshold widened by `widening ≥ 0` (the
+    /// rate-dependent thresholds of [`crate::realtime::rate`]); with 0 it
+    /// is [`Self::step`] bit for bit. `v` finite.
+    #[inline]
+    pub(crate) fn step_widened(&mut self, v: T, widening: T) -> T {
+        for (x, &r) in self.state.iter_mut().zip(self.thresholds.iter()) {
+            *x = play(v, r + widening, *x);
+        }
+        weighted_sum(&self.weights, &self.state)
+    }
+
     /// The output `Σ w_i x_i` of the current state.
     pub fn output(&self) -> T {
         weighted_sum(&self.weights, &self.state)

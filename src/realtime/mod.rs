@@ -18,6 +18,7 @@
 //! * [`Dynamics`] — linear dynamics `G` after `S[H + C]` (a low-pass, a
 //!   resonance), all-pole with unit gain at DC, so that its inverse is exact;
 //! * [`DelayLine`] — a dead time of `d` whole samples after `S[H + C]`;
+//! * [`RateGain`] — thresholds of `H` widened by the input's rate;
 //! * [`Model`] — `W = S[H + C] + offset` (4), (6), delayed by `d` samples;
 //! * [`Compensator`] — `W⁻¹` (21) with saturation ([`CompensatorSettings`]),
 //!   the inverse rules (22), the fault flag for a non-finite target and the
@@ -56,6 +57,7 @@ pub mod nominal;
 pub mod parameters;
 pub(crate) mod placement;
 pub(crate) mod play;
+pub mod rate;
 pub mod real;
 pub(crate) mod rounding;
 pub(crate) mod simd;
@@ -81,6 +83,7 @@ pub use model::Model;
 pub use parameters::{
     CreepParameters, HysteresisParameters, ModelParameters, SuperpositionParameters,
 };
+pub use rate::RateGain;
 pub use real::Real;
 pub use rounding::RoundingBounds;
 pub use storage::{Buffer, Inline, InlineBuffer, PaddedBuffer, Storage};

@@ -5,7 +5,8 @@
 //! identity: the paper's symmetric model `H + C + offset`). The output may
 //! pass linear dynamics `G` ([`Dynamics`]: a low-pass, a resonance) and be
 //! delayed by a dead time of `d` whole samples ([`DelayLine`]):
-//! `y_k = G[S[H + C]]_{max(k−d, 0)} + offset`.
+//! `y_k = G[S[H + C]]_{max(k−d, 0)} + offset`. `H`'s thresholds may grow
+//! with the input's rate ([`RateGain`]).
 
 use crate::realtime::checks::check_finite;
 use crate::realtime::creep::Creep;
@@ -16,6 +17,7 @@ use crate::realtime::hysteresis::Hysteresis;
 use crate::realtime::parameters::{
     Checked, CreepParameters, HysteresisParameters, ModelParameters,
 };
+use crate::realtime::rate::RateGain;
 use crate::realtime::real::Real;
 use crate::realtime::storage::Storage;
 use crate::realtime::superposition::Superposition;
@@ -26,6 +28,8 @@ pub struct Model<T: Real, S: Storage> {
     sample_time: f64,
     offset: T,
     hysteresis: Hysteresis<T, S>,
+    /// `None`: `β = 0`, the paper's `H`.
+    rate: Option<RateGain<T>>,
     creep: Option<Creep<T, S>>,
     superposition: Option<Superposition<T, S>>,
     dynamics: Option<Dynamics<T>>,
@@ -46,6 +50,7 @@ impl<T: Real, S: Storage> Model<T, S> {
                 p.hysteresis.weights,
                 None,
             )?,
+            rate: (p.rate_gain != 0.0).then(|| RateGain::new(p.rate_gain, ts)),
             creep: p.creep.as_ref().map(|c| Creep::build(c, ts)).transpose()?,
             superposition: p
                 .superposition
@@ -106,6 +111,35 @@ impl<T: Real, S: Storage> Model<T, S> {
 
     pub fn hysteresis_mut(&mut self) -> &mut Hysteresis<T, S> {
         &mut self.hysteresis
+    }
+
+    /// The rate dependence of `H`'s thresholds, if any (`β ≠ 0`).
+    pub fn rate_gain(&self) -> Option<&RateGain<T>> {
+        self.rate.as_ref()
+    }
+
+    /// Set the input of the last sample, which the rate-dependent
+    /// thresholds need (`None`: not started); without them only `None` is
+    /// taken.
+    pub fn set_last_input(&mut self, last: Option<f64>) -> Result<(), ParameterError> {
+        self.check_last_input(last)?;
+        if let Some(rate) = &mut self.rate {
+            rate.set_last_input(last.map(T::from_f64));
+        }
+        Ok(())
+    }
+
+    /// Whether [`Self::set_last_input`] takes `last`.
+    pub fn check_last_input(&self, last: Option<f64>) -> Result<(), ParameterError> {
+        let field = "hysteresis.last_input";
+        match last {
+            None => Ok(()),
+            Some(_) if self.rate.is_none() => Err(ParameterError::Unsupported {
+                field,
+                reason: "only a model with a rate gain keeps its last input",
+            }),
+            Some(v) => check_finite(field, core::slice::from_ref(&v)),
+        }
     }
 
     /// The creep operator `C`, if any.
@@ -187,9 +221,17 @@ impl<T: Real, S: Storage> Model<T, S> {
         let v = if v.is_finite() {
             v
         } else {
-            self.hysteresis.play_states()[0]
+            self.rate
+                .and_then(|r| r.last_input())
+                .unwrap_or(self.hysteresis.play_states()[0])
         };
-        let h = self.hysteresis.step(v);
+        let h = match &mut self.rate {
+            None => self.hysteresis.step(v),
+            Some(rate) => {
+                let widening = rate.widen(v);
+                self.hysteresis.step_widened(v, widening)
+            }
+        };
         let w = match &mut self.creep {
             Some(c) => h + c.step(v),
             None => h,
@@ -212,6 +254,9 @@ impl<T: Real, S: Storage> Model<T, S> {
             g.reset();
         }
         self.hysteresis.reset();
+        if let Some(r) = &mut self.rate {
+            r.reset();
+        }
         if let Some(c) = &mut self.creep {
             c.reset();
         }
@@ -238,6 +283,7 @@ impl<S: Storage> Model<f64, S> {
             dynamics: self.dynamics.as_ref().map(|g| *g.parameters()),
             delay: self.delay.len(),
             offset: self.offset,
+            rate_gain: self.rate.map_or(0.0, |r| r.rate_gain()),
         })
     }
 }

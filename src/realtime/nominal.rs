@@ -58,4 +58,5 @@ pub const PARAMETERS: ModelParameters<'static> = ModelParameters {
     dynamics: None,
     delay: 0,
     offset: 0.0,
+    rate_gain: 0.0,
 };

@@ -53,6 +53,9 @@ pub struct ModelParameters<'a> {
     /// Dead time `d` (samples): `y_k = G[S[H + C]]_{max(k−d, 0)} + offset`.
     pub delay: usize,
     pub offset: f64,
+    /// `β` (s) of `H`'s rate-dependent thresholds `r_i + β|v_k − v_{k−1}|/T_s`
+    /// ([`crate::realtime::rate`]), `0 ≤ β < T_s`; 0: the paper's `H`.
+    pub rate_gain: f64,
 }
 
 impl HysteresisParameters<'_> {
@@ -173,6 +176,14 @@ impl<'a> ModelParameters<'a> {
             g.validate(self.sample_time)?;
         }
         check_finite("offset", core::slice::from_ref(&self.offset))?;
+        if !(self.rate_gain >= 0.0 && self.rate_gain < self.sample_time) {
+            return Err(ParameterError::OutOfHalfOpenRange {
+                field: "hysteresis.rate_gain",
+                value: self.rate_gain,
+                lower: 0.0,
+                upper: self.sample_time,
+            });
+        }
         Ok(Checked(*self))
     }
 }

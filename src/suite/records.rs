@@ -105,8 +105,7 @@ impl Default for RecordSettings {
 }
 
 impl RecordSettings {
-    /// The actuator of these settings as a model file, virgin: exact when
-    /// `rate_gain` is 0, else its rate-independent part.
+    /// The actuator of these settings as a model file, virgin.
     pub fn actuator_model(&self) -> ModelFile {
         Actuator::new(self)
             .model_file(self.sample_time)
@@ -124,8 +123,7 @@ pub struct SyntheticRecord {
     /// The sensor offset added.
     pub offset: f64,
     /// The actuator at the record's first sample as a model file, in its
-    /// state then (offset and noise not included). It is the actuator
-    /// exactly when `rate_gain` is 0.
+    /// state then (offset and noise not included).
     pub start: ModelFile,
 }
 
@@ -179,6 +177,8 @@ pub fn protocol(settings: &RecordSettings, rate: f64, rng: &mut Rng) -> Vec<f64>
 /// The actuator of [`generate`], stepped one sample at a time.
 struct Actuator {
     hysteresis: RateDependentHysteresis,
+    /// `β` (s), as given: the model file's.
+    rate_gain: f64,
     creep: CreepOperator,
     superposition: Superposition<f64, Heap>,
     dynamics: Option<Dynamics<f64>>,
@@ -223,6 +223,7 @@ impl Actuator {
                 nominal.hysteresis.weights.clone(),
                 settings.rate_gain / settings.sample_time,
             ),
+            rate_gain: settings.rate_gain,
             creep,
             superposition,
             dynamics,
@@ -238,8 +239,7 @@ impl Actuator {
         }
     }
 
-    /// The rate-independent part (`β = 0`) as a model file, in the
-    /// actuator's state.
+    /// The actuator as a model file, in its state.
     fn model_file(&self, sample_time: f64) -> ModelFile {
         ModelFile {
             sample_time,
@@ -247,6 +247,11 @@ impl Actuator {
                 thresholds: self.hysteresis.thresholds().to_vec(),
                 weights: self.hysteresis.weights().to_vec(),
                 state: Some(self.hysteresis.play_states().to_vec()),
+                rate_gain: (self.rate_gain != 0.0).then_some(self.rate_gain),
+                last_input: self
+                    .hysteresis
+                    .last_input()
+                    .filter(|_| self.rate_gain != 0.0),
             },
             creep: Some(CreepData {
                 thresholds: self.creep.thresholds().to_vec(),

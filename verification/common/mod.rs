@@ -147,6 +147,7 @@ pub fn model_of(
         dynamics: None,
         delay: 0,
         offset: 0.0,
+        rate_gain: 0.0,
     };
     HysteresisCreepModel::new(&parameters.validate().expect("the parts are valid"))
         .expect("heap storage holds any size")

@@ -196,6 +196,7 @@ impl<T: Real> CompensatorBank<T> {
             .map(ModelParameters::validate)
             .collect::<Result<Vec<_>, _>>()?;
         for (channel, model) in models.iter().enumerate() {
+            crate::realtime::compensator::refuse_rate_gain(model)?;
             let (mc, mm) = model
                 .creep
                 .as_ref()

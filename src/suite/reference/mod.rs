@@ -48,6 +48,13 @@ fn naive_superposition(file: &ModelFile) -> Option<NaiveSuperposition> {
 fn naive_parts(file: &ModelFile) -> Result<(NaiveHysteresis, Option<NaiveCreep>), ModelError> {
     // validation (11), (12), (17), (18), admissibility, shapes: the one rule set
     HysteresisCreepModel::from_file(file)?;
+    if file.hysteresis.rate_gain.is_some_and(|b| b != 0.0) {
+        return Err(crate::realtime::ParameterError::Unsupported {
+            field: "hysteresis.rate_gain",
+            reason: "the textbook references have rate-independent thresholds",
+        }
+        .into());
+    }
     let h = &file.hysteresis;
     let hysteresis = NaiveHysteresis {
         r: h.thresholds.clone(),
