@@ -59,12 +59,12 @@
 /**
  * Words of `MfcbeamCompensatorStorageF32`.
  */
-#define MFCBEAM_COMPENSATOR_F32_WORDS 584
+#define MFCBEAM_COMPENSATOR_F32_WORDS 587
 
 /**
  * Words of `MfcbeamCompensatorStorageF64`.
  */
-#define MFCBEAM_COMPENSATOR_F64_WORDS 1129
+#define MFCBEAM_COMPENSATOR_F64_WORDS 1133
 
 /**
  * Words of `MfcbeamModelStorageF32`.

@@ -1,5 +1,6 @@
 //! The per-sample `step` of every operator (the rate-dependent one's
-//! inverse, from a clone, too), of the compensator and of a
+//! inverse, from a clone, too, and the compensator of a model with it), of
+//! the compensator and of a
 //! compensator bank, with and without a superposition operator, and of the
 //! built-in feedback designs allocates nothing: counted with a global
 //! allocator that records every allocation.
@@ -138,10 +139,22 @@ fn steps_and_in_place_runs_allocate_nothing() {
     )
     .unwrap();
     let mut rate_inverse = rate.clone();
+    // the model and compensator with those thresholds (S, dead time)
+    let mut rate_file = file.clone();
+    rate_file.hysteresis.weights = rate.weights().to_vec();
+    rate_file.hysteresis.rate_gain = Some(5e-5);
+    let mut rate_model = HysteresisCreepModel::from_file(&rate_file).unwrap();
+    let mut rate_comp = rate_model.compensator(s_settings).unwrap();
+    let mut rate_comp32 = Compensator::<f32, mfcbeam::realtime::Inline<12, 60, 5, 4>>::from_file(
+        &rate_file, s_settings,
+    )
+    .unwrap();
 
     let n = allocations_during(|| {
         for &v in &input {
             std::hint::black_box(rate_inverse.invert(rate.step(v)));
+            std::hint::black_box(rate_model.step(rate_comp.compensate(v).u));
+            std::hint::black_box(rate_comp32.compensate(v as f32));
             std::hint::black_box(play.step(v));
             std::hint::black_box(h.step(v));
             std::hint::black_box(inv.step(v));
@@ -167,6 +180,7 @@ fn steps_and_in_place_runs_allocate_nothing() {
         std::hint::black_box(fixed32.compensate(f32::NAN));
         // non-finite samples take the held path
         std::hint::black_box(comp.compensate(f64::NAN));
+        std::hint::black_box(rate_comp.compensate(f64::NAN));
         std::hint::black_box(w.step(f64::INFINITY));
         w.run_into(&input, &mut out).unwrap();
         bank.compensate_frames(&frame_targets, &mut frame_out)

@@ -252,6 +252,7 @@ use mfcbeam::identification::{
 };
 use mfcbeam::operators::model::{HysteresisCreepModel, ModelFile};
 use mfcbeam::operators::traits::{Operator, Snapshot};
+use mfcbeam::prelude::Heap;
 use mfcbeam::realtime::{Compensator, CompensatorSettings, DynamicsParameters};
 use mfcbeam::suite::records::{generate, RecordSettings};
 
@@ -354,14 +355,231 @@ fn a_bad_rate_gain_or_last_input_is_refused() {
     let mut file = model_file(&h, 0.5 * TS);
     file.hysteresis.last_input = Some(f64::NAN);
     assert!(HysteresisCreepModel::from_file(&file).is_err());
-    // the compensator inverts H by (22): not yet a rate-dependent H
+    // the bank's kernels invert H by (22): not a rate-dependent H
     let file = model_file(&h, 0.5 * TS);
-    let e = Compensator::<f64, mfcbeam::prelude::Heap>::from_file(
-        &file,
+    let e = mfcbeam::operators::bank::CompensatorBank::<f64>::new(
+        &[file.parameters()],
         CompensatorSettings::default(),
     )
     .unwrap_err();
     assert!(e.to_string().contains("hysteresis.rate_gain"), "{e}");
+    // the compensator inverts the class whose steps are monotone only
+    let mut negative = file.clone();
+    negative.hysteresis.weights[0] += 1.0;
+    *negative.hysteresis.weights.last_mut().unwrap() = -0.01;
+    let e =
+        Compensator::<f64, Heap>::from_file(&negative, CompensatorSettings::default()).unwrap_err();
+    assert!(e.to_string().contains("must not be negative"), "{e}");
+}
+
+/// The largest `g` the compensator tests draw: the jagged targets of
+/// [`random_input`] jump, and above `g = 1/2` the exact inverse of jumps
+/// swings ever wider (`the_exact_inverse_swings_above_half_the_sample_time`;
+/// at 1/2 the overshoot still grows linearly).
+const G_MAX: f64 = 0.4;
+
+/// [`random_operator`] with `g ≤ G_MAX`.
+fn random_tracked_operator(rng: &mut Rng) -> (RateDependentHysteresis, f64) {
+    let (h, r_max) = random_operator(rng);
+    let g = h.gain() * G_MAX / 0.95;
+    let fresh = RateDependentHysteresis::new(h.thresholds(), h.weights(), g * TS, TS).unwrap();
+    (fresh, r_max)
+}
+
+/// A model of the records' class with a rate gain: random plays
+/// (non-negative weights), creep, an asymmetric `S` and a resonance, after
+/// a random history.
+fn random_model(rng: &mut Rng) -> (ModelFile, f64) {
+    let (h, r_max) = random_tracked_operator(rng);
+    let mut file = model_file(&h, h.gain() * TS);
+    let mut nominal = mfcbeam::operators::nominal::nominal_model_file();
+    let scale = r_max / 1000.0;
+    let c = nominal.creep.as_mut().unwrap();
+    c.thresholds.iter_mut().for_each(|r| *r *= scale);
+    c.eigenvalues = vec![5000.0, 500.0, 50.0];
+    c.weights.truncate(c.thresholds.len());
+    c.state = None;
+    let m = c.eigenvalues.len();
+    file.creep = Some(mfcbeam::operators::model::CreepData {
+        thresholds: c.thresholds.clone(),
+        weights: c.weights.clone(),
+        eigenvalues: c.eigenvalues.clone(),
+        state: Some(vec![vec![0.0; m]; c.thresholds.len()]),
+    });
+    file.superposition = Some(mfcbeam::operators::model::SuperpositionData {
+        thresholds: vec![-0.5 * r_max, 0.0, 0.4 * r_max],
+        weights: vec![0.3, 1.0, -0.2],
+    });
+    file.dynamics = Some(mfcbeam::operators::model::DynamicsData::of(
+        &DynamicsParameters {
+            low_pass: None,
+            resonance: Some(mfcbeam::realtime::Resonance {
+                frequency: 740.0,
+                damping: 0.3,
+            }),
+            delay_fraction: 0.0,
+        },
+    ));
+    let mut model = HysteresisCreepModel::from_file(&file).unwrap();
+    for u in random_input(rng, 300, r_max) {
+        model.step(u);
+    }
+    (model.to_file(), r_max)
+}
+
+/// `W[W⁻¹[y]] = y` with rate-dependent thresholds: the plant model steps
+/// the compensator's voltage, from the same state, and gives the target
+/// back to the rounding of one input's step (the inverse is the least
+/// input that reaches it, to the resolution of `T`) and of the terms.
+#[test]
+fn the_compensator_inverts_the_model_with_a_rate_gain() {
+    let mut rng = Rng::new(0x9a);
+    for case in 0..30 {
+        let (file, r_max) = random_model(&mut rng);
+        let mut plant = HysteresisCreepModel::from_file(&file).unwrap();
+        let mut comp =
+            Compensator::<f64, Heap>::from_file(&file, CompensatorSettings::unlimited()).unwrap();
+        let lead = plant.preview();
+        let w = &file.hysteresis.weights;
+        let slope = w.iter().sum::<f64>() * 2.0 * 1.3;
+        let targets = random_input(&mut rng, 400, 0.8 * r_max);
+        let mut u = Vec::new();
+        for &y in &targets {
+            let c = comp.compensate(y);
+            assert!(!c.saturated && !c.fault);
+            u.push(c.u);
+        }
+        let y = plant.run(&u);
+        for k in 0..targets.len() - lead {
+            let scale = u[k].abs() + 3.0 * r_max;
+            let tolerance = 64.0 * (w.len() as f64 + 8.0) * f64::EPSILON * slope * scale;
+            assert!(
+                (y[k + lead] - targets[k]).abs() <= tolerance,
+                "case {case}, sample {k}: {} vs {} (tolerance {tolerance:e})",
+                y[k + lead],
+                targets[k]
+            );
+        }
+    }
+}
+
+/// Clipped samples are flagged and the plant's plays step with the voltage
+/// applied: once the target is reachable again the identity resumes. A
+/// non-finite target holds the last voltage (a fault), and the plant,
+/// given it, stays matched.
+#[test]
+fn the_compensator_leaves_saturation_and_faults_on_the_plants_branch() {
+    let mut rng = Rng::new(0x9b);
+    let (h, r_max) = random_tracked_operator(&mut rng);
+    let file = model_file(&h, h.gain() * TS);
+    let limit = 0.5 * r_max;
+    let mut plant = HysteresisCreepModel::from_file(&file).unwrap();
+    let mut comp =
+        Compensator::<f64, Heap>::from_file(&file, CompensatorSettings::with_limits(-limit, limit))
+            .unwrap();
+    let sum: f64 = h.weights().iter().sum();
+    // the output's reach within the limits, on the major loop
+    let mut probe = plant.clone();
+    let reach = probe
+        .run(&[-limit, limit, -limit, limit, -limit])
+        .iter()
+        .skip(1)
+        .fold(f64::INFINITY, |m, y| m.min(y.abs()));
+    let (mut clipped, mut faults, mut checked) = (0, 0, 0);
+    for (k, y) in random_input(&mut rng, 2000, 1.5 * reach)
+        .into_iter()
+        .enumerate()
+    {
+        let y = if k % 97 == 5 { f64::NAN } else { y };
+        let c = comp.compensate(y);
+        assert!((-limit..=limit).contains(&c.u));
+        let out = plant.step(c.u);
+        if c.fault {
+            faults += 1;
+        } else if c.saturated {
+            clipped += 1;
+        } else {
+            checked += 1;
+            let tolerance = 1e3 * f64::EPSILON * sum * (c.u.abs() + 2.0 * r_max);
+            assert!((out - y).abs() <= tolerance, "sample {k}: {out} vs {y}");
+        }
+        let mut x = vec![0.0; h.thresholds().len()];
+        comp.forward_state_into(&mut x).unwrap();
+        assert_eq!(x, plant.hysteresis().play_states(), "sample {k}");
+    }
+    assert!(
+        clipped > 20 && faults > 10 && checked > 1000,
+        "{clipped} {faults} {checked}"
+    );
+}
+
+/// The state, its last input included, goes through a file and a
+/// snapshot: the compensator resumed goes on bit for bit.
+#[test]
+fn the_compensators_state_holds_the_last_input() {
+    let mut rng = Rng::new(0x9c);
+    let (file, r_max) = random_model(&mut rng);
+    let targets = random_input(&mut rng, 300, 0.8 * r_max);
+    let settings = CompensatorSettings::unlimited();
+    let mut whole = Compensator::<f64, Heap>::from_file(&file, settings).unwrap();
+    let expected: Vec<f64> = targets.iter().map(|&y| whole.compensate(y).u).collect();
+    // the plant half way, as a file: the compensator of that file resumes
+    let mut first = Compensator::<f64, Heap>::from_file(&file, settings).unwrap();
+    let mut plant = HysteresisCreepModel::from_file(&file).unwrap();
+    for &y in &targets[..150] {
+        plant.step(first.compensate(y).u);
+    }
+    let saved = Snapshot::state(&first);
+    assert_eq!(saved.last_input, Some(expected[149]));
+    let mut again = Compensator::<f64, Heap>::from_file(&file, settings).unwrap();
+    again.set_state(&saved).unwrap();
+    for (k, &y) in targets.iter().enumerate().skip(150) {
+        assert_eq!(
+            again.compensate(y).u.to_bits(),
+            expected[k].to_bits(),
+            "sample {k}"
+        );
+    }
+    let mut from_plant = Compensator::<f64, Heap>::of(&plant, settings).unwrap();
+    assert_eq!(
+        from_plant.rate_gain().unwrap().last_input(),
+        Some(expected[149])
+    );
+    let resumed: Vec<f64> = targets[150..]
+        .iter()
+        .map(|&y| from_plant.compensate(y).u)
+        .collect();
+    // the plant's file holds what the compensator tracks, to rounding of
+    // G's state advanced by its lag
+    let tolerance = 1e-9 * r_max;
+    for (a, b) in resumed.iter().zip(&expected[150..]) {
+        assert!((a - b).abs() <= tolerance, "{a} vs {b}");
+    }
+}
+
+/// In `f32` the same, to `f32`'s rounding.
+#[test]
+fn the_f32_compensator_inverts_the_model_with_a_rate_gain() {
+    let mut rng = Rng::new(0x9d);
+    for _ in 0..10 {
+        let (h, r_max) = random_tracked_operator(&mut rng);
+        let file = model_file(&h, h.gain() * TS);
+        let mut plant = mfcbeam::realtime::Model::<f32, Heap>::from_file(&file).unwrap();
+        let mut comp =
+            Compensator::<f32, Heap>::from_file(&file, CompensatorSettings::unlimited()).unwrap();
+        let sum: f64 = h.weights().iter().sum();
+        for y in random_input(&mut rng, 300, 0.8 * sum * r_max) {
+            let u = comp.compensate(y as f32).u;
+            let out = plant.step(u) as f64;
+            let tolerance = 64.0
+                * (h.thresholds().len() as f64 + 4.0)
+                * f32::EPSILON as f64
+                * sum
+                * 2.0
+                * (u.abs() as f64 + 2.0 * r_max);
+            assert!((out - y).abs() <= tolerance, "{out} vs {y}");
+        }
+    }
 }
 
 /// The synthetic lab records (thresholds with `β = 2·10⁻⁵ s`, `T_s =
@@ -446,4 +664,52 @@ fn the_rate_gain_is_found_and_predicts_a_faster_record() {
         search.chosen
     );
     assert!(with_rate < 0.8 * rate_independent);
+}
+
+/// The exact inverse of a single play of threshold 0 on targets that jump
+/// between `±a`: each reversal overshoots the target by
+/// `e' = g (2a + e)/(1 − g)` (docs/MATHEMATICS.md §4.3). Below `g = 1/2`
+/// the overshoot settles at `e* = 2ga/(1 − 2g)`; above, it grows by
+/// `g/(1 − g)` per reversal.
+#[test]
+fn the_exact_inverse_swings_above_half_the_sample_time() {
+    let a = 10.0;
+    let overshoots = |g: f64, n: usize| -> Vec<f64> {
+        let file = model_file(
+            &RateDependentHysteresis::new(&[0.0], &[1.0], g * TS, TS).unwrap(),
+            g * TS,
+        );
+        let mut comp =
+            Compensator::<f64, Heap>::from_file(&file, CompensatorSettings::unlimited()).unwrap();
+        (0..n)
+            .map(|k| {
+                let y = if k % 2 == 0 { a } else { -a };
+                comp.compensate(y).u.abs() - a
+            })
+            .collect()
+    };
+    for g in [0.1, 0.3, 0.45, 0.5, 0.55, 0.7, 0.9] {
+        let e = overshoots(g, 60);
+        assert_eq!(e[0], 0.0, "g {g}: the first step has no rate");
+        for k in 0..59 {
+            let next = g * (2.0 * a + e[k]) / (1.0 - g);
+            let tolerance = 64.0 * f64::EPSILON * (a + next) / (1.0 - g);
+            assert!(
+                (e[k + 1] - next).abs() <= tolerance,
+                "g {g}, reversal {k}: {} vs {next}",
+                e[k + 1]
+            );
+        }
+        let settled = 2.0 * g * a / (1.0 - 2.0 * g);
+        if g < 0.5 {
+            // the fixed point, approached by g/(1 − g) per reversal
+            let gap = (e[59] - settled).abs();
+            assert!(
+                gap <= settled * (g / (1.0 - g)).powi(59) + 1e-9 * a,
+                "g {g}"
+            );
+        } else {
+            assert!(e[59] > 100.0 * a * (g - 0.5), "g {g}: {}", e[59]);
+        }
+    }
 }

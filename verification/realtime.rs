@@ -114,16 +114,19 @@ fn paper_sized_storage_and_its_footprint() {
     // model has none) is two lengths, its zero index and its presence; the
     // model's dead time is one count (the compensator has no delay line);
     // the room for linear dynamics G (absent here) and, for them, `S`
-    // itself and the plays' last output; whether the layout is the paper's
-    // (a flag, padded to a number's size).
+    // itself and the plays' last output; the room for a rate gain of the
+    // thresholds (absent here) with the plant's last input; whether the
+    // layout is the paper's (a flag, padded to a number's size).
     let extra = |size: usize| {
         if size == 4 {
             std::mem::size_of::<Option<Dynamics<f32>>>()
                 + std::mem::size_of::<Option<Superposition<f32, nominal::Capacity>>>()
+                + std::mem::size_of::<Option<mfcbeam::realtime::RateGain<f32>>>()
                 + 4
         } else {
             std::mem::size_of::<Option<Dynamics<f64>>>()
                 + std::mem::size_of::<Option<Superposition<f64, nominal::Capacity>>>()
+                + std::mem::size_of::<Option<mfcbeam::realtime::RateGain<f64>>>()
                 + 8
         }
     };

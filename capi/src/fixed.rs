@@ -33,9 +33,9 @@ pub const MFCBEAM_MAX_SUPERPOSITION: usize = 9;
 pub const MFCBEAM_MAX_DELAY: usize = 16;
 
 /// Words of `MfcbeamCompensatorStorageF32`.
-pub const MFCBEAM_COMPENSATOR_F32_WORDS: usize = 584;
+pub const MFCBEAM_COMPENSATOR_F32_WORDS: usize = 587;
 /// Words of `MfcbeamCompensatorStorageF64`.
-pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 1129;
+pub const MFCBEAM_COMPENSATOR_F64_WORDS: usize = 1133;
 /// Words of `MfcbeamModelStorageF32`.
 pub const MFCBEAM_MODEL_F32_WORDS: usize = 530;
 /// Words of `MfcbeamModelStorageF64`.

@@ -203,3 +203,22 @@ def test_a_model_with_a_dead_time_compensates_like_the_cli(cli, nominal_json):
     assert len(first.state["delay"]) == 3
     resumed = mfcbeam.Model.from_json(first.to_json())
     np.testing.assert_array_equal(resumed.simulate(u[500:]), model.copy().simulate(u)[500:])
+
+
+def test_identity_with_rate_dependent_thresholds():
+    """A model whose play thresholds grow with the rate (β = T_s/4, the
+    weights non-negative): the compensator inverts each step, so the plant
+    driven by it gives the target back, to the rounding of one input's step
+    (the inverse is the least input that reaches it) and of the terms."""
+    m = json.loads(mfcbeam.Model.nominal().to_json())
+    w = m["hysteresis"]["weights"]
+    m["hysteresis"]["weights"] = [max(x, 0.0) for x in w]
+    m["hysteresis"]["rate_gain"] = 0.25 * m["sample_time"]
+    model = mfcbeam.Model.from_json(json.dumps(m))
+    y_d = 300.0 * np.sin(np.linspace(0.0, 60.0, 6000)) * np.linspace(0.2, 1.0, 6000)
+    u, saturated, fault = mfcbeam.Compensator(model, limits=None).compensate(y_d)
+    assert not saturated.any() and not fault.any()
+    y = model.copy().simulate(u)
+    slope = 2.0 * sum(m["hysteresis"]["weights"]) + sum(abs(x) for x in m["creep"]["weights"])
+    bound = 64.0 * (len(w) + 8) * EPS * slope * (np.max(np.abs(u)) + 1000.0)
+    assert np.max(np.abs(y - y_d)) <= bound

@@ -8,10 +8,13 @@
 //! as the dead time is: each candidate is a whole fit, scored by the
 //! [`SearchCriterion`] (the validation records, else the held-out
 //! samples, else the fitted records). The candidates are `g = β/T_s` on
-//! the grid `0, 0.1, …, 0.9`, then a golden-section search on the two grid
-//! steps around the best, down to `g` steps of 0.005. The score need not
+//! the grid `0, 0.05, …, 0.5`, then a golden-section search on the two grid
+//! steps around the best, down to `g` steps of 0.0025. The score need not
 //! be unimodal in `g`; the grid is what guards against a distant minimum,
-//! so a minimum narrower than a grid step can be missed.
+//! so a minimum narrower than a grid step can be missed. The search stops
+//! at `g = 1/2` although the model takes any `g < 1`: above it the exact
+//! inverse of a jumping target overshoots by more at every reversal
+//! (docs/MATHEMATICS.md §4.3), and the model is there to be inverted.
 
 use std::fmt;
 use std::str::FromStr;
@@ -54,11 +57,11 @@ impl FromStr for RateGainSetting {
 }
 
 /// The `g = β/T_s` of the grid, before the refinement.
-const GRID: [f64; 10] = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9];
-/// The largest `g` tried: steps keep slopes of at least `1 − g`.
-const MAX_GAIN: f64 = 0.95;
+const GRID: [f64; 11] = [0.0, 0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5];
+/// The largest `g` tried: the compensator's inverse stays bounded.
+const MAX_GAIN: f64 = 0.5;
 /// The refinement stops when its bracket is this narrow (in `g`).
-const RESOLUTION: f64 = 0.005;
+const RESOLUTION: f64 = 0.0025;
 
 /// The errors of the model fitted with one rate gain.
 #[derive(Debug, Clone, PartialEq)]

@@ -38,6 +38,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         if let Some(g) = &file.dynamics {
             comp.set_dynamics_state(g.state.as_deref())?;
         }
+        comp.set_last_input(file.hysteresis.last_input)?;
         Ok(comp)
     }
 }
@@ -59,6 +60,9 @@ pub struct CompensatorState {
     /// outputs then inputs, newest first); `None` before the first sample
     /// or without dynamics.
     pub dynamics: Option<Vec<f64>>,
+    /// The plant's last input, which rate-dependent thresholds need;
+    /// `None` before the first sample or without them.
+    pub last_input: Option<f64>,
 }
 
 impl<T: Real, S: Storage> Operator for Compensator<T, S> {
@@ -102,15 +106,31 @@ impl<T: Real, S: Storage> Snapshot for Compensator<T, S> {
         let mut forward = self.inverse.play_states().to_vec();
         self.forward_state_into(&mut forward)
             .expect("one value per play");
+        // with rate-dependent thresholds the plays of H⁻¹ are not stepped:
+        // those (22) gives for the plant's
+        let inverse = match self.rate_gain() {
+            None => to_f64(self.inverse.play_states()),
+            Some(_) => {
+                let mut matched = self.clone();
+                matched
+                    .set_model_state(&to_f64(&forward), None)
+                    .expect("the plant's plays are admissible");
+                to_f64(matched.inverse.play_states())
+            }
+        };
         CompensatorState {
             forward: to_f64(&forward),
-            inverse: to_f64(self.inverse.play_states()),
+            inverse,
             creep: self.creep.as_ref().map(Snapshot::state),
             dynamics: self.dynamics().and_then(|g| {
                 let mut y = vec![T::ZERO; g.state_len()];
                 g.state_into(&mut y)?;
                 Some(to_f64(&y))
             }),
+            last_input: self
+                .rate_gain()
+                .and_then(|r| r.last_input())
+                .map(|v| v.to_f64()),
         }
     }
 
@@ -178,6 +198,7 @@ impl<T: Real, S: Storage> Snapshot for Compensator<T, S> {
                 })
             }
         }
+        trial.set_last_input(state.last_input)?;
         *self = trial;
         Ok(())
     }

@@ -23,7 +23,8 @@
 //! This is the operator and its inverse in `f64`. The model steps the same
 //! thresholds (`hysteresis.rate_gain`, [`crate::realtime::RateGain`]) and
 //! the identification fits `β` ([`crate::identification::rate_gain`]); the
-//! real-time compensator does not invert them yet.
+//! real-time compensator inverts them by bisection, which needs no buffer
+//! of sorted pieces.
 
 use std::vec::Vec;
 

@@ -17,6 +17,12 @@
 //! held sample is the forward model's (`S[H(u) + C]` through `G`), so the
 //! identity resumes on the branch the plant is on.
 //!
+//! With rate-dependent thresholds ([`RateGain`]) there are no inverse
+//! plays: the compensator keeps the plant's plays and last input, and
+//! inverts each step (the least input that reaches the target, bisected to
+//! the resolution of `T`: docs/MATHEMATICS.md §4.3); a clipped sample needs
+//! no re-seat, the plays simply step with the voltage applied.
+//!
 //! A model's dead time is not inverted here (no causal inverse exists): the
 //! compensator inverts the memory part `S[H + C]`, and a caller whose model
 //! has a delay `d` ([`Compensator::delay`]) gives it the target `d` samples
@@ -32,6 +38,7 @@ use crate::realtime::hysteresis::{self, Hysteresis};
 use crate::realtime::inverse::{forward_state_in_place, inverse_state_into};
 use crate::realtime::model::Model;
 use crate::realtime::parameters::{Checked, ModelParameters};
+use crate::realtime::rate::{self, RateGain};
 use crate::realtime::real::Real;
 use crate::realtime::simd::{self, Kernels};
 use crate::realtime::storage::{Buffer, Storage};
@@ -123,8 +130,12 @@ pub struct Compensator<T: Real, S: Storage> {
     pub(crate) thresholds: S::Plays<T>,
     pub(crate) weights: S::Plays<T>,
     pub(crate) sums: S::Plays<T>,
-    /// Room for the plays of `H`, used after a saturated sample.
+    /// The plays of the plant's `H`: after a saturated sample (the
+    /// re-seat's room), or with rate-dependent thresholds always.
     scratch: S::Plays<T>,
+    /// Rate-dependent thresholds, if any: their gain and the plant's last
+    /// input (the inverse plays are then unused).
+    rate: Option<RateGain<T>>,
     /// The voltage of the last sample (held for a non-finite target).
     last_u: T,
     pub(crate) creep: Option<Creep<T, S>>,
@@ -148,16 +159,35 @@ pub struct Compensator<T: Real, S: Storage> {
     paper: bool,
 }
 
-/// The compensator inverts `H` by the rules (22), which hold for
-/// rate-independent thresholds only.
-pub(crate) fn refuse_rate_gain(parameters: &ModelParameters<'_>) -> Result<(), ParameterError> {
-    if parameters.rate_gain != 0.0 {
-        return Err(ParameterError::Unsupported {
-            field: "hysteresis.rate_gain",
-            reason: "the compensator does not yet invert rate-dependent thresholds; this model can be simulated, not compensated",
+/// Rate-dependent thresholds: `None` without them; with them, the class
+/// whose steps are invertible (non-negative weights, `w_0 > 0`:
+/// docs/MATHEMATICS.md §4.3) is checked.
+fn rate_of<T: Real>(
+    parameters: &ModelParameters<'_>,
+) -> Result<Option<RateGain<T>>, ParameterError> {
+    if parameters.rate_gain == 0.0 {
+        return Ok(None);
+    }
+    let field = "hysteresis.weights";
+    let w = parameters.hysteresis.weights;
+    if let Some((index, &value)) = w.iter().enumerate().find(|(_, &w)| w < 0.0) {
+        return Err(ParameterError::NegativeWeight {
+            field,
+            index,
+            value,
         });
     }
-    Ok(())
+    if w.first().is_some_and(|&w0| w0 <= 0.0) {
+        return Err(ParameterError::PartialSumNotPositive {
+            field,
+            index: 0,
+            sum: w[0],
+        });
+    }
+    Ok(Some(RateGain::new(
+        parameters.rate_gain,
+        parameters.sample_time,
+    )))
 }
 
 impl<T: Real, S: Storage> Compensator<T, S> {
@@ -172,7 +202,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         let parameters = parameters.get();
         let (ts, superposition) = (parameters.sample_time, parameters.superposition.as_ref());
         settings.validate()?;
-        refuse_rate_gain(parameters)?;
+        let rate = rate_of(parameters)?;
         let h = &parameters.hysteresis;
         let n = h.thresholds.len();
         let field = "hysteresis.thresholds";
@@ -183,6 +213,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             weights: zeros()?,
             sums: zeros()?,
             scratch: zeros()?,
+            rate,
             last_u: T::ZERO,
             creep: parameters
                 .creep
@@ -226,6 +257,12 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     ) -> Result<Self, ParameterError> {
         let mut c = Self::new(&model.parameters(), settings)?;
         c.set_model_state(model.hysteresis().play_states(), None)?;
+        if let (Some(mine), Some(theirs)) = (&mut c.rate, model.rate_gain()) {
+            mine.set_last_input(theirs.last_input().map(|v| T::from_f64(v.to_f64())));
+            if let Some(v) = mine.last_input() {
+                c.last_u = v;
+            }
+        }
         if let (Some(mine), Some(theirs)) = (&mut c.creep, model.creep()) {
             mine.copy_state_from(theirs)?;
         }
@@ -281,6 +318,9 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         for (x, &v) in self.inverse.state_mut().iter_mut().zip(inv.iter()) {
             *x = T::from_f64(v);
         }
+        for (x, &v) in self.scratch.iter_mut().zip(hysteresis) {
+            *x = T::from_f64(v);
+        }
         self.last_u = T::from_f64(hysteresis[0]);
         self.last_h = T::from_f64(w.iter().zip(hysteresis).map(|(w, x)| w * x).sum());
         self.creep = creep_trial;
@@ -334,6 +374,10 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     /// `x` gets one value per play.
     pub fn forward_state_into(&self, x: &mut [T]) -> Result<(), ParameterError> {
         check_length("hysteresis.state", self.inverse.len(), x.len())?;
+        if self.rate.is_some() {
+            x.copy_from_slice(&self.scratch);
+            return Ok(());
+        }
         x.copy_from_slice(self.inverse.play_states());
         forward_state_in_place(&self.sums, x);
         Ok(())
@@ -492,10 +536,16 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             Some(s) => s.apply(v),
             None => v,
         };
-        let (u, saturated) = simd::compensator_step(k, self, y, self.lower, self.upper);
-        if saturated {
-            self.reseat_clipped(u);
-        }
+        let (u, saturated) = match self.rate.is_some() {
+            true => self.rate_step(y, c),
+            false => {
+                let (u, saturated) = simd::compensator_step(k, self, y, self.lower, self.upper);
+                if saturated {
+                    self.reseat_clipped(u);
+                }
+                (u, saturated)
+            }
+        };
         if self.dynamics.is_some() {
             let h = if saturated {
                 self.clipped_output()
@@ -518,6 +568,14 @@ impl<T: Real, S: Storage> Compensator<T, S> {
     #[cold]
     fn hold(&mut self) -> Compensated<T> {
         let u = self.last_u;
+        if let Some(r) = &mut self.rate {
+            // the plant's plays see the same input again, with no rate
+            let widening = r.widen(u);
+            for (x, &t) in self.scratch.iter_mut().zip(self.thresholds.iter()) {
+                *x = crate::realtime::play::play(u, t + widening, *x);
+            }
+            self.last_h = hysteresis::weighted_sum(&self.weights, &self.scratch);
+        }
         if self.dynamics.is_some() {
             let c = self.creep.as_ref().map_or(T::ZERO, |op| op.output());
             self.advance_dynamics(T::ZERO, T::ZERO, self.last_h, c, true);
@@ -571,8 +629,71 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             g.reset();
         }
         self.inverse.reset();
+        self.scratch.fill(T::ZERO);
+        if let Some(r) = &mut self.rate {
+            r.reset();
+        }
         if let Some(c) = &mut self.creep {
             c.reset();
+        }
+    }
+
+    /// One step of `H⁻¹ + C` with rate-dependent thresholds: the input that
+    /// reaches `y − c` ([`rate::invert_step`]), clipped, the plant's plays
+    /// and the creep advanced with it. Returns it and whether it was
+    /// clipped.
+    #[inline(never)]
+    fn rate_step(&mut self, y: T, c: T) -> (T, bool) {
+        let Some(r) = &mut self.rate else {
+            unreachable!("called with rate-dependent thresholds only")
+        };
+        let wanted = rate::invert_step(&self.scratch, &self.thresholds, &self.weights, r, y - c);
+        let (u, saturated) = if wanted < self.lower {
+            (self.lower, true)
+        } else if wanted > self.upper {
+            (self.upper, true)
+        } else if wanted.is_finite() {
+            (wanted, false)
+        } else {
+            // NaN: none of the limits; cannot happen for a finite target
+            (self.last_u, true)
+        };
+        let widening = r.widen(u);
+        for (x, &t) in self.scratch.iter_mut().zip(self.thresholds.iter()) {
+            *x = crate::realtime::play::play(u, t + widening, *x);
+        }
+        if let Some(op) = &mut self.creep {
+            op.advance(u);
+        }
+        (u, saturated)
+    }
+
+    /// The rate dependence of the thresholds, if any (the plant's last
+    /// input in it).
+    pub fn rate_gain(&self) -> Option<&RateGain<T>> {
+        self.rate.as_ref()
+    }
+
+    /// Set the plant's last input, which rate-dependent thresholds need
+    /// (`None`: not started); without them only `None` is taken.
+    pub fn set_last_input(&mut self, last: Option<f64>) -> Result<(), ParameterError> {
+        let field = "hysteresis.last_input";
+        match (&mut self.rate, last) {
+            (Some(r), None) => {
+                r.set_last_input(None);
+                Ok(())
+            }
+            (None, None) => Ok(()),
+            (None, Some(_)) => Err(ParameterError::Unsupported {
+                field,
+                reason: "only a model with a rate gain keeps its last input",
+            }),
+            (Some(r), Some(v)) => {
+                check_finite(field, core::slice::from_ref(&v))?;
+                r.set_last_input(Some(T::from_f64(v)));
+                self.last_u = T::from_f64(v);
+                Ok(())
+            }
         }
     }
 }
@@ -596,7 +717,11 @@ impl<T: Real, S: Storage> simd::RunSource<T> for Compensator<T, S> {
 
     #[inline(always)]
     fn common_target(&self, target: T) -> Option<T> {
-        if self.dynamics.is_some() || self.inverse_superposition.is_some() || !target.is_finite() {
+        if self.dynamics.is_some()
+            || self.inverse_superposition.is_some()
+            || self.rate.is_some()
+            || !target.is_finite()
+        {
             return None;
         }
         Some(target - self.offset)

@@ -196,7 +196,7 @@ impl<T: Real> CompensatorBank<T> {
             .map(ModelParameters::validate)
             .collect::<Result<Vec<_>, _>>()?;
         for (channel, model) in models.iter().enumerate() {
-            crate::realtime::compensator::refuse_rate_gain(model)?;
+            refuse_rate_gain(model)?;
             let (mc, mm) = model
                 .creep
                 .as_ref()
@@ -444,4 +444,16 @@ impl<T: Real> CompensatorBank<T> {
             comp.reset();
         }
     }
+}
+
+/// The bank's kernels invert `H` by the rules (22), which hold for
+/// rate-independent thresholds only.
+fn refuse_rate_gain(parameters: &ModelParameters<'_>) -> Result<(), ParameterError> {
+    if parameters.rate_gain != 0.0 {
+        return Err(ParameterError::Unsupported {
+            field: "hysteresis.rate_gain",
+            reason: "the compensator bank does not invert rate-dependent thresholds; use one compensator per channel",
+        });
+    }
+    Ok(())
 }
