@@ -519,16 +519,8 @@ pub fn identify<'py>(
         Some(search) => {
             let rows = PyList::empty(py);
             for row in &search.rows {
-                let e = PyDict::new(py);
+                let e = search_row(py, &row.fit, row.holdout, &row.validations, row.score)?;
                 e.set_item("delay", row.delay)?;
-                e.set_item("fit", errors(py, &row.fit)?)?;
-                e.set_item("holdout", row.holdout.map(|h| errors(py, &h)).transpose()?)?;
-                let v = PyList::empty(py);
-                for errs in &row.validations {
-                    v.append(errors(py, errs)?)?;
-                }
-                e.set_item("validations", v)?;
-                e.set_item("score", row.score)?;
                 rows.append(e)?;
             }
             d.set_item("delays", rows)?;
@@ -544,16 +536,8 @@ pub fn identify<'py>(
         Some(search) => {
             let rows = PyList::empty(py);
             for row in &search.rows {
-                let e = PyDict::new(py);
+                let e = search_row(py, &row.fit, row.holdout, &row.validations, row.score)?;
                 e.set_item("rate_gain", row.rate_gain)?;
-                e.set_item("fit", errors(py, &row.fit)?)?;
-                e.set_item("holdout", row.holdout.map(|h| errors(py, &h)).transpose()?)?;
-                let v = PyList::empty(py);
-                for errs in &row.validations {
-                    v.append(errors(py, errs)?)?;
-                }
-                e.set_item("validations", v)?;
-                e.set_item("score", row.score)?;
                 rows.append(e)?;
             }
             d.set_item("rate_gains", rows)?;
@@ -563,6 +547,27 @@ pub fn identify<'py>(
     }
     d.set_item("text", text)?;
     Ok((Model { inner: id.model }, d))
+}
+
+/// A search's row (a dead time's, a rate gain's) as the report gives it:
+/// its errors and score; the caller adds the value tried.
+fn search_row<'py>(
+    py: Python<'py>,
+    fit: &FitErrors,
+    holdout: Option<FitErrors>,
+    validations: &[FitErrors],
+    score: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let e = PyDict::new(py);
+    e.set_item("fit", errors(py, fit)?)?;
+    e.set_item("holdout", holdout.map(|h| errors(py, &h)).transpose()?)?;
+    let v = PyList::empty(py);
+    for errs in validations {
+        v.append(errors(py, errs)?)?;
+    }
+    e.set_item("validations", v)?;
+    e.set_item("score", score)?;
+    Ok(e)
 }
 
 /// What a search chose by, as the report names it.

@@ -189,6 +189,17 @@ def test_several_validation_records_give_one_row_each_with_the_input_rate(record
         mfcbeam.identify(record["u"], record["y"], sample_time=ts, validate=[records[0], 3])
 
 
+def triangles(truth, rate, seconds, seed):
+    """Triangles of ±900 V at `rate` for `seconds` through `truth`, with
+    0.5 V of noise."""
+    ts = truth.sample_time
+    k = np.arange(int(seconds / ts))
+    phase = (k * ts * rate) % 1.0
+    u = 900.0 * np.where(phase < 0.5, 4 * phase - 1, 3 - 4 * phase)
+    rng = np.random.default_rng(seed)
+    return u, truth.copy().simulate(u) + rng.normal(0.0, 0.5, len(u))
+
+
 def test_a_dead_time_is_found_on_a_faster_record_and_agrees_with_the_cli(cli):
     """delay="auto": every d in 0..=max_delay is fitted and the 100 Hz
     validation record chooses the true 2 samples; the report lists each
@@ -198,15 +209,7 @@ def test_a_dead_time_is_found_on_a_faster_record_and_agrees_with_the_cli(cli):
     m["delay"] = 2
     truth = mfcbeam.Model.from_json(json.dumps(m))
     ts = truth.sample_time
-
-    def triangles(rate, seconds, seed):
-        k = np.arange(int(seconds / ts))
-        phase = (k * ts * rate) % 1.0
-        u = 900.0 * np.where(phase < 0.5, 4 * phase - 1, 3 - 4 * phase)
-        rng = np.random.default_rng(seed)
-        return u, truth.copy().simulate(u) + rng.normal(0.0, 0.5, len(u))
-
-    (u, y), (u2, y2) = triangles(20.0, 1.0, 1), triangles(100.0, 0.5, 2)
+    (u, y), (u2, y2) = triangles(truth, 20.0, 1.0, 1), triangles(truth, 100.0, 0.5, 2)
     model, report = mfcbeam.identify(u, y, sample_time=ts, creep_operators=0, superposition=2,
                                      delay="auto", max_delay=4, validate=(u2, y2))
     assert report["delay"] == 2 and model.delay == 2
@@ -240,15 +243,7 @@ def test_a_rate_gain_is_found_on_a_faster_record_and_agrees_with_the_cli(cli):
     ts = m["sample_time"]
     m["hysteresis"]["rate_gain"] = 0.3 * ts
     truth = mfcbeam.Model.from_json(json.dumps(m))
-
-    def triangles(rate, seconds, seed):
-        k = np.arange(int(seconds / ts))
-        phase = (k * ts * rate) % 1.0
-        u = 900.0 * np.where(phase < 0.5, 4 * phase - 1, 3 - 4 * phase)
-        rng = np.random.default_rng(seed)
-        return u, truth.copy().simulate(u) + rng.normal(0.0, 0.5, len(u))
-
-    (u, y), (u2, y2) = triangles(20.0, 1.0, 1), triangles(100.0, 0.5, 2)
+    (u, y), (u2, y2) = triangles(truth, 20.0, 1.0, 1), triangles(truth, 100.0, 0.5, 2)
     r = m["hysteresis"]["thresholds"]
     model, report = mfcbeam.identify(u, y, sample_time=ts, creep_operators=0, superposition=2,
                                      hysteresis_thresholds=r, rate_gain="auto",

@@ -114,6 +114,83 @@ pub enum SearchCriterion {
     Fit,
 }
 
+impl SearchCriterion {
+    /// The validation records' when there are any, else the held-out
+    /// samples' (`holdout`: there are some), else the fit's.
+    pub(super) fn of(records: &[Record<'_>], holdout: bool) -> Self {
+        if !records.is_empty() {
+            SearchCriterion::Validation
+        } else if holdout {
+            SearchCriterion::Holdout
+        } else {
+            SearchCriterion::Fit
+        }
+    }
+
+    /// The value a search minimises for a candidate with this `report`,
+    /// errors on the validation records, and rms on its fitted samples
+    /// (`fit_rms`; with several records, their pooled rms instead).
+    pub(super) fn score(
+        self,
+        report: &super::FitReport,
+        validations: &[FitErrors],
+        fit_rms: f64,
+    ) -> f64 {
+        match self {
+            SearchCriterion::Validation => pooled_rms(validations),
+            SearchCriterion::Holdout => report.holdout.map_or(f64::INFINITY, |h| h.rms),
+            SearchCriterion::Fit if report.records.len() > 1 => {
+                let errors: Vec<FitErrors> = report.records.iter().map(|r| r.fit).collect();
+                pooled_rms(&errors)
+            }
+            SearchCriterion::Fit => fit_rms,
+        }
+    }
+
+    /// The rest of a search table's header: the held-out and validation
+    /// columns.
+    pub(super) fn write_header(
+        f: &mut fmt::Formatter<'_>,
+        holdout: bool,
+        names: &[String],
+    ) -> fmt::Result {
+        if holdout {
+            write!(f, "  held-out rms %")?;
+        }
+        for n in names {
+            write!(f, "  {n} rms %")?;
+        }
+        writeln!(f)
+    }
+
+    /// The rest of a search table's row: its held-out and validation
+    /// errors.
+    pub(super) fn write_errors(
+        f: &mut fmt::Formatter<'_>,
+        holdout: Option<&FitErrors>,
+        validations: &[FitErrors],
+        names: &[String],
+    ) -> fmt::Result {
+        if let Some(h) = holdout {
+            write!(f, " {:>15.4}", h.rms_percent())?;
+        }
+        for (v, n) in validations.iter().zip(names) {
+            write!(f, " {:>w$.4}", v.rms_percent(), w = n.len() + 7)?;
+        }
+        writeln!(f)
+    }
+
+    /// What chose, as a table's last line says it; `fit`: the words for
+    /// the fit's own criterion.
+    pub(super) fn describe(self, fit: &'static str) -> &'static str {
+        match self {
+            SearchCriterion::Validation => "the validation records' pooled rms",
+            SearchCriterion::Holdout => "the held-out samples' rms",
+            SearchCriterion::Fit => fit,
+        }
+    }
+}
+
 /// The errors of the model fitted with one dead time.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DelayRow {
@@ -195,13 +272,7 @@ pub fn search_delay_records(
     let start = fits.iter().map(|f| f.0.report.fitted.start).max();
     let end = fits.iter().map(|f| f.0.report.fitted.end).min();
     let common = start.unwrap_or(0)..end.unwrap_or(0).max(start.unwrap_or(0));
-    let criterion = if !records.is_empty() {
-        SearchCriterion::Validation
-    } else if fits[0].0.report.holdout.is_some() {
-        SearchCriterion::Holdout
-    } else {
-        SearchCriterion::Fit
-    };
+    let criterion = SearchCriterion::of(records, fits[0].0.report.holdout.is_some());
     // each candidate run again here rather than kept from its fit: memory
     // for one run, not one per candidate
     let rows: Vec<DelayRow> = fits
@@ -209,15 +280,7 @@ pub fn search_delay_records(
         .map(|(id, validations)| {
             let run = id.model.clone().run(u);
             let fit = FitErrors::of(&run, y, common.clone());
-            let score = match criterion {
-                SearchCriterion::Validation => pooled_rms(validations),
-                SearchCriterion::Holdout => id.report.holdout.map_or(f64::INFINITY, |h| h.rms),
-                SearchCriterion::Fit if id.report.records.len() > 1 => {
-                    let errors: Vec<FitErrors> = id.report.records.iter().map(|r| r.fit).collect();
-                    pooled_rms(&errors)
-                }
-                SearchCriterion::Fit => fit.rms,
-            };
+            let score = criterion.score(&id.report, validations, fit.rms);
             DelayRow {
                 delay: id.report.delay,
                 fit,
@@ -242,7 +305,7 @@ pub fn search_delay_records(
 }
 
 /// The rms over all samples of several records.
-pub(super) fn pooled_rms(errors: &[FitErrors]) -> f64 {
+fn pooled_rms(errors: &[FitErrors]) -> f64 {
     let (sq, n) = errors.iter().fold((0.0, 0usize), |(sq, n), e| {
         (sq + e.rms * e.rms * e.samples as f64, n + e.samples)
     });
@@ -254,29 +317,15 @@ impl fmt::Display for DelaySearch {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "dead time (samples)   fit rms %")?;
         let holdout = self.rows.first().is_some_and(|r| r.holdout.is_some());
-        if holdout {
-            write!(f, "  held-out rms %")?;
-        }
-        for n in &self.names {
-            write!(f, "  {n} rms %")?;
-        }
-        writeln!(f)?;
+        SearchCriterion::write_header(f, holdout, &self.names)?;
         for r in &self.rows {
             let mark = if r.delay == self.chosen { '*' } else { ' ' };
             write!(f, "{mark} {:>18} {:>11.4}", r.delay, r.fit.rms_percent())?;
-            if let Some(h) = &r.holdout {
-                write!(f, " {:>15.4}", h.rms_percent())?;
-            }
-            for (v, n) in r.validations.iter().zip(&self.names) {
-                write!(f, " {:>w$.4}", v.rms_percent(), w = n.len() + 7)?;
-            }
-            writeln!(f)?;
+            SearchCriterion::write_errors(f, r.holdout.as_ref(), &r.validations, &self.names)?;
         }
-        let by = match self.criterion {
-            SearchCriterion::Validation => "the validation records' pooled rms",
-            SearchCriterion::Holdout => "the held-out samples' rms",
-            SearchCriterion::Fit => "the fitted record's rms (no validation records, nothing held out: a dead time shows at high rates; validate on a faster record)",
-        };
+        let by = self.criterion.describe(
+            "the fitted record's rms (no validation records, nothing held out: a dead time shows at high rates; validate on a faster record)",
+        );
         writeln!(f, "dead time chosen     {} samples, by {by}", self.chosen)
     }
 }

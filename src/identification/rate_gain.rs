@@ -19,7 +19,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use super::delay::{pooled_rms, Record, SearchCriterion};
+use super::delay::{Record, SearchCriterion};
 use super::identify::{identify_records, FitRecord, Identification};
 use super::report::FitErrors;
 use super::settings::{IdentificationError, IdentificationSettings};
@@ -100,13 +100,7 @@ pub fn search_rate_gain(
     settings: &IdentificationSettings,
     records: &[Record<'_>],
 ) -> Result<(Identification, RateGainSearch), IdentificationError> {
-    let criterion = if !records.is_empty() {
-        SearchCriterion::Validation
-    } else if settings.holdout > 0 {
-        SearchCriterion::Holdout
-    } else {
-        SearchCriterion::Fit
-    };
+    let criterion = SearchCriterion::of(records, settings.holdout > 0);
     let mut rows: Vec<RateGainRow> = Vec::new();
     let mut best: Option<(f64, Identification)> = None;
     let mut fit = |g: f64| -> Result<f64, IdentificationError> {
@@ -122,15 +116,7 @@ pub fn search_rate_gain(
             .iter()
             .map(|r| r.errors(&id.model))
             .collect::<Result<Vec<_>, _>>()?;
-        let score = match criterion {
-            SearchCriterion::Validation => pooled_rms(&validations),
-            SearchCriterion::Holdout => id.report.holdout.map_or(f64::INFINITY, |h| h.rms),
-            SearchCriterion::Fit if id.report.records.len() > 1 => {
-                let errors: Vec<FitErrors> = id.report.records.iter().map(|r| r.fit).collect();
-                pooled_rms(&errors)
-            }
-            SearchCriterion::Fit => id.report.fit.rms,
-        };
+        let score = criterion.score(&id.report, &validations, id.report.fit.rms);
         rows.push(RateGainRow {
             rate_gain: s.rate_gain,
             fit: id.report.fit,
@@ -189,13 +175,7 @@ impl fmt::Display for RateGainSearch {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "rate gain β (s)   β/T_s   fit rms %")?;
         let holdout = self.rows.first().is_some_and(|r| r.holdout.is_some());
-        if holdout {
-            write!(f, "  held-out rms %")?;
-        }
-        for n in &self.names {
-            write!(f, "  {n} rms %")?;
-        }
-        writeln!(f)?;
+        SearchCriterion::write_header(f, holdout, &self.names)?;
         for r in &self.rows {
             let mark = if r.rate_gain == self.chosen { '*' } else { ' ' };
             write!(
@@ -205,21 +185,11 @@ impl fmt::Display for RateGainSearch {
                 r.rate_gain / self.sample_time,
                 r.fit.rms_percent()
             )?;
-            if let Some(h) = &r.holdout {
-                write!(f, " {:>15.4}", h.rms_percent())?;
-            }
-            for (v, n) in r.validations.iter().zip(&self.names) {
-                write!(f, " {:>w$.4}", v.rms_percent(), w = n.len() + 7)?;
-            }
-            writeln!(f)?;
+            SearchCriterion::write_errors(f, r.holdout.as_ref(), &r.validations, &self.names)?;
         }
-        let by = match self.criterion {
-            SearchCriterion::Validation => "the validation records' pooled rms",
-            SearchCriterion::Holdout => "the held-out samples' rms",
-            SearchCriterion::Fit => {
-                "the fitted records' rms (no validation records, nothing held out: validate on a faster record)"
-            }
-        };
+        let by = self.criterion.describe(
+            "the fitted records' rms (no validation records, nothing held out: validate on a faster record)",
+        );
         writeln!(f, "rate gain chosen     {:e} s, by {by}", self.chosen)
     }
 }
