@@ -570,10 +570,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
         let u = self.last_u;
         if let Some(r) = &mut self.rate {
             // the plant's plays see the same input again, with no rate
-            let widening = r.widen(u);
-            for (x, &t) in self.scratch.iter_mut().zip(self.thresholds.iter()) {
-                *x = crate::realtime::play::play(u, t + widening, *x);
-            }
+            hysteresis::advance_plays_widened(&mut self.scratch, &self.thresholds, u, r.widen(u));
             self.last_h = hysteresis::weighted_sum(&self.weights, &self.scratch);
         }
         if self.dynamics.is_some() {
@@ -658,10 +655,7 @@ impl<T: Real, S: Storage> Compensator<T, S> {
             // NaN: none of the limits; cannot happen for a finite target
             (self.last_u, true)
         };
-        let widening = r.widen(u);
-        for (x, &t) in self.scratch.iter_mut().zip(self.thresholds.iter()) {
-            *x = crate::realtime::play::play(u, t + widening, *x);
-        }
+        hysteresis::advance_plays_widened(&mut self.scratch, &self.thresholds, u, r.widen(u));
         if let Some(op) = &mut self.creep {
             op.advance(u);
         }

@@ -100,6 +100,15 @@ pub(crate) fn advance_plays<T: Real>(state: &mut [T], thresholds: &[T], v: T) {
     }
 }
 
+/// [`advance_plays`] with every threshold widened by `widening` (the
+/// rate-dependent thresholds of [`crate::realtime::rate`]).
+#[inline(always)]
+pub(crate) fn advance_plays_widened<T: Real>(state: &mut [T], thresholds: &[T], v: T, widening: T) {
+    for (x, &r) in state.iter_mut().zip(thresholds) {
+        *x = play(v, r + widening, *x);
+    }
+}
+
 /// `Σ w_i x_i` in four partial sums, lane `l` adding the terms `i ≡ l mod
 /// 4` in order, from its first product, each later term fused with the sum
 /// ([`add_term`]) (SIMD without `-ffast-math`-style reassociation: the
@@ -323,9 +332,7 @@ impl<T: Real, S: Storage> Hysteresis<T, S> {
     /// is [`Self::step`] bit for bit. `v` finite.
     #[inline]
     pub(crate) fn step_widened(&mut self, v: T, widening: T) -> T {
-        for (x, &r) in self.state.iter_mut().zip(self.thresholds.iter()) {
-            *x = play(v, r + widening, *x);
-        }
+        advance_plays_widened(&mut self.state, &self.thresholds, v, widening);
         weighted_sum(&self.weights, &self.state)
     }
 

@@ -56,16 +56,23 @@ impl<T: Real> RateGain<T> {
         self.last = last;
     }
 
-    /// The widening for input `v` (finite), which becomes the last input.
+    /// The widening a step to `v` would have: `g |v − v_{k−1}|`, none
+    /// before the first step.
     #[inline(always)]
-    pub(crate) fn widen(&mut self, v: T) -> T {
-        let widening = match self.last {
+    pub(crate) fn widening_at(&self, v: T) -> T {
+        match self.last {
             Some(l) => {
                 let d = v - l;
                 self.gain * if d < T::ZERO { -d } else { d }
             }
             None => T::ZERO,
-        };
+        }
+    }
+
+    /// The widening for input `v` (finite), which becomes the last input.
+    #[inline(always)]
+    pub(crate) fn widen(&mut self, v: T) -> T {
+        let widening = self.widening_at(v);
         self.last = Some(v);
         widening
     }
@@ -117,14 +124,7 @@ pub(crate) fn invert_step<T: Real>(
     target: T,
 ) -> T {
     let from = rate.last.unwrap_or(T::ZERO);
-    let widening = |u: T| match rate.last {
-        Some(l) => {
-            let d = u - l;
-            rate.gain * if d < T::ZERO { -d } else { d }
-        }
-        None => T::ZERO,
-    };
-    let f = |u: T| output_at(x, thresholds, weights, u, widening(u));
+    let f = |u: T| output_at(x, thresholds, weights, u, rate.widening_at(u));
     let at_from = f(from);
     if at_from == target {
         return from;
