@@ -546,13 +546,8 @@ fn records(a: &RecordsArgs) -> Result<()> {
         let path = a.output_dir.join("actuator.json");
         write_json(&path, &settings.actuator_model())?;
         eprintln!(
-            "mfcbeam: wrote {} (the actuator without its rate dependence, virgin{})",
-            path.display(),
-            if settings.rate_gain == 0.0 {
-                ": the records' truth"
-            } else {
-                ""
-            }
+            "mfcbeam: wrote {} (the records' actuator, virgin, its rate gain included)",
+            path.display()
         );
     }
     if let Some(p) = &a.plot {
