@@ -7,8 +7,8 @@
 //! leading stretch is removed.
 
 use mfcbeam::identification::{
-    fit_dynamics, identify_records, validate_record_zeroed, DynamicsParts, FitRecord,
-    IdentificationSettings,
+    fit_dynamics, fit_dynamics_and_delay, identify_records, validate_record_zeroed, DynamicsParts,
+    FitRecord, IdentificationSettings,
 };
 use mfcbeam::operators::bank::Par;
 use mfcbeam::operators::model::{DynamicsData, LowPassData, ResonanceData};
@@ -285,6 +285,77 @@ fn dynamics_and_offsets_come_back_from_two_rates() {
     assert!((offset - (4.0 - 0.3)).abs() < 1e-4, "{offset}");
     assert!(zeroed.rms_percent() < 1e-3, "{zeroed:?}");
     assert!(row.errors.rms_percent() > 100.0 * 3.0 / zeroed.output_range);
+}
+
+/// The dead times searched side by side leave a start whose delay
+/// fraction runs into the next dead time to that one's search: the model
+/// is the one the best of the searches on their own gives, bit for bit.
+#[test]
+fn the_dead_time_search_equals_each_dead_time_searched_alone() {
+    let truth = dynamic_nominal();
+    let model = HysteresisCreepModel::from_file(&truth).unwrap();
+    // two samples of dead time on top of G's fraction of 0.3
+    let dead = 2;
+    let delayed = |u: &[f64]| {
+        let y = model.clone().run(u);
+        let mut d = vec![y[0]; dead];
+        d.extend_from_slice(&y[..y.len() - dead]);
+        d
+    };
+    let (u1, u2) = (drive(20.0, 600.0), drive(40.0, 600.0));
+    let (y1, y2) = (delayed(&u1), delayed(&u2));
+    let records = [
+        FitRecord {
+            u: &u1,
+            y: &y1,
+            fit_from: Some(0),
+        },
+        FitRecord {
+            u: &u2,
+            y: &y2,
+            fit_from: Some(0),
+        },
+    ];
+    let h = &truth.hysteresis;
+    let c = truth.creep.as_ref().unwrap();
+    let settings = IdentificationSettings {
+        hysteresis_thresholds: Some(h.thresholds.clone()),
+        creep_thresholds: Some(c.thresholds.clone()),
+        eigenvalues: Some(c.eigenvalues.clone()),
+        offset_per_record: true,
+        delay: dead,
+        ..IdentificationSettings::default()
+    };
+    let parts = DynamicsParts {
+        low_pass: true,
+        resonance: true,
+        delay_fraction: true,
+    };
+    let found = fit_dynamics_and_delay(&records, TS, &settings, parts, &[], Par::Seq).unwrap();
+    // each dead time the search tries (two fewer, one more), alone
+    let alone = (dead - 2..=dead + 1)
+        .filter_map(|d| {
+            let s = IdentificationSettings {
+                delay: d,
+                ..settings.clone()
+            };
+            fit_dynamics(&records, TS, &s, parts, Par::Seq).ok()
+        })
+        .min_by(|a, b| {
+            let rms = |id: &mfcbeam::identification::Identification| {
+                id.report.dynamics.as_ref().unwrap().rms
+            };
+            rms(a).total_cmp(&rms(b))
+        })
+        .unwrap();
+    assert_eq!(
+        serde_json::to_string(&found.model.to_file()).unwrap(),
+        serde_json::to_string(&alone.model.to_file()).unwrap()
+    );
+    // the truth: its dead time, and G's fraction
+    let g = found.report.dynamics.as_ref().unwrap().parameters;
+    assert_eq!(found.model.to_file().delay, Some(dead), "{g:?}");
+    assert!((g.delay_fraction - 0.3).abs() < 1e-6, "{g:?}");
 }
 
 #[test]

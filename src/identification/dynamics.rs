@@ -21,7 +21,10 @@
 //! filter of each column). The trials of a grid, the columns of a
 //! difference Jacobian, the two starts and the dead times are independent:
 //! they run side by side as the call's [`Par`] allows, and the fitted model
-//! is the same bits with any.
+//! is the same bits with any. A start at one dead time whose delay
+//! fraction runs into its bound toward another dead time searched is left
+//! to that search ([`fit_dynamics_and_delay`]): the model is the one the
+//! best of the dead times searched alone gives.
 
 use super::identify::{identify_records_with, FitRecord, Identification, SharedColumns};
 use super::report::DynamicsReport;
@@ -139,9 +142,41 @@ struct Search<'a> {
     parts: DynamicsParts,
     columns: SharedColumns,
     par: Par,
+    /// Whether the dead times one less and one more are searched too.
+    neighbours: Neighbours,
+}
+
+/// Which neighbouring dead times another search covers.
+#[derive(Debug, Clone, Copy, Default)]
+struct Neighbours {
+    fewer: bool,
+    more: bool,
+}
+
+/// Whether the delay fraction `t` is pressed against its bound.
+fn pinned_fraction(t: f64) -> bool {
+    t.abs() > 0.98 * MAX_FRACTION
 }
 
 impl Search<'_> {
+    /// Whether the coordinates `x` press the delay fraction against the
+    /// bound toward a dead time another search covers: the total delay
+    /// `d + τ` this start is heading for lies in that search's range, so
+    /// it is left to that one.
+    fn left_to_neighbour(&self, x: &[f64]) -> bool {
+        let Some(&last) = x.last() else { return false };
+        if !self.parts.delay_fraction {
+            return false;
+        }
+        let t = MAX_FRACTION * last.tanh();
+        pinned_fraction(t)
+            && if t > 0.0 {
+                self.neighbours.more
+            } else {
+                self.neighbours.fewer
+            }
+    }
+
     /// The model fitted with `G` and its output errors on every record's
     /// fitted samples (each with its own offset), one after another.
     fn residual(
@@ -241,7 +276,11 @@ struct Refined {
 
 /// Levenberg–Marquardt steps on a forward-difference Jacobian from `x`
 /// (its columns are independent trials, run as `search.par` allows).
-fn refine(search: &Search<'_>, mut x: Vec<f64>) -> Result<Refined, IdentificationError> {
+/// `None` when the steps press the delay fraction against its bound
+/// toward a dead time another search covers
+/// ([`Search::left_to_neighbour`]): there the coordinate's derivative
+/// vanishes and the steps only crawl along the bound.
+fn refine(search: &Search<'_>, mut x: Vec<f64>) -> Result<Option<Refined>, IdentificationError> {
     let k = x.len();
     let mut lambda = 1e-3;
     let mut iterations = 0;
@@ -302,16 +341,19 @@ fn refine(search: &Search<'_>, mut x: Vec<f64>) -> Result<Refined, Identificatio
             }
             lambda *= 4.0;
         }
+        if search.left_to_neighbour(&x) {
+            return Ok(None);
+        }
         if !improved {
             break;
         }
     }
-    Ok(Refined {
+    Ok(Some(Refined {
         ss,
         x,
         jtj,
         iterations,
-    })
+    }))
 }
 
 /// The first of `candidates` with the least sum of squares (trials run as
@@ -342,6 +384,27 @@ pub fn fit_dynamics(
     parts: DynamicsParts,
     par: Par,
 ) -> Result<Identification, IdentificationError> {
+    let id = fit_dynamics_beside(
+        records,
+        sample_time,
+        settings,
+        parts,
+        par,
+        Neighbours::default(),
+    )?;
+    Ok(id.expect("without neighbours no start is left to one"))
+}
+
+/// [`fit_dynamics`] beside the searches at the `neighbours`' dead times:
+/// `None` when every start leaves its delay fraction to one of them.
+fn fit_dynamics_beside(
+    records: &[FitRecord<'_>],
+    sample_time: f64,
+    settings: &IdentificationSettings,
+    parts: DynamicsParts,
+    par: Par,
+    neighbours: Neighbours,
+) -> Result<Option<Identification>, IdentificationError> {
     let search = Search {
         records,
         sample_time,
@@ -349,10 +412,11 @@ pub fn fit_dynamics(
         parts,
         columns: SharedColumns::new(),
         par,
+        neighbours,
     };
     let (static_id, e0) = search.residual(None)?;
     if !parts.any() {
-        return Ok(static_id);
+        return Ok(Some(static_id));
     }
     let fs = 1.0 / sample_time;
     let rms_static = (sum_squares(&e0) / e0.len().max(1) as f64).sqrt();
@@ -423,14 +487,17 @@ pub fn fit_dynamics(
     }
     let mut refined: Option<Refined> = None;
     for r in par.map(&starts, |x0| refine(&search, x0.clone())) {
-        let r = r?;
+        let Some(r) = r? else { continue };
         if refined.as_ref().is_none_or(|b| r.ss < b.ss) {
             refined = Some(r);
         }
     }
-    let Refined {
+    let Some(Refined {
         x, jtj, iterations, ..
-    } = refined.expect("at least one start");
+    }) = refined
+    else {
+        return Ok(None);
+    };
     let k = x.len();
     let g = parameters(parts, &x, fs);
     let (mut id, r) = search.residual(Some(g))?;
@@ -450,9 +517,7 @@ pub fn fit_dynamics(
     // a delay fraction pinned at its bound says the whole samples are off
     // by one (the next dead time is tried): it is left out of the
     // covariance, which it would make singular, as a fixed value
-    let pinned = |i: usize| {
-        parts.delay_fraction && i == k - 1 && g.delay_fraction.abs() > 0.98 * MAX_FRACTION
-    };
+    let pinned = |i: usize| parts.delay_fraction && i == k - 1 && pinned_fraction(g.delay_fraction);
     let free: Vec<usize> = (0..k).filter(|&i| !pinned(i)).collect();
     let reduced: Vec<Vec<f64>> = free
         .iter()
@@ -528,7 +593,7 @@ pub fn fit_dynamics(
         rms_static,
         rms: (sum_squares(&r) / r.len().max(1) as f64).sqrt(),
     });
-    Ok(id)
+    Ok(Some(id))
 }
 
 /// [`fit_dynamics`] at the dead time `settings.delay`, one sample less
@@ -552,20 +617,38 @@ pub fn fit_dynamics_and_delay(
     // may call for one sample more
     let fewer = 1 + usize::from(parts.resonance);
     let more = usize::from(parts.delay_fraction);
-    let delays: Vec<usize> = (d0.saturating_sub(fewer)..=d0 + more).rev().collect();
-    // each dead time a search of its own, the searches side by side
-    let fits = par.map(&delays, |&d| {
+    let (lowest, highest) = (d0.saturating_sub(fewer), d0 + more);
+    let delays: Vec<usize> = (lowest..=highest).rev().collect();
+    let at = |d: usize, neighbours: Neighbours| {
         let s = IdentificationSettings {
             delay: d,
             ..settings.clone()
         };
-        fit_dynamics(records, sample_time, &s, parts, par)
+        fit_dynamics_beside(records, sample_time, &s, parts, par, neighbours)
+    };
+    // each dead time a search of its own, the searches side by side; a
+    // start whose delay fraction runs into the next dead time is left to
+    // that one's search
+    let mut fits = par.map(&delays, |&d| {
+        at(
+            d,
+            Neighbours {
+                fewer: d > lowest,
+                more: d < highest,
+            },
+        )
     });
+    if fits.iter().all(|f| !matches!(f, Ok(Some(_)))) {
+        // the searches they were left to found nothing either: those
+        // dead times on their own
+        fits = par.map(&delays, |&d| at(d, Neighbours::default()));
+    }
     for fit in fits {
         // the dead time one less may leave a part undetermined where the
         // first did not: only an error when no dead time fits
         let fit = match fit {
-            Ok(fit) => fit,
+            Ok(Some(fit)) => fit,
+            Ok(None) => continue,
             Err(e) => {
                 last_error.get_or_insert(e);
                 continue;

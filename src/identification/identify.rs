@@ -152,31 +152,33 @@ pub(super) fn identify_records_with(
     // the plan (thresholds, kinks, margins) from the measurement itself:
     // G⁻¹[y] carries its noise amplified
     let plan = FitPlan::new(&u_cat, &y_raw, sample_time, settings, &parts, records.len())?;
-    let mut regression = Regression::of(&u_cat, &y_cat, &plan, None, columns, states)?;
-    let mut solution = regression.solve(&plan)?;
-    if settings.dynamics.is_some() && !plan.r_s.is_empty() {
-        // With G, the dead zones of S⁻¹ take S's output, which only G⁻¹[y]
-        // measures, with the noise amplified; as an instrument, the output
-        // of the model without G fitted so far (noise-free, from u) takes
-        // its place, starting from y itself (G ≈ 1 at the rates fitted).
-        let mut zone = y_raw.clone();
-        for _ in 0..2 {
-            let next = Regression::of(&u_cat, &y_cat, &plan, Some(&zone), columns, states)?;
-            let next_solution = next.solve(&plan)?;
-            (regression, solution) = (next, next_solution);
-            for (index, segment) in plan.segments.iter().enumerate() {
-                let own = solution
-                    .offsets
-                    .get(index)
-                    .copied()
-                    .unwrap_or(solution.offset);
-                let model = plan.model_with(&solution, own)?;
-                let w = started_in(model, states.and_then(|s| s.get(index)))?
-                    .run(&u_cat[segment.whole.clone()]);
-                zone[segment.whole.clone()].copy_from_slice(&w);
-            }
+    // With G, the dead zones of S⁻¹ take S's output, which only G⁻¹[y]
+    // measures, with the noise amplified; as an instrument, the output of
+    // the model without G takes its place: first y itself (G ≈ 1 at the
+    // rates fitted), then the output (noise-free, from u) of the model that
+    // fitted, once.
+    let instrument = settings.dynamics.is_some() && !plan.r_s.is_empty();
+    let mut zone = instrument.then(|| y_raw.clone());
+    let mut from_model = false;
+    let (regression, solution) = loop {
+        let regression = Regression::of(&u_cat, &y_cat, &plan, zone.as_deref(), columns, states)?;
+        let solution = regression.solve(&plan)?;
+        let Some(zone) = zone.as_mut().filter(|_| !from_model) else {
+            break (regression, solution);
+        };
+        for (index, segment) in plan.segments.iter().enumerate() {
+            let own = solution
+                .offsets
+                .get(index)
+                .copied()
+                .unwrap_or(solution.offset);
+            let model = plan.model_with(&solution, own)?;
+            let w = started_in(model, states.and_then(|s| s.get(index)))?
+                .run(&u_cat[segment.whole.clone()]);
+            zone[segment.whole.clone()].copy_from_slice(&w);
         }
-    }
+        from_model = true;
+    };
     let model = plan
         .model(&solution)?
         .with_dynamics(settings.dynamics.as_ref())?
