@@ -298,14 +298,34 @@ fn refine(search: &Search<'_>, mut x: Vec<f64>) -> Result<Option<Refined>, Ident
                 xh
             })
             .collect();
+        // a coordinate whose shift leaves `G` as it is (a delay fraction
+        // at its bound, where tanh is flat to rounding) has a zero column:
+        // the trial would give `r` again
+        let fs = 1.0 / search.sample_time;
+        let g = parameters(search.parts, &x, fs);
+        let moved: Vec<bool> = shifted
+            .iter()
+            .map(|xh| parameters(search.parts, xh, fs) != g)
+            .collect();
+        let trials: Vec<&Vec<f64>> = shifted
+            .iter()
+            .zip(&moved)
+            .filter_map(|(xh, &m)| m.then_some(xh))
+            .collect();
+        let mut found = search
+            .par
+            .map(&trials, |xh| search.residual_at(xh))
+            .into_iter();
         let mut columns = Vec::with_capacity(k);
-        for rh in search.par.map(&shifted, |xh| search.residual_at(xh)) {
-            columns.push(
-                rh?.iter()
+        for &m in &moved {
+            columns.push(match m.then(|| found.next()).flatten() {
+                Some(rh) => rh?
+                    .iter()
                     .zip(&r)
                     .map(|(a, b)| (a - b) / h)
                     .collect::<Vec<f64>>(),
-            );
+                None => vec![0.0; r.len()],
+            });
         }
         for i in 0..k {
             for j in 0..k {

@@ -11,6 +11,7 @@ use faer::Mat;
 use crate::operators::creep::CreepOperator;
 use crate::operators::play::play;
 use crate::realtime::dynamics::{INPUTS, MAX_ORDER};
+use crate::realtime::simd::Kernels;
 
 /// Rows of the regressor folded into the triangular factor at a time: the
 /// chunk (`CHUNK × (p + 2)` doubles, about 1 MB at the paper's orders) stays
@@ -174,6 +175,9 @@ struct RowFilter {
     y: [Vec<f64>; MAX_ORDER],
     w: Vec<f64>,
     started: bool,
+    /// The vector width its loop is compiled for (the same bits on any:
+    /// each element's operations in the same order, none fused).
+    kernels: Kernels,
 }
 
 impl RowFilter {
@@ -192,6 +196,7 @@ impl RowFilter {
             y: std::array::from_fn(|_| vec![0.0; cols]),
             w: vec![0.0; cols],
             started: false,
+            kernels: Kernels::detect(),
         }
     }
 
@@ -209,6 +214,32 @@ impl RowFilter {
             self.started = true;
             return;
         }
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        {
+            #[target_feature(enable = "avx2,fma,avx512f")]
+            unsafe fn avx512(f: &mut RowFilter, row: &mut [f64]) {
+                f.apply_any(row)
+            }
+            #[target_feature(enable = "avx2,fma")]
+            unsafe fn avx2(f: &mut RowFilter, row: &mut [f64]) {
+                f.apply_any(row)
+            }
+            if self.kernels.is_avx512() {
+                // SAFETY: `kernels` is AVX-512 only where the CPU has
+                // AVX-512F, AVX2 and FMA.
+                return unsafe { avx512(self, row) };
+            }
+            if self.kernels.is_avx2() {
+                // SAFETY: `kernels` is AVX2 only where the CPU has AVX2 and
+                // FMA.
+                return unsafe { avx2(self, row) };
+            }
+        }
+        self.apply_any(row)
+    }
+
+    #[inline(always)]
+    fn apply_any(&mut self, row: &mut [f64]) {
         match self.order {
             0 => self.apply_order::<0>(row),
             1 => self.apply_order::<1>(row),
@@ -383,9 +414,10 @@ pub(crate) fn regressor_factor(
             if !keep {
                 continue;
             }
-            for (j, &value) in row.iter().enumerate() {
-                stack[(cols + filled, j)] = value;
-            }
+            stack
+                .as_mut()
+                .row_mut(cols + filled)
+                .copy_from(faer::RowRef::from_slice(&row));
             filled += 1;
             done += 1;
             if filled == CHUNK || done == total {
@@ -477,10 +509,12 @@ mod tests {
             .collect()
     }
 
+    /// On every kernel set this CPU has, with rows of a few lanes and of
+    /// several vectors.
     #[test]
     fn the_row_filter_is_g_on_each_column_bit_for_bit() {
-        let (ts, cols) = (1e-4, 7);
-        for parameters in [
+        let ts = 1e-4;
+        for (parameters, kernels, cols) in [
             g(),
             DynamicsParameters {
                 low_pass: Some(900.0),
@@ -492,8 +526,13 @@ mod tests {
                 resonance: None,
                 delay_fraction: 0.4,
             },
-        ] {
+        ]
+        .into_iter()
+        .flat_map(|p| Kernels::all().map(move |k| (p, k)))
+        .flat_map(|(p, k)| [7, 35].map(|cols| (p, k, cols)))
+        {
             let mut filter = RowFilter::new(&parameters, ts, cols);
+            filter.kernels = kernels;
             let one = Dynamics::<f64>::new(&parameters, ts).unwrap().without_lag();
             let mut each = vec![one; cols];
             for record in 0..2 {
