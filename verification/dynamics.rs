@@ -208,6 +208,29 @@ fn the_compensator_inverts_the_dynamics_exactly() {
     }
 }
 
+/// Records `(u, y)` fitted from their first sample.
+fn fitted_whole<'a>(records: [(&'a [f64], &'a [f64]); 2]) -> [FitRecord<'a>; 2] {
+    records.map(|(u, y)| FitRecord {
+        u,
+        y,
+        fit_from: Some(0),
+    })
+}
+
+/// The weights fitted on the truth's thresholds and creep eigenvalues, an
+/// offset per record.
+fn on_the_truths_grid(truth: &ModelFile) -> IdentificationSettings {
+    let h = &truth.hysteresis;
+    let c = truth.creep.as_ref().unwrap();
+    IdentificationSettings {
+        hysteresis_thresholds: Some(h.thresholds.clone()),
+        creep_thresholds: Some(c.thresholds.clone()),
+        eigenvalues: Some(c.eigenvalues.clone()),
+        offset_per_record: true,
+        ..IdentificationSettings::default()
+    }
+}
+
 #[test]
 fn dynamics_and_offsets_come_back_from_two_rates() {
     let truth = dynamic_nominal();
@@ -217,27 +240,8 @@ fn dynamics_and_offsets_come_back_from_two_rates() {
     let (u1, u2) = (drive(20.0, 600.0), drive(40.0, 600.0));
     let y1: Vec<f64> = model.clone().run(&u1).iter().map(|v| v + 0.3).collect();
     let y2: Vec<f64> = model.clone().run(&u2).iter().map(|v| v - 1.7).collect();
-    let records = [
-        FitRecord {
-            u: &u1,
-            y: &y1,
-            fit_from: Some(0),
-        },
-        FitRecord {
-            u: &u2,
-            y: &y2,
-            fit_from: Some(0),
-        },
-    ];
-    let h = &truth.hysteresis;
-    let c = truth.creep.as_ref().unwrap();
-    let settings = IdentificationSettings {
-        hysteresis_thresholds: Some(h.thresholds.clone()),
-        creep_thresholds: Some(c.thresholds.clone()),
-        eigenvalues: Some(c.eigenvalues.clone()),
-        offset_per_record: true,
-        ..IdentificationSettings::default()
-    };
+    let records = fitted_whole([(&u1, &y1), (&u2, &y2)]);
+    let settings = on_the_truths_grid(&truth);
     // with G known the weights are linear: back to rounding
     let known = identify_records(
         &records,
@@ -304,27 +308,10 @@ fn the_dead_time_search_equals_each_dead_time_searched_alone() {
     };
     let (u1, u2) = (drive(20.0, 600.0), drive(40.0, 600.0));
     let (y1, y2) = (delayed(&u1), delayed(&u2));
-    let records = [
-        FitRecord {
-            u: &u1,
-            y: &y1,
-            fit_from: Some(0),
-        },
-        FitRecord {
-            u: &u2,
-            y: &y2,
-            fit_from: Some(0),
-        },
-    ];
-    let h = &truth.hysteresis;
-    let c = truth.creep.as_ref().unwrap();
+    let records = fitted_whole([(&u1, &y1), (&u2, &y2)]);
     let settings = IdentificationSettings {
-        hysteresis_thresholds: Some(h.thresholds.clone()),
-        creep_thresholds: Some(c.thresholds.clone()),
-        eigenvalues: Some(c.eigenvalues.clone()),
-        offset_per_record: true,
         delay: dead,
-        ..IdentificationSettings::default()
+        ..on_the_truths_grid(&truth)
     };
     let parts = DynamicsParts {
         low_pass: true,
