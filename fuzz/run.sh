@@ -11,14 +11,8 @@
 # target/fuzz/artifacts/ and the run fails.
 #
 #   fuzz/run.sh [SECONDS [TARGET ...]]     (default: 60 s, every target)
-#   fuzz/run.sh --build                    (the build alone)
 set -euo pipefail
 cd "$(dirname "$0")"
-build_only=false
-if [ "${1:-}" = --build ]; then
-  build_only=true
-  shift
-fi
 seconds=${1:-60}
 shift || true
 targets=("$@")
@@ -46,9 +40,6 @@ RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
 -Cllvm-args=-sanitizer-coverage-pc-table \
 -Cllvm-args=-sanitizer-coverage-trace-compares --cfg fuzzing -Dwarnings" \
   cargo build --release --locked --target "$host"
-if $build_only; then
-  exit 0
-fi
 work="$PWD/../target/fuzz"
 mkdir -p "$work/artifacts"
 # one fuzzer per core at a time (each is single-threaded); the statuses
