@@ -164,11 +164,10 @@ impl Search<'_> {
     /// `d + τ` this start is heading for lies in that search's range, so
     /// it is left to that one.
     fn left_to_neighbour(&self, x: &[f64]) -> bool {
-        let Some(&last) = x.last() else { return false };
         if !self.parts.delay_fraction {
             return false;
         }
-        let t = MAX_FRACTION * last.tanh();
+        let t = parameters(self.parts, x, 1.0 / self.sample_time).delay_fraction;
         pinned_fraction(t)
             && if t > 0.0 {
                 self.neighbours.more

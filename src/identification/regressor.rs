@@ -214,6 +214,9 @@ impl RowFilter {
             self.started = true;
             return;
         }
+        // functions of their own, not `Kernels::run`: its closure, this
+        // loop with its four orders, was left out of line and compiled for
+        // SSE2 alone
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         {
             #[target_feature(enable = "avx2,fma,avx512f")]
