@@ -20,9 +20,7 @@ if [ ${#targets[@]} -eq 0 ]; then
   targets=(model_json model_fields beam_json trace_csv candidate_output capi controller_json library_header)
 fi
 host=$(rustc -vV | sed -n 's/^host: //p')
-# a build directory of its own: the instrumented build shares nothing with
-# the others, and so holds no lock another cargo (CI's, beside it) waits on
-export CARGO_TARGET_DIR="$PWD/../target/fuzz-build"
+export CARGO_TARGET_DIR="$PWD/../target"
 # This package's own code (the harness and the targets) is linted as it is
 # built, by clippy's driver (what `cargo clippy` runs it through, here in a
 # build rather than a check), and -D warnings makes a lint or a warning of
@@ -40,7 +38,7 @@ RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
 -Cllvm-args=-sanitizer-coverage-pc-table \
 -Cllvm-args=-sanitizer-coverage-trace-compares --cfg fuzzing -Dwarnings" \
   cargo build --release --locked --target "$host"
-work="$PWD/../target/fuzz"
+work="$CARGO_TARGET_DIR/fuzz"
 mkdir -p "$work/artifacts"
 # one fuzzer per core at a time (each is single-threaded); the statuses
 # and summaries are read in the targets' order once all have finished
