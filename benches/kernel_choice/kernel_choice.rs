@@ -10,10 +10,9 @@
 //! It also prints the dispatched set against the fastest set, without
 //! failing on it. That ratio is a property of the host more than of the
 //! code: on the same CPU model (Zen 4, family 25 model 17) the AVX2 `f64`
-//! step, which the choice takes there, ran at 0.97–1.0 of the AVX-512 one
-//! on one guest and at 1.08 on another, while a 5 % slack was exceeded
-//! by neither set's spread. A wall-clock window that moves with the host
-//! is no gate for CI. The choice itself is argued from each CPU's chain
+//! step, which the choice takes there, stayed within a 5 % slack of the
+//! AVX-512 one on earlier guests and ran at 1.08 of it on another. A
+//! wall-clock window that moves with the host is no gate for CI. The choice itself is argued from each CPU's chain
 //! in `src/realtime/simd/cpu.rs`.
 //!
 //! This binary is also where `.ci/run` looks for masked stores in the
