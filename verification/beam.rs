@@ -3,7 +3,7 @@
 //! converged finite-element model, exact ZOH simulation, the Hammerstein and
 //! compensated plants, and step-response identification.
 
-mod common;
+use crate::common;
 
 use common::*;
 use mfcbeam::beam::fe::FiniteElementModel;

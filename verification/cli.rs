@@ -2,7 +2,7 @@
 //! the error contract (exit 2, one line naming file and row or field, no
 //! panic, no partial output file).
 
-mod common;
+use crate::common;
 
 use std::fs;
 use std::path::{Path, PathBuf};

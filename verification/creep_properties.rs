@@ -3,7 +3,7 @@
 //! linearity of (15) between `1/a_1` and `1/a_m`, odd symmetry, the
 //! semigroup property and the bits of the output's sum.
 
-mod common;
+use crate::common;
 
 use common::*;
 use mfcbeam::operators::creep::{

@@ -7,7 +7,7 @@
 //! records, the held-out samples or the fit) with the symmetric model and
 //! with a superposition operator.
 
-mod common;
+use crate::common;
 
 use common::{gaussian, Lcg};
 use mfcbeam::identification::{

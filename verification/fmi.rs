@@ -51,7 +51,7 @@ fn library() -> &'static Path {
             "--workspace",
             "--lib",
             "--test",
-            "fmi",
+            "verification",
             "--target-dir",
         ])
         .arg(&target)

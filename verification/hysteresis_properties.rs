@@ -5,7 +5,7 @@
 //! properties of every implementation: `verification/conformance.rs` runs
 //! them through `mfcbeam::suite::conformance`.
 
-mod common;
+use crate::common;
 
 use common::*;
 use mfcbeam::prelude::*;

@@ -2,7 +2,7 @@
 //! degradation with noise, constraints that always hold, unexcited operators
 //! reported, and a property test on random admissible models.
 
-mod common;
+use crate::common;
 
 use common::*;
 use mfcbeam::identification::{

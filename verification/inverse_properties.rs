@@ -6,7 +6,7 @@
 //! W∘W⁻¹ = id`, odd symmetry and saturation recovery hold for every
 //! implementation: `verification/conformance.rs`.
 
-mod common;
+use crate::common;
 
 use common::*;
 use mfcbeam::prelude::*;

@@ -6,7 +6,7 @@
 //! true model. Also the exact optimum (KKT), rank deficiency, and the CLI
 //! from a raw logger file.
 
-mod common;
+use crate::common;
 
 use std::fs;
 use std::path::{Path, PathBuf};

@@ -2,8 +2,6 @@
 //! section 3, and the compensated staircase of Fig. 10 (`W[W⁻¹[ς]] = ς` over
 //! a 20 s staircase at the paper's order).
 
-mod common;
-
 use std::path::Path;
 
 use mfcbeam::io::read_model_file;
