@@ -37,9 +37,7 @@ fi
 
 # the program, and the C and FMU libraries of each platform
 cargo build --release -p mfcbeam -p mfcbeam-capi -p mfcbeam-fmu
-for t in "${cross[@]}"; do
-  cargo build --release -p mfcbeam-capi -p mfcbeam-fmu --target "$t"
-done
+cargo build --release -p mfcbeam-capi -p mfcbeam-fmu "${cross[@]/#/--target=}"
 
 rm -rf "$dist"
 mkdir -p "$dist"
